@@ -1,0 +1,350 @@
+"""The SH9 engine: frames in, coefficients, matrices and statistics out (no I/O).
+
+:class:`SH9Projector` precomputes, once per (frame size, projection, options), everything
+that does not depend on pixels (per-pixel SH weights, the sRGB linearisation table, the
+rotation matrix); :meth:`SH9Projector.project` then costs a few vectorised calls per frame.
+:func:`compute_sh9` is the one-shot convenience (DESIGN.md §4).
+
+Frame contract (like OpenCV's, but RGB channel order): an ``ndarray`` of shape (H, W, 3)
+(or (H, W, 4): alpha ignored; or (H, W) / (H, W, 1): grey), dtype
+
+* ``uint8``: sRGB-encoded unless ``encoding="linear"``; linearised through a table
+  *before* any averaging (DESIGN.md §5);
+* ``uint16``: likewise (16-bit PNG/TIFF are display-encoded), full scale 65535;
+* ``float16/32/64``: linear radiance (HDR, .exr/.hdr), used as is.
+
+Coefficients are in the units of the linear input times ``exposure`` (scene-referred for
+HDR; 0..1 relative to full scale for integer frames).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from . import sh
+from .projections import Equirect, Projection, ProjectionError, make_projection
+
+
+class InputError(ValueError):
+    """The input cannot be turned into lighting; the message says why and what to do."""
+
+
+def srgb_to_linear(v: np.ndarray) -> np.ndarray:
+    """IEC 61966-2-1 sRGB decoding of values in [0, 1]."""
+    v = np.asarray(v, np.float64)
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+
+
+@dataclass
+class SH9Result:
+    """Lighting of one frame.
+
+    Attributes
+    ----------
+    coefficients : (9, 3) float64
+        Radiance SH coefficients L_lm per RGB channel, order L00, L1-1, L10, L11, L2-2,
+        L2-1, L20, L21, L22, right-handed +Y-up frame.
+    matrices : (3, 4, 4) float64
+        Irradiance matrices M_r, M_g, M_b: E(n) = ñᵀ M ñ.
+    stats : dict
+        Per-frame statistics (see :meth:`SH9Projector.project`).
+    """
+
+    coefficients: np.ndarray
+    matrices: np.ndarray
+    stats: dict = field(default_factory=dict)
+
+    def irradiance(self, normals):
+        """E(n) (not clamped) at unit normals (..., 3) -> (..., 3)."""
+        return sh.irradiance(self.coefficients, normals)
+
+    def to_message(self, **fields) -> dict:
+        """The wire message (DESIGN.md §3); see :func:`provider.message.coefficient_message`."""
+        from .message import coefficient_message
+        return coefficient_message(self, **fields)
+
+
+ORDERS = (0, 1, 2, "auto")
+DERING = ("off", "auto")
+
+
+class SH9Projector:
+    """Projects frames of one size and projection onto SH9.
+
+    Parameters
+    ----------
+    width, height : int
+        Frame size in pixels.
+    projection : str or Projection
+        "equirect" (default), "fisheye", "dual-fisheye", "cubemap", or a built
+        :class:`~provider.projections.Projection`.
+    encoding : "auto" | "srgb" | "linear"
+        Transfer function of integer frames ("auto": sRGB). Float frames are linear.
+    exposure : float
+        Linear scale applied to the radiance (e.g. 2**EV).
+    downsample : int
+        Fast path: area-average the *linearised* frame by this integer factor before
+        projecting (1 = exact path). The weights are the exact integrals over each block.
+    rotation : (3, 3) array or None
+        Sensor rotation: maps camera-frame directions to world directions; applied to the
+        coefficients, never by resampling the image.
+    order : 0, 1, 2 or "auto"
+        Highest SH band kept. "auto" keeps the lowest order whose irradiance differs from
+        order 2 by at most ``order_budget`` (relative RMS over the sphere).
+    dering : "off" | "auto"
+        "auto" applies the weakest sinc⁴ window that makes irradiance non-negative
+        everywhere (only when it rings); "off" keeps the exact projection.
+    error_estimate : bool
+        Estimate SH9's truncation error per frame against brute-force irradiance from a
+        64×32-ish copy of the frame (costs one extra small resize).
+    **projection_options
+        Passed to the projection (fov_deg, center, radius, K, D, fill, albedo, ...).
+    """
+
+    def __init__(self, width: int, height: int, projection="equirect", *, encoding="auto",
+                 exposure=1.0, downsample=1, rotation=None, order=2, dering="off",
+                 order_budget=0.02, error_estimate=False, **projection_options):
+        if order not in ORDERS:
+            raise InputError(f"order must be one of 0, 1, 2, auto; got {order!r}")
+        if dering not in DERING:
+            raise InputError(f"dering must be 'off' or 'auto'; got {dering!r}")
+        if encoding not in ("auto", "srgb", "linear"):
+            raise InputError(f"encoding must be auto, srgb or linear; got {encoding!r}")
+        if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):
+            raise InputError(f"exposure must be a positive finite number; got {exposure!r}")
+        downsample = int(downsample)
+        if downsample < 1 or width // downsample < 1 or height // downsample < 1:
+            raise InputError(f"downsample must be a positive integer below the frame size")
+        try:
+            if isinstance(projection, Projection):
+                full = projection
+            else:
+                full = make_projection(projection, width, height, **projection_options)
+            self.projection = full if downsample == 1 else full.scaled(downsample)
+        except ProjectionError as exc:
+            raise InputError(str(exc)) from None
+        self.full_projection = full
+        self.width, self.height = int(width), int(height)
+        self.encoding, self.exposure, self.downsample = encoding, float(exposure), downsample
+        self.order, self.dering, self.order_budget = order, dering, float(order_budget)
+        self.rotation = None if rotation is None else np.asarray(rotation, np.float64)
+        self._sh_rotation = None if rotation is None else sh.sh_rotation(self.rotation)
+        self.error_estimate = bool(error_estimate)
+
+        # Pixel-independent precomputation.
+        p = self.projection
+        self._block = (self.width // downsample * downsample,
+                       self.height // downsample * downsample)
+        if isinstance(p, Equirect):
+            rows, cols = p.row_integrals(), p.col_integrals()
+            self._rows = rows.astype(np.float32)          # (6, H)
+            self._cols = cols                               # (6, W) float64
+            self._weights = None
+        else:
+            self._weights = p.sh_weights.astype(np.float32)  # (H·W, 9)
+        self._luts = {}
+        self._estimator = None
+
+    # -- linearisation -------------------------------------------------------------------
+    def _lut(self, dtype) -> np.ndarray:
+        if dtype not in self._luts:
+            full = 255 if dtype == np.uint8 else 65535
+            v = np.arange(full + 1) / full
+            lin = v if self.encoding == "linear" else srgb_to_linear(v)
+            self._luts[dtype] = (lin * self.exposure).astype(np.float32)
+        return self._luts[dtype]
+
+    def _to_linear(self, frame: np.ndarray, stats: dict) -> np.ndarray:
+        """Linear float32 (H, W, 3) radiance; counts clipped / negative / non-finite."""
+        if frame.dtype == np.uint8:
+            stats["clipped_fraction"] = float(np.count_nonzero(frame == 255)) / frame.size
+            return cv2.LUT(frame, self._lut(np.uint8))
+        if frame.dtype == np.uint16:
+            stats["clipped_fraction"] = float(np.count_nonzero(frame == 65535)) / frame.size
+            return self._lut(np.uint16)[frame]
+        lin = frame.astype(np.float32, copy=True)
+        total = float(np.add.reduce(lin, axis=None, dtype=np.float64))
+        if not math.isfinite(total):
+            bad = ~np.isfinite(lin)
+            stats["nonfinite_pixels"] = int(np.count_nonzero(bad.any(axis=-1)))
+            lin[bad] = 0.0
+        if lin.min() < 0:
+            neg = lin < 0
+            stats["negative_pixels"] = int(np.count_nonzero(neg.any(axis=-1)))
+            stats["negative_energy_fraction"] = float(
+                -lin[neg].sum(dtype=np.float64) / max(np.abs(lin).sum(dtype=np.float64), 1e-300))
+            np.maximum(lin, 0.0, out=lin)
+        if self.exposure != 1.0:
+            lin *= self.exposure
+        stats["clipped_fraction"] = 0.0
+        return lin
+
+    # -- projection -------------------------------------------------------------------------
+    def _project_linear(self, lin: np.ndarray) -> np.ndarray:
+        """(h, w, 3) linear float32 at the projection's resolution -> (9, 3) float64."""
+        h, w = lin.shape[:2]
+        if self._weights is None:
+            # Separable equirect: rows first (one sgemm over the frame), then columns.
+            rowsum = (self._rows @ lin.reshape(h, w * 3)).reshape(6, w, 3).astype(np.float64)
+            partial = np.einsum("rwc,kw->rkc", rowsum, self._cols)  # (6 row fns, 6 col fns, 3)
+            out = np.zeros((9, 3))
+            for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
+                out[k] += const * partial[ri, ci]
+            return out
+        return (lin.reshape(-1, 3).T @ self._weights).T.astype(np.float64)
+
+    def _prepare(self, frame) -> np.ndarray:
+        if not isinstance(frame, np.ndarray):
+            raise InputError(f"a frame must be a numpy array, got {type(frame).__name__}")
+        if frame.size == 0:
+            raise InputError("empty image (0 pixels)")
+        if frame.ndim == 2:
+            frame = frame[..., None]
+        if frame.ndim != 3:
+            raise InputError(f"a frame must be H×W×channels, got shape {frame.shape}")
+        c = frame.shape[2]
+        if c == 1:
+            frame = np.repeat(frame, 3, axis=2)
+        elif c == 4:
+            frame = frame[..., :3]
+        elif c != 3:
+            raise InputError(f"a frame must have 1, 3 or 4 channels, got {c}")
+        if frame.dtype not in (np.uint8, np.uint16, np.float16, np.float32, np.float64):
+            raise InputError(f"unsupported pixel type {frame.dtype} "
+                             "(use uint8, uint16 or float)")
+        if frame.shape[:2] != (self.height, self.width):
+            raise InputError(f"frame is {frame.shape[1]}×{frame.shape[0]}, this projector "
+                             f"was built for {self.width}×{self.height}")
+        return np.ascontiguousarray(frame)
+
+    def project(self, frame: np.ndarray) -> SH9Result:
+        """Coefficients, matrices and statistics of one frame.
+
+        ``stats`` keys: ``compute_ms``, ``clipped_fraction`` (fraction of channel samples at
+        the top code value of an integer frame), ``negative_pixels`` and
+        ``nonfinite_pixels`` (set to 0 and counted), ``min_irradiance`` (per channel, over
+        the sphere, after windowing), ``ringing`` (the un-windowed SH irradiance went
+        negative), ``window_cutoff`` (sinc⁴ cutoff applied, or None), ``order`` (kept),
+        ``order_error`` (irradiance error caused by a lower order or by windowing, relative
+        to the exact order-2 result), ``error_estimate`` (when enabled: relative RMS SH9
+        irradiance error against brute force), ``coverage_sr`` (solid angle seen).
+        """
+        t0 = time.perf_counter()
+        stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
+        frame = self._prepare(frame)
+        lin = self._to_linear(frame, stats)
+        if self.downsample > 1:
+            bw, bh = self._block
+            lin = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
+                             interpolation=cv2.INTER_AREA)
+        coeffs = self._project_linear(lin)
+        if self._sh_rotation is not None:
+            coeffs = self._sh_rotation @ coeffs
+        result = self._finish(coeffs, stats)
+        if self.error_estimate:
+            result.stats["error_estimate"] = self._estimate_error(lin, result.stats["order"])
+        result.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
+        return result
+
+    def _finish(self, exact: np.ndarray, stats: dict) -> SH9Result:
+        coeffs = exact
+        E_exact = sh.sphere_irradiance(exact)
+        stats["ringing"] = bool(np.any(E_exact.min(axis=0) < 0))
+        stats["window_cutoff"] = None
+        if self.dering == "auto":
+            coeffs, cutoff = sh.dering(coeffs)
+            stats["window_cutoff"] = cutoff
+        order = self.order
+        if order == "auto":
+            order = 2
+            for candidate in (0, 1):
+                err = sh.relative_rms(sh.sphere_irradiance(sh.truncate_order(coeffs, candidate)),
+                                      sh.sphere_irradiance(coeffs))
+                if err <= self.order_budget:
+                    order = candidate
+                    break
+        if order < 2:
+            coeffs = sh.truncate_order(coeffs, order)
+        E = sh.sphere_irradiance(coeffs)
+        stats["order"] = order
+        stats["order_error"] = sh.relative_rms(E, E_exact)
+        stats["min_irradiance"] = [float(v) for v in E.min(axis=0)]
+        stats["coverage_sr"] = self.projection.coverage
+        return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats)
+
+    # -- error estimate ---------------------------------------------------------------------
+    def _estimate_error(self, lin: np.ndarray, order: int) -> float:
+        """Relative RMS difference between SH9 irradiance and brute-force irradiance.
+
+        Both come from the same coarse copy of the frame (about 4k pixels), so the figure
+        measures SH9 truncation (and windowing/order choices), not resolution.
+        """
+        if self._estimator is None:
+            p = self.projection
+            factor = max(1, int(math.sqrt(p.width * p.height / 4096)))
+            coarse = p if factor == 1 else p.scaled(factor)
+            dirs = coarse.directions().reshape(-1, 3)
+            omega = coarse.solid_angle.reshape(-1)
+            normals = sh.fibonacci_sphere(256)
+            kernel = np.maximum(normals @ dirs.T, 0.0) * omega  # (256, P)
+            sh_w = coarse.sh_weights  # (P, 9), includes any fill model
+            self._estimator = (factor, coarse, normals, kernel.astype(np.float32), sh_w)
+        factor, coarse, normals, kernel, sh_w = self._estimator
+        small = lin if factor == 1 else cv2.resize(
+            lin[:coarse.height * factor, :coarse.width * factor], (coarse.width, coarse.height),
+            interpolation=cv2.INTER_AREA)
+        px = small.reshape(-1, 3).astype(np.float64)
+        truth = kernel.astype(np.float64) @ px
+        coarse_coeffs = sh_w.T @ px
+        # The same order/window choices as the result, applied to the coarse projection.
+        approx = sh.irradiance(self._same_processing(coarse_coeffs, order), normals)
+        return sh.relative_rms(approx, truth)
+
+    def _same_processing(self, coeffs, order):
+        out = coeffs
+        if self.dering == "auto":
+            out, _ = sh.dering(out)
+        return sh.truncate_order(out, order)
+
+
+_PROJECTOR_CACHE: dict = {}
+
+
+def compute_sh9(image, projection: str = "equirect", **options) -> SH9Result:
+    """SH9 lighting of one image (DESIGN.md §4).
+
+    ``image`` is an (H, W, C) array in RGB order (see the module docstring) or a path to
+    an image file (.exr, .hdr, .png, .jpg, .tif, ...). Options are those of
+    :class:`SH9Projector`; ``error_estimate`` defaults to True here. Projectors are cached
+    per (size, projection, options), so calling this per frame is cheap after the first.
+    """
+    if isinstance(image, (str, bytes)) or hasattr(image, "__fspath__"):
+        from .io import read_image
+        image = read_image(image)
+    if not isinstance(image, np.ndarray):
+        raise InputError(f"expected an image array or a path, got {type(image).__name__}")
+    if image.size == 0 or image.ndim < 2:
+        raise InputError(f"empty image (shape {image.shape})")
+    options.setdefault("error_estimate", True)
+    key = (image.shape[1], image.shape[0], projection, _freeze(options))
+    projector = _PROJECTOR_CACHE.get(key)
+    if projector is None:
+        projector = SH9Projector(image.shape[1], image.shape[0], projection, **options)
+        if len(_PROJECTOR_CACHE) > 16:
+            _PROJECTOR_CACHE.clear()
+        _PROJECTOR_CACHE[key] = projector
+    return projector.project(image)
+
+
+def _freeze(options: dict):
+    def f(v):
+        if isinstance(v, np.ndarray):
+            return (v.shape, v.tobytes())
+        if isinstance(v, (list, tuple)):
+            return tuple(f(x) for x in v)
+        return v
+    return tuple(sorted((k, f(v)) for k, v in options.items()))

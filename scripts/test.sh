@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# One command on a fresh machine: install what the tests need and run them.
+#   system packages (Debian): Mesa EGL for headless OpenGL, Chromium for the dashboard,
+#   Mono for the C# client, glslang + spirv-cross for the HLSL, Xvfb for the viewer;
+#   Python: shlight[test] into .venv.
+# As root, missing system packages are installed with apt-get; otherwise the script says
+# which to install (the tests that need them are then skipped with that reason).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PKGS="libegl1 libegl-mesa0 libgl1-mesa-dri chromium mono-mcs glslang-tools spirv-cross xvfb"
+missing=()
+for p in $PKGS; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+        echo "installing system packages: ${missing[*]}"
+        export DEBIAN_FRONTEND=noninteractive
+        apt-get update -qq && apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+    else
+        echo "WARNING: missing system packages: ${missing[*]}"
+        echo "         install them with: sudo apt-get install ${missing[*]}"
+    fi
+fi
+bash scripts/setup.sh test
+exec .venv/bin/python -m pytest "$@"
