@@ -148,6 +148,7 @@ class SH9Projector:
             self._weights = p.sh_weights.astype(np.float32)  # (H·W, 9)
         self._luts = {}
         self._estimator = None
+        self._coverage = 4 * math.pi if isinstance(p, Equirect) else p.coverage
 
     # -- linearisation -------------------------------------------------------------------
     def _lut(self, dtype) -> np.ndarray:
@@ -158,44 +159,86 @@ class SH9Projector:
             self._luts[dtype] = (lin * self.exposure).astype(np.float32)
         return self._luts[dtype]
 
-    def _to_linear(self, frame: np.ndarray, stats: dict) -> np.ndarray:
-        """Linear float32 (H, W, 3) radiance; counts clipped / negative / non-finite."""
+    def _linearise(self, frame: np.ndarray) -> np.ndarray:
+        """Linear float32 radiance of an integer frame (or a band of one)."""
         if frame.dtype == np.uint8:
-            stats["clipped_fraction"] = float(np.count_nonzero(frame == 255)) / frame.size
             return cv2.LUT(frame, self._lut(np.uint8))
-        if frame.dtype == np.uint16:
-            stats["clipped_fraction"] = float(np.count_nonzero(frame == 65535)) / frame.size
-            return self._lut(np.uint16)[frame]
-        lin = frame.astype(np.float32, copy=True)
-        total = float(np.add.reduce(lin, axis=None, dtype=np.float64))
-        if not math.isfinite(total):
+        return self._lut(np.uint16)[frame]
+
+    def _clean_float(self, frame: np.ndarray, stats: dict) -> np.ndarray:
+        """Float32 linear radiance; non-finite and negative samples set to 0 and counted."""
+        lin = frame if frame.dtype == np.float32 else frame.astype(np.float32)
+        owned = lin is not frame
+        # One cheap pass each; the costly masks only run on frames that need them.
+        if not math.isfinite(float(np.add.reduce(lin, axis=None, dtype=np.float64))):
+            if not owned:
+                lin, owned = lin.copy(), True
             bad = ~np.isfinite(lin)
             stats["nonfinite_pixels"] = int(np.count_nonzero(bad.any(axis=-1)))
             lin[bad] = 0.0
         if lin.min() < 0:
+            if not owned:
+                lin, owned = lin.copy(), True
             neg = lin < 0
             stats["negative_pixels"] = int(np.count_nonzero(neg.any(axis=-1)))
             stats["negative_energy_fraction"] = float(
                 -lin[neg].sum(dtype=np.float64) / max(np.abs(lin).sum(dtype=np.float64), 1e-300))
             np.maximum(lin, 0.0, out=lin)
         if self.exposure != 1.0:
-            lin *= self.exposure
-        stats["clipped_fraction"] = 0.0
+            lin = lin * np.float32(self.exposure)
         return lin
 
     # -- projection -------------------------------------------------------------------------
-    def _project_linear(self, lin: np.ndarray) -> np.ndarray:
-        """(h, w, 3) linear float32 at the projection's resolution -> (9, 3) float64."""
+    #: Rows per band when linearising integer frames: the float32 band stays in cache.
+    BAND_ROWS = 32
+
+    def _accumulate(self, lin: np.ndarray, r0: int, acc: np.ndarray) -> None:
+        """Add the projection of linear rows [r0, r0+len) to ``acc``."""
         h, w = lin.shape[:2]
         if self._weights is None:
-            # Separable equirect: rows first (one sgemm over the frame), then columns.
-            rowsum = (self._rows @ lin.reshape(h, w * 3)).reshape(6, w, 3).astype(np.float64)
-            partial = np.einsum("rwc,kw->rkc", rowsum, self._cols)  # (6 row fns, 6 col fns, 3)
-            out = np.zeros((9, 3))
-            for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
-                out[k] += const * partial[ri, ci]
-            return out
-        return (lin.reshape(-1, 3).T @ self._weights).T.astype(np.float64)
+            acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
+        else:
+            acc += lin.reshape(-1, 3).T @ self._weights[r0 * w:(r0 + h) * w]
+
+    def _new_accumulator(self) -> np.ndarray:
+        w = self.projection.width
+        return np.zeros((6, w * 3) if self._weights is None else (3, 9), np.float32)
+
+    def _coefficients(self, acc: np.ndarray) -> np.ndarray:
+        """(9, 3) float64 coefficients from an accumulator."""
+        if self._weights is not None:
+            return acc.T.astype(np.float64)
+        w = self.projection.width
+        rowsum = acc.reshape(6, w, 3).astype(np.float64)
+        partial = np.einsum("rwc,kw->rkc", rowsum, self._cols)  # (6 row fns, 6 col fns, 3)
+        out = np.zeros((9, 3))
+        for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
+            out[k] += const * partial[ri, ci]
+        return out
+
+    def _project_frame(self, frame: np.ndarray, stats: dict) -> np.ndarray:
+        """Linearise (counting bad samples) and project; returns (9, 3) float64."""
+        acc = self._new_accumulator()
+        integer = frame.dtype in (np.uint8, np.uint16)
+        if integer:
+            top = 255 if frame.dtype == np.uint8 else 65535
+            stats["clipped_fraction"] = float(np.count_nonzero(frame == top)) / frame.size
+        else:
+            stats["clipped_fraction"] = 0.0
+        if self.downsample == 1:
+            if integer:
+                for r0 in range(0, frame.shape[0], self.BAND_ROWS):
+                    self._accumulate(self._linearise(frame[r0:r0 + self.BAND_ROWS]), r0, acc)
+            else:
+                self._accumulate(self._clean_float(frame, stats), 0, acc)
+            return self._coefficients(acc), None
+        # Fast path: area-average the *linear* frame, then project the small one.
+        lin = self._linearise(frame) if integer else self._clean_float(frame, stats)
+        bw, bh = self._block
+        small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
+                           interpolation=cv2.INTER_AREA)
+        self._accumulate(small, 0, acc)
+        return self._coefficients(acc), small
 
     def _prepare(self, frame) -> np.ndarray:
         if not isinstance(frame, np.ndarray):
@@ -236,17 +279,15 @@ class SH9Projector:
         t0 = time.perf_counter()
         stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
         frame = self._prepare(frame)
-        lin = self._to_linear(frame, stats)
-        if self.downsample > 1:
-            bw, bh = self._block
-            lin = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
-                             interpolation=cv2.INTER_AREA)
-        coeffs = self._project_linear(lin)
+        coeffs, small = self._project_frame(frame, stats)
         if self._sh_rotation is not None:
             coeffs = self._sh_rotation @ coeffs
         result = self._finish(coeffs, stats)
         if self.error_estimate:
-            result.stats["error_estimate"] = self._estimate_error(lin, result.stats["order"])
+            if small is None:
+                small = (self._linearise(frame) if frame.dtype in (np.uint8, np.uint16)
+                         else self._clean_float(frame, {}))
+            result.stats["error_estimate"] = self._estimate_error(small, result.stats["order"])
         result.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
         return result
 
@@ -273,7 +314,7 @@ class SH9Projector:
         stats["order"] = order
         stats["order_error"] = sh.relative_rms(E, E_exact)
         stats["min_irradiance"] = [float(v) for v in E.min(axis=0)]
-        stats["coverage_sr"] = self.projection.coverage
+        stats["coverage_sr"] = self._coverage
         return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats)
 
     # -- error estimate ---------------------------------------------------------------------
