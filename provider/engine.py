@@ -137,8 +137,7 @@ class SH9Projector:
 
         # Pixel-independent precomputation.
         p = self.projection
-        self._block = (self.width // downsample * downsample,
-                       self.height // downsample * downsample)
+        self._block = full.scaled_source_size(downsample)
         if isinstance(p, Equirect):
             rows, cols = p.row_integrals(), p.col_integrals()
             self._rows = rows.astype(np.float32)          # (6, H)
@@ -328,16 +327,16 @@ class SH9Projector:
             p = self.projection
             factor = max(1, int(math.sqrt(p.width * p.height / 4096)))
             coarse = p if factor == 1 else p.scaled(factor)
+            crop = p.scaled_source_size(factor)
             dirs = coarse.directions().reshape(-1, 3)
             omega = coarse.solid_angle.reshape(-1)
             normals = sh.fibonacci_sphere(256)
             kernel = np.maximum(normals @ dirs.T, 0.0) * omega  # (256, P)
             sh_w = coarse.sh_weights  # (P, 9), includes any fill model
-            self._estimator = (factor, coarse, normals, kernel.astype(np.float32), sh_w)
-        factor, coarse, normals, kernel, sh_w = self._estimator
+            self._estimator = (factor, coarse, crop, normals, kernel.astype(np.float32), sh_w)
+        factor, coarse, crop, normals, kernel, sh_w = self._estimator
         small = lin if factor == 1 else cv2.resize(
-            lin[:coarse.height * factor, :coarse.width * factor], (coarse.width, coarse.height),
-            interpolation=cv2.INTER_AREA)
+            lin[:crop[1], :crop[0]], (coarse.width, coarse.height), interpolation=cv2.INTER_AREA)
         px = small.reshape(-1, 3).astype(np.float64)
         truth = kernel.astype(np.float64) @ px
         coarse_coeffs = sh_w.T @ px

@@ -74,6 +74,11 @@ class Projection:
         """The same geometry for an image area-downsampled by an integer ``factor``."""
         raise NotImplementedError
 
+    def scaled_source_size(self, factor: int) -> tuple[int, int]:
+        """(width, height) of the part of a full frame that :meth:`scaled` covers: the frame
+        is cropped to it, then area-averaged to the scaled size."""
+        return (self.width // factor * factor, self.height // factor * factor)
+
     @property
     def shape(self) -> tuple[int, int]:
         return (self.height, self.width)
@@ -161,7 +166,11 @@ class Equirect(Projection):
         return d, np.ones(d.shape[:-1], bool)
 
     def scaled(self, factor: int) -> "Equirect":
-        return Equirect(self.width // factor, self.height // factor)
+        h = max(1, self.height // factor)
+        return Equirect(2 * h, h)
+
+    def scaled_source_size(self, factor):
+        return (self.width, self.height)  # the whole sphere, resampled by exact areas
 
     # Separable closed form: every Y_lm·dω is Σ row(θ) × col(φ).
     ROW_FUNCS = 6  # 1, cosθ, sinθ, cos²θ, sinθcosθ, sin²θ   (each times sinθ dθ)
@@ -504,7 +513,11 @@ class CubeMap(Projection):
         return out
 
     def scaled(self, factor):
-        return CubeMap(self.width // factor, self.height // factor)
+        h = max(1, self.height // factor)
+        return CubeMap(6 * h, h)
+
+    def scaled_source_size(self, factor):
+        return (self.width, self.height)
 
 
 PROJECTIONS = {"equirect": Equirect, "fisheye": Fisheye, "dual-fisheye": DualFisheye,
