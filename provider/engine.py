@@ -165,26 +165,32 @@ class SH9Projector:
         return self._lut(np.uint16)[frame]
 
     def _clean_float(self, frame: np.ndarray, stats: dict) -> np.ndarray:
-        """Float32 linear radiance; non-finite and negative samples set to 0 and counted."""
+        """Float32 linear radiance with non-finite and negative samples set to 0 (counted).
+
+        Clean frames (the common case) cost one ``cv2.minMaxLoc`` pass and are not copied;
+        exposure is applied to the coefficients, not here.
+        """
         lin = frame if frame.dtype == np.float32 else frame.astype(np.float32)
-        owned = lin is not frame
-        # One cheap pass each; the costly masks only run on frames that need them.
-        if not math.isfinite(float(np.add.reduce(lin, axis=None, dtype=np.float64))):
-            if not owned:
-                lin, owned = lin.copy(), True
+        flat = lin.reshape(lin.shape[0], -1)
+        finite = math.isfinite(cv2.sumElems(flat)[0])
+        lo = cv2.minMaxLoc(flat)[0] if finite else -1.0  # minMaxLoc skips NaN
+        if finite and lo >= 0:
+            return lin
+        h = lin.shape[0]
+        if not finite:
             bad = ~np.isfinite(lin)
-            stats["nonfinite_pixels"] = int(np.count_nonzero(bad.any(axis=-1)))
-            lin[bad] = 0.0
-        if lin.min() < 0:
-            if not owned:
-                lin, owned = lin.copy(), True
-            neg = lin < 0
-            stats["negative_pixels"] = int(np.count_nonzero(neg.any(axis=-1)))
-            stats["negative_energy_fraction"] = float(
-                -lin[neg].sum(dtype=np.float64) / max(np.abs(lin).sum(dtype=np.float64), 1e-300))
-            np.maximum(lin, 0.0, out=lin)
-        if self.exposure != 1.0:
-            lin = lin * np.float32(self.exposure)
+            stats["nonfinite_pixels"] = _count_pixels(bad.view(np.uint8))
+            lin = np.where(bad, np.float32(0), lin)
+            flat = lin.reshape(h, -1)
+            lo = cv2.minMaxLoc(flat)[0]
+        if lo < 0:
+            stats["negative_pixels"] = _count_pixels(
+                cv2.compare(flat, 0, cv2.CMP_LT).reshape(lin.shape))
+            total = cv2.sumElems(flat)[0]
+            _, flat = cv2.threshold(flat, 0, 0, cv2.THRESH_TOZERO)  # negatives -> 0
+            lin = flat.reshape(lin.shape)
+            positive = cv2.sumElems(flat)[0]
+            stats["negative_energy_fraction"] = float((positive - total) / max(positive, 1e-300))
         return lin
 
     # -- projection -------------------------------------------------------------------------
@@ -219,6 +225,7 @@ class SH9Projector:
         """Linearise (counting bad samples) and project; returns (9, 3) float64."""
         acc = self._new_accumulator()
         integer = frame.dtype in (np.uint8, np.uint16)
+        scale = 1.0 if integer else self.exposure  # integer frames: folded into the LUT
         if integer:
             top = 255 if frame.dtype == np.uint8 else 65535
             stats["clipped_fraction"] = float(np.count_nonzero(frame == top)) / frame.size
@@ -230,14 +237,14 @@ class SH9Projector:
                     self._accumulate(self._linearise(frame[r0:r0 + self.BAND_ROWS]), r0, acc)
             else:
                 self._accumulate(self._clean_float(frame, stats), 0, acc)
-            return self._coefficients(acc), None
+            return self._coefficients(acc) * scale, None
         # Fast path: area-average the *linear* frame, then project the small one.
         lin = self._linearise(frame) if integer else self._clean_float(frame, stats)
         bw, bh = self._block
         small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
                            interpolation=cv2.INTER_AREA)
         self._accumulate(small, 0, acc)
-        return self._coefficients(acc), small
+        return self._coefficients(acc) * scale, small
 
     def _prepare(self, frame) -> np.ndarray:
         if not isinstance(frame, np.ndarray):
@@ -349,6 +356,12 @@ class SH9Projector:
         if self.dering == "auto":
             out, _ = sh.dering(out)
         return sh.truncate_order(out, order)
+
+
+def _count_pixels(mask: np.ndarray) -> int:
+    """Pixels of an (H, W, 3) uint8/bool mask with any channel set."""
+    planes = cv2.split(np.ascontiguousarray(mask, dtype=np.uint8))
+    return int(cv2.countNonZero(cv2.max(cv2.max(planes[0], planes[1]), planes[2])))
 
 
 _PROJECTOR_CACHE: dict = {}

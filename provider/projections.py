@@ -329,7 +329,7 @@ class Fisheye(Projection):
 
     def __init__(self, width, height, *, fov_deg=180.0, center=None, radius=None,
                  K=None, D=None, forward=(0, 1, 0), right=(1, 0, 0),
-                 fill="ground", albedo=0.3):
+                 fill="ground", albedo=0.1):
         super().__init__(width, height)
         if fill not in FILL_MODELS:
             raise ProjectionError(f"unknown fill model {fill!r}; choose from {FILL_MODELS}")
