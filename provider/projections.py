@@ -326,6 +326,7 @@ class Fisheye(Projection):
     """
 
     name = "fisheye"
+    nodes_per_axis = 2  # the Jacobian is closed-form: 2×2 nodes reach 5e-5 of the coverage
 
     def __init__(self, width, height, *, fov_deg=180.0, center=None, radius=None,
                  K=None, D=None, forward=(0, 1, 0), right=(1, 0, 0),
@@ -407,6 +408,7 @@ class DualFisheye(Projection):
     """
 
     name = "dual-fisheye"
+    nodes_per_axis = 2
 
     def __init__(self, width, height, *, fov_deg=200.0, centers=None, focal=None,
                  yaw_deg=0.0):
