@@ -1,0 +1,188 @@
+"""Contract test vectors: coefficients in; matrices and E(n) out, in both frames.
+
+``shaders/contract_vectors.json`` is written by :func:`write_contract_vectors` (``shlight
+validate-shaders --write-vectors``) and read by the shader harness and by the C# tests of the
+Unity package. Format (version 1; every array flat, numbers only, so Unity's JsonUtility and
+any small parser read it)::
+
+    {"version": 1, "frame": "rh-y-up", "unity_frame": "unity-lh-y-up: (x, y, z) -> (x, y, -z)",
+     "description": "...",
+     "cases": [{"name", "coefficients" (27, wire order L00.r, L00.g, L00.b, L1-1.r, ...),
+                "matrices" (48: M_r, M_g, M_b row-major, right-handed),
+                "normals" (3N, unit, right-handed), "irradiance" (3N: E(n) RGB, not clamped),
+                "unity_matrices" (48: S M S, S = diag(1, 1, -1, 1)),
+                "unity_normals" (3N: (x, y, -z)),
+                and in rotation cases "rotation" (9, row-major, right-handed),
+                "rotated_matrices" (48: R̃ M R̃ᵀ), "unity_rotated_matrices" (48)}]}
+
+"irradiance" is ñᵀMñ evaluated in float64 from "matrices" (what every shader computes); it
+differs from Σ Â_l L_lm Y_lm(n) by the 6-digit constants of DESIGN.md §2 (< 1e-6 of the scale).
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from . import sh
+from .render import SHADER_DIR
+
+VECTORS_PATH = SHADER_DIR / "contract_vectors.json"
+#: Panoramas the real-scene cases come from (the repository's CC0 test fixtures).
+HDRI_DIR = SHADER_DIR.parent / "tests" / "data" / "hdri"
+
+S3 = np.diag([1.0, 1.0, -1.0])          # right-handed -> Unity (left-handed): z -> -z
+S4 = np.diag([1.0, 1.0, -1.0, 1.0])
+
+ONE_SIDED_COLOUR = np.array([1.0, 0.5, 0.25])
+RANDOM_SEED = 4
+
+
+# -- coefficient sets with known answers (shared with the shader harness) ------------------------
+
+def furnace_coefficients(radiance: float = 1.0) -> np.ndarray:
+    """Uniform radiance from every direction: L00 = ∫ Y00 dω = 4π·0.282095; E = π·radiance."""
+    c = np.zeros((9, 3))
+    c[0] = radiance * 4 * math.pi * sh.C0
+    return c
+
+
+def one_sided_coefficients(colour=ONE_SIDED_COLOUR) -> np.ndarray:
+    """Radiance ``colour`` from the +X half of the sphere only, 0 from the -X half.
+
+    Exactly L00 = 2π·C0 and L11 = π·C1 (every other integral over the half sphere vanishes),
+    so E(n) = (π/2)(1 + x)·colour: π at +X, exactly 0 at -X. A sign slip on x shows at once.
+    """
+    c = np.zeros((9, 3))
+    c[0] = 2 * math.pi * sh.C0 * np.asarray(colour, np.float64)
+    c[3] = math.pi * sh.C1 * np.asarray(colour, np.float64)
+    return c
+
+
+def one_sided_irradiance(normals, colour=ONE_SIDED_COLOUR) -> np.ndarray:
+    """Analytic E(n) = (π/2)(1 + x)·colour of :func:`one_sided_coefficients` (no SH)."""
+    x = np.asarray(normals, np.float64)[..., 0]
+    return (math.pi / 2) * (1 + x)[..., None] * np.asarray(colour, np.float64)
+
+
+def random_coefficients(seed: int = RANDOM_SEED) -> np.ndarray:
+    """Gaussian coefficients with a dominant positive L00 (deterministic for a seed)."""
+    c = np.random.default_rng(seed).normal(size=(9, 3))
+    c[0] = np.abs(c[0]) + 3.0
+    return c
+
+
+def panorama_coefficients(name: str, hdri_dir: Path = HDRI_DIR) -> np.ndarray:
+    """Exact (un-windowed) SH9 of a bundled panorama, through the product's engine."""
+    from .engine import compute_sh9
+    return compute_sh9(Path(hdri_dir) / f"{name}.exr", error_estimate=False).coefficients
+
+
+# -- the vectors -------------------------------------------------------------------------------------
+
+def _numbers(a) -> list:
+    # + 0.0 turns -0.0 into 0.0: the same value, and simpler for hand-written parsers.
+    return [float(v) + 0.0 for v in np.asarray(a, np.float64).reshape(-1)]
+
+
+def case_normals(coefficients: np.ndarray, count: int = 64) -> np.ndarray:
+    """±X, ±Y, ±Z, a Fibonacci set, and the normal of least irradiance (where ringing shows)."""
+    E = sh.sphere_irradiance(coefficients).min(axis=1)
+    darkest = sh.SPHERE_NORMALS[int(np.argmin(E))]
+    return np.vstack([np.eye(3), -np.eye(3), sh.fibonacci_sphere(count - 7), darkest])
+
+
+def vector_case(name: str, coefficients, rotation=None, normals=None) -> dict:
+    """One case of the vectors file (see the module docstring)."""
+    L = np.asarray(coefficients, np.float64)
+    n = case_normals(L) if normals is None else np.asarray(normals, np.float64)
+    M = sh.irradiance_matrices(L)
+    case = {"name": name,
+            "coefficients": _numbers(L),
+            "matrices": _numbers(M),
+            "normals": _numbers(n),
+            "irradiance": _numbers(sh.irradiance_from_matrices(M, n)),
+            "unity_matrices": _numbers(S4 @ M @ S4),
+            "unity_normals": _numbers(n @ S3)}
+    if rotation is not None:
+        R = np.asarray(rotation, np.float64)
+        RM = sh.rotate_matrices(M, R)
+        case.update(rotation=_numbers(R), rotated_matrices=_numbers(RM),
+                    unity_rotated_matrices=_numbers(S4 @ RM @ S4))
+    return case
+
+
+DESCRIPTION = (
+    "Contract test vectors for SH9 irradiance (DESIGN.md sections 1-2), written by "
+    "`shlight validate-shaders --write-vectors` (provider/contract.py). Per case: radiance SH "
+    "coefficients in; the irradiance matrices M (E(n) = n~^T M n~, n~ = (x, y, z, 1)) and E at "
+    "the listed unit normals out, float64, NOT clamped at zero. Unity's frame: S M S with "
+    "S = diag(1, 1, -1, 1) and normals (x, y, -z) give the same E. Rotation cases: "
+    "M' = R~ M R~^T with R~ = diag(R, 1). Cases: furnace (uniform radiance 1, E = pi); "
+    "one_sided_+x (radiance (1, 0.5, 0.25) from x > 0 only, E = (pi/2)(1 + x) per channel: "
+    "0 at -X); random (seeded Gaussian); panorama_sky and panorama_lab (CC0 Poly Haven "
+    "panoramas via @pmndrs/assets, tests/data/hdri; lab rings: E < 0 (blue) at its last normal, "
+    "which a shader clamps to 0); rotation cases one_sided_+x_yaw90 (the light moves to -Z) "
+    "and panorama_sky_rotated (yaw 30, pitch -20, roll 10).")
+
+
+def contract_vectors(hdri_dir: Path = HDRI_DIR) -> dict:
+    """The whole vectors document (deterministic up to float rounding of the engine)."""
+    one_sided = one_sided_coefficients()
+    sky = panorama_coefficients("sky", hdri_dir)
+    cases = [vector_case("furnace", furnace_coefficients()),
+             vector_case("one_sided_+x", one_sided),
+             vector_case("random", random_coefficients()),
+             vector_case("panorama_sky", sky),
+             vector_case("panorama_lab_ringing", panorama_coefficients("lab", hdri_dir)),
+             vector_case("one_sided_+x_yaw90", one_sided, rotation=sh.rotation_from_euler(90, 0, 0)),
+             vector_case("panorama_sky_rotated", sky, rotation=sh.rotation_from_euler(30, -20, 10))]
+    return {"version": 1, "frame": "rh-y-up",
+            "unity_frame": "unity-lh-y-up: (x, y, z) -> (x, y, -z)",
+            "description": DESCRIPTION, "cases": cases}
+
+
+def dumps(vectors: dict) -> str:
+    """JSON text with one key per line and each array on one line (diffable, still plain JSON)."""
+    def value(v):
+        return json.dumps(v, allow_nan=False)
+    lines = ["{"]
+    top = [k for k in vectors if k != "cases"]
+    for k in top:
+        lines.append(f" {json.dumps(k)}: {value(vectors[k])},")
+    lines.append(' "cases": [')
+    for i, case in enumerate(vectors.get("cases", [])):
+        items = [f"   {json.dumps(k)}: {value(v)}" for k, v in case.items()]
+        lines.append("  {\n" + ",\n".join(items) + "\n  }" + ("," if i + 1 < len(vectors["cases"]) else ""))
+    lines.append(" ]")
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def write_contract_vectors(path: Path = VECTORS_PATH, hdri_dir: Path = HDRI_DIR) -> Path:
+    """Write the vectors file; returns its path."""
+    from .engine import InputError
+    missing = [n for n in ("sky", "lab") if not (Path(hdri_dir) / f"{n}.exr").exists()]
+    if missing:
+        raise InputError(f"the contract vectors need {', '.join(m + '.exr' for m in missing)} "
+                         f"in {hdri_dir} (a source checkout's tests/data/hdri)")
+    path = Path(path)
+    path.write_text(dumps(contract_vectors(hdri_dir)))
+    return path
+
+
+def load_contract_vectors(path: Path = VECTORS_PATH) -> dict:
+    """Parse a vectors file into arrays: per case, (9, 3) coefficients, (3, 4, 4) matrices,
+    (N, 3) normals and irradiance, and so on (keys as in the file)."""
+    doc = json.loads(Path(path).read_text())
+    shapes = {"coefficients": (9, 3), "matrices": (3, 4, 4), "unity_matrices": (3, 4, 4),
+              "rotation": (3, 3), "rotated_matrices": (3, 4, 4),
+              "unity_rotated_matrices": (3, 4, 4), "normals": (-1, 3), "irradiance": (-1, 3),
+              "unity_normals": (-1, 3)}
+    for case in doc["cases"]:
+        for k, shape in shapes.items():
+            if k in case:
+                case[k] = np.asarray(case[k], np.float64).reshape(shape)
+    return doc

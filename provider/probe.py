@@ -1,0 +1,211 @@
+"""One light probe: source → frame → coefficients → message.
+
+A :class:`Probe` owns a :class:`~provider.sources.Capture` (its source, read in a
+thread), the :class:`~provider.engine.SH9Projector` for each frame size it has seen,
+the temporal filter, and the probe's latest message. Its :meth:`Probe.run` task waits for
+the newest frame, projects it in a worker thread (the engine's one call), and hands the
+serialised message to ``publish(probe_name, text)`` when the lighting changed, when a
+keep-alive is due, or when the probe goes stale or fresh again.
+
+States: ``starting`` (no lighting yet), ``live``, ``stale`` (the source is lost or silent:
+the last lighting is resent with ``"stale": true`` and its ``age_s``).
+"""
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .engine import InputError, SH9Projector, SH9Result
+from .message import dumps
+from .sources import Capture, Frame, SourceSpec
+from .temporal import ChangeGate, LightingFilter
+
+log = logging.getLogger("shlight.probe")
+
+
+@dataclass
+class TemporalSettings:
+    """How a probe's messages follow the lighting in time (see provider.temporal)."""
+
+    smoothing: float = 0.0          # time constant, seconds (0: off)
+    snap: float = 0.1               # a change beyond this passes smoothing at once
+    change_threshold: float = 0.002  # below this, unchanged lighting is not resent...
+    keepalive: float = 1.0          # ...except every this many seconds
+    stale_after: float = 2.0        # seconds without a fresh frame before "stale"
+
+
+class Probe:
+    """A named probe; ``publish(name, text)`` receives every message (UTF-8 bytes)."""
+
+    def __init__(self, name: str, spec: SourceSpec, *, projection: str = "equirect",
+                 engine_options: dict | None = None, temporal: TemporalSettings | None = None,
+                 publish=None, backoff_max: float = 10.0):
+        self.name, self.spec = name, spec
+        self.projection, self.engine_options = projection, dict(engine_options or {})
+        self.temporal = t = temporal or TemporalSettings()
+        self.publish = publish or (lambda name, text: None)
+        fps = spec.nominal_fps
+        # A slow file sequence is not "stale" between two of its frames.
+        self.stale_after = max(t.stale_after, 2.5 / fps if fps else 0.0)
+        self.capture = Capture(spec, name=name, backoff_max=backoff_max)
+        self.filter = LightingFilter(t.smoothing, t.snap)
+        self.gate = ChangeGate(t.change_threshold, t.keepalive)
+        self.state = "starting"
+        self.error = ""                 # the last projection error, for /healthz
+        self.seq = 0
+        self.latest_message: dict | None = None
+        self.latest_text: bytes | None = None
+        self.image: np.ndarray | None = None    # the last projected frame (thumbnail)
+        self.image_seq = 0
+        self.frames_processed = 0
+        self.frames_rejected = 0
+        self.compute_ms = 0.0
+        self.latency_s = 0.0            # capture → message of the newest frame
+        self._projectors: dict = {}
+        self._lighting: SH9Result | None = None
+        self._frame_time = 0.0          # unix time of the newest frame (the source's clock)
+        self._arrival = 0.0             # when it was processed here (our clock)
+        self._fresh = False             # new lighting since the last message
+        self._stale_since = None
+        self._wake = asyncio.Event()
+        self._last_error_log = -1e9
+
+    # -- the task ----------------------------------------------------------------------------
+    async def run(self) -> None:
+        """Process frames until cancelled (the capture is stopped on the way out)."""
+        loop = asyncio.get_running_loop()
+
+        def notify():
+            try:
+                loop.call_soon_threadsafe(self._wake.set)
+            except RuntimeError:  # the loop is closed: we are shutting down
+                pass
+
+        self.capture.notify = notify
+        self.capture.start()
+        tick = min(max(min(self.temporal.keepalive, self.stale_after) / 4, 0.02), 0.25)
+        try:
+            while True:
+                try:
+                    await asyncio.wait_for(self._wake.wait(), tick)
+                except asyncio.TimeoutError:
+                    pass
+                self._wake.clear()
+                frame = self.capture.take()
+                if frame is not None:
+                    await self._process(frame)
+                self._maybe_publish(time.time())
+        finally:
+            await asyncio.to_thread(self.capture.stop)
+
+    async def _process(self, frame: Frame) -> None:
+        try:
+            if frame.lighting is not None:
+                result = frame.lighting
+            else:
+                result = await asyncio.to_thread(self._project, frame)
+        except InputError as exc:
+            self._rejected(str(exc))
+            return
+        except Exception as exc:  # noqa: BLE001 - the process never dies on a bad frame
+            self._rejected(f"{type(exc).__name__}: {exc}")
+            return
+        if not (np.all(np.isfinite(result.coefficients)) and np.all(np.isfinite(result.matrices))):
+            self._rejected("non-finite coefficients")
+            return
+        coeffs, mats, _ = self.filter.update(result.coefficients, result.matrices, frame.time)
+        self._lighting = SH9Result(coeffs, mats, result.stats)
+        self._frame_time, self._arrival = frame.time, time.time()
+        self._fresh = True
+        self.frames_processed += 1
+        self.compute_ms = float(result.stats.get("compute_ms", 0.0))
+        self.error = ""
+        if frame.image is not None:
+            self.image, self.image_seq = frame.image, self.image_seq + 1
+
+    def _project(self, frame: Frame) -> SH9Result:
+        """Worker thread: decode if needed, build the projector once per size, project."""
+        image = frame.decoded()
+        if image.ndim < 2:
+            raise InputError(f"frame of shape {image.shape}")
+        key = (image.shape[1], image.shape[0])
+        projector = self._projectors.get(key)
+        if projector is None:
+            if len(self._projectors) >= 4:   # a source that keeps changing size
+                self._projectors.clear()
+            log.info("probe %s: building the %s projector for %d×%d frames", self.name,
+                     self.projection, *key)
+            try:
+                projector = SH9Projector(key[0], key[1], self.projection, **self.engine_options)
+            except InputError as exc:
+                projector = exc
+            self._projectors[key] = projector
+        if isinstance(projector, InputError):
+            raise projector
+        return projector.project(image)
+
+    def _rejected(self, reason: str) -> None:
+        self.frames_rejected += 1
+        self.error = reason
+        now = time.monotonic()
+        if now - self._last_error_log > 10.0:        # one line per 10 s, not per frame
+            self._last_error_log = now
+            log.error("probe %s: frame rejected (%d so far): %s", self.name,
+                      self.frames_rejected, reason)
+
+    # -- messages ----------------------------------------------------------------------------
+    def _maybe_publish(self, now: float) -> None:
+        if self._lighting is None:
+            return
+        stale = (self.capture.state in ("lost", "finished")
+                 or now - self._arrival > self.stale_after)
+        if stale and self.state != "stale":
+            self.state, self._stale_since = "stale", now
+            why = self.capture.reason if self.capture.state != "live" else \
+                f"no frame for {now - self._arrival:.1f} s"
+            log.warning("probe %s: stale (%s); clients keep the last lighting", self.name, why)
+            self._send(now, stale=True, changed=False)
+        elif not stale and self.state != "live":
+            if self.state == "stale":
+                log.info("probe %s: fresh again after %.1f s", self.name,
+                         now - self._stale_since)
+            self.state = "live"
+            self._send(now, stale=False, changed=True)
+        elif stale:
+            if self.gate.due(now):
+                self._send(now, stale=True, changed=False)
+        elif self._fresh and self.gate.changed(self._lighting.coefficients):
+            self._send(now, stale=False, changed=True)
+        elif self.gate.due(now):
+            self._send(now, stale=False, changed=False)
+
+    def _send(self, now: float, *, stale: bool, changed: bool) -> None:
+        lighting = self._lighting
+        if self._fresh:
+            self.latency_s = max(now - self._frame_time, 0.0)
+        msg = lighting.to_message(
+            probe=self.name, seq=self.seq, time=self._frame_time, stale=stale,
+            age_s=max(now - self._frame_time, 0.0), fps=round(self.capture.fps, 3),
+            latency_ms=round(self.latency_s * 1e3, 3), resent=not changed,
+            source=self.spec.kind)
+        text = dumps(msg).encode()
+        self.seq += 1
+        self._fresh = False
+        self.gate.mark_sent(lighting.coefficients, now)
+        self.latest_message, self.latest_text = msg, text
+        self.publish(self.name, text)
+
+    # -- for /healthz and /metrics ------------------------------------------------------------
+    def health(self) -> dict:
+        now = time.time()
+        return {"state": self.state, "source": self.spec.description,
+                "source_state": self.capture.state, "source_error": self.capture.reason,
+                "error": self.error, "seq": self.seq,
+                "age_s": round(now - self._frame_time, 3) if self._lighting else None,
+                "fps": round(self.capture.fps, 2), "compute_ms": round(self.compute_ms, 3),
+                "frames": self.frames_processed, "frames_rejected": self.frames_rejected,
+                "reconnects": self.capture.reconnects}

@@ -1,0 +1,826 @@
+"""``shlight serve``: live SH9 lighting for every headset, over WebSockets.
+
+One process serves one or more named *probes* (a 360° camera, a fisheye on an edge
+device, a file...). Each probe reads its source in a thread, projects the newest frame
+onto SH9 with the engine, and every connected client receives the probe's messages.
+HTTP is served on the same port.
+
+Connecting
+----------
+``ws://HOST:8765/`` (default host 127.0.0.1; ``--host 0.0.0.0`` for a LAN, e.g. a
+HoloLens). With ``--token T`` a client presents the token either as the query parameter
+``?token=T`` or as the header ``Authorization: Bearer T``; otherwise the handshake is
+refused with HTTP 401. Browsers send an ``Origin`` header: it must be the server's own
+origin (the dashboard) or one given with ``--allow-origin``, else HTTP 403. Programs
+(Unity, Python) send no Origin and are not affected. Optional query parameters
+``?probe=NAME&max_hz=N`` subscribe at connect time (an unknown probe: HTTP 404).
+
+Messages (JSON text frames; JSON Schema: ``provider/sh9_message.schema.json``)
+-------------------------------------------------------------------------------
+Server → client:
+
+* ``hello``, first, once::
+
+      {"type": "hello", "version": 1, "provider": "shlight 0.1.0", "frame": "rh-y-up",
+       "probes": ["default"], "subscribed": "*", "max_hz": 0, "keepalive_s": 1.0,
+       "stale_after_s": 2.0, "max_message_bytes": 4096, "server_time": 1700000000.0}
+
+* ``sh9``, the lighting (DESIGN.md §3), for every subscribed probe: immediately the
+  probe's latest message, then whenever the lighting changes beyond the change
+  threshold, and at least every ``keepalive_s`` seconds. Fields beyond the contract:
+  ``fps`` (source frames per second), ``latency_ms`` (capture of the frame → message,
+  on this server; for a relay, from the upstream capture), ``age_s`` (now − ``time``),
+  ``resent`` (true: the lighting is within the change threshold of the previous
+  message), ``source`` (the source kind). While the source is lost, the last lighting is
+  resent every ``keepalive_s`` with ``"stale": true`` and a growing ``age_s``; fresh
+  messages resume by themselves after the source reconnects. ``seq`` counts the probe's
+  messages. A client only ever gets the *newest* message of a probe: a slow client
+  skips messages, never lags behind.
+* ``subscribed``, the answer to a subscribe: ``{"type": "subscribed", "probe": "theta",
+  "max_hz": 30}``.
+* ``pong``, the answer to a ping: ``{"type": "pong", "time": <server unix time>,
+  "id": <the ping's id>}`` (clients on another machine can estimate their clock offset).
+* ``error``: ``{"type": "error", "error": "<code>", "detail": "<text>"}``, codes
+  ``bad_json``, ``bad_request``, ``unknown_type``, ``unknown_probe``. The connection
+  stays open.
+
+Client → server (all optional; a plain client just listens):
+
+* ``{"type": "subscribe", "probe": "theta", "max_hz": 30}``: receive only this probe
+  (``"*"``: all, the default) at most ``max_hz`` messages per second (0: no cap beyond
+  the server's ``--max-hz``). Either field may be left out to keep its value.
+* ``{"type": "ping", "id": 7}``.
+
+A client message larger than ``--max-message-bytes`` closes the connection with code
+1009. A client that does not read for ``--send-timeout`` seconds is disconnected.
+
+HTTP (same port; the token is needed as for WebSockets, except for ``/healthz``)
+---------------------------------------------------------------------------------
+``/`` the dashboard, ``/healthz`` (JSON; status ``ok`` or ``degraded``),
+``/latest.json?probe=NAME`` (the latest sh9 message), ``/thumbnail.jpg?probe=NAME``
+(the newest frame, tone-mapped), ``/metrics`` (Prometheus text format).
+"""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import collections
+import hmac
+import http
+import json
+import logging
+import math
+import os
+import re
+import shlex
+import signal
+import socket
+import time
+from dataclasses import dataclass, field
+from urllib.parse import parse_qs, urlsplit
+
+from websockets.asyncio.server import ServerConnection, serve
+from websockets.datastructures import Headers
+from websockets.exceptions import ConnectionClosed
+from websockets.frames import CloseCode
+from websockets.http11 import Request, Response
+
+from . import __version__
+from .dashboard import DASHBOARD_CSP, MetricsText, static_file, thumbnail_jpeg
+from .engine import InputError
+from .message import FRAME, SCHEMA_VERSION, dumps
+from .probe import Probe, TemporalSettings
+from .sources import SourceOptions, parse_source
+
+log = logging.getLogger("shlight.server")
+
+DEFAULT_PORT = 8765
+PROBE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+ALL = "*"
+
+
+@dataclass
+class ServeSettings:
+    """Network and safety settings of a :class:`ProviderServer`."""
+
+    host: str = "127.0.0.1"
+    port: int = DEFAULT_PORT
+    token: str | None = None
+    allowed_origins: tuple[str, ...] = ()
+    max_clients: int = 500
+    max_message_bytes: int = 4096
+    send_timeout: float = 10.0
+    max_hz: float = 0.0             # cap on every client's rate (0: none)
+    deflate: bool = False           # permessage-deflate (costs CPU per client and message)
+
+
+@dataclass
+class Counters:
+    """Server-wide counters for /metrics."""
+
+    connections: int = 0
+    messages_sent: int = 0
+    messages_skipped: int = 0       # replaced by a newer one before a slow client took it
+    client_errors: int = 0          # malformed client messages answered with an error
+    stalled_clients: int = 0        # disconnected because they stopped reading
+    rejected: collections.Counter = field(default_factory=collections.Counter)
+
+
+class ClientSession:
+    """One connected client and its outbox.
+
+    The outbox holds, per subscribed probe, only the newest message not yet sent, plus a
+    few replies (hello, subscribed, error, pong). Publishing replaces the probe's slot and
+    wakes :meth:`write_loop`, the only task that writes to this client: a client that
+    reads slowly skips messages, and one that stops reading makes no memory grow and
+    delays nobody else. Rate limiting (``max_hz``) leaves the newest message waiting in
+    its slot until the client's next turn.
+    """
+
+    def __init__(self, ws: ServerConnection, counters: Counters, *, send_timeout: float):
+        self.ws, self.counters, self.send_timeout = ws, counters, send_timeout
+        host, port = (ws.remote_address or ("?", 0))[:2]
+        self.label = f"{host}:{port}"
+        self.subscription = ALL
+        self.max_hz = 0.0
+        self.sent = 0
+        self._slots: dict[str, bytes] = {}
+        self._replies: collections.deque = collections.deque(maxlen=16)
+        self._next_send: dict[str, float] = {}
+        self._wake = asyncio.Event()
+        self._timer: asyncio.TimerHandle | None = None
+
+    def offer(self, probe: str, text: bytes) -> None:
+        """Make ``text`` the probe's pending message (replacing an unsent older one)."""
+        if self._slots.get(probe) is not None:
+            self.counters.messages_skipped += 1
+        self._slots[probe] = text
+        self._wake.set()
+
+    def forget(self, probe: str) -> None:
+        self._slots.pop(probe, None)
+
+    def reply(self, message: dict) -> None:
+        """Queue a control message (kept in order; the oldest dropped beyond 16)."""
+        self._replies.append(dumps(message).encode())
+        self._wake.set()
+
+    async def write_loop(self) -> None:
+        """Send replies and the newest message of each probe, until the connection ends."""
+        loop = asyncio.get_running_loop()
+        try:
+            while True:
+                await self._wake.wait()
+                self._wake.clear()
+                while self._replies:
+                    await self._send(self._replies.popleft())
+                for probe in list(self._slots):
+                    text = self._slots.get(probe)
+                    if text is None:
+                        continue
+                    now = loop.time()
+                    wait = self._next_send.get(probe, 0.0) - now
+                    if wait > 0:
+                        self._wake_in(loop, wait)
+                        continue
+                    self._slots[probe] = None
+                    await self._send(text)
+                    if self.max_hz > 0:
+                        # Average at most max_hz, tolerating jitter down to half a period.
+                        interval = 1.0 / self.max_hz
+                        self._next_send[probe] = max(self._next_send.get(probe, now) + interval,
+                                                     now + 0.5 * interval)
+        except ConnectionClosed:
+            pass
+        except asyncio.CancelledError:
+            raise
+        except Exception:  # noqa: BLE001 - a bug here must not take the server down
+            log.exception("client %s: writer failed; closing", self.label)
+            self.ws.transport.abort()
+        finally:
+            if self._timer is not None:
+                self._timer.cancel()
+
+    def _wake_in(self, loop, delay: float) -> None:
+        if self._timer is None or self._timer.cancelled() or self._timer.when() <= loop.time():
+            self._timer = loop.call_later(delay, self._wake.set)
+
+    async def _send(self, text: bytes) -> None:
+        transport = self.ws.transport
+        if transport.get_write_buffer_size() == 0:
+            await self.ws.send(text, text=True)    # cannot block: the buffer is empty
+        else:
+            try:
+                await asyncio.wait_for(self.ws.send(text, text=True), self.send_timeout)
+            except asyncio.TimeoutError:
+                self.counters.stalled_clients += 1
+                log.warning("client %s: not reading for %.0f s; disconnecting", self.label,
+                            self.send_timeout)
+                transport.abort()
+                raise ConnectionClosed(None, None) from None
+        self.sent += 1
+        self.counters.messages_sent += 1
+
+
+class ProviderServer:
+    """The WebSocket + HTTP server around a list of :class:`~provider.probe.Probe`.
+
+    ``await start()`` binds and starts the probes; ``await stop()`` closes every
+    connection (code 1001) and stops the sources. ``port`` is the bound port (useful
+    with port 0).
+    """
+
+    def __init__(self, probes: list[Probe], settings: ServeSettings | None = None):
+        if not probes:
+            raise InputError("no probes to serve")
+        self.settings = settings or ServeSettings()
+        self.probes = {p.name: p for p in probes}
+        for p in probes:
+            p.publish = self.publish
+        self.clients: set[ClientSession] = set()
+        self._subscribers: dict[str, set[ClientSession]] = {name: set() for name in self.probes}
+        self.counters = Counters()
+        self.started_at = time.time()
+        self._server = None
+        self._tasks: list[asyncio.Task] = []
+        self._thumbnails: dict[str, tuple[int, bytes]] = {}
+        self._allowed_origins = {o.rstrip("/").lower() for o in self.settings.allowed_origins}
+
+    # -- lifecycle ----------------------------------------------------------------------------
+    async def start(self) -> None:
+        s = self.settings
+        try:
+            self._server = await serve(
+                self._handler, s.host, s.port, process_request=self._process_request,
+                max_size=s.max_message_bytes, max_queue=4, write_limit=1 << 15,
+                compression="deflate" if s.deflate else None, close_timeout=2,
+                ping_interval=20, ping_timeout=20, server_header=f"shlight/{__version__}")
+        except OSError as exc:
+            raise InputError(f"cannot listen on {s.host}:{s.port}: {exc.strerror or exc}") from None
+        self._tasks = [asyncio.create_task(self._run_probe(p), name=f"probe-{p.name}")
+                       for p in self.probes.values()]
+
+    async def stop(self) -> None:
+        if self._server is not None:
+            self._server.close()
+            await self._server.wait_closed()
+        for task in self._tasks:
+            task.cancel()
+        await asyncio.gather(*self._tasks, return_exceptions=True)
+
+    @property
+    def port(self) -> int:
+        return self._server.sockets[0].getsockname()[1]
+
+    async def _run_probe(self, probe: Probe) -> None:
+        try:
+            await probe.run()
+        except asyncio.CancelledError:
+            raise
+        except Exception:  # pragma: no cover - Probe.run handles frame errors itself
+            log.exception("probe %s: stopped by an unexpected error", probe.name)
+
+    # -- fan-out --------------------------------------------------------------------------------
+    def publish(self, probe: str, text: bytes) -> None:
+        """Hand a probe's new message to every client subscribed to it."""
+        for client in self._subscribers.get(probe, ()):
+            client.offer(probe, text)
+
+    def _subscribe(self, client: ClientSession, probe: str | None, max_hz: float | None) -> None:
+        if max_hz is not None:
+            cap = self.settings.max_hz
+            client.max_hz = min(max_hz, cap) if (cap > 0 and max_hz > 0) else (max_hz or cap)
+        if probe is None or probe == client.subscription:
+            return
+        wanted = set(self.probes) if probe == ALL else {probe}
+        for name, subscribers in self._subscribers.items():
+            if name in wanted and client not in subscribers:
+                subscribers.add(client)
+                latest = self.probes[name].latest_text
+                if latest is not None:
+                    client.offer(name, latest)    # a new subscriber needs no wait
+            elif name not in wanted and client in subscribers:
+                subscribers.discard(client)
+                client.forget(name)
+        client.subscription = probe
+
+    # -- WebSocket connections --------------------------------------------------------------------
+    async def _handler(self, ws: ServerConnection) -> None:
+        if len(self.clients) >= self.settings.max_clients:   # raced past process_request
+            self.counters.rejected["too_many_clients"] += 1
+            await ws.close(CloseCode.TRY_AGAIN_LATER, "too many clients")
+            return
+        client = ClientSession(ws, self.counters, send_timeout=self.settings.send_timeout)
+        query = parse_qs(urlsplit(ws.request.path).query)
+        self.clients.add(client)
+        self.counters.connections += 1
+        for name in self.probes:
+            self._subscribers[name].add(client)
+        log.info("client %s joined (%d connected)", client.label, len(self.clients))
+        writer = asyncio.create_task(client.write_loop())
+        try:
+            probe = query.get("probe", [ALL])[0]
+            client.subscription = None
+            client.reply(self._hello(probe, self._query_hz(query)))
+            self._subscribe(client, probe, self._query_hz(query))
+            async for message in ws:
+                self._on_message(client, message)
+        except ConnectionClosed:
+            pass
+        finally:
+            writer.cancel()
+            for subscribers in self._subscribers.values():
+                subscribers.discard(client)
+            self.clients.discard(client)
+            code = ws.close_code if ws.close_code is not None else 1006
+            log.info("client %s left (code %d, %d messages sent; %d connected)", client.label,
+                     code, client.sent, len(self.clients))
+
+    @staticmethod
+    def _query_hz(query) -> float | None:
+        try:
+            hz = float(query["max_hz"][0])
+        except (KeyError, ValueError):
+            return None
+        return hz if math.isfinite(hz) and hz >= 0 else None
+
+    def _hello(self, subscribed: str, max_hz: float | None) -> dict:
+        probe = next(iter(self.probes.values()))
+        return {"type": "hello", "version": SCHEMA_VERSION, "provider": f"shlight {__version__}",
+                "frame": FRAME, "probes": list(self.probes), "subscribed": subscribed,
+                "max_hz": float(max_hz or self.settings.max_hz),
+                "keepalive_s": probe.temporal.keepalive, "stale_after_s": probe.stale_after,
+                "max_message_bytes": self.settings.max_message_bytes,
+                "server_time": time.time()}
+
+    def _on_message(self, client: ClientSession, message) -> None:
+        """Handle one client message; anything malformed gets an ``error`` reply."""
+        if not isinstance(message, str):
+            return self._client_error(client, "bad_request",
+                                      "binary messages are not supported; send JSON text")
+        try:
+            msg = json.loads(message)
+        except (ValueError, RecursionError) as exc:
+            return self._client_error(client, "bad_json", f"not JSON: {str(exc)[:200]}")
+        if not isinstance(msg, dict):
+            return self._client_error(client, "bad_request", "expected a JSON object")
+        kind = msg.get("type")
+        if kind == "subscribe":
+            probe, max_hz = msg.get("probe"), msg.get("max_hz")
+            if probe is not None and not (isinstance(probe, str)
+                                          and (probe == ALL or probe in self.probes)):
+                return self._client_error(client, "unknown_probe",
+                                          f"no probe {str(probe)[:80]!r}; probes: "
+                                          f"{', '.join(self.probes)} (or \"*\")")
+            if max_hz is not None and not (isinstance(max_hz, (int, float))
+                                           and not isinstance(max_hz, bool)
+                                           and math.isfinite(max_hz) and max_hz >= 0):
+                return self._client_error(client, "bad_request",
+                                          "max_hz must be a number >= 0 (0: no cap)")
+            self._subscribe(client, probe, None if max_hz is None else float(max_hz))
+            client.reply({"type": "subscribed", "probe": client.subscription,
+                          "max_hz": float(client.max_hz)})
+        elif kind == "ping":
+            ident = msg.get("id")
+            pong = {"type": "pong", "time": time.time()}
+            if isinstance(ident, str) and len(ident) <= 64 or (
+                    isinstance(ident, (int, float)) and not isinstance(ident, bool)
+                    and math.isfinite(ident)):
+                pong["id"] = ident
+            client.reply(pong)
+        else:
+            self._client_error(client, "unknown_type",
+                               f"unknown message type {str(kind)[:80]!r}; "
+                               "expected subscribe or ping")
+
+    def _client_error(self, client: ClientSession, code: str, detail: str) -> None:
+        self.counters.client_errors += 1
+        log.debug("client %s: %s: %s", client.label, code, detail)
+        client.reply({"type": "error", "error": code, "detail": detail})
+
+    # -- the handshake and plain HTTP ---------------------------------------------------------------
+    def _authorized(self, request: Request, query) -> bool:
+        token = self.settings.token
+        if not token:
+            return True
+        given = query.get("token", [None])[0]
+        auth = request.headers.get("Authorization", "")
+        if given is None and auth[:7].lower() == "bearer ":
+            given = auth[7:].strip()
+        return given is not None and hmac.compare_digest(given.encode(), token.encode())
+
+    def _origin_allowed(self, request: Request) -> bool:
+        origin = request.headers.get("Origin")
+        if origin is None:
+            return True                 # not a browser
+        origin = origin.rstrip("/").lower()
+        if ALL in self._allowed_origins or origin in self._allowed_origins:
+            return True
+        parts = urlsplit(origin)
+        host = request.headers.get("Host", "").lower()
+        return parts.scheme in ("http", "https") and bool(host) and \
+            _strip_default_port(parts.netloc, parts.scheme) == _strip_default_port(host, parts.scheme)
+
+    async def _process_request(self, connection: ServerConnection, request: Request):
+        parts = urlsplit(request.path)
+        path, query = parts.path, parse_qs(parts.query)
+        upgrade = "websocket" in request.headers.get("Upgrade", "").lower()
+        if path == "/healthz" and not upgrade:
+            return _response(200, json.dumps(self.health()).encode(), "application/json")
+        if not self._authorized(request, query):
+            self.counters.rejected["token"] += 1
+            log.warning("refused %s %s: missing or wrong token", _peer(connection),
+                        "WebSocket" if upgrade else path)
+            return _response(401, b"missing or wrong token\n", "text/plain; charset=utf-8",
+                             [("WWW-Authenticate", 'Bearer realm="shlight"')])
+        if upgrade:
+            return self._check_websocket(connection, request, path, query)
+        try:
+            return await self._route_http(path, query)
+        except Exception:  # noqa: BLE001
+            log.exception("HTTP %s failed", path)
+            return _response(500, b"internal error\n", "text/plain; charset=utf-8")
+
+    def _check_websocket(self, connection, request: Request, path: str, query):
+        if not self._origin_allowed(request):
+            self.counters.rejected["origin"] += 1
+            log.warning("refused %s: Origin %s is not allowed (see --allow-origin)",
+                        _peer(connection), request.headers.get("Origin"))
+            return _response(403, b"Origin not allowed\n", "text/plain; charset=utf-8")
+        if path not in ("/", "/ws"):
+            return _response(404, b"WebSocket endpoint is /\n", "text/plain; charset=utf-8")
+        probe = query.get("probe", [ALL])[0]
+        if probe != ALL and probe not in self.probes:
+            self.counters.rejected["unknown_probe"] += 1
+            return _response(404, f"no probe {probe!r}; probes: {', '.join(self.probes)}\n"
+                             .encode(), "text/plain; charset=utf-8")
+        if len(self.clients) >= self.settings.max_clients:
+            self.counters.rejected["too_many_clients"] += 1
+            log.warning("refused %s: %d clients connected (--max-clients)", _peer(connection),
+                        len(self.clients))
+            return _response(503, b"too many clients\n", "text/plain; charset=utf-8")
+        return None                                          # go on with the handshake
+
+    async def _route_http(self, path: str, query) -> Response:
+        if path in ("/", "/index.html"):
+            body, ctype = static_file("index.html")
+            return _response(200, body, ctype, [("Content-Security-Policy", DASHBOARD_CSP)])
+        if path.startswith("/static/"):
+            found = static_file(path[len("/static/"):])
+            if found is None:
+                return _response(404, b"not found\n", "text/plain; charset=utf-8")
+            return _response(200, *found)
+        if path == "/metrics":
+            return _response(200, self.metrics().encode(), MetricsText.CONTENT_TYPE)
+        if path in ("/latest.json", "/thumbnail.jpg"):
+            name = query.get("probe", [next(iter(self.probes))])[0]
+            probe = self.probes.get(name)
+            if probe is None:
+                return _json_error(404, "unknown_probe", f"no probe {name!r}")
+            if path == "/latest.json":
+                if probe.latest_text is None:
+                    return _json_error(503, "no_lighting_yet", f"probe {name} has no lighting yet")
+                return _response(200, probe.latest_text, "application/json")
+            if probe.image is None:
+                return _json_error(503, "no_frame_yet", f"probe {name} has no frame yet")
+            return _response(200, await self._thumbnail(probe), "image/jpeg")
+        return _response(404, b"not found\n", "text/plain; charset=utf-8")
+
+    async def _thumbnail(self, probe: Probe) -> bytes:
+        cached = self._thumbnails.get(probe.name)
+        if cached is None or cached[0] != probe.image_seq:
+            seq, image = probe.image_seq, probe.image
+            cached = (seq, await asyncio.to_thread(thumbnail_jpeg, image))
+            self._thumbnails[probe.name] = cached
+        return cached[1]
+
+    # -- health and metrics -----------------------------------------------------------------------------
+    def health(self) -> dict:
+        probes = {name: p.health() for name, p in self.probes.items()}
+        ok = all(p["state"] == "live" for p in probes.values())
+        return {"status": "ok" if ok else "degraded", "provider": f"shlight {__version__}",
+                "uptime_s": round(time.time() - self.started_at, 3),
+                "clients": len(self.clients), "probes": probes}
+
+    def metrics(self) -> str:
+        m, c = MetricsText(), self.counters
+        m.add("shlight_info", "gauge", "Provider version.", [({"version": __version__}, 1)])
+        m.add("shlight_clients", "gauge", "Connected WebSocket clients.", len(self.clients))
+        m.add("shlight_connections_total", "counter", "WebSocket connections accepted.",
+              c.connections)
+        m.add("shlight_rejected_connections_total", "counter",
+              "Handshakes refused, by reason.",
+              [({"reason": r}, n) for r, n in sorted(c.rejected.items())] or [({"reason": "token"}, 0)])
+        m.add("shlight_messages_sent_total", "counter", "Messages sent to clients.",
+              c.messages_sent)
+        m.add("shlight_messages_skipped_total", "counter",
+              "Messages replaced by a newer one before a slow client took them.",
+              c.messages_skipped)
+        m.add("shlight_client_errors_total", "counter",
+              "Malformed client messages answered with an error.", c.client_errors)
+        m.add("shlight_stalled_clients_total", "counter",
+              "Clients disconnected for not reading.", c.stalled_clients)
+        probes = list(self.probes.values())
+
+        def per(fn):
+            return [({"probe": p.name}, fn(p)) for p in probes]
+        m.add("shlight_probe_up", "gauge", "1 while the probe's source delivers frames.",
+              per(lambda p: 1 if p.state == "live" else 0))
+        m.add("shlight_probe_stale", "gauge", "1 while clients get stale lighting.",
+              per(lambda p: 1 if p.state == "stale" else 0))
+        m.add("shlight_probe_frames_total", "counter", "Frames projected.",
+              per(lambda p: p.frames_processed))
+        m.add("shlight_probe_frames_rejected_total", "counter", "Frames the engine refused.",
+              per(lambda p: p.frames_rejected))
+        m.add("shlight_probe_messages_total", "counter", "Messages published.",
+              per(lambda p: p.seq))
+        m.add("shlight_probe_source_fps", "gauge", "Frames per second from the source.",
+              per(lambda p: p.capture.fps))
+        m.add("shlight_probe_compute_seconds", "gauge", "Engine time of the last frame.",
+              per(lambda p: p.compute_ms / 1e3))
+        m.add("shlight_probe_latency_seconds", "gauge",
+              "Frame capture to message, last frame.", per(lambda p: p.latency_s))
+        m.add("shlight_probe_source_reconnects_total", "counter", "Source reconnections.",
+              per(lambda p: p.capture.reconnects))
+        m.add("shlight_probe_subscribers", "gauge", "Clients subscribed to the probe.",
+              per(lambda p: len(self._subscribers[p.name])))
+        return m.text()
+
+
+def _strip_default_port(netloc: str, scheme: str) -> str:
+    default = {"http": ":80", "https": ":443"}.get(scheme, "")
+    return netloc[: -len(default)] if default and netloc.endswith(default) else netloc
+
+
+def _peer(connection) -> str:
+    addr = connection.remote_address or ("?", 0)
+    return f"{addr[0]}:{addr[1]}"
+
+
+def _response(status: int, body: bytes, content_type: str, headers=()) -> Response:
+    h = Headers()
+    h["Content-Type"] = content_type
+    h["Content-Length"] = str(len(body))
+    h["Cache-Control"] = "no-store"
+    h["X-Content-Type-Options"] = "nosniff"
+    h["Connection"] = "close"
+    for k, v in headers:
+        h[k] = v
+    return Response(status, http.HTTPStatus(status).phrase, h, body)
+
+
+def _json_error(status: int, code: str, detail: str) -> Response:
+    body = dumps({"type": "error", "error": code, "detail": detail}).encode()
+    return _response(status, body, "application/json")
+
+
+# ---- command line ------------------------------------------------------------------------------------
+
+EPILOG = """\
+sources (--source SPEC, or --probe NAME=SPEC, repeatable):
+  demo                          built-in animated scene (the default)
+  PATH.exr|.hdr|.png|.jpg       an image, re-read when the file changes
+  'DIR/*.exr' | DIR             an image sequence at --fps (default 1), looped
+  PATH.mp4|.avi|...             a video file, looped (--no-loop: once)
+  0 | camera:0 | /dev/video0    a camera (Ricoh Theta S in USB live mode: dual fisheye,
+                                --projection dual-fisheye --capture-size 1280x720)
+  picamera2[:N]                 a Raspberry Pi camera (Picamera2)
+  http://HOST/stream.mjpg       MJPEG over HTTP, or a JPEG snapshot URL
+  rtsp://... | opencv:TARGET    anything cv2.VideoCapture opens (FFmpeg)
+  theta://[USER:PASS@]HOST      Ricoh Theta over Wi-Fi (OSC live preview; ?api=2.0|2.1)
+  ws://HOST:8765/?probe=NAME    relay another shlight serve (edge device -> PC)
+
+examples:
+  shlight serve                                      # demo, ws://127.0.0.1:8765/
+  shlight serve --source theta://192.168.1.1 --host 0.0.0.0 --token SECRET
+  shlight serve --probe room=theta://192.168.1.1 --probe desk=0 \\
+                --probe-args "desk=--projection fisheye --fov 190"
+"""
+
+
+class _ProbeArgsParser(argparse.ArgumentParser):
+    def error(self, message):
+        raise InputError(f"--probe-args: {message}")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``shlight serve`` options (the engine options come from provider.cli)."""
+    from .cli import add_engine_arguments
+    parser.description = "Serve live SH9 lighting over WebSocket, with a dashboard on HTTP."
+    parser.epilog = EPILOG
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    src = parser.add_argument_group("sources")
+    src.add_argument("--source", default=None, metavar="SPEC",
+                     help="source of the probe named 'default' (default: demo)")
+    src.add_argument("--probe", action="append", default=[], metavar="NAME=SPEC",
+                     help="a named probe (repeatable)")
+    src.add_argument("--probe-args", action="append", default=[], metavar="NAME=ARGS",
+                     help="per-probe options overriding the global ones, e.g. "
+                          "\"desk=--projection fisheye --fov 190\" (repeatable)")
+    _add_source_arguments(src)
+    net = parser.add_argument_group("network and safety")
+    net.add_argument("--host", default="127.0.0.1",
+                     help="address to bind (default 127.0.0.1; 0.0.0.0 for a LAN)")
+    net.add_argument("--port", type=int, default=DEFAULT_PORT,
+                     help=f"port for WebSocket and HTTP (default {DEFAULT_PORT}; 0: any free)")
+    net.add_argument("--token", default=os.environ.get("SHLIGHT_TOKEN") or None,
+                     help="secret clients must present (?token= or Authorization: Bearer); "
+                          "default: $SHLIGHT_TOKEN")
+    net.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
+                     help="extra browser Origin allowed to connect, e.g. "
+                          "https://example.org ('*': any; the dashboard's own is always allowed)")
+    net.add_argument("--max-clients", type=int, default=500, help="default 500")
+    net.add_argument("--max-message-bytes", type=int, default=4096,
+                     help="larger client messages close the connection with 1009 (default 4096)")
+    net.add_argument("--send-timeout", type=float, default=10.0,
+                     help="disconnect a client that does not read for this long (default 10 s)")
+    net.add_argument("--max-hz", type=float, default=0.0,
+                     help="cap on messages per second per client and probe (default: none)")
+    net.add_argument("--deflate", action="store_true",
+                     help="offer permessage-deflate compression (costs CPU per client)")
+    tmp = parser.add_argument_group("temporal behaviour")
+    _add_temporal_arguments(tmp)
+    parser.add_argument("--log-level", default="info",
+                        choices=["debug", "info", "warning", "error"])
+    add_engine_arguments(parser)
+
+
+def _add_source_arguments(g) -> None:
+    g.add_argument("--fps", type=float, default=None,
+                   help="pace of demo/file sources, polling rate of snapshot URLs")
+    g.add_argument("--no-loop", action="store_true", help="play videos and sequences once")
+    g.add_argument("--source-timeout", type=float, default=5.0,
+                   help="connect/read timeout of network sources; twice this without a "
+                        "frame means hung: reconnect (default 5 s)")
+    g.add_argument("--reconnect-max", type=float, default=10.0,
+                   help="longest wait between reconnection attempts (backoff from 0.5 s; "
+                        "default 10 s)")
+    g.add_argument("--capture-size", metavar="WxH", default=None, type=_size,
+                   help="cameras: requested frame size, e.g. 1280x720")
+    g.add_argument("--capture-fourcc", metavar="CODE", default=None,
+                   help="cameras: requested pixel format, e.g. MJPG")
+    g.add_argument("--theta-api", choices=["auto", "2.0", "2.1"], default="auto",
+                   help="Theta OSC API: 2.1 camera.getLivePreview, 2.0 _getLivePreview "
+                        "(auto: try 2.1, fall back to 2.0)")
+
+
+def _add_temporal_arguments(g) -> None:
+    g.add_argument("--smoothing", type=float, default=0.0, metavar="SECONDS",
+                   help="time constant of exponential smoothing (default 0: off)")
+    g.add_argument("--snap", type=float, default=0.1, metavar="FRACTION",
+                   help="a change larger than this (relative RMS irradiance) bypasses "
+                        "smoothing and reaches clients at once (default 0.1)")
+    g.add_argument("--change-threshold", type=float, default=0.002, metavar="FRACTION",
+                   help="lighting that changed less than this is not resent at frame rate "
+                        "(default 0.002; 0: send every frame)")
+    g.add_argument("--keepalive", type=float, default=1.0, metavar="SECONDS",
+                   help="resend unchanged or stale lighting this often (default 1 s)")
+    g.add_argument("--stale-after", type=float, default=2.0, metavar="SECONDS",
+                   help="mark lighting stale after this long without a frame (default 2 s)")
+
+
+def _size(text: str) -> tuple[int, int]:
+    m = re.fullmatch(r"\s*(\d+)\s*[xX×]\s*(\d+)\s*", text)
+    if not m:
+        raise argparse.ArgumentTypeError("expected WIDTHxHEIGHT, e.g. 1280x720")
+    return int(m.group(1)), int(m.group(2))
+
+
+def _probe_parser() -> argparse.ArgumentParser:
+    from .cli import add_engine_arguments
+    p = _ProbeArgsParser(prog="--probe-args NAME=", add_help=False)
+    _add_source_arguments(p)
+    _add_temporal_arguments(p)
+    add_engine_arguments(p)
+    return p
+
+
+def _split_assignment(text: str, what: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    if not sep or not value.strip():
+        raise InputError(f"{what}: expected NAME=VALUE, got {text!r}")
+    if not PROBE_NAME.fullmatch(name):
+        raise InputError(f"{what}: probe names are letters, digits, '_', '.', '-' "
+                         f"(at most 64), got {name!r}")
+    return name, value.strip()
+
+
+def _check_numbers(ns, where: str = "") -> None:
+    checks = [("--keepalive", ns.keepalive, ns.keepalive > 0),
+              ("--stale-after", ns.stale_after, ns.stale_after > 0),
+              ("--smoothing", ns.smoothing, ns.smoothing >= 0),
+              ("--snap", ns.snap, ns.snap > 0),
+              ("--change-threshold", ns.change_threshold, ns.change_threshold >= 0),
+              ("--source-timeout", ns.source_timeout, ns.source_timeout > 0),
+              ("--reconnect-max", ns.reconnect_max, ns.reconnect_max > 0),
+              ("--fps", ns.fps, ns.fps is None or ns.fps > 0),
+              ("--exposure", ns.exposure, ns.exposure > 0),
+              ("--downsample", ns.downsample, ns.downsample >= 1)]
+    for flag, value, ok in checks:
+        if not ok or (isinstance(value, float) and not math.isfinite(value)):
+            raise InputError(f"{where}{flag} {value}: out of range")
+
+
+def build_server(args) -> ProviderServer:
+    """A :class:`ProviderServer` from parsed ``shlight serve`` arguments (not started)."""
+    from .cli import engine_options
+    named = [_split_assignment(t, "--probe") for t in args.probe]
+    if args.source is not None or not named:
+        named.insert(0, ("default", args.source or "demo"))
+    names = [n for n, _ in named]
+    duplicates = {n for n in names if names.count(n) > 1}
+    if duplicates:
+        raise InputError(f"probe names must be unique: {', '.join(sorted(duplicates))}")
+    overrides = {}
+    for text in args.probe_args:
+        name, value = _split_assignment(text, "--probe-args")
+        if name not in names:
+            raise InputError(f"--probe-args: no probe named {name!r} (probes: {', '.join(names)})")
+        try:
+            words = shlex.split(value)
+        except ValueError as exc:
+            raise InputError(f"--probe-args {name}: {exc}") from None
+        overrides[name] = _probe_parser().parse_args(words, namespace=argparse.Namespace(**vars(args)))
+    s = ServeSettings(host=args.host, port=args.port, token=args.token,
+                      allowed_origins=tuple(args.allow_origin), max_clients=args.max_clients,
+                      max_message_bytes=args.max_message_bytes, send_timeout=args.send_timeout,
+                      max_hz=args.max_hz, deflate=args.deflate)
+    if not (0 <= s.port <= 65535):
+        raise InputError(f"--port {s.port}: out of range")
+    if s.max_clients < 1 or s.max_message_bytes < 256 or not s.send_timeout > 0 or s.max_hz < 0:
+        raise InputError("--max-clients >= 1, --max-message-bytes >= 256, --send-timeout > 0 "
+                         "and --max-hz >= 0 are required")
+    probes = []
+    for name, text in named:
+        ns = overrides.get(name, args)
+        _check_numbers(ns, f"probe {name}: " if name in overrides else "")
+        options = SourceOptions(fps=ns.fps, loop=not ns.no_loop, timeout=ns.source_timeout,
+                                capture_size=ns.capture_size, fourcc=ns.capture_fourcc,
+                                theta_api=ns.theta_api)
+        spec = parse_source(text, options)
+        temporal = TemporalSettings(smoothing=ns.smoothing, snap=ns.snap,
+                                    change_threshold=ns.change_threshold,
+                                    keepalive=ns.keepalive, stale_after=ns.stale_after)
+        probes.append(Probe(name, spec, projection=ns.projection,
+                            engine_options=engine_options(ns), temporal=temporal,
+                            backoff_max=ns.reconnect_max))
+    return ProviderServer(probes, s)
+
+
+def _lan_address() -> str | None:
+    """This machine's address on the default route (no packet is sent)."""
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.connect(("192.0.2.1", 9))
+            return s.getsockname()[0]
+    except OSError:
+        return None
+
+
+async def serve_until_stopped(server: ProviderServer, stop: asyncio.Event | None = None) -> None:
+    """Start ``server``, run until ``stop`` is set or SIGINT/SIGTERM, then shut down."""
+    stop = stop or asyncio.Event()
+    loop = asyncio.get_running_loop()
+    installed = []
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            loop.add_signal_handler(sig, stop.set)
+            installed.append(sig)
+        except (NotImplementedError, RuntimeError, ValueError):  # Windows, or not main thread
+            pass
+    try:
+        await server.start()
+        s = server.settings
+        host = s.host if s.host not in ("0.0.0.0", "::", "") else (_lan_address() or s.host)
+        if ":" in host:
+            host = f"[{host}]"
+        log.info("serving ws://%s:%d/ (dashboard: http://%s:%d/%s); probes: %s", host,
+                 server.port, host, server.port, "?token=..." if s.token else "",
+                 ", ".join(f"{p.name} <- {p.spec.description}" for p in server.probes.values()))
+        if s.host not in ("127.0.0.1", "localhost", "::1") and not s.token:
+            log.warning("listening on %s without --token: anyone on the network can connect",
+                        s.host)
+        await stop.wait()
+        log.info("shutting down")
+    finally:
+        for sig in installed:
+            loop.remove_signal_handler(sig)
+        await server.stop()
+    log.info("stopped")
+
+
+def run(args) -> int:
+    """Entry point of ``shlight serve``."""
+    level = getattr(logging, args.log_level.upper())
+    logging.basicConfig(level=level, format="%(asctime)s %(levelname)-7s %(message)s",
+                        datefmt="%H:%M:%S")
+    logging.getLogger("shlight").setLevel(level)
+    if level > logging.DEBUG:
+        logging.getLogger("websockets").setLevel(logging.WARNING)
+    server = build_server(args)
+    try:
+        asyncio.run(serve_until_stopped(server))
+    except KeyboardInterrupt:   # platforms without signal handlers
+        pass
+    return 0

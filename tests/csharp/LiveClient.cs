@@ -1,0 +1,178 @@
+// A Mono program built from the package's code (Runtime/Core + the SH9LightingClient
+// MonoBehaviour) and tests/unity_stubs/UnityEngineStandIn.cs -- a compile-only stand-in for
+// UnityEngine, NOT Unity. tests/test_unity.py runs it against a live `shlight serve`.
+//
+// It plays the part of Unity's player loop: calls the component's OnEnable, then Update every
+// 20 ms, and prints one JSON line per event on stdout:
+//   {"event":"state","state":"Live",...}                      when SH9LightingClient.State changes
+//   {"event":"applied","seq":..,"stale":..,"matrices":[48],"ambient":[27],"wire_matrices":[48],...}
+//                                                            when a new message has been applied
+// The "matrices" are what Update passed to Shader.SetGlobalMatrix (_SHIrradianceR/G/B) and
+// "ambient" what it assigned to RenderSettings.ambientProbe, read back from the stand-in.
+// Stdin: "quit" ends the program (exit 0); it also ends after the time limit in args.
+//
+// usage: LiveClient.exe URL TOKEN PROBE SECONDS [QX QY QZ QW]
+using System;
+using System.Globalization;
+using System.Reflection;
+using System.Text;
+using System.Threading;
+using Shlight.Lighting;
+using UnityEngine;
+using UnityEngine.Rendering;
+
+static class LiveClient
+{
+    static readonly object outLock = new object();
+
+    static void Emit(string json)
+    {
+        lock (outLock)
+        {
+            Console.Out.WriteLine(json);
+            Console.Out.Flush();
+        }
+    }
+
+    static void SetField(object target, string name, object value)
+    {
+        FieldInfo f = target.GetType().GetField(name, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public);
+        if (f == null) throw new MissingFieldException(target.GetType().Name, name);
+        f.SetValue(target, value);
+    }
+
+    static void Call(object target, string method)
+    {
+        MethodInfo m = target.GetType().GetMethod(method, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public);
+        m.Invoke(target, null);
+    }
+
+    static string Array(float[] v)
+    {
+        var sb = new StringBuilder("[");
+        for (int i = 0; i < v.Length; i++)
+        {
+            if (i > 0) sb.Append(',');
+            sb.Append(MiniJson.Number(v[i]));
+        }
+        return sb.Append(']').ToString();
+    }
+
+    static string Array(double[] v)
+    {
+        var sb = new StringBuilder("[");
+        for (int i = 0; i < v.Length; i++)
+        {
+            if (i > 0) sb.Append(',');
+            sb.Append(MiniJson.Number(v[i]));
+        }
+        return sb.Append(']').ToString();
+    }
+
+    static float[] GlobalMatrices()
+    {
+        var result = new float[48];
+        string[] names = { "_SHIrradianceR", "_SHIrradianceG", "_SHIrradianceB" };
+        for (int c = 0; c < 3; c++)
+        {
+            Matrix4x4 m = Shader.StandInGlobalMatrices[Shader.PropertyToID(names[c])];
+            for (int r = 0; r < 4; r++)
+                for (int k = 0; k < 4; k++) result[16 * c + 4 * r + k] = m[r, k];
+        }
+        return result;
+    }
+
+    static float[] AmbientProbe()
+    {
+        var result = new float[27];
+        SphericalHarmonicsL2 sh = RenderSettings.ambientProbe;
+        for (int c = 0; c < 3; c++)
+            for (int i = 0; i < 9; i++) result[9 * c + i] = sh[c, i];
+        return result;
+    }
+
+    static int Main(string[] args)
+    {
+        CultureInfo.DefaultThreadCurrentCulture = CultureInfo.InvariantCulture;
+        Thread.CurrentThread.CurrentCulture = CultureInfo.InvariantCulture;
+        string url = args[0], token = args[1] == "-" ? "" : args[1], probe = args[2] == "-" ? "" : args[2];
+        double seconds = double.Parse(args[3], CultureInfo.InvariantCulture);
+
+        var component = new SH9LightingClient();
+        if (args.Length >= 8)
+        {
+            component.transform.rotation = new Quaternion(
+                float.Parse(args[4], CultureInfo.InvariantCulture), float.Parse(args[5], CultureInfo.InvariantCulture),
+                float.Parse(args[6], CultureInfo.InvariantCulture), float.Parse(args[7], CultureInfo.InvariantCulture));
+        }
+        component.ServerUrl = url;
+        component.Token = token;
+        component.Probe = probe;
+        component.DriveAmbientProbe = true;
+        SetField(component, "staleAfterSeconds", 30f);  // staleness here must come from the server
+        SetField(component, "logToConsole", false);
+
+        bool quit = false;
+        var stdin = new Thread(() =>
+        {
+            string line;
+            while ((line = Console.In.ReadLine()) != null)
+                if (line.Trim() == "quit") break;
+            quit = true;
+        });
+        stdin.IsBackground = true;
+        stdin.Start();
+
+        Call(component, "OnEnable");
+        Sh9ConnectionState lastState = (Sh9ConnectionState)(-1);
+        long lastApplied = -1;
+        bool lastStale = false;
+        int lastConnections = 0;
+        double lastPrint = -1;
+        var clock = System.Diagnostics.Stopwatch.StartNew();
+        try
+        {
+            while (!quit && clock.Elapsed.TotalSeconds < seconds)
+            {
+                Call(component, "Update");
+                if (component.State != lastState)
+                {
+                    lastState = component.State;
+                    Emit("{\"event\":\"state\",\"state\":\"" + lastState + "\",\"t\":" + MiniJson.Number(clock.Elapsed.TotalSeconds) +
+                         ",\"connections\":" + component.Connections +
+                         ",\"error\":" + MiniJson.Quote(component.LastError ?? "") + "}");
+                }
+                Sh9Message msg = component.LastMessage;
+                // a new message object means Update applied a new snapshot
+                long key = msg == null ? -1 : System.Runtime.CompilerServices.RuntimeHelpers.GetHashCode(msg);
+                double now = clock.Elapsed.TotalSeconds;
+                // print the first message, every change of stale/connection, and at most 4 per second otherwise
+                if (msg != null && key != lastApplied &&
+                    (lastPrint < 0 || msg.Stale != lastStale || component.Connections != lastConnections || now - lastPrint > 0.25))
+                {
+                    lastApplied = key;
+                    lastStale = msg.Stale;
+                    lastConnections = component.Connections;
+                    lastPrint = now;
+                    Sh9Hello hello = component.ServerHello;
+                    Emit("{\"event\":\"applied\",\"seq\":" + msg.Seq + ",\"stale\":" + (msg.Stale ? "true" : "false") +
+                         ",\"probe\":" + MiniJson.Quote(msg.Probe) + ",\"state\":\"" + component.State + "\"" +
+                         ",\"connections\":" + component.Connections +
+                         ",\"hello_probes\":" + (hello == null ? 0 : hello.Probes.Length) +
+                         ",\"matrices\":" + Array(GlobalMatrices()) + ",\"ambient\":" + Array(AmbientProbe()) +
+                         ",\"wire_matrices\":" + Array(msg.Matrices) + ",\"wire_coefficients\":" + Array(msg.Coefficients) +
+                         ",\"ambient_mode\":\"" + RenderSettings.ambientMode + "\"}");
+                }
+                Thread.Sleep(20);
+            }
+        }
+        finally
+        {
+            long received = component.MessagesReceived;
+            Call(component, "OnDisable");
+            Emit("{\"event\":\"exit\",\"state\":\"" + component.State + "\",\"received\":" + received +
+                 ",\"ambient_mode_restored\":\"" + RenderSettings.ambientMode + "\"}");
+        }
+        return 0;
+    }
+}

@@ -1,0 +1,403 @@
+// WebSocket client for `shlight serve` (plain C#, no UnityEngine).
+//
+// Uses System.Net.WebSockets.ClientWebSocket (available in Unity's .NET Standard 2.0 / .NET 4.x
+// profiles, on UWP/IL2CPP and on Mono). The receive loop runs on a thread-pool task and never
+// touches Unity objects: it parses each text frame, converts it to Unity's frame and publishes
+// the newest result with one atomic reference write (Volatile.Write). The main thread reads
+// <see cref="Latest"/> whenever it likes; older messages are simply dropped (DESIGN.md §6: only
+// the latest coefficients matter). On any failure it reconnects with exponential backoff and
+// keeps the last lighting.
+using System;
+using System.IO;
+using System.Net.WebSockets;
+using System.Text;
+using System.Threading;
+using System.Threading.Tasks;
+
+namespace Shlight.Lighting
+{
+    public enum Sh9ConnectionState
+    {
+        /// <summary>Not connected (stopped, or waiting before the next reconnect attempt).</summary>
+        Disconnected = 0,
+        /// <summary>Opening the connection, or connected and waiting for the first message.</summary>
+        Connecting = 1,
+        /// <summary>Receiving fresh coefficients.</summary>
+        Live = 2,
+        /// <summary>Connected, but the server says its source is down ("stale": true) or nothing
+        /// arrived for <see cref="Sh9ClientOptions.StaleAfterSeconds"/>. The last lighting is kept.</summary>
+        Stale = 3,
+    }
+
+    public sealed class Sh9ClientOptions
+    {
+        /// <summary>ws://HOST:8765/ of the PC running `shlight serve` ("HOST:PORT" is accepted too).</summary>
+        public string Url = "ws://127.0.0.1:8765/";
+        /// <summary>The server's --token; sent as "Authorization: Bearer TOKEN" (empty: none).</summary>
+        public string Token = "";
+        /// <summary>Also send the token as ?token=... (for proxies that drop the header).</summary>
+        public bool TokenInQuery;
+        /// <summary>Probe to subscribe to; empty accepts whatever probe the server sends.</summary>
+        public string Probe = "default";
+        /// <summary>Highest message rate to ask the server for (0: server default).</summary>
+        public double MaxHz = 30;
+        /// <summary>Connected but silent for this long counts as Stale.</summary>
+        public double StaleAfterSeconds = 3;
+        public double MinBackoffSeconds = 0.5;
+        public double MaxBackoffSeconds = 10;
+        public double ConnectTimeoutSeconds = 5;
+        /// <summary>Reconnect when nothing at all arrives for this long (a half-open Wi-Fi
+        /// connection); 0 disables it.</summary>
+        public double ReceiveTimeoutSeconds = 30;
+        public int MaxMessageBytes = 1 << 20;
+
+        public Sh9ClientOptions Clone() { return (Sh9ClientOptions)MemberwiseClone(); }
+    }
+
+    public sealed class Sh9Client : IDisposable
+    {
+        readonly Sh9ClientOptions options;
+        readonly object gate = new object();
+        CancellationTokenSource cts;
+        Task loop;
+        ClientWebSocket current;
+
+        Sh9Snapshot latest;        // published with Volatile.Write, read with Volatile.Read
+        Sh9Hello hello;
+        string lastError;
+        long version;              // Interlocked
+        long versionAtConnect;
+        long received, rejected, ignored;
+        int connections;
+        int phase;                 // 0 disconnected, 1 connecting, 2 connected (Volatile)
+        long lastFrameTimestamp;   // any frame, for the receive timeout
+        volatile bool watchdogFired;
+
+        /// <summary>Raised on the receive thread for every accepted "sh9" message (never touch Unity objects in it).</summary>
+        public event Action<Sh9Snapshot> SnapshotReceived;
+        /// <summary>Diagnostics, raised on the receive thread.</summary>
+        public event Action<string> Log;
+
+        public Sh9Client(Sh9ClientOptions options)
+        {
+            if (options == null) throw new ArgumentNullException("options");
+            this.options = options.Clone();
+            Uri = BuildUri(this.options.Url, this.options.Token, this.options.TokenInQuery);
+        }
+
+        public Uri Uri { get; private set; }
+        public Sh9ClientOptions Options { get { return options.Clone(); } }
+
+        /// <summary>Newest accepted message (null until the first one); safe from any thread.</summary>
+        public Sh9Snapshot Latest { get { return Volatile.Read(ref latest); } }
+        /// <summary>The server's hello of the current or last connection.</summary>
+        public Sh9Hello Hello { get { return Volatile.Read(ref hello); } }
+        /// <summary>Why the last connection failed or what the server complained about.</summary>
+        public string LastError { get { return Volatile.Read(ref lastError); } }
+        public long MessagesReceived { get { return Interlocked.Read(ref received); } }
+        public long MessagesRejected { get { return Interlocked.Read(ref rejected); } }
+        /// <summary>Successful connections so far (1 + reconnects).</summary>
+        public int Connections { get { return Volatile.Read(ref connections); } }
+        public bool IsRunning { get { lock (gate) return loop != null; } }
+
+        public Sh9ConnectionState State
+        {
+            get
+            {
+                int p = Volatile.Read(ref phase);
+                if (p == 0) return Sh9ConnectionState.Disconnected;
+                if (p == 1) return Sh9ConnectionState.Connecting;
+                Sh9Snapshot s = Latest;
+                if (s == null || s.Version <= Interlocked.Read(ref versionAtConnect))
+                    return Sh9ConnectionState.Connecting;
+                if (s.Message.Stale || s.SecondsSinceReceived > options.StaleAfterSeconds)
+                    return Sh9ConnectionState.Stale;
+                return Sh9ConnectionState.Live;
+            }
+        }
+
+        /// <summary>Seconds since the newest coefficients were captured (server age + time since received); -1 if none.</summary>
+        public double AgeSeconds
+        {
+            get
+            {
+                Sh9Snapshot s = Latest;
+                return s == null ? -1 : s.Message.AgeSeconds + s.SecondsSinceReceived;
+            }
+        }
+
+        /// <summary>Start the background connection loop (idempotent).</summary>
+        public void Start()
+        {
+            lock (gate)
+            {
+                if (loop != null) return;
+                cts = new CancellationTokenSource();
+                CancellationToken token = cts.Token;
+                loop = Task.Run(() => RunAsync(token));
+            }
+        }
+
+        /// <summary>Stop and close the connection; waits up to <paramref name="waitMilliseconds"/>.</summary>
+        public void Stop(int waitMilliseconds = 2000)
+        {
+            Task t;
+            ClientWebSocket ws;
+            lock (gate)
+            {
+                if (loop == null) return;
+                t = loop;
+                loop = null;
+                ws = current;
+            }
+            // Say goodbye properly (a close frame) when we can do so quickly, then tear down.
+            if (ws != null && ws.State == WebSocketState.Open)
+            {
+                try
+                {
+                    ws.CloseOutputAsync(WebSocketCloseStatus.NormalClosure, "client stopped", CancellationToken.None)
+                      .Wait(Math.Min(300, Math.Max(0, waitMilliseconds)));
+                }
+                catch (Exception) { }
+            }
+            cts.Cancel();
+            if (ws != null)
+            {
+                try { ws.Abort(); } catch (Exception) { }
+            }
+            try { t.Wait(waitMilliseconds); } catch (Exception) { }
+            Volatile.Write(ref phase, 0);
+        }
+
+        public void Dispose() { Stop(); }
+
+        /// <summary>
+        /// Normalise the server address: "HOST:PORT" gets ws://, http(s) becomes ws(s), a missing
+        /// path becomes "/", and with <paramref name="tokenInQuery"/> the token is appended.
+        /// </summary>
+        public static Uri BuildUri(string url, string token, bool tokenInQuery)
+        {
+            if (string.IsNullOrEmpty(url) || url.Trim().Length == 0)
+                throw new ArgumentException("server URL is empty");
+            url = url.Trim();
+            if (url.StartsWith("http://", StringComparison.OrdinalIgnoreCase)) url = "ws://" + url.Substring(7);
+            else if (url.StartsWith("https://", StringComparison.OrdinalIgnoreCase)) url = "wss://" + url.Substring(8);
+            else if (url.IndexOf("://", StringComparison.Ordinal) < 0) url = "ws://" + url;
+            var b = new UriBuilder(url);
+            if (b.Scheme != "ws" && b.Scheme != "wss")
+                throw new ArgumentException("server URL must start with ws:// or wss://: " + url);
+            if (string.IsNullOrEmpty(b.Path)) b.Path = "/";
+            if (tokenInQuery && !string.IsNullOrEmpty(token))
+            {
+                string q = b.Query.TrimStart('?');
+                string t = "token=" + Uri.EscapeDataString(token);
+                b.Query = q.Length == 0 ? t : q + "&" + t;
+            }
+            return b.Uri;
+        }
+
+        // ---- the loop ---------------------------------------------------------------------
+
+        async Task RunAsync(CancellationToken ct)
+        {
+            double backoff = options.MinBackoffSeconds;
+            var random = new Random();
+            while (!ct.IsCancellationRequested)
+            {
+                Volatile.Write(ref phase, 1);
+                bool gotData = false;
+                var ws = new ClientWebSocket();
+                lock (gate) current = ws;
+                try
+                {
+                    if (!string.IsNullOrEmpty(options.Token))
+                        ws.Options.SetRequestHeader("Authorization", "Bearer " + options.Token);
+                    ws.Options.KeepAliveInterval = TimeSpan.FromSeconds(10);
+                    using (var connectCts = CancellationTokenSource.CreateLinkedTokenSource(ct))
+                    {
+                        connectCts.CancelAfter(TimeSpan.FromSeconds(options.ConnectTimeoutSeconds));
+                        try
+                        {
+                            await ws.ConnectAsync(Uri, connectCts.Token).ConfigureAwait(false);
+                        }
+                        catch (OperationCanceledException)
+                        {
+                            if (ct.IsCancellationRequested) throw;
+                            throw new TimeoutException("no answer from " + Uri.Host + ":" + Uri.Port +
+                                                       " within " + options.ConnectTimeoutSeconds + " s");
+                        }
+                    }
+                    Interlocked.Exchange(ref versionAtConnect, Interlocked.Read(ref version));
+                    Volatile.Write(ref lastError, null);
+                    Interlocked.Increment(ref connections);
+                    Volatile.Write(ref phase, 2);
+                    Emit("connected to " + Uri.GetLeftPart(UriPartial.Path));
+                    if (!string.IsNullOrEmpty(options.Probe) || options.MaxHz > 0)
+                        await SendTextAsync(ws, Sh9Protocol.SubscribeMessage(
+                            string.IsNullOrEmpty(options.Probe) ? "default" : options.Probe, options.MaxHz), ct)
+                            .ConfigureAwait(false);
+                    gotData = await ReceiveLoopAsync(ws, ct).ConfigureAwait(false);
+                }
+                catch (Exception e)
+                {
+                    if (ct.IsCancellationRequested) break;
+                    if (!watchdogFired) SetError(Describe(e));
+                }
+                finally
+                {
+                    Volatile.Write(ref phase, 0);
+                    lock (gate) if (current == ws) current = null;
+                    try { ws.Abort(); } catch (Exception) { }
+                    ws.Dispose();
+                }
+                if (ct.IsCancellationRequested) break;
+                if (gotData) backoff = options.MinBackoffSeconds;
+                double delay = backoff * (0.75 + 0.5 * random.NextDouble());
+                Emit("disconnected (" + LastError + "); retrying in " + delay.ToString("0.0") + " s");
+                try { await Task.Delay(TimeSpan.FromSeconds(delay), ct).ConfigureAwait(false); }
+                catch (OperationCanceledException) { break; }
+                backoff = Math.Min(backoff * 2, options.MaxBackoffSeconds);
+            }
+            Volatile.Write(ref phase, 0);
+        }
+
+        static async Task SendTextAsync(ClientWebSocket ws, string text, CancellationToken ct)
+        {
+            byte[] bytes = Encoding.UTF8.GetBytes(text);
+            await ws.SendAsync(new ArraySegment<byte>(bytes), WebSocketMessageType.Text, true, ct)
+                .ConfigureAwait(false);
+        }
+
+        async Task<bool> ReceiveLoopAsync(ClientWebSocket ws, CancellationToken ct)
+        {
+            bool gotData = false;
+            var buffer = new byte[16 * 1024];
+            var message = new MemoryStream();
+            Volatile.Write(ref lastFrameTimestamp, System.Diagnostics.Stopwatch.GetTimestamp());
+            watchdogFired = false;
+            using (var watchdog = StartWatchdog(ws, ct))
+            {
+                while (ws.State == WebSocketState.Open && !ct.IsCancellationRequested)
+                {
+                    message.SetLength(0);
+                    WebSocketReceiveResult r;
+                    do
+                    {
+                        r = await ws.ReceiveAsync(new ArraySegment<byte>(buffer), ct).ConfigureAwait(false);
+                        Volatile.Write(ref lastFrameTimestamp, System.Diagnostics.Stopwatch.GetTimestamp());
+                        if (r.MessageType == WebSocketMessageType.Close)
+                        {
+                            SetError("server closed the connection" +
+                                     (r.CloseStatus.HasValue ? " (" + (int)r.CloseStatus.Value + " " + r.CloseStatusDescription + ")" : ""));
+                            try
+                            {
+                                using (var closeCts = new CancellationTokenSource(1000))
+                                    await ws.CloseOutputAsync(WebSocketCloseStatus.NormalClosure, "", closeCts.Token)
+                                        .ConfigureAwait(false);
+                            }
+                            catch (Exception) { }
+                            return gotData;
+                        }
+                        message.Write(buffer, 0, r.Count);
+                        if (message.Length > options.MaxMessageBytes)
+                            throw new InvalidDataException("message larger than " + options.MaxMessageBytes + " bytes");
+                    } while (!r.EndOfMessage);
+                    if (r.MessageType != WebSocketMessageType.Text) continue;
+                    string text = Encoding.UTF8.GetString(message.GetBuffer(), 0, (int)message.Length);
+                    if (Handle(text)) gotData = true;
+                }
+            }
+            if (!ct.IsCancellationRequested) SetError("connection lost");
+            return gotData;
+        }
+
+        // Aborts the socket when nothing arrives for ReceiveTimeoutSeconds (Timer: no extra thread).
+        IDisposable StartWatchdog(ClientWebSocket ws, CancellationToken ct)
+        {
+            if (!(options.ReceiveTimeoutSeconds > 0)) return new MemoryStream(); // a no-op IDisposable
+            long limit = (long)(options.ReceiveTimeoutSeconds * System.Diagnostics.Stopwatch.Frequency);
+            return new Timer(_ =>
+            {
+                long idle = System.Diagnostics.Stopwatch.GetTimestamp() - Volatile.Read(ref lastFrameTimestamp);
+                if (idle > limit && !ct.IsCancellationRequested && ws.State == WebSocketState.Open)
+                {
+                    watchdogFired = true;
+                    SetError("nothing received for " + options.ReceiveTimeoutSeconds + " s");
+                    try { ws.Abort(); } catch (Exception) { }
+                }
+            }, null, 1000, 1000);
+        }
+
+        /// <summary>Handle one text frame; true when it was an accepted "sh9" message.</summary>
+        bool Handle(string text)
+        {
+            Sh9Parsed parsed;
+            try
+            {
+                parsed = Sh9Protocol.Parse(text);
+            }
+            catch (FormatException e)
+            {
+                Interlocked.Increment(ref rejected);
+                SetError("rejected a message: " + e.Message);
+                return false;
+            }
+            switch (parsed.Kind)
+            {
+                case Sh9MessageKind.Hello:
+                    Volatile.Write(ref hello, parsed.Hello);
+                    Emit("hello from " + parsed.Hello.Provider + ", probes: " + string.Join(", ", parsed.Hello.Probes));
+                    if (!string.IsNullOrEmpty(options.Probe) && parsed.Hello.Probes.Length > 0 &&
+                        Array.IndexOf(parsed.Hello.Probes, options.Probe) < 0)
+                        SetError("the server has no probe \"" + options.Probe + "\" (it has: " +
+                                 string.Join(", ", parsed.Hello.Probes) + ")");
+                    return false;
+                case Sh9MessageKind.Error:
+                    SetError("server error: " + parsed.Error);
+                    return false;
+                case Sh9MessageKind.Sh9:
+                    if (!string.IsNullOrEmpty(options.Probe) && parsed.Sh9.Probe != options.Probe)
+                    {
+                        Interlocked.Increment(ref ignored);
+                        return false;
+                    }
+                    var snap = new Sh9Snapshot(parsed.Sh9, System.Diagnostics.Stopwatch.GetTimestamp(),
+                                               Interlocked.Increment(ref version));
+                    Volatile.Write(ref latest, snap);
+                    Interlocked.Increment(ref received);
+                    Action<Sh9Snapshot> handler = SnapshotReceived;
+                    if (handler != null)
+                    {
+                        try { handler(snap); }
+                        catch (Exception e) { Emit("SnapshotReceived handler threw: " + e.Message); }
+                    }
+                    return true;
+                default:
+                    return false;
+            }
+        }
+
+        void SetError(string message)
+        {
+            Volatile.Write(ref lastError, message);
+            Emit(message);
+        }
+
+        void Emit(string message)
+        {
+            Action<string> handler = Log;
+            if (handler == null) return;
+            try { handler(message); } catch (Exception) { }
+        }
+
+        static string Describe(Exception e)
+        {
+            var agg = e as AggregateException;
+            if (agg != null && agg.InnerExceptions.Count == 1) e = agg.InnerExceptions[0];
+            string text = e.GetType().Name + ": " + e.Message;
+            for (Exception inner = e.InnerException; inner != null; inner = inner.InnerException)
+                text += " <- " + inner.Message;
+            return text;
+        }
+    }
+}

@@ -1,0 +1,217 @@
+// The wire contract (DESIGN.md §3) as typed C# objects: "sh9", "hello" and "error" messages.
+// Plain C#: no UnityEngine, no reflection, no JsonUtility (works under IL2CPP/UWP).
+using System;
+using System.Collections.Generic;
+
+namespace Shlight.Lighting
+{
+    public enum Sh9MessageKind { Sh9, Hello, Error, Unknown }
+
+    /// <summary>One "sh9" coefficient message, exactly as sent (right-handed, +Y-up frame).</summary>
+    public sealed class Sh9Message
+    {
+        public const int SupportedVersion = 1;
+        public const string WireFrame = "rh-y-up";
+
+        public int Version;
+        public string Probe;
+        public long Seq;
+        /// <summary>Unix seconds of the frame the coefficients were computed from.</summary>
+        public double Time;
+        /// <summary>True while the source is lost: these are the last known coefficients.</summary>
+        public bool Stale;
+        /// <summary>Seconds between capture and sending (0 when the server does not say).</summary>
+        public double AgeSeconds;
+        public string Frame;
+        /// <summary>27 raw radiance SH projections, wire order L00.r, L00.g, L00.b, L1-1.r, ...</summary>
+        public double[] Coefficients;
+        /// <summary>48 numbers: M_red, M_green, M_blue, row-major; E(n) = [n,1]ᵀ M [n,1].</summary>
+        public double[] Matrices;
+        /// <summary>True when the message had no "matrices" and they were computed from the coefficients.</summary>
+        public bool MatricesDerived;
+        /// <summary>Optional statistics (NaN / null when absent).</summary>
+        public double ComputeMs = double.NaN;
+        public double Fps = double.NaN;
+        public double WindowCutoff;
+        public double[] MinIrradiance;
+        /// <summary>Every field of the message as parsed (numbers are double, arrays List&lt;object&gt;).</summary>
+        public Dictionary<string, object> Fields;
+    }
+
+    /// <summary>The "hello" message a server sends first.</summary>
+    public sealed class Sh9Hello
+    {
+        public int Version;
+        public string Provider;
+        public string Frame;
+        public string[] Probes;
+    }
+
+    /// <summary>An "error" message (bad token, unknown probe, ...).</summary>
+    public sealed class Sh9Error
+    {
+        public string Error;
+        public string Detail;
+
+        public override string ToString()
+        {
+            return string.IsNullOrEmpty(Detail) ? Error : Error + ": " + Detail;
+        }
+    }
+
+    /// <summary>Result of <see cref="Sh9Protocol.Parse"/>: exactly one of the three is set.</summary>
+    public sealed class Sh9Parsed
+    {
+        public Sh9MessageKind Kind;
+        public Sh9Message Sh9;
+        public Sh9Hello Hello;
+        public Sh9Error Error;
+        /// <summary>The "type" field for Unknown messages.</summary>
+        public string Type;
+    }
+
+    /// <summary>Parses and validates wire messages; builds the messages a client sends.</summary>
+    public static class Sh9Protocol
+    {
+        /// <summary>
+        /// Parse one text frame. Throws <see cref="FormatException"/> (with a readable reason) for
+        /// invalid JSON, a wrong version or frame, wrong array lengths or non-finite numbers.
+        /// Unknown message types are returned as <see cref="Sh9MessageKind.Unknown"/>, not errors.
+        /// </summary>
+        public static Sh9Parsed Parse(string text)
+        {
+            Dictionary<string, object> obj = MiniJson.ParseObject(text);
+            string type = GetString(obj, "type", null);
+            if (type == null) throw new FormatException("message has no \"type\"");
+            var result = new Sh9Parsed { Type = type };
+            switch (type)
+            {
+                case "sh9":
+                    result.Kind = Sh9MessageKind.Sh9;
+                    result.Sh9 = ParseSh9(obj);
+                    break;
+                case "hello":
+                    result.Kind = Sh9MessageKind.Hello;
+                    result.Hello = ParseHello(obj);
+                    break;
+                case "error":
+                    result.Kind = Sh9MessageKind.Error;
+                    result.Error = new Sh9Error
+                    {
+                        Error = GetString(obj, "error", "error"),
+                        Detail = GetString(obj, "detail", "")
+                    };
+                    break;
+                default:
+                    result.Kind = Sh9MessageKind.Unknown;
+                    break;
+            }
+            return result;
+        }
+
+        static Sh9Message ParseSh9(Dictionary<string, object> obj)
+        {
+            var m = new Sh9Message { Fields = obj };
+            m.Version = (int)GetNumber(obj, "version", Sh9Message.SupportedVersion);
+            if (m.Version != Sh9Message.SupportedVersion)
+                throw new FormatException("unsupported message version " + m.Version +
+                                          " (this client understands version " + Sh9Message.SupportedVersion + ")");
+            m.Frame = GetString(obj, "frame", Sh9Message.WireFrame);
+            if (m.Frame != Sh9Message.WireFrame)
+                throw new FormatException("unsupported frame \"" + m.Frame + "\" (expected \"" + Sh9Message.WireFrame + "\")");
+            m.Probe = GetString(obj, "probe", "default");
+            m.Seq = (long)GetNumber(obj, "seq", 0);
+            m.Time = GetNumber(obj, "time", 0);
+            m.Stale = GetBool(obj, "stale", false);
+            m.AgeSeconds = GetNumber(obj, "age_s", 0);
+            m.ComputeMs = GetNumber(obj, "compute_ms", double.NaN);
+            m.Fps = GetNumber(obj, "fps", double.NaN);
+            m.WindowCutoff = GetNumber(obj, "window_cutoff", 0);
+            m.MinIrradiance = GetNumbers(obj, "min_irradiance", 3, false);
+            m.Coefficients = GetNumbers(obj, "coefficients", 27, true);
+            m.Matrices = GetNumbers(obj, "matrices", 48, false);
+            if (m.Matrices == null)
+            {
+                m.Matrices = Sh9Math.MatricesFromCoefficients(m.Coefficients);
+                m.MatricesDerived = true;
+            }
+            return m;
+        }
+
+        static Sh9Hello ParseHello(Dictionary<string, object> obj)
+        {
+            var h = new Sh9Hello
+            {
+                Version = (int)GetNumber(obj, "version", 1),
+                Provider = GetString(obj, "provider", ""),
+                Frame = GetString(obj, "frame", Sh9Message.WireFrame),
+            };
+            var probes = new List<string>();
+            object raw;
+            if (obj.TryGetValue("probes", out raw) && raw is List<object>)
+            {
+                foreach (object p in (List<object>)raw)
+                    if (p is string) probes.Add((string)p);
+            }
+            h.Probes = probes.ToArray();
+            return h;
+        }
+
+        /// <summary>The subscribe request: {"type":"subscribe","probe":...,"max_hz":...}.</summary>
+        public static string SubscribeMessage(string probe, double maxHz)
+        {
+            string text = "{\"type\":\"subscribe\",\"probe\":" + MiniJson.Quote(probe ?? "default");
+            if (maxHz > 0) text += ",\"max_hz\":" + MiniJson.Number(maxHz);
+            return text + "}";
+        }
+
+        // ---- typed field access -------------------------------------------------------------
+
+        public static string GetString(Dictionary<string, object> obj, string key, string fallback)
+        {
+            object v;
+            if (!obj.TryGetValue(key, out v) || v == null) return fallback;
+            var s = v as string;
+            if (s == null) throw new FormatException("\"" + key + "\" must be a string");
+            return s;
+        }
+
+        public static double GetNumber(Dictionary<string, object> obj, string key, double fallback)
+        {
+            object v;
+            if (!obj.TryGetValue(key, out v) || v == null) return fallback;
+            if (!(v is double)) throw new FormatException("\"" + key + "\" must be a number");
+            return (double)v;
+        }
+
+        public static bool GetBool(Dictionary<string, object> obj, string key, bool fallback)
+        {
+            object v;
+            if (!obj.TryGetValue(key, out v) || v == null) return fallback;
+            if (!(v is bool)) throw new FormatException("\"" + key + "\" must be true or false");
+            return (bool)v;
+        }
+
+        /// <summary>A flat array of numbers of exactly <paramref name="length"/> (any length if &lt;= 0).</summary>
+        public static double[] GetNumbers(Dictionary<string, object> obj, string key, int length, bool required)
+        {
+            object v;
+            if (!obj.TryGetValue(key, out v) || v == null)
+            {
+                if (required) throw new FormatException("message has no \"" + key + "\"");
+                return null;
+            }
+            var list = v as List<object>;
+            if (list == null) throw new FormatException("\"" + key + "\" must be an array of numbers");
+            if (length > 0 && list.Count != length)
+                throw new FormatException("\"" + key + "\" must have " + length + " numbers, got " + list.Count);
+            var result = new double[list.Count];
+            for (int i = 0; i < list.Count; i++)
+            {
+                if (!(list[i] is double)) throw new FormatException("\"" + key + "\"[" + i + "] is not a number");
+                result[i] = (double)list[i];
+            }
+            return result;
+        }
+    }
+}
