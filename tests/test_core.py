@@ -6,7 +6,7 @@ import pytest
 
 import provider
 from provider import sh
-from provider.engine import SH9Projector, InputError, compute_sh9
+from provider.engine import SH9Projector, InputError, compute_sh9, srgb_to_linear
 
 import reference as ref
 from conftest import HDRI_NAMES
@@ -140,6 +140,24 @@ def test_srgb_frames_are_linearised_before_averaging():
     mean_radiance = r.coefficients[0, 0] / (0.282095 * 4 * PI)
     assert mean_radiance == pytest.approx(0.5, rel=2e-3)
     assert r.stats["clipped_fraction"] == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("factor", [2, 3, 4, 8])
+def test_8bit_fast_path_equals_linear_area_average(factor, hdri):
+    """The banded 8-bit fast path equals projecting the area-average of the linearised
+    frame (bands cross at rows that are not multiples of the band height)."""
+    img = hdri("bridge")
+    h = 24 * 10  # 240 rows: not a multiple of 32, divisible by every factor
+    enc = np.clip(img[:h, : 2 * h] / 8, 0, 1)
+    enc = np.where(enc <= 0.0031308, 12.92 * enc, 1.055 * enc ** (1 / 2.4) - 0.055)
+    u8 = np.round(enc * 255).astype(np.uint8)
+    lin = np.asarray(srgb_to_linear(u8 / 255.0), np.float64)
+    fast = SH9Projector(2 * h, h, downsample=factor).project(u8)
+    small = lin.reshape(h // factor, factor, 2 * h // factor, factor, 3).mean(axis=(1, 3))
+    expected = SH9Projector(2 * h // factor, h // factor).project(small.astype(np.float32))
+    assert ref.rel_rms(ref.sh_irradiance(fast.coefficients),
+                       ref.sh_irradiance(expected.coefficients)) < 1e-5
+    assert fast.stats["clipped_fraction"] == pytest.approx(np.count_nonzero(u8 == 255) / u8.size)
 
 
 def test_16_bit_and_exposure():
