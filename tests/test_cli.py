@@ -106,3 +106,20 @@ def test_bench_quick_writes_a_table_and_a_plot(tmp_path):
     assert "paper (sRGB 64×48)" in table and "× floor" in table and "1920×960" in table
     assert (tmp_path / "speed_vs_error.png").stat().st_size > 10_000
     assert "640×480" in (tmp_path / "fisheye_edge.md").read_text()
+
+
+def test_bench_scenes_reports_ringing_and_the_cost_of_deringing(tmp_path):
+    hdri = tmp_path / "hdri"
+    hdri.mkdir()
+    for name in ("lab", "city"):
+        (hdri / f"{name}.exr").write_bytes((HDRI_DIR / f"{name}.exr").read_bytes())
+    p = shlight("bench", "--out", str(tmp_path), "--sections", "scenes", "--hdri", str(hdri),
+                timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
+            for line in (tmp_path / "scenes.md").read_text().splitlines()
+            if line.startswith("| lab") or line.startswith("| city")}
+    # lab rings (negative minimum) and gets a window; city does not ring and is left alone
+    assert rows["lab"][2].startswith("-") and rows["lab"][3] != "–"
+    assert rows["city"][2].startswith("+") and rows["city"][3] == "–"
+    assert 0 < float(rows["lab"][4].rstrip(" %")) < 5
