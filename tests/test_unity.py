@@ -5,8 +5,10 @@
   and against vectors generated here from provider.sh.
 * The MonoBehaviour and the sample are compiled against tests/unity_stubs/UnityEngineStandIn.cs,
   a compile-only stand-in for UnityEngine (NOT Unity).
-* tests/csharp/LiveClient.cs (package code + stand-in) talks to a live ``shlight serve`` over a
-  real WebSocket: messages, a stale source, a server restart.
+* tests/csharp/LiveClient.cs (package code + stand-in, playing Unity's player loop) talks to a
+  live ``shlight serve`` over a real WebSocket: messages parsed and applied (matrices and ambient
+  probe against the Python conversion, a rotated transform), a stale source and its return, a
+  server killed and restarted on the same port (the client reconnects by itself), a wrong token.
 * The package's HLSL include equals shaders/sh9_irradiance.hlsl byte for byte; the demo shader's
   program compiles with glslangValidator's HLSL front end (stand-in UnityCG.cginc).
 
@@ -208,6 +210,357 @@ def test_core_has_no_unity_dependency(build_dir):
     _compile(build_dir / "Core.dll", CORE, target="library")
     asmdef = json.loads((PKG / "Runtime" / "Core" / "Shlight.SH9Lighting.Core.asmdef").read_text())
     assert asmdef["noEngineReferences"] is True
+
+
+# ---- the package's client against a live `shlight serve` ---------------------------------------
+
+Z_ODD = [2, 5, 7]       # L10, L2-1, L21 change sign under z -> -z
+
+
+def _unity_coefficients(coefficients: np.ndarray) -> np.ndarray:
+    """(9, 3) wire coefficients in Unity's frame (x, y, -z): the z-odd ones negated."""
+    c = np.array(coefficients, np.float64).reshape(9, 3)
+    c[Z_ODD] *= -1
+    return c
+
+
+def _ambient_from_coefficients(unity_coeffs: np.ndarray) -> np.ndarray:
+    """SphericalHarmonicsL2 layout [9 * rgb + i] = k_i · L_i (Python side of the conversion)."""
+    from provider import sh
+    k = np.array([sh.C0, sh.C1, sh.C1, sh.C1, sh.C2, sh.C2, sh.C20, sh.C2, sh.C22]) * sh.A_HAT_PER_COEFF / math.pi
+    return (k[:, None] * unity_coeffs).T.reshape(-1)
+
+
+def _shade_sh9(ambient: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """UnityCG.cginc ShadeSH9 (linear) on a SphericalHarmonicsL2, normals (N, 3) in Unity's frame."""
+    c = np.asarray(ambient, np.float64).reshape(3, 9)
+    x, y, z = normals.T
+    basis = np.stack([np.ones_like(x), y, z, x, x * y, y * z, 3 * z * z - 1, x * z, x * x - y * y], 1)
+    # SHA.w = c0 - c6 and SHB.z = 3 c6: the same as c6 · (3z² - 1)
+    return basis @ c.T
+
+
+def _quaternion_matrix(q) -> np.ndarray:
+    x, y, z, w = np.asarray(q, np.float64) / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def _equirect_direction(u: float, v: float) -> np.ndarray:
+    """DESIGN.md §1: the right-handed direction of equirect pixel centre (u, v)."""
+    theta, phi = math.pi * v, 2 * math.pi * (u - 0.5)
+    return np.array([math.sin(phi) * math.sin(theta), math.cos(theta), -math.cos(phi) * math.sin(theta)])
+
+
+def _irradiance_rgb(ev: dict, n: np.ndarray) -> np.ndarray:
+    """E(n) = ñᵀ M ñ of the matrices a client applied (n in Unity's frame)."""
+    m = np.array(ev["matrices"]).reshape(3, 4, 4)
+    nt = np.append(n / np.linalg.norm(n), 1.0)
+    return np.einsum("i,cij,j->c", nt, m, nt)
+
+
+def _write_panorama(path: Path, u: float, v: float, colour) -> None:
+    """A 64×32 equirect (8-bit PNG) with one bright patch centred at (u, v), written atomically
+    (the image source re-reads the file when it changes)."""
+    import cv2
+    img = np.full((32, 64, 3), 30, np.uint8)
+    cx, cy = int(u * 64), int(v * 32)
+    img[cy - 3:cy + 3, cx - 4:cx + 4] = colour
+    tmp = path.with_name(path.stem + ".tmp.png")
+    assert cv2.imwrite(str(tmp), np.ascontiguousarray(img[..., ::-1]))
+    os.replace(tmp, path)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class _Serve:
+    """``shlight serve`` as a subprocess on a fixed port (so that it can come back on it)."""
+
+    def __init__(self, port: int, image: Path, token: str, log: Path):
+        self.port, self.log = port, log
+        argv = [sys.executable, "-m", "provider.cli", "serve", "--source", str(image),
+                "--port", str(port), "--token", token, "--fps", "10", "--keepalive", "0.25",
+                "--stale-after", "0.5", "--reconnect-max", "0.5", "--log-level", "info"]
+        with open(log, "a") as f:
+            f.write("$ " + " ".join(argv) + "\n")
+            self.proc = subprocess.Popen(argv, cwd=ROOT, stdout=f, stderr=subprocess.STDOUT,
+                                         stdin=subprocess.DEVNULL)
+        deadline = time.monotonic() + 30
+        while True:
+            assert self.proc.poll() is None, f"shlight serve exited:\n{log.read_text()}"
+            try:
+                with socket.create_connection(("127.0.0.1", port), timeout=0.5):
+                    break
+            except OSError:
+                if time.monotonic() > deadline:
+                    self.kill()
+                    pytest.fail(f"shlight serve did not listen on {port} within 30 s:\n{log.read_text()}")
+                time.sleep(0.05)
+
+    def latest(self, token: str) -> dict:
+        import urllib.request
+        url = f"http://127.0.0.1:{self.port}/latest.json?probe=default&token={token}"
+        with urllib.request.urlopen(url, timeout=10) as r:
+            return json.loads(r.read())
+
+    def kill(self) -> None:
+        """Like a crash: no close frames to the clients."""
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait(10)
+
+
+class _LiveClient:
+    """tests/csharp/LiveClient.exe under Mono; its JSON event lines collected by a thread."""
+
+    def __init__(self, exe: Path, *args: str):
+        _, mono = _mono_tools()
+        self.args = args
+        self.proc = subprocess.Popen([mono, str(exe), *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=subprocess.PIPE, text=True, bufsize=1)
+        self.events: list[dict] = []
+        self.log: list[str] = []
+        self.cond = threading.Condition()
+        self.pumps = [threading.Thread(target=self._pump, args=(stream, fn), daemon=True)
+                      for stream, fn in ((self.proc.stdout, self._on_stdout), (self.proc.stderr, self.log.append))]
+        for t in self.pumps:
+            t.start()
+
+    def _pump(self, stream, fn):
+        for line in stream:
+            with self.cond:
+                fn(line.rstrip("\n"))
+                self.cond.notify_all()
+
+    def _on_stdout(self, line: str):
+        try:
+            self.events.append(json.loads(line))
+        except ValueError:
+            self.log.append("stdout (not JSON): " + line)
+
+    def describe(self) -> str:
+        with self.cond:
+            ev = [{k: v for k, v in e.items() if k not in ("matrices", "ambient", "wire_matrices",
+                                                             "wire_coefficients")} for e in self.events[-15:]]
+            return (f"LiveClient {' '.join(self.args)}\nlast events:\n" + "\n".join(map(json.dumps, ev)) +
+                    "\nlog:\n" + "\n".join(self.log[-25:]))
+
+    def wait_for(self, what: str, pred, start: int = 0, timeout: float = 20.0) -> tuple[int, dict]:
+        """The first event at index >= start that satisfies pred (fails after the deadline)."""
+        deadline = time.monotonic() + timeout
+        with self.cond:
+            i = start
+            while True:
+                while i < len(self.events):
+                    if pred(self.events[i]):
+                        return i, self.events[i]
+                    i += 1
+                left = deadline - time.monotonic()
+                if left <= 0 or not self.pumps[0].is_alive() and i >= len(self.events):
+                    break                       # out of time, or the program ended and all is read
+                self.cond.wait(min(left, 0.2))
+        pytest.fail(f"{what}: not seen within {timeout:g} s\n{self.describe()}")
+
+    def applied(self, start: int = 0) -> list[dict]:
+        with self.cond:
+            return [e for e in self.events[start:] if e["event"] == "applied"]
+
+    def quit(self) -> int:
+        if self.proc.poll() is None:
+            try:
+                self.proc.stdin.write("quit\n")
+                self.proc.stdin.flush()
+            except OSError:
+                pass
+        try:
+            return self.proc.wait(15)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait(5)
+            pytest.fail(f"LiveClient did not quit\n{self.describe()}")
+
+    def kill(self):
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait(5)
+
+
+def _check_applied(ev: dict, *, rotation=None, intensity: float = 1.0):
+    """What the client uploaded equals the Python conversion of the coefficients it received."""
+    from provider import sh
+    coeffs = np.array(ev["wire_coefficients"]).reshape(9, 3)
+    wire_m = np.array(ev["wire_matrices"]).reshape(3, 4, 4)
+    applied = np.array(ev["matrices"]).reshape(3, 4, 4)          # float32 read back from the stand-in
+    ambient = np.array(ev["ambient"])
+    M = sh.irradiance_matrices(coeffs)
+    scale = np.abs(M).max()
+    assert np.allclose(wire_m, M, rtol=0, atol=1e-9 * scale), "the server's matrices disagree with its coefficients"
+    expected = S4 @ M @ S4                                         # Unity's frame: (x, y, -z)
+    lu = _unity_coefficients(coeffs)
+    if rotation is not None:
+        expected = sh.rotate_matrices(expected, rotation)            # M' = R̃ M R̃ᵀ
+        lu = sh.rotate_coefficients(lu, rotation)
+    expected = expected * intensity
+    assert np.allclose(applied, expected, rtol=0, atol=2e-7 * scale * intensity), \
+        f"applied matrices: max error {np.abs(applied - expected).max():.3g} (scale {scale:.3g})"
+    # the ambient probe: k_i · L_i in Unity's frame (agreeing to the 6 digits of the R&H constants
+    # c1..c5, which the client's path through the matrices uses); ShadeSH9 on it gives E/π
+    expected_ambient = _ambient_from_coefficients(lu) * intensity
+    assert np.allclose(ambient, expected_ambient, rtol=0, atol=3e-6 * np.abs(expected_ambient).max()), \
+        f"ambient probe: max error {np.abs(ambient - expected_ambient).max():.3g}"
+    normals = sh.fibonacci_sphere(64)
+    e_matrix = np.stack([np.einsum("ni,ij,nj->n", np.c_[normals, np.ones(len(normals))], expected[c],
+                                   np.c_[normals, np.ones(len(normals))]) for c in range(3)], 1)
+    assert np.allclose(_shade_sh9(ambient, normals), e_matrix / math.pi, rtol=0, atol=1e-6 * scale * intensity)
+    assert ev["has_lighting"] is True and ev["ambient_mode"] == "Skybox"
+
+
+def test_live_client_against_shlight_serve(live_exe, tmp_path):
+    """LiveClient.exe (package Runtime code + the compile-only stand-in, NOT Unity) against a real
+    `shlight serve` over a real WebSocket: live messages converted and applied like in Unity, the
+    source lost (stale, last lighting kept) and back (fresh), the server killed and restarted (the
+    client reconnects by itself), a rotated transform with the token in the query, a wrong token."""
+    from provider import compute_sh9
+
+    token = "s3cret-token"
+    port = _free_port()
+    image = tmp_path / "room.png"
+    log = tmp_path / "serve.log"
+    url = f"ws://127.0.0.1:{port}/"
+    # three lightings that differ, each with a light off the z = 0 plane (so z-odd terms matter)
+    scenes = {"A": (0.65, 0.30, (255, 190, 90)), "B": (0.20, 0.70, (80, 140, 255)), "C": (0.90, 0.20, (250, 250, 250))}
+    expected = {}
+    for name, (u, v, colour) in scenes.items():
+        p = tmp_path / f"{name}.png"
+        _write_panorama(p, u, v, colour)
+        expected[name] = compute_sh9(str(p)).coefficients
+
+    def is_scene(ev, name):
+        c = np.array(ev["wire_coefficients"]).reshape(9, 3)
+        return np.allclose(c, expected[name], rtol=0, atol=1e-9 * np.abs(expected[name]).max())
+
+    q = np.array([0.2, 0.5, -0.1, 0.8], np.float32)   # transform.rotation of the rotated client
+    rotation = _quaternion_matrix(q.astype(np.float64))
+    _write_panorama(image, *scenes["A"])
+    clients, servers = [], []
+    t0 = time.monotonic()
+    try:
+        servers.append(_Serve(port, image, token, log))
+        main = _LiveClient(live_exe, url, token, "default", "50")
+        rotated = _LiveClient(live_exe, url, token, "default", "50", *map(str, q.tolist()),
+                              "--token-in-query", "--intensity=2")
+        intruder = _LiveClient(live_exe, url, "not-the-token", "default", "50")
+        clients += [main, rotated, intruder]
+
+        # 1. live: state Live, values converted to Unity's frame exactly as Python does it
+        i, ev = main.wait_for("a live message", lambda e: e["event"] == "applied" and not e["stale"])
+        assert ev["state"] == "Live" and ev["connections"] == 1 and ev["hello_probes"] == 1
+        assert ev["probe"] == "default" and is_scene(ev, "A"), "the client did not get image A's lighting"
+        _check_applied(ev)
+        # parsing: the client's numbers are the server's, to the last bit
+        latest = servers[0].latest(token)
+        assert ev["wire_coefficients"] == latest["coefficients"] and ev["wire_matrices"] == latest["matrices"]
+        main.wait_for("state Live", lambda e: e["event"] == "state" and e["state"] == "Live")
+        _, rev = rotated.wait_for("a live message (rotated client)", lambda e: e["event"] == "applied" and not e["stale"])
+        _check_applied(rev, rotation=rotation, intensity=2.0)
+        # one-sided light, independent of the algebra above: the patch of image A lies along d
+        # (DESIGN.md §1), so Unity sees it along (x, y, -z), and the rotated client along R (x, y, -z)
+        d_unity = _equirect_direction(*scenes["A"][:2]) @ S3
+        e_main = _irradiance_rgb(ev, d_unity), _irradiance_rgb(ev, -d_unity)
+        assert np.all(e_main[0] > 1.5 * e_main[1]) and e_main[0][0] > 5 * e_main[1][0], e_main  # orange light
+        assert np.allclose(_irradiance_rgb(rev, rotation @ d_unity), 2 * e_main[0], rtol=1e-5)
+        assert np.allclose(_irradiance_rgb(rev, -rotation @ d_unity), 2 * e_main[1], rtol=1e-5)
+        live = main.wait_for("a later live message", lambda e: e["event"] == "applied" and not e["stale"], i + 1)[1]
+        assert live["seq"] > ev["seq"]
+
+        # 2. the source goes away: stale messages, state Stale, the last lighting kept
+        n = len(main.events)
+        os.replace(image, tmp_path / "gone.png")
+        i, st = main.wait_for("a stale message", lambda e: e["event"] == "applied" and e["stale"], n)
+        assert st["state"] == "Stale" and st["has_lighting"] and is_scene(st, "A")
+        last_live = next(e for e in reversed(main.events[:i]) if e["event"] == "applied" and not e["stale"])
+        assert st["matrices"] == last_live["matrices"] and st["ambient"] == last_live["ambient"], \
+            "the client changed the lighting while stale"
+        main.wait_for("state Stale", lambda e: e["event"] == "state" and e["state"] == "Stale", n)
+        _, st2 = main.wait_for("a later stale message", lambda e: e["event"] == "applied" and e["stale"], i + 1)
+        assert st2["seq"] > st["seq"] and st2["wire_age_s"] > st["wire_age_s"] > 0
+        assert st2["matrices"] == last_live["matrices"]
+
+        # 3. the source comes back with new content: fresh messages resume by themselves
+        n = len(main.events)
+        _write_panorama(image, *scenes["B"])
+        i, fresh = main.wait_for("fresh messages after the source returned",
+                                 lambda e: e["event"] == "applied" and not e["stale"], n)
+        assert fresh["state"] == "Live" and is_scene(fresh, "B") and fresh["connections"] == 1
+        _check_applied(fresh)
+        assert fresh["matrices"] != last_live["matrices"]
+        main.wait_for("state Live again", lambda e: e["event"] == "state" and e["state"] == "Live", n)
+
+        # 4. the server dies; it comes back on the same port with other lighting: the client
+        #    reconnects by itself (backoff) and gets fresh messages from the new server
+        n, rn = len(main.events), len(rotated.events)
+        servers[0].kill()
+        main.wait_for("a disconnected state after the server died",
+                      lambda e: e["event"] == "state" and e["state"] in ("Disconnected", "Connecting"), n)
+        _, down = main.wait_for("an error after the server died",
+                                lambda e: e["event"] == "state" and e["error"], n)
+        _write_panorama(image, *scenes["C"])
+        servers.append(_Serve(port, image, token, log))
+        _, back = main.wait_for("a message after the server restarted",
+                                lambda e: e["event"] == "applied" and e["connections"] == 2, n, timeout=30)
+        if not is_scene(back, "C"):   # the very first one may be the new server's first frame; then C follows
+            _, back = main.wait_for("image C after the restart", lambda e: e["event"] == "applied" and is_scene(e, "C"), n)
+        assert back["state"] == "Live" and not back["stale"]
+        _check_applied(back)
+        _, relive = main.wait_for("state Live after the restart",
+                                  lambda e: e["event"] == "state" and e["state"] == "Live", n)
+        assert relive["error"] == "", "LastError should clear once a connection works"
+        _, rback = rotated.wait_for("the rotated client reconnected",
+                                    lambda e: e["event"] == "applied" and e["connections"] == 2 and is_scene(e, "C"),
+                                    rn, timeout=30)
+        _check_applied(rback, rotation=rotation, intensity=2.0)
+
+        # 5. the wrong token: a clear error and state, never lighting, no crash
+        _, refused = intruder.wait_for("the refused token",
+                                       lambda e: e["event"] == "state" and e["handshake_status"] == 401)
+        assert "token" in refused["error"] and refused["state"] == "Disconnected"
+        assert not intruder.applied() and all(e["state"] != "Live" for e in intruder.events if "state" in e)
+
+        # 6. clean shutdown: OnDisable restores the ambient mode; every process exits with 0
+        for c in clients:
+            assert c.quit() == 0, c.describe()
+            exit_event = c.wait_for("the exit event", lambda e: e["event"] == "exit")[1]
+            assert exit_event["ambient_mode_restored"] == "Trilight"
+        assert main.events[-1]["received"] >= 3 and intruder.events[-1]["received"] == 0
+        print(f"\nlive client: {len(main.applied())} applied events, {down['error']!r} while down, "
+              f"refused: {refused['error']!r}; {time.monotonic() - t0:.1f} s")
+    finally:
+        for c in clients:
+            c.kill()
+        for s in servers:
+            s.kill()
+
+
+def test_live_client_times_out_on_a_silent_server(live_exe):
+    """A server that accepts TCP but never answers the handshake (a wedged process, a captive
+    portal): Mono's ConnectAsync ignores its cancellation token then, so the client keeps its own
+    deadline (5 s), says so, and retries instead of hanging in Connecting forever."""
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(8)
+        client = _LiveClient(live_exe, f"ws://127.0.0.1:{silent.getsockname()[1]}/", "tok", "default", "40")
+        try:
+            i, ev = client.wait_for("the connect timeout", lambda e: e["event"] == "state" and "no answer" in e["error"])
+            assert ev["state"] == "Disconnected" and ev["handshake_status"] == 0
+            client.wait_for("a retry", lambda e: e["event"] == "state" and e["state"] == "Connecting", i + 1)
+            assert client.quit() == 0
+        finally:
+            client.kill()
 
 
 # ---- shaders ---------------------------------------------------------------------------------------

@@ -9,9 +9,12 @@
 //                                                            when a new message has been applied
 // The "matrices" are what Update passed to Shader.SetGlobalMatrix (_SHIrradianceR/G/B) and
 // "ambient" what it assigned to RenderSettings.ambientProbe, read back from the stand-in.
-// Stdin: "quit" ends the program (exit 0); it also ends after the time limit in args.
+// Stdin: "quit" ends the program (exit 0), and so does the end of stdin (the test runner went
+// away); it also ends after the time limit in args. The component's log (Debug.Log of the
+// stand-in) goes to stderr.
 //
-// usage: LiveClient.exe URL TOKEN PROBE SECONDS [QX QY QZ QW]
+// usage: LiveClient.exe URL TOKEN PROBE SECONDS [QX QY QZ QW] [--token-in-query] [--intensity=X]
+//   TOKEN or PROBE "-": empty. QX..QW: the rotation of the component's transform.
 using System;
 using System.Globalization;
 using System.Reflection;
@@ -95,10 +98,20 @@ static class LiveClient
     {
         CultureInfo.DefaultThreadCurrentCulture = CultureInfo.InvariantCulture;
         Thread.CurrentThread.CurrentCulture = CultureInfo.InvariantCulture;
+        var flags = new System.Collections.Generic.List<string>();
+        var positional = new System.Collections.Generic.List<string>();
+        foreach (string a in args) (a.StartsWith("--") ? flags : positional).Add(a);
+        args = positional.ToArray();
         string url = args[0], token = args[1] == "-" ? "" : args[1], probe = args[2] == "-" ? "" : args[2];
         double seconds = double.Parse(args[3], CultureInfo.InvariantCulture);
 
         var component = new SH9LightingClient();
+        foreach (string f in flags)
+        {
+            if (f == "--token-in-query") SetField(component, "tokenInQuery", true);
+            else if (f.StartsWith("--intensity=")) component.Intensity = float.Parse(f.Substring(12), CultureInfo.InvariantCulture);
+            else throw new ArgumentException("unknown option " + f);
+        }
         if (args.Length >= 8)
         {
             component.transform.rotation = new Quaternion(
@@ -110,7 +123,7 @@ static class LiveClient
         component.Probe = probe;
         component.DriveAmbientProbe = true;
         SetField(component, "staleAfterSeconds", 30f);  // staleness here must come from the server
-        SetField(component, "logToConsole", false);
+        SetField(component, "logToConsole", true);   // to stderr (the stand-in's Debug.Log)
 
         bool quit = false;
         var stdin = new Thread(() =>
@@ -140,6 +153,8 @@ static class LiveClient
                     lastState = component.State;
                     Emit("{\"event\":\"state\",\"state\":\"" + lastState + "\",\"t\":" + MiniJson.Number(clock.Elapsed.TotalSeconds) +
                          ",\"connections\":" + component.Connections +
+                         ",\"has_lighting\":" + (component.HasLighting ? "true" : "false") +
+                         ",\"handshake_status\":" + component.HandshakeStatus +
                          ",\"error\":" + MiniJson.Quote(component.LastError ?? "") + "}");
                 }
                 Sh9Message msg = component.LastMessage;
@@ -158,6 +173,10 @@ static class LiveClient
                     Emit("{\"event\":\"applied\",\"seq\":" + msg.Seq + ",\"stale\":" + (msg.Stale ? "true" : "false") +
                          ",\"probe\":" + MiniJson.Quote(msg.Probe) + ",\"state\":\"" + component.State + "\"" +
                          ",\"connections\":" + component.Connections +
+                         ",\"has_lighting\":" + (component.HasLighting ? "true" : "false") +
+                         ",\"last_seq\":" + component.LastSeq +
+                         ",\"age_s\":" + MiniJson.Number(component.AgeSeconds) +
+                         ",\"wire_age_s\":" + MiniJson.Number(msg.AgeSeconds) +
                          ",\"hello_probes\":" + (hello == null ? 0 : hello.Probes.Length) +
                          ",\"matrices\":" + Array(GlobalMatrices()) + ",\"ambient\":" + Array(AmbientProbe()) +
                          ",\"wire_matrices\":" + Array(msg.Matrices) + ",\"wire_coefficients\":" + Array(msg.Coefficients) +

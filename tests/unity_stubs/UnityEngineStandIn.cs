@@ -160,10 +160,11 @@ namespace UnityEngine
 
     public static class Debug
     {
-        public static void Log(object message) { Console.WriteLine(message); }
-        public static void Log(object message, Object context) { Console.WriteLine(message); }
-        public static void LogWarning(object message, Object context) { Console.WriteLine("warning: " + message); }
-        public static void LogError(object message, Object context) { Console.WriteLine("error: " + message); }
+        // stderr: a program built with the stand-in keeps stdout for its own output
+        public static void Log(object message) { Console.Error.WriteLine(message); }
+        public static void Log(object message, Object context) { Console.Error.WriteLine(message); }
+        public static void LogWarning(object message, Object context) { Console.Error.WriteLine("warning: " + message); }
+        public static void LogError(object message, Object context) { Console.Error.WriteLine("error: " + message); }
     }
 
     [AttributeUsage(AttributeTargets.Field)] public sealed class SerializeField : Attribute { }

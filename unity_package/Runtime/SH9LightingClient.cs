@@ -72,7 +72,11 @@ namespace Shlight.Lighting
         /// <summary>Seconds since the applied coefficients were captured (-1 before the first).</summary>
         public float AgeSeconds { get; private set; }
         public bool LastMessageStale { get; private set; }
+        /// <summary>Why the connection is failing right now (wrong token, server unreachable, ...);
+        /// null while connected without complaint.</summary>
         public string LastError { get; private set; }
+        /// <summary>HTTP status of the last refused handshake (401: wrong token); 0 if none.</summary>
+        public int HandshakeStatus { get { return client == null ? 0 : client.HandshakeStatus; } }
         public int Connections { get { return client == null ? 0 : client.Connections; } }
         public long MessagesReceived { get { return client == null ? 0 : client.MessagesReceived; } }
         public Sh9Hello ServerHello { get { return client == null ? null : client.Hello; } }
@@ -196,7 +200,7 @@ namespace Shlight.Lighting
             }
 
             Sh9ConnectionState now = client == null ? Sh9ConnectionState.Disconnected : client.State;
-            if (client != null && client.LastError != null) LastError = client.LastError;
+            if (client != null) LastError = client.LastError; // null again once a connection works
             if (now != state)
             {
                 state = now;

@@ -9,6 +9,8 @@
 // keeps the last lighting.
 using System;
 using System.IO;
+using System.Net.Security;
+using System.Net.Sockets;
 using System.Net.WebSockets;
 using System.Text;
 using System.Threading;
@@ -70,6 +72,7 @@ namespace Shlight.Lighting
         long received, rejected, ignored;
         int connections;
         int phase;                 // 0 disconnected, 1 connecting, 2 connected (Volatile)
+        int httpStatus;            // status of the last refused handshake (Volatile)
         long lastFrameTimestamp;   // any frame, for the receive timeout
         volatile bool watchdogFired;
 
@@ -96,6 +99,10 @@ namespace Shlight.Lighting
         public string LastError { get { return Volatile.Read(ref lastError); } }
         public long MessagesReceived { get { return Interlocked.Read(ref received); } }
         public long MessagesRejected { get { return Interlocked.Read(ref rejected); } }
+        /// <summary>HTTP status with which the server refused the last WebSocket handshake (401: wrong
+        /// or missing token, 403: Origin, 404: wrong path or probe, 503: too many clients); 0 when
+        /// the last attempt was not refused that way.</summary>
+        public int HandshakeStatus { get { return Volatile.Read(ref httpStatus); } }
         /// <summary>Successful connections so far (1 + reconnects).</summary>
         public int Connections { get { return Volatile.Read(ref connections); } }
         public bool IsRunning { get { lock (gate) return loop != null; } }
@@ -205,6 +212,7 @@ namespace Shlight.Lighting
             while (!ct.IsCancellationRequested)
             {
                 Volatile.Write(ref phase, 1);
+                watchdogFired = false;     // else a failed reconnect after a watchdog abort goes unreported
                 bool gotData = false;
                 var ws = new ClientWebSocket();
                 lock (gate) current = ws;
@@ -218,16 +226,47 @@ namespace Shlight.Lighting
                         connectCts.CancelAfter(TimeSpan.FromSeconds(options.ConnectTimeoutSeconds));
                         try
                         {
-                            await ws.ConnectAsync(Uri, connectCts.Token).ConfigureAwait(false);
+                            // Mono's (Unity's) ConnectAsync ignores the token once the TCP connection is
+                            // up: a server that accepts but never answers the handshake would hang it
+                            // forever. So wait with a deadline of our own, then abort the socket.
+                            Task connect = ws.ConnectAsync(Uri, connectCts.Token);
+                            Task deadline = Task.Delay(Timeout.Infinite, connectCts.Token);
+                            if (await Task.WhenAny(connect, deadline).ConfigureAwait(false) != connect)
+                            {
+                                try { ws.Abort(); } catch (Exception) { }
+                                ObserveLater(connect);
+                                throw new OperationCanceledException();
+                            }
+                            await connect.ConfigureAwait(false);
                         }
                         catch (OperationCanceledException)
                         {
                             if (ct.IsCancellationRequested) throw;
-                            throw new TimeoutException("no answer from " + Uri.Host + ":" + Uri.Port +
-                                                       " within " + options.ConnectTimeoutSeconds + " s");
+                            throw new Sh9ConnectionException("no answer from " + Uri.Host + ":" + Uri.Port +
+                                " within " + options.ConnectTimeoutSeconds + " s (wrong address? server without " +
+                                "--host 0.0.0.0? firewall? on HoloLens: the PrivateNetworkClientServer capability?)");
+                        }
+                        catch (WebSocketException e)
+                        {
+                            if (ct.IsCancellationRequested) throw;
+                            if (FindSocketError(e) != null)
+                            {
+                                Volatile.Write(ref httpStatus, 0);
+                                throw new Sh9ConnectionException("cannot reach " + Uri.Host + ":" + Uri.Port + ": " +
+                                                      FindSocketError(e).Message + " (is `shlight serve` running, " +
+                                                      "with --host 0.0.0.0 when the headset is another machine? " +
+                                                      "firewall?)");
+                            }
+                            // The TCP connection worked but the upgrade did not. Mono's (and so Unity's and
+                            // IL2CPP's) ClientWebSocket then says only "Unable to connect to the remote
+                            // server": ask again by hand to learn the HTTP status (401: token, ...).
+                            string why = await DiagnoseHandshakeAsync(ct).ConfigureAwait(false);
+                            if (why == null) throw;
+                            throw new Sh9ConnectionException(why);
                         }
                     }
                     Interlocked.Exchange(ref versionAtConnect, Interlocked.Read(ref version));
+                    Volatile.Write(ref httpStatus, 0);
                     Volatile.Write(ref lastError, null);
                     Interlocked.Increment(ref connections);
                     Volatile.Write(ref phase, 2);
@@ -259,6 +298,114 @@ namespace Shlight.Lighting
                 backoff = Math.Min(backoff * 2, options.MaxBackoffSeconds);
             }
             Volatile.Write(ref phase, 0);
+        }
+
+        static void ObserveLater(Task t)
+        {
+            t.ContinueWith(x => { var ignored = x.Exception; }, TaskContinuationOptions.OnlyOnFaulted);
+        }
+
+        static SocketException FindSocketError(Exception e)
+        {
+            for (; e != null; e = e.InnerException)
+            {
+                var se = e as SocketException;
+                if (se != null) return se;
+            }
+            return null;
+        }
+
+        /// <summary>
+        /// Repeat the WebSocket upgrade request by hand and explain the server's HTTP answer
+        /// ("the server refused the token (HTTP 401 ...)"); null when that tells nothing new.
+        /// Sets <see cref="HandshakeStatus"/>.
+        /// </summary>
+        async Task<string> DiagnoseHandshakeAsync(CancellationToken ct)
+        {
+            var tcp = new TcpClient();
+            try
+            {
+                Task work = DiagnoseAsync(tcp);
+                Task timeout = Task.Delay(TimeSpan.FromSeconds(Math.Max(0.5, options.ConnectTimeoutSeconds)), ct);
+                if (await Task.WhenAny(work, timeout).ConfigureAwait(false) != work) return null;
+                return await ((Task<string>)work).ConfigureAwait(false);
+            }
+            catch (Exception)
+            {
+                return null;
+            }
+            finally
+            {
+                tcp.Close(); // also ends a read still waiting after a timeout
+            }
+        }
+
+        async Task<string> DiagnoseAsync(TcpClient tcp)
+        {
+            await tcp.ConnectAsync(Uri.Host, Uri.Port).ConfigureAwait(false);
+            Stream stream = tcp.GetStream();
+            if (Uri.Scheme == "wss")
+            {
+                var ssl = new SslStream(stream, false);
+                await ssl.AuthenticateAsClientAsync(Uri.Host).ConfigureAwait(false);
+                stream = ssl;
+            }
+            var key = new byte[16];
+            new Random().NextBytes(key);
+            var request = new StringBuilder();
+            request.Append("GET ").Append(Uri.PathAndQuery).Append(" HTTP/1.1\r\n")
+                   .Append("Host: ").Append(Uri.Authority).Append("\r\n")
+                   .Append("Upgrade: websocket\r\nConnection: Upgrade\r\n")
+                   .Append("Sec-WebSocket-Key: ").Append(Convert.ToBase64String(key)).Append("\r\n")
+                   .Append("Sec-WebSocket-Version: 13\r\n");
+            if (!string.IsNullOrEmpty(options.Token))
+                request.Append("Authorization: Bearer ").Append(options.Token).Append("\r\n");
+            request.Append("\r\n");
+            byte[] bytes = Encoding.ASCII.GetBytes(request.ToString());
+            await stream.WriteAsync(bytes, 0, bytes.Length).ConfigureAwait(false);
+
+            // Status line, headers and the start of the body (the server's explanation).
+            var answer = new MemoryStream();
+            var buffer = new byte[1024];
+            while (answer.Length < 4096)
+            {
+                int n = await stream.ReadAsync(buffer, 0, buffer.Length).ConfigureAwait(false);
+                if (n <= 0) break;
+                answer.Write(buffer, 0, n);
+                string sofar = Encoding.UTF8.GetString(answer.GetBuffer(), 0, (int)answer.Length);
+                int end = sofar.IndexOf("\r\n\r\n", StringComparison.Ordinal);
+                if (end >= 0 && (sofar.Length > end + 4 || sofar.StartsWith("HTTP/1.1 101", StringComparison.Ordinal)))
+                    break;
+            }
+            string text = Encoding.UTF8.GetString(answer.GetBuffer(), 0, (int)answer.Length);
+            string[] status = text.Split(new[] { "\r\n" }, StringSplitOptions.None)[0].Split(new[] { ' ' }, 3);
+            int code;
+            if (status.Length < 2 || !status[0].StartsWith("HTTP/", StringComparison.Ordinal) ||
+                !int.TryParse(status[1], System.Globalization.NumberStyles.None,
+                              System.Globalization.CultureInfo.InvariantCulture, out code))
+            {
+                Volatile.Write(ref httpStatus, 0);
+                return "the server at " + Uri.Host + ":" + Uri.Port + " does not speak HTTP/WebSocket " +
+                       "(is this the port of `shlight serve`?)";
+            }
+            if (code == 101) return null; // it would work now: nothing to explain
+            Volatile.Write(ref httpStatus, code);
+            int bodyAt = text.IndexOf("\r\n\r\n", StringComparison.Ordinal);
+            string body = bodyAt < 0 ? "" : text.Substring(bodyAt + 4).Trim();
+            int newline = body.IndexOf('\n');
+            if (newline >= 0) body = body.Substring(0, newline).Trim();
+            if (body.Length > 200) body = body.Substring(0, 200);
+            string http = "HTTP " + code + (status.Length > 2 ? " " + status[2].Trim() : "") +
+                          (body.Length > 0 ? ": " + body : "");
+            if (code == 401)
+                return (string.IsNullOrEmpty(options.Token)
+                        ? "the server requires a token (" + http + "): set Token to the server's --token"
+                        : "the server refused the token (" + http + "): set Token to the server's --token");
+            if (code == 403)
+                return "the server refused the connection (" + http + ")";
+            if (code == 404)
+                return "the server has no WebSocket at " + Uri.AbsolutePath + " or no such probe (" + http + ")";
+            return "the server refused the WebSocket handshake (" + http + ")";
         }
 
         static async Task SendTextAsync(ClientWebSocket ws, string text, CancellationToken ct)
@@ -394,10 +541,26 @@ namespace Shlight.Lighting
         {
             var agg = e as AggregateException;
             if (agg != null && agg.InnerExceptions.Count == 1) e = agg.InnerExceptions[0];
+            if (e is Sh9ConnectionException) return e.Message;
+            var wse = e as WebSocketException;
+            if (wse != null && wse.WebSocketErrorCode == WebSocketError.ConnectionClosedPrematurely)
+                return "connection lost: the server went away without closing the connection (stopped, " +
+                       "crashed, or the network dropped)";
             string text = e.GetType().Name + ": " + e.Message;
+            string previous = e.Message;
             for (Exception inner = e.InnerException; inner != null; inner = inner.InnerException)
-                text += " <- " + inner.Message;
+            {
+                if (inner.Message != previous) text += " <- " + inner.Message;
+                previous = inner.Message;
+            }
             return text;
         }
+    }
+
+    /// <summary>A connection failure this client has already explained in words (its Message is
+    /// meant for people: wrong token, server unreachable, ...).</summary>
+    public sealed class Sh9ConnectionException : Exception
+    {
+        public Sh9ConnectionException(string message) : base(message) { }
     }
 }
