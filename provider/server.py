@@ -54,8 +54,8 @@ Client → server (all optional; a plain client just listens):
 A client message larger than ``--max-message-bytes`` closes the connection with code
 1009. A client that does not read for ``--send-timeout`` seconds is disconnected.
 
-HTTP (same port; the token is needed as for WebSockets, except for ``/healthz``)
----------------------------------------------------------------------------------
+HTTP (same port; the token is needed as for WebSockets, except for ``/healthz`` and ``/static/``)
+-------------------------------------------------------------------------------------------------
 ``/`` the dashboard, ``/healthz`` (JSON; status ``ok`` or ``degraded``),
 ``/latest.json?probe=NAME`` (the latest sh9 message), ``/thumbnail.jpg?probe=NAME``
 (the newest frame, tone-mapped), ``/metrics`` (Prometheus text format).
@@ -202,8 +202,15 @@ class ClientSession:
                 self._timer.cancel()
 
     def _wake_in(self, loop, delay: float) -> None:
-        if self._timer is None or self._timer.cancelled() or self._timer.when() <= loop.time():
-            self._timer = loop.call_later(delay, self._wake.set)
+        """Wake the writer in ``delay`` s, unless a pending wake-up comes sooner (with
+        several rate-limited probes, the soonest one decides)."""
+        now = loop.time()
+        timer = self._timer
+        if timer is not None and not timer.cancelled() and now < timer.when() <= now + delay:
+            return
+        if timer is not None:
+            timer.cancel()
+        self._timer = loop.call_later(delay, self._wake.set)
 
     async def _send(self, text: bytes) -> None:
         transport = self.ws.transport
@@ -311,18 +318,18 @@ class ProviderServer:
             await ws.close(CloseCode.TRY_AGAIN_LATER, "too many clients")
             return
         client = ClientSession(ws, self.counters, send_timeout=self.settings.send_timeout)
+        client.max_hz = self.settings.max_hz      # --max-hz caps clients that ask nothing too
         query = parse_qs(urlsplit(ws.request.path).query)
         self.clients.add(client)
         self.counters.connections += 1
-        for name in self.probes:
-            self._subscribers[name].add(client)
         log.info("client %s joined (%d connected)", client.label, len(self.clients))
         writer = asyncio.create_task(client.write_loop())
         try:
             probe = query.get("probe", [ALL])[0]
-            client.subscription = None
-            client.reply(self._hello(probe, self._query_hz(query)))
+            client.subscription = None     # so that _subscribe adds it and offers the latest
             self._subscribe(client, probe, self._query_hz(query))
+            # hello still goes first: the writer sends replies before lighting
+            client.reply(self._hello(probe, client.max_hz))
             async for message in ws:
                 self._on_message(client, message)
         except ConnectionClosed:
@@ -348,7 +355,7 @@ class ProviderServer:
         probe = next(iter(self.probes.values()))
         return {"type": "hello", "version": SCHEMA_VERSION, "provider": f"shlight {__version__}",
                 "frame": FRAME, "probes": list(self.probes), "subscribed": subscribed,
-                "max_hz": float(max_hz or self.settings.max_hz),
+                "max_hz": float(max_hz or 0.0),
                 "keepalive_s": probe.temporal.keepalive, "stale_after_s": probe.stale_after,
                 "max_message_bytes": self.settings.max_message_bytes,
                 "server_time": time.time()}
@@ -372,9 +379,7 @@ class ProviderServer:
                 return self._client_error(client, "unknown_probe",
                                           f"no probe {str(probe)[:80]!r}; probes: "
                                           f"{', '.join(self.probes)} (or \"*\")")
-            if max_hz is not None and not (isinstance(max_hz, (int, float))
-                                           and not isinstance(max_hz, bool)
-                                           and math.isfinite(max_hz) and max_hz >= 0):
+            if max_hz is not None and not (_finite_number(max_hz) and max_hz >= 0):
                 return self._client_error(client, "bad_request",
                                           "max_hz must be a number >= 0 (0: no cap)")
             self._subscribe(client, probe, None if max_hz is None else float(max_hz))
@@ -383,9 +388,7 @@ class ProviderServer:
         elif kind == "ping":
             ident = msg.get("id")
             pong = {"type": "pong", "time": time.time()}
-            if isinstance(ident, str) and len(ident) <= 64 or (
-                    isinstance(ident, (int, float)) and not isinstance(ident, bool)
-                    and math.isfinite(ident)):
+            if isinstance(ident, str) and len(ident) <= 64 or _finite_number(ident):
                 pong["id"] = ident
             client.reply(pong)
         else:
@@ -427,6 +430,10 @@ class ProviderServer:
         upgrade = "websocket" in request.headers.get("Upgrade", "").lower()
         if path == "/healthz" and not upgrade:
             return _response(200, json.dumps(self.health()).encode(), "application/json")
+        if path.startswith("/static/") and not upgrade:
+            # The dashboard's script and style sheet: public package files, no secret in
+            # them, and a browser fetches them without the page's ?token=.
+            return await self._route_http(path, query)
         if not self._authorized(request, query):
             self.counters.rejected["token"] += 1
             log.warning("refused %s %s: missing or wrong token", _peer(connection),
@@ -545,6 +552,16 @@ class ProviderServer:
         m.add("shlight_probe_subscribers", "gauge", "Clients subscribed to the probe.",
               per(lambda p: len(self._subscribers[p.name])))
         return m.text()
+
+
+def _finite_number(x) -> bool:
+    """A JSON number that is a finite float (a 400-digit integer is not: float() overflows)."""
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(x))
+    except OverflowError:
+        return False
 
 
 def _strip_default_port(netloc: str, scheme: str) -> str:

@@ -235,9 +235,12 @@ class ImageSource(Source):
 
     def _load(self) -> None:
         try:
-            mtime = os.stat(self.path).st_mtime_ns
+            st = os.stat(self.path)
         except OSError as exc:
             raise SourceError(f"cannot read {self.path}: {exc.strerror}") from None
+        # The modification time alone misses a file replaced (renamed over) within the
+        # file system's timestamp granularity: the inode and size tell those apart.
+        mtime = (st.st_mtime_ns, st.st_size, st.st_ino, st.st_dev)
         if mtime != self._mtime:
             try:
                 self._image = _read_image(self.path)
@@ -704,9 +707,12 @@ class RelaySource(Source):
     def open(self) -> None:
         from websockets.sync.client import connect
         try:
-            self._ws = connect(self.url, open_timeout=self.options.timeout,
-                               close_timeout=1, compression=None, max_size=1 << 20,
-                               user_agent_header=USER_AGENT)
+            ws = connect(self.url, open_timeout=self.options.timeout,
+                         close_timeout=1, compression=None, max_size=1 << 20,
+                         user_agent_header=USER_AGENT)
+            # Held open across read() calls, not in a with-block: enter it by hand (newer
+            # websockets warn about connect() used outside a context manager).
+            self._ws = ws.__enter__()
         except Exception as exc:  # noqa: BLE001 - refused, HTTP 401/404, timeout...
             raise SourceError(f"{_redact(self.url)}: {exc}") from None
         hello = self._recv()
@@ -847,11 +853,23 @@ def parse_source(spec: str, options: SourceOptions | None = None) -> SourceSpec:
     if not os.path.exists(s):
         raise InputError(f"no such file or source: {s} (sources: demo, a file, a camera "
                          f"index, http://, rtsp://, theta://, ws://; see shlight serve --help)")
-    if low.endswith(VIDEO_EXTENSIONS):
-        return SourceSpec("video", s, o, f"video {s}")
     if low.endswith(IMAGE_EXTENSIONS):
         _read_image(s)  # refuses an unreadable image now, with the reader's message
         return SourceSpec("image", s, o, f"image {s}")
+    if os.path.isfile(s):
+        # A file that is neither an image nor a video would be retried forever: refuse it
+        # now, with one line (a file of frames on disk does not come back by retrying).
+        cap = cv2.VideoCapture(s)
+        try:
+            ok = cap.isOpened()
+        finally:
+            cap.release()
+        if not ok and low.endswith(VIDEO_EXTENSIONS):
+            raise InputError(f"OpenCV cannot open the video {s} (damaged, or a codec "
+                             "this OpenCV build lacks)")
+        if not ok:
+            raise InputError(f"cannot open {s} as a video (OpenCV) or an image "
+                             f"({', '.join(IMAGE_EXTENSIONS)})")
     return SourceSpec("video", s, o, f"video {s}")
 
 

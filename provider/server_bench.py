@@ -1,0 +1,268 @@
+"""``shlight bench --sections server``: frame-to-client latency and clients per core.
+
+A real ``shlight serve`` subprocess (the demo source at 30 fps, every frame sent:
+``--change-threshold 0``) is pinned to one CPU; this process, pinned to the other CPUs
+where there are any, connects WebSocket clients in steps (25, 50, 100, ...). For each
+step it records, over a few seconds:
+
+* messages per second each client received (median and 5th percentile);
+* frame-to-client latency, p50 and p99: receive time − the message's ``time`` (the
+  capture time of its frame), so it covers projection, fan-out and the socket;
+* the server's CPU use (from /proc: all its threads), as a fraction of one core.
+
+A step *holds* when the median client gets ≥ 90 % of the source's frame rate and the
+slowest 5 % get ≥ 75 %. The report gives the largest step that held and an estimate of
+the clients one core holds at 30 Hz from a straight-line fit of the server's CPU use
+against the client count (CPU = a + b·N, so N = (1 − a)/b). Written to
+``OUT/server.md`` and ``OUT/server.json``.
+
+Run alone: ``python -m provider.server_bench --out DIR [--quick]``.
+"""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import os
+import re
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+_SEQ = re.compile(rb'"seq":(\d+)')
+_TIME = re.compile(rb'"time":([0-9.eE+-]+)')
+_SERVING = re.compile(r"serving ws://[^ ]*:(\d+)/")
+
+
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU seconds of a process, all threads (Linux /proc)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, IndexError, ValueError):
+        return float("nan")
+
+
+def _own_cpu() -> float:
+    t = os.times()
+    return t.user + t.system
+
+
+def _pick_cpus():
+    try:
+        cpus = sorted(os.sched_getaffinity(0))
+    except AttributeError:          # not Linux
+        return None, None
+    if len(cpus) < 2:
+        return None, None
+    return {cpus[0]}, set(cpus[1:])
+
+
+def _start_server(fps: float, server_cpus):
+    argv = [sys.executable, "-m", "provider.cli", "serve", "--port", "0", "--source", "demo",
+            "--fps", str(fps), "--change-threshold", "0", "--max-clients", "100000",
+            "--log-level", "info"]
+    preexec = (lambda: os.sched_setaffinity(0, server_cpus)) if server_cpus else None
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=preexec, cwd=Path(__file__).resolve().parent.parent)
+    found = {}
+    ready = threading.Event()
+
+    def drain():
+        for line in proc.stdout:
+            m = _SERVING.search(line)
+            if m and "port" not in found:
+                found["port"] = int(m.group(1))
+                ready.set()
+            if "Traceback" in line:
+                found.setdefault("traceback", line)
+        ready.set()
+    threading.Thread(target=drain, daemon=True).start()
+    ready.wait(60)
+    if "port" not in found:
+        proc.kill()
+        raise RuntimeError("shlight serve did not start")
+    return proc, found["port"]
+
+
+class _Client:
+    __slots__ = ("ws", "task", "count", "lat", "recording")
+
+    def __init__(self, ws):
+        self.ws, self.count, self.lat, self.recording, self.task = ws, 0, [], False, None
+
+
+async def _reader(c: _Client) -> None:
+    from websockets.exceptions import ConnectionClosed
+    try:
+        async for text in c.ws:
+            if not c.recording:
+                continue
+            data = text.encode() if isinstance(text, str) else text
+            if b'"type":"sh9"' not in data:
+                continue
+            m = _TIME.search(data)
+            if m:
+                c.lat.append(time.time() - float(m.group(1)))
+                c.count += 1
+    except ConnectionClosed:
+        pass
+
+
+def _pct(values, q):
+    if not values:
+        return float("nan")
+    values = sorted(values)
+    return values[min(len(values) - 1, int(round(q / 100 * (len(values) - 1))))]
+
+
+async def _run_steps(url: str, pid: int, steps, seconds: float, fps: float, progress):
+    import websockets
+    clients: list[_Client] = []
+    rows = []
+    try:
+        for n in steps:
+            while len(clients) < n:
+                batch = min(50, n - len(clients))
+                conns = await asyncio.gather(*(websockets.connect(
+                    url, compression=None, ping_interval=None, open_timeout=60,
+                    max_queue=4) for _ in range(batch)))
+                for ws in conns:
+                    c = _Client(ws)
+                    c.task = asyncio.create_task(_reader(c))
+                    clients.append(c)
+            await asyncio.sleep(1.0)                      # settle: backlog from connecting
+            for c in clients:
+                c.count, c.lat, c.recording = 0, [], True
+            cpu0, own0, t0 = _cpu_seconds(pid), _own_cpu(), time.monotonic()
+            await asyncio.sleep(seconds)
+            cpu1, own1, t1 = _cpu_seconds(pid), _own_cpu(), time.monotonic()
+            for c in clients:
+                c.recording = False
+            wall = t1 - t0
+            rates = sorted(c.count / wall for c in clients)
+            lats = [x for c in clients for x in c.lat]
+            row = {"clients": n, "seconds": round(wall, 2),
+                   "rate_median": round(_pct(rates, 50), 2), "rate_p5": round(_pct(rates, 5), 2),
+                   "latency_p50_ms": round(_pct(lats, 50) * 1e3, 2),
+                   "latency_p99_ms": round(_pct(lats, 99) * 1e3, 2),
+                   "server_cpu": round((cpu1 - cpu0) / wall, 3),
+                   "loadgen_cpu": round((own1 - own0) / wall, 3)}
+            row["holds"] = bool(row["rate_median"] >= 0.9 * fps and row["rate_p5"] >= 0.75 * fps)
+            rows.append(row)
+            progress(f"  {n:5d} clients: {row['rate_median']:.1f} msg/s each (p5 "
+                     f"{row['rate_p5']:.1f}), latency p50 {row['latency_p50_ms']:.1f} ms "
+                     f"p99 {row['latency_p99_ms']:.1f} ms, server CPU "
+                     f"{row['server_cpu'] * 100:.0f} % of a core, load generator "
+                     f"{row['loadgen_cpu'] * 100:.0f} %")
+            if not row["holds"] or row["server_cpu"] > 0.97:
+                break
+    finally:
+        await asyncio.gather(*(c.ws.close() for c in clients), return_exceptions=True)
+        for c in clients:
+            c.task.cancel()
+    return rows
+
+
+def _fit(rows):
+    """(a, b) of server CPU ≈ a + b·clients by least squares, or None."""
+    pts = [(r["clients"], r["server_cpu"]) for r in rows if r["holds"]]
+    if len(pts) < 2:
+        return None
+    n = len(pts)
+    mx = sum(x for x, _ in pts) / n
+    my = sum(y for _, y in pts) / n
+    sxx = sum((x - mx) ** 2 for x, _ in pts)
+    if sxx == 0:
+        return None
+    b = sum((x - mx) * (y - my) for x, y in pts) / sxx
+    return my - b * mx, b
+
+
+def measure(out: Path, quick: bool = False, fps: float = 30.0, progress=print) -> dict:
+    server_cpus, client_cpus = _pick_cpus()
+    saved = os.sched_getaffinity(0) if client_cpus else None
+    if client_cpus:
+        os.sched_setaffinity(0, client_cpus)
+    try:
+        return _measure(out, quick, fps, progress, server_cpus, client_cpus)
+    finally:
+        if saved:
+            os.sched_setaffinity(0, saved)
+
+
+def _measure(out: Path, quick, fps, progress, server_cpus, client_cpus) -> dict:
+    steps = [25, 100, 200] if quick else [25, 50, 100, 200, 400, 800, 1600]
+    seconds = 2.0 if quick else 5.0
+    proc, port = _start_server(fps, server_cpus)
+    try:
+        progress(f"server benchmark: demo source at {fps:g} fps, every frame sent; server on "
+                 f"CPU {sorted(server_cpus) if server_cpus else 'any'}")
+        time.sleep(1.0)
+        rows = asyncio.run(_run_steps(f"ws://127.0.0.1:{port}/", proc.pid, steps, seconds,
+                                      fps, progress))
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+    held = [r["clients"] for r in rows if r["holds"]]
+    fit = _fit(rows)
+    estimate = None
+    if fit and fit[1] > 0 and fit[0] < 1:
+        estimate = int((1 - fit[0]) / fit[1])
+    limited_by_loadgen = bool(rows) and rows[-1]["loadgen_cpu"] > 0.9 * max(
+        1, len(client_cpus or ()))
+    base = next((r for r in rows if r["clients"] == 200), rows[-1] if rows else None)
+    result = {"fps": fps, "steps": rows, "largest_step_held": max(held) if held else 0,
+              "clients_per_core_estimate": estimate, "limited_by_load_generator": limited_by_loadgen,
+              "latency_p50_ms": base and base["latency_p50_ms"],
+              "latency_p99_ms": base and base["latency_p99_ms"],
+              "latency_at_clients": base and base["clients"], "quick": quick}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "server.json").write_text(json.dumps(result, indent=2) + "\n")
+    lines = ["# Server: frame-to-client latency and clients per core", "",
+             f"`shlight serve`, demo source at {fps:g} fps with every frame sent, pinned to one "
+             "CPU; clients in another process. Latency: receive time − frame capture time. "
+             "A step holds when the median client gets ≥ 90 % of the frame rate and the "
+             "slowest 5 % get ≥ 75 %." + (" Quick run: rough numbers." if quick else ""), "",
+             "| clients | msg/s per client (median) | p5 | latency p50 (ms) | latency p99 (ms) "
+             "| server CPU (core) | load generator CPU | holds |",
+             "|---:|---:|---:|---:|---:|---:|---:|:---:|"]
+    for r in rows:
+        lines.append(f"| {r['clients']} | {r['rate_median']:.1f} | {r['rate_p5']:.1f} | "
+                     f"{r['latency_p50_ms']:.1f} | {r['latency_p99_ms']:.1f} | "
+                     f"{r['server_cpu']:.2f} | {r['loadgen_cpu']:.2f} | "
+                     f"{'yes' if r['holds'] else 'no'} |")
+    lines += ["", f"Largest step held at {fps:g} Hz: **{result['largest_step_held']} clients**."]
+    if estimate is not None:
+        lines.append(f"One core holds about **{estimate} clients** at {fps:g} Hz "
+                     f"(server CPU ≈ {fit[0]:.3f} + {fit[1] * 1e3:.3f}e-3 × clients).")
+    if limited_by_loadgen:
+        lines.append("The load generator saturated its CPU first: the server holds at least "
+                     "this many.")
+    (out / "server.md").write_text("\n".join(lines) + "\n")
+    progress(f"server: latency p50 {result['latency_p50_ms']} ms, p99 "
+             f"{result['latency_p99_ms']} ms at {result['latency_at_clients']} clients; "
+             f"one core holds ~{estimate} clients at {fps:g} Hz (largest step held: "
+             f"{result['largest_step_held']})")
+    return result
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m provider.server_bench", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", default="bench-results")
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--fps", type=float, default=30.0)
+    args = p.parse_args(argv)
+    measure(Path(args.out), quick=args.quick, fps=args.fps)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
