@@ -118,7 +118,7 @@ class SH9Projector:
             raise InputError(f"exposure must be a positive finite number; got {exposure!r}")
         downsample = int(downsample)
         if downsample < 1 or width // downsample < 1 or height // downsample < 1:
-            raise InputError(f"downsample must be a positive integer below the frame size")
+            raise InputError("downsample must be a positive integer below the frame size")
         try:
             if isinstance(projection, Projection):
                 full = projection

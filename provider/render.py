@@ -6,7 +6,6 @@ Mesa's llvmpipe on machines without a GPU, the real GPU where there is one.
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np

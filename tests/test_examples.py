@@ -24,11 +24,9 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
 import shutil
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -47,6 +45,7 @@ sys.path.insert(0, str(EXAMPLES))
 import ar_composite as ac  # noqa: E402
 from provider import compute_sh9  # noqa: E402
 from provider import render  # noqa: E402
+from servertools import ServeProcess  # noqa: E402
 
 W, H = 640, 480
 # off-centre principal point and fx != fy, so a swapped or mis-signed term shows
@@ -385,52 +384,9 @@ def test_cli_user_errors_are_one_line(scene_files, what):
 
 # -- a live provider ------------------------------------------------------------------------------
 
-SERVING = re.compile(r"serving ws://[^:]+:(\d+)/")
-
-
-class Serve:
-    """``shlight serve --port 0 --source SRC`` subprocess; the port is read from its log."""
-
-    def __init__(self, source: Path, *extra, port: int = 0):
-        self.lines, self.port = [], None
-        self._found = threading.Event()
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "provider.cli", "serve", "--port", str(port), "--source",
-             str(source), "--fps", "5", *extra],
-            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self):
-        for line in self.proc.stdout:
-            self.lines.append(line)
-            m = SERVING.search(line)
-            if m and self.port is None:
-                self.port = int(m.group(1))
-                self._found.set()
-        self._found.set()
-
-    def __enter__(self):
-        self._found.wait(60)       # hang guard only
-        if self.port is None:
-            self.stop()
-            pytest.fail("shlight serve did not start:\n" + "".join(self.lines))
-        return self
-
-    def __exit__(self, *exc):
-        self.stop()
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
-
-    @property
-    def url(self):
-        return f"ws://127.0.0.1:{self.port}/"
+def Serve(source: Path, *extra, port: int = 0) -> ServeProcess:
+    """``shlight serve --source SRC`` subprocess (``port`` 0: any free one, read from its log)."""
+    return ServeProcess("--port", str(port), "--source", str(source), "--fps", "5", *extra)
 
 
 def test_cli_lighting_from_a_live_provider(scene_files, gl):

@@ -13,8 +13,6 @@ import shutil
 import signal
 import socket
 import struct
-import subprocess
-import sys
 import time
 
 import jsonschema

@@ -20,10 +20,8 @@ import hashlib
 import json
 import math
 import os
-import queue
 import re
 import shutil
-import signal
 import socket
 import subprocess
 import sys
