@@ -17,6 +17,9 @@ Sections (all written to ``--out``, default ./bench-results):
 * ``scenes.md``: per real panorama, what SH9 itself misses (truncation error against
   brute-force irradiance), whether order 2 rings negative, what ``--dering auto`` costs,
   and which order ``--order auto`` keeps.
+* ``server.md`` / ``server.json`` (only with ``--sections server``, see
+  :mod:`provider.server_bench`): frame-to-client latency p50/p99 of a real ``shlight serve``
+  and the number of clients one core keeps at 30 Hz.
 """
 from __future__ import annotations
 

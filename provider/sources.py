@@ -407,7 +407,12 @@ class Picamera2Source(Source):
                               "sudo apt install python3-picamera2)") from None
         self._cam = Picamera2(self.index)
         size = self.options.capture_size or (1280, 960)
-        config = self._cam.create_video_configuration(main={"format": "RGB888", "size": size})
+        controls = {}
+        if self.options.fps:  # --fps caps the sensor rate: a slow edge core is not flooded
+            frame_us = int(round(1e6 / self.options.fps))
+            controls["FrameDurationLimits"] = (frame_us, frame_us)
+        config = self._cam.create_video_configuration(main={"format": "RGB888", "size": size},
+                                                      controls=controls)
         self._cam.configure(config)
         self._cam.start()
 
