@@ -629,6 +629,11 @@ class ThetaSource(Source):
         try:
             resp = self._open(req, timeout=timeout or self.options.timeout)
         except urllib.error.HTTPError as exc:
+            if exc.code == 401:  # client mode: Digest auth refused or not given
+                raise SourceError(
+                    f"{self.base}: the camera refused the credentials (HTTP 401); in client "
+                    "mode give theta://USER:PASSWORD@HOST (user: the serial number, e.g. "
+                    "THETAYL00100001; password: its digits)") from None
             try:
                 err = json.loads(exc.read(4096) or b"{}").get("error") or {}
             except ValueError:

@@ -4,7 +4,9 @@ sequences, the capture thread's loss and recovery, and source specifications."""
 from __future__ import annotations
 
 import io
+import hashlib
 import json
+import re
 import os
 import shutil
 import threading
@@ -87,8 +89,9 @@ class FakeTheta:
     camera._getLivePreview) or a Theta V/Z1 (api="2.1": camera.getLivePreview). The
     live preview is a chunked multipart MJPEG body with the Theta's boundary."""
 
-    def __init__(self, api: str, frame: bytes):
+    def __init__(self, api: str, frame: bytes, digest: tuple[str, str] | None = None):
         self.api, self.frame, self.commands = api, frame, []
+        self.digest, self.refused = digest, 0
         theta = self
 
         class Handler(BaseHTTPRequestHandler):
@@ -105,10 +108,31 @@ class FakeTheta:
                 self.end_headers()
                 self.wfile.write(body)
 
+            def _digest_ok(self) -> bool:
+                """RFC 7616 Digest (MD5, qop=auth), as a Theta in client mode asks for."""
+                auth = self.headers.get("Authorization", "")
+                if not auth.startswith("Digest "):
+                    return False
+                f = dict(re.findall(r'(\w+)="?([^",]*)"?', auth[7:]))
+                user, password = theta.digest
+                md5 = lambda t: hashlib.md5(t.encode()).hexdigest()  # noqa: E731
+                ha1 = md5(f"{user}:{DIGEST_REALM}:{password}")
+                ha2 = md5(f"POST:{f.get('uri')}")
+                want = md5(f"{ha1}:{f.get('nonce')}:{f.get('nc')}:{f.get('cnonce')}:auth:{ha2}")
+                return f.get("username") == user and f.get("response") == want
+
             def do_POST(self):
                 if self.path != "/osc/commands/execute":
                     return self._json(404, {"error": "not found"})
                 cmd = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+                if theta.digest and not self._digest_ok():
+                    theta.refused += 1
+                    self.send_response(401)
+                    self.send_header("WWW-Authenticate", f'Digest realm="{DIGEST_REALM}", '
+                                     'nonce="6fa3a2b1c0", qop="auth", algorithm=MD5')
+                    self.send_header("Content-Length", "0")
+                    self.end_headers()
+                    return
                 name = cmd["name"]
                 theta.commands.append(name)
                 if name == "camera.startSession" and theta.api == "2.0":
@@ -179,6 +203,33 @@ def test_theta_live_preview(api):
             recv_json(ws)
             msg = recv_until(ws, lambda m: m["type"] == "sh9" and not m["stale"], timeout=20)
             assert msg["source"] == "theta"
+    finally:
+        cam.close()
+
+
+DIGEST_REALM = "RICOH THETA Z1"
+
+
+def test_theta_client_mode_digest_auth():
+    """In client mode the Theta answers 401 with a Digest challenge: credentials in the URL
+    are used; a wrong password is one clear error, not a traceback or a hang."""
+    frame = jpeg_panorama(64)
+    cam = FakeTheta("2.1", frame, digest=("THETAYL00100001", "00100001"))
+    try:
+        host = cam.spec[len("theta://"):]
+        src = ThetaSource(f"theta://THETAYL00100001:00100001@{host}", SourceOptions(timeout=5))
+        src.open()
+        try:
+            assert src.read().jpeg == frame
+        finally:
+            src.close()
+        assert cam.refused >= 1  # the challenge really was answered
+        bad = ThetaSource(f"theta://THETAYL00100001:wrong@{host}", SourceOptions(timeout=5))
+        with pytest.raises(SourceError, match="refused the credentials"):
+            bad.open()
+        bad.close()
+        with pytest.raises(SourceError, match="USER:PASSWORD"):  # no credentials at all
+            ThetaSource(cam.spec, SourceOptions(timeout=5)).open()
     finally:
         cam.close()
 
