@@ -237,6 +237,10 @@ class ProviderServer:
     with port 0).
     """
 
+    #: Seconds ``stop()`` waits for connections to close before dropping those still in
+    #: their opening handshake.
+    SHUTDOWN_GRACE_S = 2.0
+
     def __init__(self, probes: list[Probe], settings: ServeSettings | None = None):
         if not probes:
             raise InputError("no probes to serve")
@@ -270,7 +274,18 @@ class ProviderServer:
     async def stop(self) -> None:
         if self._server is not None:
             self._server.close()
-            await self._server.wait_closed()
+            try:
+                await asyncio.wait_for(self._server.wait_closed(), self.SHUTDOWN_GRACE_S)
+            except asyncio.TimeoutError:
+                # Sockets that never finished their opening handshake (an idle TCP connection,
+                # a browser's preconnect) would otherwise hold shutdown for the whole
+                # open_timeout: drop them.
+                pending = [t for t in self._server.handler_tasks if not t.done()]
+                log.info("dropping %d connection(s) still in their opening handshake",
+                         len(pending))
+                for task in pending:
+                    task.cancel()
+                await asyncio.gather(*pending, return_exceptions=True)
         for task in self._tasks:
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)

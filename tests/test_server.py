@@ -722,6 +722,23 @@ def test_sigint_shuts_down_cleanly():
     assert "stopped" in proc.output
 
 
+def test_an_idle_socket_does_not_hold_shutdown():
+    """A TCP connection that never sends its handshake (a browser's preconnect, a stuck
+    client) is dropped on SIGTERM instead of holding the process for the open timeout."""
+    with ServeProcess("--source", "demo") as proc:
+        with connect(proc.url) as ws:
+            recv_until(ws, sh9)
+        idle = socket.create_connection(("127.0.0.1", proc.port))
+        try:
+            proc.proc.send_signal(signal.SIGTERM)
+            rc = proc.proc.wait(30)
+        finally:
+            idle.close()
+    assert rc == 0, proc.output
+    assert "dropping 1 connection(s) still in their opening handshake" in proc.output
+    assert "stopped" in proc.output and "Traceback" not in proc.output
+
+
 @pytest.mark.parametrize("argv, words", [
     (["--probe", "bad"], "NAME=VALUE"),
     (["--source", "/no/such/file.exr"], "no such file"),
