@@ -192,6 +192,16 @@ static class LiveClient
             Emit("{\"event\":\"exit\",\"state\":\"" + component.State + "\",\"received\":" + received +
                  ",\"ambient_mode_restored\":\"" + RenderSettings.ambientMode + "\"}");
         }
+        // Everything is said and the component is stopped. Mono's own runtime shutdown can
+        // deadlock on thread-pool threads left in socket calls (seen under heavy CPU load, where
+        // even a SIGQUIT thread dump hangs), so this harness leaves with _exit rather than risk
+        // a hung test run. Unity never exits a player this way; the component's Stop() is bounded.
+        Console.Out.Flush();
+        Console.Error.Flush();
+        try { _exit(0); } catch (Exception) { }
         return 0;
     }
+
+    [System.Runtime.InteropServices.DllImport("libc")]
+    static extern void _exit(int status);
 }
