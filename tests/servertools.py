@@ -85,8 +85,18 @@ class ServerThread:
     def close(self) -> None:
         if self.thread.is_alive() and self._stop is not None:
             self.loop.call_soon_threadsafe(self._stop.set)
-            self.thread.join(15)
-        assert not self.thread.is_alive(), "the server did not stop"
+            self.thread.join(30)
+        if self.thread.is_alive():  # say where it is stuck, and what the loop still runs
+            import traceback
+            stack = "".join(traceback.format_stack(sys._current_frames()[self.thread.ident]))
+            tasks = self.call_nowait_tasks()
+            raise AssertionError(f"the server did not stop\n{stack}\npending tasks:\n{tasks}")
+
+    def call_nowait_tasks(self) -> str:
+        try:
+            return "\n".join(repr(t) for t in asyncio.all_tasks(self.loop))
+        except RuntimeError as exc:
+            return f"(cannot list: {exc})"
 
     def call(self, fn):
         """Run ``fn()`` on the server's loop (to read its state safely) and return its result."""
