@@ -239,21 +239,10 @@ class SH9Projector:
                 self._accumulate(self._clean_float(frame, stats), 0, acc)
             return self._coefficients(acc) * scale, None
         # Fast path: area-average the *linear* frame, then project the small one.
+        lin = self._linearise(frame) if integer else self._clean_float(frame, stats)
         bw, bh = self._block
-        sw, sh_ = self.projection.width, self.projection.height
-        n = self.downsample
-        if integer and (bw, bh) == (sw * n, sh_ * n):
-            # Exact n×n blocks: linearise and average band by band, so the float copy of
-            # the frame stays in cache (as on the exact path).
-            small = np.empty((sh_, sw, 3), np.float32)
-            band = max(1, self.BAND_ROWS // n) * n
-            for r0 in range(0, bh, band):
-                lin = self._linearise(frame[r0:min(r0 + band, bh), :bw])
-                small[r0 // n:(r0 + lin.shape[0]) // n] = cv2.resize(
-                    lin, (sw, lin.shape[0] // n), interpolation=cv2.INTER_AREA)
-        else:
-            lin = self._linearise(frame) if integer else self._clean_float(frame, stats)
-            small = cv2.resize(lin[:bh, :bw], (sw, sh_), interpolation=cv2.INTER_AREA)
+        small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
+                           interpolation=cv2.INTER_AREA)
         self._accumulate(small, 0, acc)
         return self._coefficients(acc) * scale, small
 

@@ -144,10 +144,10 @@ def test_srgb_frames_are_linearised_before_averaging():
 
 @pytest.mark.parametrize("factor", [2, 3, 4, 8])
 def test_8bit_fast_path_equals_linear_area_average(factor, hdri):
-    """The banded 8-bit fast path equals projecting the area-average of the linearised
-    frame (bands cross at rows that are not multiples of the band height)."""
+    """The 8-bit fast path equals projecting the area-average of the linearised frame
+    (sRGB decoded before averaging, never after)."""
     img = hdri("bridge")
-    h = 24 * 10  # 240 rows: not a multiple of 32, divisible by every factor
+    h = 24 * 10  # 240 rows: divisible by every factor
     enc = np.clip(img[:h, : 2 * h] / 8, 0, 1)
     enc = np.where(enc <= 0.0031308, 12.92 * enc, 1.055 * enc ** (1 / 2.4) - 0.055)
     u8 = np.round(enc * 255).astype(np.uint8)
