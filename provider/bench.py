@@ -401,6 +401,8 @@ def bench_scenes(hdri, out: Path, args):
     from . import sh
     from .engine import SH9Projector
     from .io import read_image
+    from .pictures import brute_force_irradiance
+    from .projections import Equirect
     lines = ["# Real scenes: what SH9 misses, ringing, and what deringing costs", "",
              "Per panorama (512×256 float, tests/data/hdri). *Truncation*: relative RMS "
              "irradiance error of exact order-2 SH against brute-force irradiance "
@@ -418,10 +420,13 @@ def bench_scenes(hdri, out: Path, args):
         _progress(f"bench scenes {path.stem}")
         hdr = read_image(path)
         h, w = hdr.shape[:2]
+        pano = Equirect(w, h)
         exact = SH9Projector(w, h).project(hdr)
         dered = SH9Projector(w, h, dering="auto").project(hdr)
         auto = SH9Projector(w, h, order="auto").project(hdr)
-        truth = _brute_irradiance(np.maximum(np.nan_to_num(hdr), 0), normals)
+        flux = np.maximum(np.nan_to_num(hdr), 0) * pano.solid_angle[..., None]
+        truth = brute_force_irradiance(pano.directions().reshape(-1, 3), flux.reshape(-1, 3),
+                                       normals)
         E = sh.irradiance(exact.coefficients, normals)
         E_d = sh.irradiance(dered.coefficients, normals)
         rel = np.abs(E - truth).max() / np.abs(truth).mean()
@@ -435,18 +440,3 @@ def bench_scenes(hdri, out: Path, args):
             f"| {auto.stats['order']} | {auto.stats['order_error'] * 100:.2f} % |")
     (out / "scenes.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
-
-
-def _brute_irradiance(hdr, normals):
-    """Brute-force irradiance of an equirect float frame at ``normals`` (float64)."""
-    import numpy as np
-    from .projections import Equirect
-    p = Equirect(hdr.shape[1], hdr.shape[0])
-    d = p.directions().reshape(-1, 3)
-    omega = p.solid_angle.reshape(-1)
-    px = hdr.reshape(-1, 3).astype(np.float64)
-    out = np.zeros((len(normals), 3))
-    for i in range(0, len(normals), 64):
-        k = np.maximum(normals[i:i + 64] @ d.T, 0) * omega
-        out[i:i + 64] = k @ px
-    return out
