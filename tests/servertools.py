@@ -40,7 +40,19 @@ def poll(predicate, timeout: float = 10.0, interval: float = 0.02, what: str = "
 
 # ---- an in-process server, on its own event loop in a thread -------------------------------------
 
-class ServerThread:
+class _Loopback:
+    """``url`` and ``http`` of a server on 127.0.0.1 from its ``port``."""
+
+    @property
+    def url(self) -> str:
+        return f"ws://127.0.0.1:{self.port}/"
+
+    @property
+    def http(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+
+class ServerThread(_Loopback):
     """``shlight serve ARGV`` built by the real CLI code, run on a private event loop in a
     thread (so that tests can use blocking clients). Use as a context manager."""
 
@@ -108,18 +120,11 @@ class ServerThread:
     def port(self) -> int:
         return self.server.port
 
-    @property
-    def url(self) -> str:
-        return f"ws://127.0.0.1:{self.port}/"
-
-    @property
-    def http(self) -> str:
-        return f"http://127.0.0.1:{self.port}"
 
 
 # ---- a `shlight serve` subprocess -------------------------------------------------------------------
 
-class ServeProcess:
+class ServeProcess(_Loopback):
     """``shlight serve --port 0 ARGV`` as a subprocess; the bound port is read from its log."""
 
     def __init__(self, *argv: str, env=None):
@@ -167,13 +172,6 @@ class ServeProcess:
     def output(self) -> str:
         return "".join(self.lines)
 
-    @property
-    def url(self) -> str:
-        return f"ws://127.0.0.1:{self.port}/"
-
-    @property
-    def http(self) -> str:
-        return f"http://127.0.0.1:{self.port}"
 
 
 def run_cli(*argv: str, timeout: float = 60) -> subprocess.CompletedProcess:

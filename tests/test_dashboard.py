@@ -12,9 +12,6 @@ from __future__ import annotations
 import base64
 import os
 import re
-import subprocess
-import sys
-import threading
 import time
 import urllib.error
 import urllib.request
@@ -24,6 +21,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+
+from servertools import ServeProcess
 
 CHROMIUM = "/usr/bin/chromium"
 ROOT = Path(__file__).resolve().parent.parent
@@ -48,40 +47,12 @@ CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networki
 # ---- a real server ------------------------------------------------------------------------------
 
 @contextmanager
-def shlight_serve(*args: str, port: int = 0, timeout: float = 30.0):
-    """Run ``shlight serve --port PORT ARGS`` (0: a free one) and yield its base URL
-    (http://127.0.0.1:PORT)."""
-    cmd = [sys.executable, "-m", "provider.cli", "serve", "--port", str(port), *args]
-    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, bufsize=1)
-    lines: list[str] = []
-    found = threading.Event()
-    bound: list[int] = []
-
-    def drain():                        # read the log to the end, so the pipe never fills
-        for line in proc.stdout:
-            lines.append(line)
-            m = re.search(r"serving ws://[^:]+:(\d+)/", line)
-            if m and not bound:
-                bound.append(int(m.group(1)))
-                found.set()
-        found.set()
-
-    reader = threading.Thread(target=drain, daemon=True)
-    reader.start()
-    try:
-        if not found.wait(timeout) or not bound:
-            raise AssertionError("shlight serve did not start:\n" + "".join(lines))
-        yield f"http://127.0.0.1:{bound[0]}"
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:  # pragma: no cover
-            proc.kill()
-            proc.wait()
-        reader.join(5)
-    assert proc.returncode == 0, "shlight serve did not stop cleanly:\n" + "".join(lines)
+def shlight_serve(*args: str, port: int = 0):
+    """Run ``shlight serve --port PORT ARGS`` (0: a free one), yield its base URL
+    (http://127.0.0.1:PORT), and check that it stops cleanly."""
+    with ServeProcess("--port", str(port), *args) as proc:
+        yield proc.http
+    assert proc.proc.returncode == 0, "shlight serve did not stop cleanly:\n" + proc.output
 
 
 def write_panorama(path: Path, side: str) -> None:

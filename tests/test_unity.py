@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from servertools import ServeProcess
+
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "unity_package"
 CORE = sorted((PKG / "Runtime" / "Core").glob("*.cs"))
@@ -276,41 +278,26 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-class _Serve:
-    """``shlight serve`` as a subprocess on a fixed port (so that it can come back on it)."""
+class _Serve(ServeProcess):
+    """``shlight serve`` on a fixed port (so that it can come back on it), started at once."""
 
-    def __init__(self, port: int, image: Path, token: str, log: Path):
-        self.port, self.log = port, log
-        argv = [sys.executable, "-m", "provider.cli", "serve", "--source", str(image),
-                "--port", str(port), "--token", token, "--fps", "10", "--keepalive", "0.25",
-                "--stale-after", "0.5", "--reconnect-max", "0.5", "--log-level", "info"]
-        with open(log, "a") as f:
-            f.write("$ " + " ".join(argv) + "\n")
-            self.proc = subprocess.Popen(argv, cwd=ROOT, stdout=f, stderr=subprocess.STDOUT,
-                                         stdin=subprocess.DEVNULL)
-        deadline = time.monotonic() + 30
-        while True:
-            assert self.proc.poll() is None, f"shlight serve exited:\n{log.read_text()}"
-            try:
-                with socket.create_connection(("127.0.0.1", port), timeout=0.5):
-                    break
-            except OSError:
-                if time.monotonic() > deadline:
-                    self.kill()
-                    pytest.fail(f"shlight serve did not listen on {port} within 30 s:\n{log.read_text()}")
-                time.sleep(0.05)
+    def __init__(self, port: int, image: Path, token: str):
+        super().__init__("--source", str(image), "--port", str(port), "--token", token,
+                         "--fps", "10", "--keepalive", "0.25", "--stale-after", "0.5",
+                         "--reconnect-max", "0.5", "--log-level", "info")
+        self.__enter__()
 
     def latest(self, token: str) -> dict:
         import urllib.request
-        url = f"http://127.0.0.1:{self.port}/latest.json?probe=default&token={token}"
-        with urllib.request.urlopen(url, timeout=10) as r:
+        with urllib.request.urlopen(f"{self.http}/latest.json?probe=default&token={token}",
+                                    timeout=10) as r:
             return json.loads(r.read())
 
     def kill(self) -> None:
         """Like a crash: no close frames to the clients."""
         if self.proc.poll() is None:
             self.proc.kill()
-        self.proc.wait(10)
+        self.stop()
 
 
 class _LiveClient:
@@ -428,7 +415,6 @@ def test_live_client_against_shlight_serve(live_exe, tmp_path):
     token = "s3cret-token"
     port = _free_port()
     image = tmp_path / "room.png"
-    log = tmp_path / "serve.log"
     url = f"ws://127.0.0.1:{port}/"
     # three lightings that differ, each with a light off the z = 0 plane (so z-odd terms matter)
     scenes = {"A": (0.65, 0.30, (255, 190, 90)), "B": (0.20, 0.70, (80, 140, 255)), "C": (0.90, 0.20, (250, 250, 250))}
@@ -448,7 +434,7 @@ def test_live_client_against_shlight_serve(live_exe, tmp_path):
     clients, servers = [], []
     t0 = time.monotonic()
     try:
-        servers.append(_Serve(port, image, token, log))
+        servers.append(_Serve(port, image, token))
         main = _LiveClient(live_exe, url, token, "default", "50")
         rotated = _LiveClient(live_exe, url, token, "default", "50", *map(str, q.tolist()),
                               "--token-in-query", "--intensity=2")
@@ -508,7 +494,7 @@ def test_live_client_against_shlight_serve(live_exe, tmp_path):
         _, down = main.wait_for("an error after the server died",
                                 lambda e: e["event"] == "state" and e["error"], n)
         _write_panorama(image, *scenes["C"])
-        servers.append(_Serve(port, image, token, log))
+        servers.append(_Serve(port, image, token))
         _, back = main.wait_for("a message after the server restarted",
                                 lambda e: e["event"] == "applied" and e["connections"] == 2, n, timeout=30)
         if not is_scene(back, "C"):   # the very first one may be the new server's first frame; then C follows
