@@ -101,10 +101,10 @@ class ServerThread(_Loopback):
         if self.thread.is_alive():  # say where it is stuck, and what the loop still runs
             import traceback
             stack = "".join(traceback.format_stack(sys._current_frames()[self.thread.ident]))
-            tasks = self.call_nowait_tasks()
+            tasks = self._pending_tasks()
             raise AssertionError(f"the server did not stop\n{stack}\npending tasks:\n{tasks}")
 
-    def call_nowait_tasks(self) -> str:
+    def _pending_tasks(self) -> str:
         try:
             return "\n".join(repr(t) for t in asyncio.all_tasks(self.loop))
         except RuntimeError as exc:

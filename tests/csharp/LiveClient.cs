@@ -52,13 +52,7 @@ static class LiveClient
 
     static string Array(float[] v)
     {
-        var sb = new StringBuilder("[");
-        for (int i = 0; i < v.Length; i++)
-        {
-            if (i > 0) sb.Append(',');
-            sb.Append(MiniJson.Number(v[i]));
-        }
-        return sb.Append(']').ToString();
+        return Array(System.Array.ConvertAll(v, x => (double)x));  // MiniJson.Number takes double
     }
 
     static string Array(double[] v)
