@@ -90,10 +90,15 @@ class Probe:
         tick = min(max(min(self.temporal.keepalive, self.stale_after) / 4, 0.02), 0.25)
         try:
             while True:
+                # A timer wakes the loop at least every tick (stale marking, keepalives).
+                # Not asyncio.wait_for: before Python 3.12 it swallows a cancellation that
+                # arrives just as the wait completes, and the probe then never stops (seen as
+                # a `shlight serve` that hung on SIGTERM with 30 fps sources).
+                timer = loop.call_later(tick, self._wake.set)
                 try:
-                    await asyncio.wait_for(self._wake.wait(), tick)
-                except asyncio.TimeoutError:
-                    pass
+                    await self._wake.wait()
+                finally:
+                    timer.cancel()
                 self._wake.clear()
                 frame = self.capture.take()
                 if frame is not None:

@@ -217,16 +217,23 @@ class ClientSession:
         if transport.get_write_buffer_size() == 0:
             await self.ws.send(text, text=True)    # cannot block: the buffer is empty
         else:
+            # A timer, not asyncio.wait_for: before Python 3.12 that can swallow the
+            # writer's cancellation. Aborting the transport makes the send raise
+            # ConnectionClosed, which ends the writer.
+            timer = asyncio.get_running_loop().call_later(self.send_timeout, self._stalled)
             try:
-                await asyncio.wait_for(self.ws.send(text, text=True), self.send_timeout)
-            except asyncio.TimeoutError:
-                self.counters.stalled_clients += 1
-                log.warning("client %s: not reading for %.0f s; disconnecting", self.label,
-                            self.send_timeout)
-                transport.abort()
-                raise ConnectionClosed(None, None) from None
+                await self.ws.send(text, text=True)
+            finally:
+                timer.cancel()
         self.sent += 1
         self.counters.messages_sent += 1
+
+    def _stalled(self) -> None:
+        """The client has not read for ``send_timeout`` seconds: cut it off."""
+        self.counters.stalled_clients += 1
+        log.warning("client %s: not reading for %.0f s; disconnecting", self.label,
+                    self.send_timeout)
+        self.ws.transport.abort()
 
 
 class ProviderServer:

@@ -722,6 +722,28 @@ def test_sigint_shuts_down_cleanly():
     assert "stopped" in proc.output
 
 
+def test_a_probe_stops_when_cancelled_as_it_wakes():
+    """Shutdown cancels each probe's task; a cancellation that arrives just as a new frame
+    wakes the probe must still stop it (asyncio.wait_for before Python 3.12 swallows it,
+    which hung `shlight serve` on SIGTERM now and then)."""
+    from provider.probe import Probe
+    from provider.sources import parse_source
+
+    async def main():
+        probe = Probe("p", parse_source("demo"))
+        task = asyncio.create_task(probe.run())
+        for _ in range(20):                       # cancel at several points of its loop
+            await asyncio.sleep(0.01)
+            if task.done():
+                break
+        probe._wake.set()                          # a frame arrives ...
+        task.cancel()                              # ... in the same turn as the shutdown
+        done, _ = await asyncio.wait({task}, timeout=10)
+        return bool(done) and task.cancelled()
+
+    assert asyncio.run(main()), "the probe kept running after it was cancelled"
+
+
 def test_an_idle_socket_does_not_hold_shutdown():
     """A TCP connection that never sends its handshake (a browser's preconnect, a stuck
     client) is dropped on SIGTERM instead of holding the process for the open timeout."""
