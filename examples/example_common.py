@@ -27,8 +27,8 @@ _ROOT = Path(__file__).resolve().parent.parent
 if str(_ROOT) not in sys.path:
     sys.path.insert(0, str(_ROOT))
 
-from provider import render  # noqa: E402
-from provider.sh import irradiance_matrices  # noqa: E402
+from provider.verify import render  # noqa: E402
+from provider.core.sh import irradiance_matrices  # noqa: E402
 
 
 class LightingError(RuntimeError):

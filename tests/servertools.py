@@ -58,7 +58,7 @@ class ServerThread(_Loopback):
 
     def __init__(self, *argv: str):
         from provider.cli import build_parser
-        from provider.server import build_server
+        from provider.cli.serve import build_server
         args = build_parser().parse_args(["serve", "--port", "0", *argv])
         self.server = build_server(args)
         self.loop = asyncio.new_event_loop()

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import cv2
 
-from provider.message import validate, load_schema
-from provider.engine import compute_sh9
+from provider.live.message import coefficient_message, validate, load_schema
+from provider import compute_sh9
 from conftest import HDRI_DIR
 
 
@@ -79,7 +79,7 @@ def test_user_errors_are_one_clear_line(tmp_path, args, needle):
 
 def test_schema_rejects_what_jsonutility_cannot_parse():
     import jsonschema
-    msg = compute_sh9(np.ones((16, 32, 3), np.float32)).to_message()
+    msg = coefficient_message(compute_sh9(np.ones((16, 32, 3), np.float32)))
     validate(msg)
     for bad in ({"coefficients": msg["coefficients"][:26]}, {"matrices": [[0.0] * 16] * 3},
                 {"stale": None}, {"frame": "lh-y-up"}, {"nested": {"a": 1}}):
@@ -89,11 +89,11 @@ def test_schema_rejects_what_jsonutility_cannot_parse():
 
 
 def test_message_refuses_non_finite_numbers():
-    from provider.message import dumps
+    from provider.live.message import dumps
     r = compute_sh9(np.ones((16, 32, 3), np.float32))
     r.coefficients[0, 0] = np.nan
     with pytest.raises(ValueError):
-        r.to_message()
+        coefficient_message(r)
     with pytest.raises(ValueError):
         dumps({"x": float("inf")})
 

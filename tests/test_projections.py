@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st, HealthCheck
 
-from provider import sh
-from provider.engine import SH9Projector, InputError, compute_sh9
-from provider.projections import (CubeMap, DualFisheye, Equirect, Fisheye, make_projection,
+from provider.core import sh
+from provider.core.engine import SH9Projector, InputError, compute_sh9
+from provider.core.projections import (CubeMap, DualFisheye, Equirect, Fisheye, make_projection,
                                   ProjectionError)
 
 import reference as ref

@@ -1,7 +1,7 @@
 """The shipped GLSL and HLSL against the CPU, on a real headless OpenGL context (llvmpipe here).
 
 Every comparison renders E(n) through the shader (one fragment per normal, float32 targets)
-and checks it against float64 ñᵀMñ from provider.sh: see provider/harness.py for the error
+and checks it against float64 ñᵀMñ from provider.core.sh: see provider/verify/harness.py for the error
 measure and its tolerance. No OpenGL is mocked. Without EGL the tests skip with the install
 hint (set SHLIGHT_REQUIRE_GL=1 to make that a failure); without glslangValidator/spirv-cross
 the HLSL tests skip likewise (SHLIGHT_REQUIRE_HLSL=1).
@@ -19,9 +19,10 @@ import cv2
 import numpy as np
 import pytest
 
-from provider import contract, harness, sh
-from provider.engine import compute_sh9
-from provider.render import NoOpenGL, create_context
+from provider.core import sh
+from provider.verify import contract, harness
+from provider import compute_sh9
+from provider.verify.render import NoOpenGL, create_context
 
 import reference as ref
 from conftest import HDRI_DIR, load_hdri
@@ -51,7 +52,7 @@ def glsl(ctx):
 
 @pytest.fixture(scope="module")
 def hlsl(ctx):
-    from provider.hlsl import HlslToolsMissing
+    from provider.verify.hlsl import HlslToolsMissing
     try:
         return harness.IrradianceEvaluator(ctx, "hlsl")
     except HlslToolsMissing as exc:
@@ -293,7 +294,7 @@ def test_vectors_file_format_and_internal_consistency():
 
 def test_brute_force_reference_matches_full_resolution():
     """The pictures' 64×32-block reference against the full-resolution sum (sun included)."""
-    from provider.pictures import brute_force_irradiance, panorama_flux
+    from provider.verify.pictures import brute_force_irradiance, panorama_flux
     normals = ref.NORMALS[::4]
     for name in ("sky", "lab"):
         image = load_hdri(name)
@@ -303,7 +304,7 @@ def test_brute_force_reference_matches_full_resolution():
 
 
 def test_pictures_are_written_and_measure_sh9(ctx, tmp_path):
-    from provider.pictures import write_validation_pictures
+    from provider.verify.pictures import write_validation_pictures
     pics = write_validation_pictures(ctx, [HDRI_DIR / "venice.exr"], tmp_path, size=128)
     assert len(pics) == 1
     png = cv2.imread(pics[0]["file"])
@@ -361,7 +362,7 @@ def test_cli_without_hlsl_tools_skips_rather_than_passes(ctx, tmp_path):
 # -- render helpers -----------------------------------------------------------------------------------
 
 def test_meshes_are_counter_clockwise_with_unit_normals():
-    from provider.render import torus, uv_sphere
+    from provider.verify.render import torus, uv_sphere
     for mesh in (uv_sphere(), torus()):
         pos, nrm, idx = mesh
         assert np.allclose(np.linalg.norm(nrm, axis=1), 1, atol=1e-6)
@@ -373,7 +374,7 @@ def test_meshes_are_counter_clockwise_with_unit_normals():
 
 
 def test_camera_helpers():
-    from provider.render import look_at, perspective
+    from provider.verify.render import look_at, perspective
     eye = np.array([0.0, 1.2, 3.0])
     V = look_at(eye)
     assert np.allclose(V @ [*eye, 1], [0, 0, 0, 1])
@@ -387,7 +388,7 @@ def test_camera_helpers():
 
 def test_rendered_sphere_faces_the_camera(ctx):
     """With back-face culling on, the visible normals point to the camera (winding is right)."""
-    from provider.pictures import ObjectRenderer
+    from provider.verify.pictures import ObjectRenderer
     r = ObjectRenderer(ctx, 64)
     r.set_lighting(sh.irradiance_matrices(contract.furnace_coefficients()))
     shown, normals, mask = r.render("sphere")

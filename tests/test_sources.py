@@ -16,9 +16,11 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import numpy as np
 import pytest
 
-from provider.engine import InputError
-from provider.sources import (Capture, MultipartJpegReader, SourceError, SourceOptions,
-                              ThetaSource, parse_source)
+from provider import InputError
+from provider.live.capture import Capture
+from provider.live.sources import SourceError, SourceOptions, parse_source
+from provider.live.sources.http import MultipartJpegReader
+from provider.live.sources.theta import ThetaSource
 
 from servertools import (MjpegCamera, ServerThread, coefficients, connect, jpeg_panorama,
                          poll, recv_json, recv_until)

@@ -1,6 +1,6 @@
 """Temporal behaviour of live lighting: smoothing, change detection, keep-alive.
 
-Everything here works on the coefficient arrays of :class:`~provider.engine.SH9Result`
+Everything here works on the coefficient arrays of :class:`~provider.core.engine.SH9Result`
 and needs one fact of the maths: the basis is orthonormal, so the RMS of the irradiance
 over the sphere of normals is exactly the Euclidean norm of ``Â_l · L_lm`` (Parseval).
 The distance between two lightings is therefore computed from 27 numbers, with no
@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .sh import A_HAT_PER_COEFF
+from ..core.sh import A_HAT_PER_COEFF
 
 _WEIGHT = A_HAT_PER_COEFF[:, None]
 

@@ -3,12 +3,12 @@
 Each shader path renders E(n) for a dense set of normals, one fragment per normal (the normal
 is read from a float32 texture at the fragment's pixel), into two float32 render targets: the
 clamped ``shIrradiance``/``SHIrradiance`` and the unclamped function. The result is compared
-with ñᵀMñ evaluated in float64 on the CPU (provider.sh) for the same matrices.
+with ñᵀMñ evaluated in float64 on the CPU (provider.core.sh) for the same matrices.
 
 * GLSL path: shaders/sh9_irradiance.glsl pasted after ``#version 330 core``.
 * HLSL path: a pixel shader that #includes shaders/sh9_irradiance.hlsl, compiled by
   glslangValidator's HLSL front end to SPIR-V and turned into GLSL by spirv-cross
-  (:mod:`provider.hlsl`), then rendered by the same code. Skipped (never "passed") where the
+  (:mod:`provider.verify.hlsl`), then rendered by the same code. Skipped (never "passed") where the
   tools are missing.
 
 Error measure. float32 evaluation of ñᵀMñ (a sum of 16 products) has a rounding error bounded
@@ -37,8 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import contract, sh
-from .engine import InputError
+from ..core import sh
+from . import contract
+from ..core.errors import InputError
 from .render import (IRRADIANCE_UNIFORMS, NoOpenGL, create_context, set_irradiance_matrices,
                      shader_source)
 
@@ -100,7 +101,7 @@ class IrradianceEvaluator:
 
     ``source`` replaces the evaluator program (:data:`GLSL_EVALUATOR`, pasted after the
     shipped GLSL, or the whole :data:`HLSL_EVALUATOR`); it must write the same two targets.
-    Raises :class:`provider.hlsl.HlslToolsMissing` for the HLSL path without its tools.
+    Raises :class:`provider.verify.hlsl.HlslToolsMissing` for the HLSL path without its tools.
     """
 
     def __init__(self, ctx, path: str = "glsl", source: str | None = None):
@@ -270,8 +271,8 @@ def synthetic_cases(normals: np.ndarray) -> list[ShaderCase]:
 def panorama_cases(paths, normals: np.ndarray) -> list[ShaderCase]:
     """The un-windowed SH9 of each equirect panorama, and a rotated probe of the first one
     whose width divides by 4 (yaw 90°: R̃MR̃ᵀ against the re-projected, column-rolled image)."""
-    from .engine import compute_sh9
-    from .io import read_image
+    from ..core.engine import compute_sh9
+    from ..core.images import read_image
     cases, rotated = [], None
     for path in paths:
         image = read_image(path)
@@ -298,7 +299,7 @@ def yaw90_rolled(image: np.ndarray) -> np.ndarray:
 
 
 def rotation_case(name: str, image: np.ndarray, matrices, normals) -> ShaderCase:
-    from .engine import compute_sh9
+    from ..core.engine import compute_sh9
     R = sh.rotation_from_euler(90, 0, 0)
     rolled = compute_sh9(yaw90_rolled(image), error_estimate=False).matrices
     return ShaderCase(f"rotated_yaw90:{name}", sh.rotate_matrices(matrices, R),
@@ -396,30 +397,8 @@ def default_panoramas() -> list[Path]:
     return sorted(contract.HDRI_DIR.glob("*.exr"))
 
 
-def add_arguments(p) -> None:
-    p.add_argument("panoramas", nargs="*", metavar="PANORAMA",
-                   help="equirect panoramas (.exr, .hdr, ...) for the real-scene cases and the "
-                        "pictures (default: tests/data/hdri/*.exr of a source checkout)")
-    p.add_argument("--out", default="out/validate",
-                   help="folder for the PNG pictures and report.json (default: out/validate)")
-    p.add_argument("--no-pictures", action="store_true", help="skip the PNG pictures")
-    p.add_argument("--no-hlsl", action="store_true", help="check the GLSL path only")
-    p.add_argument("--require-hlsl", action="store_true",
-                   help="fail (exit 1) when the HLSL path cannot run, instead of skipping it")
-    p.add_argument("--normals", type=int, default=DENSE_NORMALS,
-                   help=f"dense normals per case (default {DENSE_NORMALS})")
-    p.add_argument("--tolerance", type=float, default=FLOAT32_TOLERANCE,
-                   help="max |E_gpu - E_cpu| / (|n|^T|M||n|) (default 32 float32 roundoffs "
-                        f"= {FLOAT32_TOLERANCE:.2e})")
-    p.add_argument("--write-vectors", nargs="?", const=str(contract.VECTORS_PATH), default=None,
-                   metavar="PATH", help="write the contract test vectors (default path: "
-                                        "shaders/contract_vectors.json), then check them")
-    p.add_argument("--vectors", default=None, metavar="PATH",
-                   help="contract vectors to check on the GPU (default: "
-                        "shaders/contract_vectors.json if present)")
-
-
 def run(args) -> int:
+    """``shlight validate-shaders`` (arguments: :mod:`provider.cli.validate`)."""
     out_dir = Path(args.out)
     if args.normals < 1:
         raise InputError("--normals must be positive")

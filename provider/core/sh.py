@@ -248,8 +248,3 @@ def dering(coefficients: np.ndarray, margin: float = 1e-4) -> tuple[np.ndarray, 
     else:
         cutoff = hi
     return apply_window(L, sinc4_window(cutoff)), cutoff
-
-
-def min_irradiance(coefficients: np.ndarray) -> np.ndarray:
-    """Minimum irradiance over :data:`SPHERE_NORMALS`, per channel."""
-    return sphere_irradiance(coefficients).min(axis=0)

@@ -1,4 +1,4 @@
-// shlight dashboard: live SH9 lighting from this server's WebSocket (see provider/server.py).
+// shlight dashboard: live SH9 lighting from this server's WebSocket (see provider/live/server.py).
 // Vanilla JS, no build step, no inline code (the page is served with a strict CSP).
 "use strict";
 (function () {

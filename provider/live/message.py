@@ -6,7 +6,7 @@ nested arrays, no null, no NaN). Output modes, as in Filament's cmgen:
 * ``coefficients``: *raw radiance* projections L_lm (not pre-convolved, not divided by π);
 * ``matrices``: *irradiance* E (a Lambertian surface of albedo ρ shows ρ·E/π).
 
-The JSON Schema ships as ``provider/sh9_message.schema.json`` (:func:`load_schema`).
+The JSON Schema ships as ``provider/live/sh9_message.schema.json`` (:func:`load_schema`).
 """
 from __future__ import annotations
 
@@ -35,7 +35,7 @@ def _finite(x: float) -> float:
 def coefficient_message(result, *, probe: str = "default", seq: int = 0,
                         time: float | None = None, stale: bool = False,
                         age_s: float = 0.0, **extra) -> dict:
-    """Build the wire message for an :class:`~provider.engine.SH9Result`.
+    """Build the wire message for an :class:`~provider.core.engine.SH9Result`.
 
     ``time`` is the unix time of the frame (defaults to now); ``extra`` adds fields
     (numbers, strings, booleans or flat number lists), e.g. ``fps``.
@@ -83,7 +83,7 @@ def dumps(message: dict) -> str:
 
 def load_schema() -> dict:
     """The JSON Schema of the messages (hello, sh9, error)."""
-    text = resources.files("provider").joinpath("sh9_message.schema.json").read_text()
+    text = resources.files("provider.live").joinpath("sh9_message.schema.json").read_text()
     return json.loads(text)
 
 

@@ -16,7 +16,7 @@ the clients one core holds at 30 Hz from a straight-line fit of the server's CPU
 against the client count (CPU = a + b·N, so N = (1 − a)/b). Written to
 ``OUT/server.md`` and ``OUT/server.json``.
 
-Run alone: ``python -m provider.server_bench --out DIR [--quick]``.
+Run alone: ``python -m provider.bench.server --out DIR [--quick]``.
 """
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def _start_server(fps: float, server_cpus):
             "--log-level", "info"]
     preexec = (lambda: os.sched_setaffinity(0, server_cpus)) if server_cpus else None
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            preexec_fn=preexec, cwd=Path(__file__).resolve().parent.parent)
+                            preexec_fn=preexec, cwd=Path(__file__).resolve().parents[2])
     found = {}
     ready = threading.Event()
 
@@ -254,7 +254,7 @@ def _measure(out: Path, quick, fps, progress, server_cpus, client_cpus) -> dict:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m provider.server_bench", description=__doc__,
+    p = argparse.ArgumentParser(prog="python -m provider.bench.server", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", default="bench-results")
     p.add_argument("--quick", action="store_true")

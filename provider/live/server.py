@@ -15,7 +15,7 @@ origin (the dashboard) or one given with ``--allow-origin``, else HTTP 403. Prog
 (Unity, Python) send no Origin and are not affected. Optional query parameters
 ``?probe=NAME&max_hz=N`` subscribe at connect time (an unknown probe: HTTP 404).
 
-Messages (JSON text frames; JSON Schema: ``provider/sh9_message.schema.json``)
+Messages (JSON text frames; JSON Schema: ``provider/live/sh9_message.schema.json``)
 -------------------------------------------------------------------------------
 Server → client:
 
@@ -62,21 +62,17 @@ HTTP (same port; the token is needed as for WebSockets, except for ``/healthz`` 
 """
 from __future__ import annotations
 
-import argparse
 import asyncio
-import collections
 import hmac
 import http
 import json
 import logging
 import math
-import os
 import re
-import shlex
 import signal
 import socket
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from urllib.parse import parse_qs, urlsplit
 
 from websockets.asyncio.server import ServerConnection, serve
@@ -85,18 +81,18 @@ from websockets.exceptions import ConnectionClosed
 from websockets.frames import CloseCode
 from websockets.http11 import Request, Response
 
-from . import __version__
+from .. import __version__
+from ..core.errors import InputError
 from .dashboard import DASHBOARD_CSP, MetricsText, static_file, thumbnail_jpeg
-from .engine import InputError
 from .message import FRAME, SCHEMA_VERSION, dumps
-from .probe import Probe, TemporalSettings
-from .sources import SourceOptions, parse_source
+from .probe import Probe
+from .session import ALL, ClientSession, Counters
 
 log = logging.getLogger("shlight.server")
 
 DEFAULT_PORT = 8765
+#: What a probe may be called (letters, digits, '_', '.', '-'; at most 64).
 PROBE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
-ALL = "*"
 
 
 @dataclass
@@ -114,130 +110,8 @@ class ServeSettings:
     deflate: bool = False           # permessage-deflate (costs CPU per client and message)
 
 
-@dataclass
-class Counters:
-    """Server-wide counters for /metrics."""
-
-    connections: int = 0
-    messages_sent: int = 0
-    messages_skipped: int = 0       # replaced by a newer one before a slow client took it
-    client_errors: int = 0          # malformed client messages answered with an error
-    stalled_clients: int = 0        # disconnected because they stopped reading
-    rejected: collections.Counter = field(default_factory=collections.Counter)
-
-
-class ClientSession:
-    """One connected client and its outbox.
-
-    The outbox holds, per subscribed probe, only the newest message not yet sent, plus a
-    few replies (hello, subscribed, error, pong). Publishing replaces the probe's slot and
-    wakes :meth:`write_loop`, the only task that writes to this client: a client that
-    reads slowly skips messages, and one that stops reading makes no memory grow and
-    delays nobody else. Rate limiting (``max_hz``) leaves the newest message waiting in
-    its slot until the client's next turn.
-    """
-
-    def __init__(self, ws: ServerConnection, counters: Counters, *, send_timeout: float):
-        self.ws, self.counters, self.send_timeout = ws, counters, send_timeout
-        host, port = (ws.remote_address or ("?", 0))[:2]
-        self.label = f"{host}:{port}"
-        self.subscription = ALL
-        self.max_hz = 0.0
-        self.sent = 0
-        self._slots: dict[str, bytes] = {}
-        self._replies: collections.deque = collections.deque(maxlen=16)
-        self._next_send: dict[str, float] = {}
-        self._wake = asyncio.Event()
-        self._timer: asyncio.TimerHandle | None = None
-
-    def offer(self, probe: str, text: bytes) -> None:
-        """Make ``text`` the probe's pending message (replacing an unsent older one)."""
-        if self._slots.get(probe) is not None:
-            self.counters.messages_skipped += 1
-        self._slots[probe] = text
-        self._wake.set()
-
-    def forget(self, probe: str) -> None:
-        self._slots.pop(probe, None)
-
-    def reply(self, message: dict) -> None:
-        """Queue a control message (kept in order; the oldest dropped beyond 16)."""
-        self._replies.append(dumps(message).encode())
-        self._wake.set()
-
-    async def write_loop(self) -> None:
-        """Send replies and the newest message of each probe, until the connection ends."""
-        loop = asyncio.get_running_loop()
-        try:
-            while True:
-                await self._wake.wait()
-                self._wake.clear()
-                while self._replies:
-                    await self._send(self._replies.popleft())
-                for probe in list(self._slots):
-                    text = self._slots.get(probe)
-                    if text is None:
-                        continue
-                    now = loop.time()
-                    wait = self._next_send.get(probe, 0.0) - now
-                    if wait > 0:
-                        self._wake_in(loop, wait)
-                        continue
-                    self._slots[probe] = None
-                    await self._send(text)
-                    if self.max_hz > 0:
-                        # Average at most max_hz, tolerating jitter down to half a period.
-                        interval = 1.0 / self.max_hz
-                        self._next_send[probe] = max(self._next_send.get(probe, now) + interval,
-                                                     now + 0.5 * interval)
-        except ConnectionClosed:
-            pass
-        except asyncio.CancelledError:
-            raise
-        except Exception:  # noqa: BLE001 - a bug here must not take the server down
-            log.exception("client %s: writer failed; closing", self.label)
-            self.ws.transport.abort()
-        finally:
-            if self._timer is not None:
-                self._timer.cancel()
-
-    def _wake_in(self, loop, delay: float) -> None:
-        """Wake the writer in ``delay`` s, unless a pending wake-up comes sooner (with
-        several rate-limited probes, the soonest one decides)."""
-        now = loop.time()
-        timer = self._timer
-        if timer is not None and not timer.cancelled() and now < timer.when() <= now + delay:
-            return
-        if timer is not None:
-            timer.cancel()
-        self._timer = loop.call_later(delay, self._wake.set)
-
-    async def _send(self, text: bytes) -> None:
-        transport = self.ws.transport
-        if transport.get_write_buffer_size() == 0:
-            await self.ws.send(text, text=True)    # cannot block: the buffer is empty
-        else:
-            # A timer, not asyncio.wait_for: before Python 3.12 that can swallow the
-            # writer's cancellation. Aborting the transport makes the send raise
-            # ConnectionClosed, which ends the writer.
-            timer = asyncio.get_running_loop().call_later(self.send_timeout, self._stalled)
-            try:
-                await self.ws.send(text, text=True)
-            finally:
-                timer.cancel()
-        self.sent += 1
-        self.counters.messages_sent += 1
-
-    def _stalled(self) -> None:
-        """The client has not read for ``send_timeout`` seconds: cut it off."""
-        self.counters.stalled_clients += 1
-        log.warning("client %s: not reading for %.0f s; disconnecting", self.label,
-                    self.send_timeout)
-        self.ws.transport.abort()
-
-
 class ProviderServer:
-    """The WebSocket + HTTP server around a list of :class:`~provider.probe.Probe`.
+    """The WebSocket + HTTP server around a list of :class:`~provider.live.probe.Probe`.
 
     ``await start()`` binds and starts the probes; ``await stop()`` closes every
     connection (code 1001) and stops the sources. ``port`` is the bound port (useful
@@ -613,200 +487,6 @@ def _json_error(status: int, code: str, detail: str) -> Response:
     return _response(status, body, "application/json")
 
 
-# ---- command line ------------------------------------------------------------------------------------
-
-EPILOG = """\
-sources (--source SPEC, or --probe NAME=SPEC, repeatable):
-  demo                          built-in animated scene (the default)
-  PATH.exr|.hdr|.png|.jpg       an image, re-read when the file changes
-  'DIR/*.exr' | DIR             an image sequence at --fps (default 1), looped
-  PATH.mp4|.avi|...             a video file, looped (--no-loop: once)
-  0 | camera:0 | /dev/video0    a camera (Ricoh Theta S in USB live mode: dual fisheye,
-                                --projection dual-fisheye --capture-size 1280x720)
-  picamera2[:N]                 a Raspberry Pi camera (Picamera2)
-  http://HOST/stream.mjpg       MJPEG over HTTP, or a JPEG snapshot URL
-  rtsp://... | opencv:TARGET    anything cv2.VideoCapture opens (FFmpeg)
-  theta://[USER:PASS@]HOST      Ricoh Theta over Wi-Fi (OSC live preview; ?api=2.0|2.1)
-  ws://HOST:8765/?probe=NAME    relay another shlight serve (edge device -> PC)
-
-examples:
-  shlight serve                                      # demo, ws://127.0.0.1:8765/
-  shlight serve --source theta://192.168.1.1 --host 0.0.0.0 --token SECRET
-  shlight serve --probe room=theta://192.168.1.1 --probe desk=0 \\
-                --probe-args "desk=--projection fisheye --fov 190"
-"""
-
-
-class _ProbeArgsParser(argparse.ArgumentParser):
-    def error(self, message):
-        raise InputError(f"--probe-args: {message}")
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The ``shlight serve`` options (the engine options come from provider.cli)."""
-    from .cli import add_engine_arguments
-    parser.description = "Serve live SH9 lighting over WebSocket, with a dashboard on HTTP."
-    parser.epilog = EPILOG
-    parser.formatter_class = argparse.RawDescriptionHelpFormatter
-    src = parser.add_argument_group("sources")
-    src.add_argument("--source", default=None, metavar="SPEC",
-                     help="source of the probe named 'default' (default: demo)")
-    src.add_argument("--probe", action="append", default=[], metavar="NAME=SPEC",
-                     help="a named probe (repeatable)")
-    src.add_argument("--probe-args", action="append", default=[], metavar="NAME=ARGS",
-                     help="per-probe options overriding the global ones, e.g. "
-                          "\"desk=--projection fisheye --fov 190\" (repeatable)")
-    _add_source_arguments(src)
-    net = parser.add_argument_group("network and safety")
-    net.add_argument("--host", default="127.0.0.1",
-                     help="address to bind (default 127.0.0.1; 0.0.0.0 for a LAN)")
-    net.add_argument("--port", type=int, default=DEFAULT_PORT,
-                     help=f"port for WebSocket and HTTP (default {DEFAULT_PORT}; 0: any free)")
-    net.add_argument("--token", default=os.environ.get("SHLIGHT_TOKEN") or None,
-                     help="secret clients must present (?token= or Authorization: Bearer); "
-                          "default: $SHLIGHT_TOKEN")
-    net.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
-                     help="extra browser Origin allowed to connect, e.g. "
-                          "https://example.org ('*': any; the dashboard's own is always allowed)")
-    net.add_argument("--max-clients", type=int, default=500, help="default 500")
-    net.add_argument("--max-message-bytes", type=int, default=4096,
-                     help="larger client messages close the connection with 1009 (default 4096)")
-    net.add_argument("--send-timeout", type=float, default=10.0,
-                     help="disconnect a client that does not read for this long (default 10 s)")
-    net.add_argument("--max-hz", type=float, default=0.0,
-                     help="cap on messages per second per client and probe (default: none)")
-    net.add_argument("--deflate", action="store_true",
-                     help="offer permessage-deflate compression (costs CPU per client)")
-    tmp = parser.add_argument_group("temporal behaviour")
-    _add_temporal_arguments(tmp)
-    parser.add_argument("--log-level", default="info",
-                        choices=["debug", "info", "warning", "error"])
-    add_engine_arguments(parser)
-
-
-def _add_source_arguments(g) -> None:
-    g.add_argument("--fps", type=float, default=None,
-                   help="pace of demo/file sources, polling rate of snapshot URLs")
-    g.add_argument("--no-loop", action="store_true", help="play videos and sequences once")
-    g.add_argument("--source-timeout", type=float, default=5.0,
-                   help="connect/read timeout of network sources; twice this without a "
-                        "frame means hung: reconnect (default 5 s)")
-    g.add_argument("--reconnect-max", type=float, default=10.0,
-                   help="longest wait between reconnection attempts (backoff from 0.5 s; "
-                        "default 10 s)")
-    g.add_argument("--capture-size", metavar="WxH", default=None, type=_size,
-                   help="cameras: requested frame size, e.g. 1280x720")
-    g.add_argument("--capture-fourcc", metavar="CODE", default=None,
-                   help="cameras: requested pixel format, e.g. MJPG")
-    g.add_argument("--theta-api", choices=["auto", "2.0", "2.1"], default="auto",
-                   help="Theta OSC API: 2.1 camera.getLivePreview, 2.0 _getLivePreview "
-                        "(auto: try 2.1, fall back to 2.0)")
-
-
-def _add_temporal_arguments(g) -> None:
-    g.add_argument("--smoothing", type=float, default=0.0, metavar="SECONDS",
-                   help="time constant of exponential smoothing (default 0: off)")
-    g.add_argument("--snap", type=float, default=0.1, metavar="FRACTION",
-                   help="a change larger than this (relative RMS irradiance) bypasses "
-                        "smoothing and reaches clients at once (default 0.1)")
-    g.add_argument("--change-threshold", type=float, default=0.002, metavar="FRACTION",
-                   help="lighting that changed less than this is not resent at frame rate "
-                        "(default 0.002; 0: send every frame)")
-    g.add_argument("--keepalive", type=float, default=1.0, metavar="SECONDS",
-                   help="resend unchanged or stale lighting this often (default 1 s)")
-    g.add_argument("--stale-after", type=float, default=2.0, metavar="SECONDS",
-                   help="mark lighting stale after this long without a frame (default 2 s)")
-
-
-def _size(text: str) -> tuple[int, int]:
-    m = re.fullmatch(r"\s*(\d+)\s*[xX×]\s*(\d+)\s*", text)
-    if not m:
-        raise argparse.ArgumentTypeError("expected WIDTHxHEIGHT, e.g. 1280x720")
-    return int(m.group(1)), int(m.group(2))
-
-
-def _probe_parser() -> argparse.ArgumentParser:
-    from .cli import add_engine_arguments
-    p = _ProbeArgsParser(prog="--probe-args NAME=", add_help=False)
-    _add_source_arguments(p)
-    _add_temporal_arguments(p)
-    add_engine_arguments(p)
-    return p
-
-
-def _split_assignment(text: str, what: str) -> tuple[str, str]:
-    name, sep, value = text.partition("=")
-    name = name.strip()
-    if not sep or not value.strip():
-        raise InputError(f"{what}: expected NAME=VALUE, got {text!r}")
-    if not PROBE_NAME.fullmatch(name):
-        raise InputError(f"{what}: probe names are letters, digits, '_', '.', '-' "
-                         f"(at most 64), got {name!r}")
-    return name, value.strip()
-
-
-def _check_numbers(ns, where: str = "") -> None:
-    checks = [("--keepalive", ns.keepalive, ns.keepalive > 0),
-              ("--stale-after", ns.stale_after, ns.stale_after > 0),
-              ("--smoothing", ns.smoothing, ns.smoothing >= 0),
-              ("--snap", ns.snap, ns.snap > 0),
-              ("--change-threshold", ns.change_threshold, ns.change_threshold >= 0),
-              ("--source-timeout", ns.source_timeout, ns.source_timeout > 0),
-              ("--reconnect-max", ns.reconnect_max, ns.reconnect_max > 0),
-              ("--fps", ns.fps, ns.fps is None or ns.fps > 0),
-              ("--exposure", ns.exposure, ns.exposure > 0),
-              ("--downsample", ns.downsample, ns.downsample >= 1)]
-    for flag, value, ok in checks:
-        if not ok or (isinstance(value, float) and not math.isfinite(value)):
-            raise InputError(f"{where}{flag} {value}: out of range")
-
-
-def build_server(args) -> ProviderServer:
-    """A :class:`ProviderServer` from parsed ``shlight serve`` arguments (not started)."""
-    from .cli import engine_options
-    named = [_split_assignment(t, "--probe") for t in args.probe]
-    if args.source is not None or not named:
-        named.insert(0, ("default", args.source or "demo"))
-    names = [n for n, _ in named]
-    duplicates = {n for n in names if names.count(n) > 1}
-    if duplicates:
-        raise InputError(f"probe names must be unique: {', '.join(sorted(duplicates))}")
-    overrides = {}
-    for text in args.probe_args:
-        name, value = _split_assignment(text, "--probe-args")
-        if name not in names:
-            raise InputError(f"--probe-args: no probe named {name!r} (probes: {', '.join(names)})")
-        try:
-            words = shlex.split(value)
-        except ValueError as exc:
-            raise InputError(f"--probe-args {name}: {exc}") from None
-        overrides[name] = _probe_parser().parse_args(words, namespace=argparse.Namespace(**vars(args)))
-    s = ServeSettings(host=args.host, port=args.port, token=args.token,
-                      allowed_origins=tuple(args.allow_origin), max_clients=args.max_clients,
-                      max_message_bytes=args.max_message_bytes, send_timeout=args.send_timeout,
-                      max_hz=args.max_hz, deflate=args.deflate)
-    if not (0 <= s.port <= 65535):
-        raise InputError(f"--port {s.port}: out of range")
-    if s.max_clients < 1 or s.max_message_bytes < 256 or not s.send_timeout > 0 or s.max_hz < 0:
-        raise InputError("--max-clients >= 1, --max-message-bytes >= 256, --send-timeout > 0 "
-                         "and --max-hz >= 0 are required")
-    probes = []
-    for name, text in named:
-        ns = overrides.get(name, args)
-        _check_numbers(ns, f"probe {name}: " if name in overrides else "")
-        options = SourceOptions(fps=ns.fps, loop=not ns.no_loop, timeout=ns.source_timeout,
-                                capture_size=ns.capture_size, fourcc=ns.capture_fourcc,
-                                theta_api=ns.theta_api)
-        spec = parse_source(text, options)
-        temporal = TemporalSettings(smoothing=ns.smoothing, snap=ns.snap,
-                                    change_threshold=ns.change_threshold,
-                                    keepalive=ns.keepalive, stale_after=ns.stale_after)
-        probes.append(Probe(name, spec, projection=ns.projection,
-                            engine_options=engine_options(ns), temporal=temporal,
-                            backoff_max=ns.reconnect_max))
-    return ProviderServer(probes, s)
-
-
 def _lan_address() -> str | None:
     """This machine's address on the default route (no packet is sent)."""
     try:
@@ -847,19 +527,3 @@ async def serve_until_stopped(server: ProviderServer, stop: asyncio.Event | None
             loop.remove_signal_handler(sig)
         await server.stop()
     log.info("stopped")
-
-
-def run(args) -> int:
-    """Entry point of ``shlight serve``."""
-    level = getattr(logging, args.log_level.upper())
-    logging.basicConfig(level=level, format="%(asctime)s %(levelname)-7s %(message)s",
-                        datefmt="%H:%M:%S")
-    logging.getLogger("shlight").setLevel(level)
-    if level > logging.DEBUG:
-        logging.getLogger("websockets").setLevel(logging.WARNING)
-    server = build_server(args)
-    try:
-        asyncio.run(serve_until_stopped(server))
-    except KeyboardInterrupt:   # platforms without signal handlers
-        pass
-    return 0

@@ -1,7 +1,7 @@
 """One light probe: source → frame → coefficients → message.
 
-A :class:`Probe` owns a :class:`~provider.sources.Capture` (its source, read in a
-thread), the :class:`~provider.engine.SH9Projector` for each frame size it has seen,
+A :class:`Probe` owns a :class:`~provider.live.capture.Capture` (its source, read in a
+thread), the :class:`~provider.core.engine.SH9Projector` for each frame size it has seen,
 the temporal filter, and the probe's latest message. Its :meth:`Probe.run` task waits for
 the newest frame, projects it in a worker thread (the engine's one call), and hands the
 serialised message to ``publish(probe_name, text)`` when the lighting changed, when a
@@ -19,9 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .engine import InputError, SH9Projector, SH9Result
-from .message import dumps
-from .sources import Capture, Frame, SourceSpec
+from ..core.engine import SH9Projector, SH9Result
+from ..core.errors import InputError
+from .capture import Capture
+from .message import coefficient_message, dumps
+from .sources import Frame, SourceSpec
 from .temporal import ChangeGate, LightingFilter
 
 log = logging.getLogger("shlight.probe")
@@ -29,7 +31,7 @@ log = logging.getLogger("shlight.probe")
 
 @dataclass
 class TemporalSettings:
-    """How a probe's messages follow the lighting in time (see provider.temporal)."""
+    """How a probe's messages follow the lighting in time (see provider.live.temporal)."""
 
     smoothing: float = 0.0          # time constant, seconds (0: off)
     snap: float = 0.1               # a change beyond this passes smoothing at once
@@ -192,8 +194,8 @@ class Probe:
         lighting = self._lighting
         if self._fresh:
             self.latency_s = max(now - self._frame_time, 0.0)
-        msg = lighting.to_message(
-            probe=self.name, seq=self.seq, time=self._frame_time, stale=stale,
+        msg = coefficient_message(
+            lighting, probe=self.name, seq=self.seq, time=self._frame_time, stale=stale,
             age_s=max(now - self._frame_time, 0.0), fps=round(self.capture.fps, 3),
             latency_ms=round(self.latency_s * 1e3, 3), resent=not changed,
             source=self.spec.kind)

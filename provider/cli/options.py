@@ -1,18 +1,12 @@
-"""`shlight` command line: compute | serve | validate-shaders | bench.
-
-User errors (bad files, bad options) print one clear line to stderr and exit with status
-2; they never show a traceback.
-"""
+"""Projection and engine options shared by ``compute``, ``serve`` and ``bench``."""
 from __future__ import annotations
 
 import argparse
 import json
-import sys
 
 import numpy as np
 
-from . import __version__
-from .engine import InputError
+from ..core.errors import InputError
 
 
 def _floats(text: str, n: int, what: str):
@@ -61,8 +55,8 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def engine_options(args) -> dict:
-    """Translate parsed arguments into :class:`~provider.engine.SH9Projector` options."""
-    from .sh import rotation_from_euler
+    """Translate parsed arguments into :class:`~provider.core.engine.SH9Projector` options."""
+    from ..core.sh import rotation_from_euler
     opts = dict(encoding=args.encoding, exposure=args.exposure, downsample=args.downsample,
                 order=args.order if args.order == "auto" else int(args.order),
                 order_budget=args.order_budget, dering=args.dering)
@@ -86,71 +80,3 @@ def engine_options(args) -> dict:
     elif args.projection == "dual-fisheye" and args.fov is not None:
         opts["fov_deg"] = args.fov
     return opts
-
-
-def cmd_compute(args) -> int:
-    from .engine import compute_sh9
-    from .io import read_image
-    from .message import coefficient_message, dumps
-    import os
-    image = read_image(args.image)
-    result = compute_sh9(image, projection=args.projection, error_estimate=True,
-                         **engine_options(args))
-    msg = coefficient_message(result, probe=args.probe, seq=0,
-                              time=os.path.getmtime(args.image), projection=args.projection)
-    text = dumps(msg) if not args.pretty else json.dumps(msg, indent=2, allow_nan=False)
-    print(text)
-    return 0
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="shlight", description="Live SH9 ambient lighting for AR headsets.")
-    parser.add_argument("--version", action="version", version=f"shlight {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-
-    p = sub.add_parser("compute", help="print the wire JSON (DESIGN.md §3) for one image")
-    p.add_argument("image", help="panorama/fisheye image (.exr, .hdr, .png, .jpg, .tif, ...)")
-    p.add_argument("--probe", default="default", help="probe name in the message")
-    p.add_argument("--pretty", action="store_true", help="indent the JSON")
-    add_engine_arguments(p)
-    p.set_defaults(func=cmd_compute)
-
-    for name, module, helptext in (
-            ("serve", "server", "serve live coefficients over WebSocket (default: demo source)"),
-            ("validate-shaders", "harness", "prove the GLSL/HLSL compute what the CPU computes"),
-            ("bench", "bench", "speed against error: Markdown table and PNG plot")):
-        p = sub.add_parser(name, help=helptext)
-        try:
-            mod = __import__(f"provider.{module}", fromlist=["add_arguments", "run"])
-        except ImportError as exc:  # the subcommand's module is not installed/built
-            p.set_defaults(func=lambda a, e=exc, n=name: _missing(n, e))
-            continue
-        mod.add_arguments(p)
-        p.set_defaults(func=mod.run)
-    return parser
-
-
-def _missing(name, exc):
-    print(f"shlight {name}: unavailable ({exc})", file=sys.stderr)
-    return 2
-
-
-def main(argv=None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
-    try:
-        return int(args.func(args) or 0)
-    except InputError as exc:
-        print(f"shlight {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"shlight {args.command}: interrupted", file=sys.stderr)
-        return 130
-
-
-if __name__ == "__main__":
-    sys.exit(main())

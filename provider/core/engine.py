@@ -26,11 +26,8 @@ import cv2
 import numpy as np
 
 from . import sh
+from .errors import InputError
 from .projections import Equirect, Projection, ProjectionError, make_projection
-
-
-class InputError(ValueError):
-    """The input cannot be turned into lighting; the message says why and what to do."""
 
 
 def srgb_to_linear(v: np.ndarray) -> np.ndarray:
@@ -62,11 +59,6 @@ class SH9Result:
         """E(n) (not clamped) at unit normals (..., 3) -> (..., 3)."""
         return sh.irradiance(self.coefficients, normals)
 
-    def to_message(self, **fields) -> dict:
-        """The wire message (DESIGN.md §3); see :func:`provider.message.coefficient_message`."""
-        from .message import coefficient_message
-        return coefficient_message(self, **fields)
-
 
 ORDERS = (0, 1, 2, "auto")
 DERING = ("off", "auto")
@@ -81,7 +73,7 @@ class SH9Projector:
         Frame size in pixels.
     projection : str or Projection
         "equirect" (default), "fisheye", "dual-fisheye", "cubemap", or a built
-        :class:`~provider.projections.Projection`.
+        :class:`~provider.core.projections.Projection`.
     encoding : "auto" | "srgb" | "linear"
         Transfer function of integer frames ("auto": sRGB). Float frames are linear.
     exposure : float
@@ -127,7 +119,6 @@ class SH9Projector:
             self.projection = full if downsample == 1 else full.scaled(downsample)
         except ProjectionError as exc:
             raise InputError(str(exc)) from None
-        self.full_projection = full
         self.width, self.height = int(width), int(height)
         self.encoding, self.exposure, self.downsample = encoding, float(exposure), downsample
         self.order, self.dering, self.order_budget = order, dering, float(order_budget)
@@ -376,7 +367,7 @@ def compute_sh9(image, projection: str = "equirect", **options) -> SH9Result:
     per (size, projection, options), so calling this per frame is cheap after the first.
     """
     if isinstance(image, (str, bytes)) or hasattr(image, "__fspath__"):
-        from .io import read_image
+        from .images import read_image
         image = read_image(image)
     if not isinstance(image, np.ndarray):
         raise InputError(f"expected an image array or a path, got {type(image).__name__}")

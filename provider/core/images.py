@@ -6,7 +6,7 @@ import os
 import cv2
 import numpy as np
 
-from .engine import InputError
+from .errors import InputError
 
 IMAGE_EXTENSIONS = (".exr", ".hdr", ".pic", ".png", ".jpg", ".jpeg", ".tif", ".tiff",
                     ".bmp", ".webp", ".pfm", ".ppm", ".pgm")

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import sh
+from ..core import sh
 from .render import SHADER_DIR
 
 VECTORS_PATH = SHADER_DIR / "contract_vectors.json"
@@ -76,7 +76,7 @@ def random_coefficients(seed: int = RANDOM_SEED) -> np.ndarray:
 
 def panorama_coefficients(name: str, hdri_dir: Path = HDRI_DIR) -> np.ndarray:
     """Exact (un-windowed) SH9 of a bundled panorama, through the product's engine."""
-    from .engine import compute_sh9
+    from ..core.engine import compute_sh9
     return compute_sh9(Path(hdri_dir) / f"{name}.exr", error_estimate=False).coefficients
 
 
@@ -116,7 +116,7 @@ def vector_case(name: str, coefficients, rotation=None, normals=None) -> dict:
 
 DESCRIPTION = (
     "Contract test vectors for SH9 irradiance (DESIGN.md sections 1-2), written by "
-    "`shlight validate-shaders --write-vectors` (provider/contract.py). Per case: radiance SH "
+    "`shlight validate-shaders --write-vectors` (provider/verify/contract.py). Per case: radiance SH "
     "coefficients in; the irradiance matrices M (E(n) = n~^T M n~, n~ = (x, y, z, 1)) and E at "
     "the listed unit normals out, float64, NOT clamped at zero. Unity's frame: S M S with "
     "S = diag(1, 1, -1, 1) and normals (x, y, -z) give the same E. Rotation cases: "
@@ -163,7 +163,7 @@ def dumps(vectors: dict) -> str:
 
 def write_contract_vectors(path: Path = VECTORS_PATH, hdri_dir: Path = HDRI_DIR) -> Path:
     """Write the vectors file; returns its path."""
-    from .engine import InputError
+    from ..core.errors import InputError
     missing = [n for n in ("sky", "lab") if not (Path(hdri_dir) / f"{n}.exr").exists()]
     if missing:
         raise InputError(f"the contract vectors need {', '.join(m + '.exr' for m in missing)} "

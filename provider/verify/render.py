@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-SHADER_DIR = Path(__file__).resolve().parent.parent / "shaders"
+SHADER_DIR = Path(__file__).resolve().parents[2] / "shaders"
 
 INSTALL_HINT = ("headless OpenGL needs EGL and a Mesa driver: on Debian/Ubuntu "
                 "`sudo apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri`")

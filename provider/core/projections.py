@@ -342,7 +342,6 @@ class Fisheye(Projection):
         focal = radius / math.radians(fov_deg / 2)
         self.lens = FisheyeLens(cx, cy, focal, fov_deg, tuple(forward), tuple(right), K, D)
         self.fill, self.albedo = fill, float(albedo)
-        self._radius, self._center = radius, (cx, cy)
 
     def pixel_to_direction(self, px, py):
         theta, psi = self.lens.angles(px, py)
@@ -385,7 +384,6 @@ class Fisheye(Projection):
         Projection.__init__(p, self.width // factor, self.height // factor)
         p.lens = self.lens.scaled(factor)
         p.fill, p.albedo = self.fill, self.albedo
-        p._radius, p._center = self._radius / factor, (p.lens.cx, p.lens.cy)
         return p
 
     def describe(self):

@@ -1,7 +1,7 @@
 """What ``shlight serve`` shows over plain HTTP: the dashboard's files, panorama
 thumbnails, and the Prometheus metrics text.
 
-The server routes requests here (see :mod:`provider.server`); nothing in this module
+The server routes requests here (see :mod:`provider.live.server`); nothing in this module
 touches the network.
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ DASHBOARD_CSP = ("default-src 'none'; script-src 'self'; style-src 'self'; img-s
 
 
 def static_file(name: str) -> tuple[bytes, str] | None:
-    """(body, content type) of a file of provider/static, or None.
+    """(body, content type) of a file of provider/live/static, or None.
 
     Only plain file names listed in the package directory are served: no paths, so no
     traversal.
@@ -33,7 +33,7 @@ def static_file(name: str) -> tuple[bytes, str] | None:
     ext = "." + name.rsplit(".", 1)[-1].lower() if "." in name else ""
     if ext not in CONTENT_TYPES:
         return None
-    entry = resources.files("provider").joinpath("static", name)
+    entry = resources.files("provider.live").joinpath("static", name)
     if not entry.is_file():
         return None
     return entry.read_bytes(), CONTENT_TYPES[ext]

@@ -1,0 +1,224 @@
+"""``shlight serve``: its command-line options, and building the server from them."""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import logging
+import math
+import os
+import re
+import shlex
+
+from ..core.errors import InputError
+from .options import add_engine_arguments, engine_options
+
+EPILOG = """\
+sources (--source SPEC, or --probe NAME=SPEC, repeatable):
+  demo                          built-in animated scene (the default)
+  PATH.exr|.hdr|.png|.jpg       an image, re-read when the file changes
+  'DIR/*.exr' | DIR             an image sequence at --fps (default 1), looped
+  PATH.mp4|.avi|...             a video file, looped (--no-loop: once)
+  0 | camera:0 | /dev/video0    a camera (Ricoh Theta S in USB live mode: dual fisheye,
+                                --projection dual-fisheye --capture-size 1280x720)
+  picamera2[:N]                 a Raspberry Pi camera (Picamera2)
+  http://HOST/stream.mjpg       MJPEG over HTTP, or a JPEG snapshot URL
+  rtsp://... | opencv:TARGET    anything cv2.VideoCapture opens (FFmpeg)
+  theta://[USER:PASS@]HOST      Ricoh Theta over Wi-Fi (OSC live preview; ?api=2.0|2.1)
+  ws://HOST:8765/?probe=NAME    relay another shlight serve (edge device -> PC)
+
+examples:
+  shlight serve                                      # demo, ws://127.0.0.1:8765/
+  shlight serve --source theta://192.168.1.1 --host 0.0.0.0 --token SECRET
+  shlight serve --probe room=theta://192.168.1.1 --probe desk=0 \\
+                --probe-args "desk=--projection fisheye --fov 190"
+"""
+
+
+class _ProbeArgsParser(argparse.ArgumentParser):
+    def error(self, message):
+        raise InputError(f"--probe-args: {message}")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``shlight serve`` options (the engine options are shared with compute and bench)."""
+    from ..live.server import DEFAULT_PORT
+    parser.description = "Serve live SH9 lighting over WebSocket, with a dashboard on HTTP."
+    parser.epilog = EPILOG
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    src = parser.add_argument_group("sources")
+    src.add_argument("--source", default=None, metavar="SPEC",
+                     help="source of the probe named 'default' (default: demo)")
+    src.add_argument("--probe", action="append", default=[], metavar="NAME=SPEC",
+                     help="a named probe (repeatable)")
+    src.add_argument("--probe-args", action="append", default=[], metavar="NAME=ARGS",
+                     help="per-probe options overriding the global ones, e.g. "
+                          "\"desk=--projection fisheye --fov 190\" (repeatable)")
+    _add_source_arguments(src)
+    net = parser.add_argument_group("network and safety")
+    net.add_argument("--host", default="127.0.0.1",
+                     help="address to bind (default 127.0.0.1; 0.0.0.0 for a LAN)")
+    net.add_argument("--port", type=int, default=DEFAULT_PORT,
+                     help=f"port for WebSocket and HTTP (default {DEFAULT_PORT}; 0: any free)")
+    net.add_argument("--token", default=os.environ.get("SHLIGHT_TOKEN") or None,
+                     help="secret clients must present (?token= or Authorization: Bearer); "
+                          "default: $SHLIGHT_TOKEN")
+    net.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
+                     help="extra browser Origin allowed to connect, e.g. "
+                          "https://example.org ('*': any; the dashboard's own is always allowed)")
+    net.add_argument("--max-clients", type=int, default=500, help="default 500")
+    net.add_argument("--max-message-bytes", type=int, default=4096,
+                     help="larger client messages close the connection with 1009 (default 4096)")
+    net.add_argument("--send-timeout", type=float, default=10.0,
+                     help="disconnect a client that does not read for this long (default 10 s)")
+    net.add_argument("--max-hz", type=float, default=0.0,
+                     help="cap on messages per second per client and probe (default: none)")
+    net.add_argument("--deflate", action="store_true",
+                     help="offer permessage-deflate compression (costs CPU per client)")
+    tmp = parser.add_argument_group("temporal behaviour")
+    _add_temporal_arguments(tmp)
+    parser.add_argument("--log-level", default="info",
+                        choices=["debug", "info", "warning", "error"])
+    add_engine_arguments(parser)
+
+
+def _add_source_arguments(g) -> None:
+    g.add_argument("--fps", type=float, default=None,
+                   help="pace of demo/file sources, polling rate of snapshot URLs")
+    g.add_argument("--no-loop", action="store_true", help="play videos and sequences once")
+    g.add_argument("--source-timeout", type=float, default=5.0,
+                   help="connect/read timeout of network sources; twice this without a "
+                        "frame means hung: reconnect (default 5 s)")
+    g.add_argument("--reconnect-max", type=float, default=10.0,
+                   help="longest wait between reconnection attempts (backoff from 0.5 s; "
+                        "default 10 s)")
+    g.add_argument("--capture-size", metavar="WxH", default=None, type=_size,
+                   help="cameras: requested frame size, e.g. 1280x720")
+    g.add_argument("--capture-fourcc", metavar="CODE", default=None,
+                   help="cameras: requested pixel format, e.g. MJPG")
+    g.add_argument("--theta-api", choices=["auto", "2.0", "2.1"], default="auto",
+                   help="Theta OSC API: 2.1 camera.getLivePreview, 2.0 _getLivePreview "
+                        "(auto: try 2.1, fall back to 2.0)")
+
+
+def _add_temporal_arguments(g) -> None:
+    g.add_argument("--smoothing", type=float, default=0.0, metavar="SECONDS",
+                   help="time constant of exponential smoothing (default 0: off)")
+    g.add_argument("--snap", type=float, default=0.1, metavar="FRACTION",
+                   help="a change larger than this (relative RMS irradiance) bypasses "
+                        "smoothing and reaches clients at once (default 0.1)")
+    g.add_argument("--change-threshold", type=float, default=0.002, metavar="FRACTION",
+                   help="lighting that changed less than this is not resent at frame rate "
+                        "(default 0.002; 0: send every frame)")
+    g.add_argument("--keepalive", type=float, default=1.0, metavar="SECONDS",
+                   help="resend unchanged or stale lighting this often (default 1 s)")
+    g.add_argument("--stale-after", type=float, default=2.0, metavar="SECONDS",
+                   help="mark lighting stale after this long without a frame (default 2 s)")
+
+
+def _size(text: str) -> tuple[int, int]:
+    m = re.fullmatch(r"\s*(\d+)\s*[xX×]\s*(\d+)\s*", text)
+    if not m:
+        raise argparse.ArgumentTypeError("expected WIDTHxHEIGHT, e.g. 1280x720")
+    return int(m.group(1)), int(m.group(2))
+
+
+def _probe_parser() -> argparse.ArgumentParser:
+    p = _ProbeArgsParser(prog="--probe-args NAME=", add_help=False)
+    _add_source_arguments(p)
+    _add_temporal_arguments(p)
+    add_engine_arguments(p)
+    return p
+
+
+def _split_assignment(text: str, what: str) -> tuple[str, str]:
+    from ..live.server import PROBE_NAME
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    if not sep or not value.strip():
+        raise InputError(f"{what}: expected NAME=VALUE, got {text!r}")
+    if not PROBE_NAME.fullmatch(name):
+        raise InputError(f"{what}: probe names are letters, digits, '_', '.', '-' "
+                         f"(at most 64), got {name!r}")
+    return name, value.strip()
+
+
+def _check_numbers(ns, where: str = "") -> None:
+    checks = [("--keepalive", ns.keepalive, ns.keepalive > 0),
+              ("--stale-after", ns.stale_after, ns.stale_after > 0),
+              ("--smoothing", ns.smoothing, ns.smoothing >= 0),
+              ("--snap", ns.snap, ns.snap > 0),
+              ("--change-threshold", ns.change_threshold, ns.change_threshold >= 0),
+              ("--source-timeout", ns.source_timeout, ns.source_timeout > 0),
+              ("--reconnect-max", ns.reconnect_max, ns.reconnect_max > 0),
+              ("--fps", ns.fps, ns.fps is None or ns.fps > 0),
+              ("--exposure", ns.exposure, ns.exposure > 0),
+              ("--downsample", ns.downsample, ns.downsample >= 1)]
+    for flag, value, ok in checks:
+        if not ok or (isinstance(value, float) and not math.isfinite(value)):
+            raise InputError(f"{where}{flag} {value}: out of range")
+
+
+def build_server(args):
+    """A :class:`~provider.live.server.ProviderServer` from parsed ``shlight serve``
+    arguments (not started)."""
+    from ..live.probe import Probe, TemporalSettings
+    from ..live.server import ProviderServer, ServeSettings
+    from ..live.sources import SourceOptions, parse_source
+    named = [_split_assignment(t, "--probe") for t in args.probe]
+    if args.source is not None or not named:
+        named.insert(0, ("default", args.source or "demo"))
+    names = [n for n, _ in named]
+    duplicates = {n for n in names if names.count(n) > 1}
+    if duplicates:
+        raise InputError(f"probe names must be unique: {', '.join(sorted(duplicates))}")
+    overrides = {}
+    for text in args.probe_args:
+        name, value = _split_assignment(text, "--probe-args")
+        if name not in names:
+            raise InputError(f"--probe-args: no probe named {name!r} (probes: {', '.join(names)})")
+        try:
+            words = shlex.split(value)
+        except ValueError as exc:
+            raise InputError(f"--probe-args {name}: {exc}") from None
+        overrides[name] = _probe_parser().parse_args(words, namespace=argparse.Namespace(**vars(args)))
+    s = ServeSettings(host=args.host, port=args.port, token=args.token,
+                      allowed_origins=tuple(args.allow_origin), max_clients=args.max_clients,
+                      max_message_bytes=args.max_message_bytes, send_timeout=args.send_timeout,
+                      max_hz=args.max_hz, deflate=args.deflate)
+    if not (0 <= s.port <= 65535):
+        raise InputError(f"--port {s.port}: out of range")
+    if s.max_clients < 1 or s.max_message_bytes < 256 or not s.send_timeout > 0 or s.max_hz < 0:
+        raise InputError("--max-clients >= 1, --max-message-bytes >= 256, --send-timeout > 0 "
+                         "and --max-hz >= 0 are required")
+    probes = []
+    for name, text in named:
+        ns = overrides.get(name, args)
+        _check_numbers(ns, f"probe {name}: " if name in overrides else "")
+        options = SourceOptions(fps=ns.fps, loop=not ns.no_loop, timeout=ns.source_timeout,
+                                capture_size=ns.capture_size, fourcc=ns.capture_fourcc,
+                                theta_api=ns.theta_api)
+        spec = parse_source(text, options)
+        temporal = TemporalSettings(smoothing=ns.smoothing, snap=ns.snap,
+                                    change_threshold=ns.change_threshold,
+                                    keepalive=ns.keepalive, stale_after=ns.stale_after)
+        probes.append(Probe(name, spec, projection=ns.projection,
+                            engine_options=engine_options(ns), temporal=temporal,
+                            backoff_max=ns.reconnect_max))
+    return ProviderServer(probes, s)
+
+
+def run(args) -> int:
+    """Entry point of ``shlight serve``."""
+    level = getattr(logging, args.log_level.upper())
+    logging.basicConfig(level=level, format="%(asctime)s %(levelname)-7s %(message)s",
+                        datefmt="%H:%M:%S")
+    logging.getLogger("shlight").setLevel(level)
+    if level > logging.DEBUG:
+        logging.getLogger("websockets").setLevel(logging.WARNING)
+    from ..live.server import serve_until_stopped
+    server = build_server(args)
+    try:
+        asyncio.run(serve_until_stopped(server))
+    except KeyboardInterrupt:   # platforms without signal handlers
+        pass
+    return 0

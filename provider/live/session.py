@@ -1,0 +1,139 @@
+"""One connected WebSocket client: its outbox, its rate limit, its writer task."""
+from __future__ import annotations
+
+import asyncio
+import collections
+import logging
+from dataclasses import dataclass, field
+
+from websockets.asyncio.server import ServerConnection
+from websockets.exceptions import ConnectionClosed
+
+from .message import dumps
+
+log = logging.getLogger("shlight.server")
+
+#: Subscription to every probe.
+ALL = "*"
+
+
+@dataclass
+class Counters:
+    """Server-wide counters for /metrics."""
+
+    connections: int = 0
+    messages_sent: int = 0
+    messages_skipped: int = 0       # replaced by a newer one before a slow client took it
+    client_errors: int = 0          # malformed client messages answered with an error
+    stalled_clients: int = 0        # disconnected because they stopped reading
+    rejected: collections.Counter = field(default_factory=collections.Counter)
+
+
+class ClientSession:
+    """One connected client and its outbox.
+
+    The outbox holds, per subscribed probe, only the newest message not yet sent, plus a
+    few replies (hello, subscribed, error, pong). Publishing replaces the probe's slot and
+    wakes :meth:`write_loop`, the only task that writes to this client: a client that
+    reads slowly skips messages, and one that stops reading makes no memory grow and
+    delays nobody else. Rate limiting (``max_hz``) leaves the newest message waiting in
+    its slot until the client's next turn.
+    """
+
+    def __init__(self, ws: ServerConnection, counters: Counters, *, send_timeout: float):
+        self.ws, self.counters, self.send_timeout = ws, counters, send_timeout
+        host, port = (ws.remote_address or ("?", 0))[:2]
+        self.label = f"{host}:{port}"
+        self.subscription = ALL
+        self.max_hz = 0.0
+        self.sent = 0
+        self._slots: dict[str, bytes] = {}
+        self._replies: collections.deque = collections.deque(maxlen=16)
+        self._next_send: dict[str, float] = {}
+        self._wake = asyncio.Event()
+        self._timer: asyncio.TimerHandle | None = None
+
+    def offer(self, probe: str, text: bytes) -> None:
+        """Make ``text`` the probe's pending message (replacing an unsent older one)."""
+        if self._slots.get(probe) is not None:
+            self.counters.messages_skipped += 1
+        self._slots[probe] = text
+        self._wake.set()
+
+    def forget(self, probe: str) -> None:
+        self._slots.pop(probe, None)
+
+    def reply(self, message: dict) -> None:
+        """Queue a control message (kept in order; the oldest dropped beyond 16)."""
+        self._replies.append(dumps(message).encode())
+        self._wake.set()
+
+    async def write_loop(self) -> None:
+        """Send replies and the newest message of each probe, until the connection ends."""
+        loop = asyncio.get_running_loop()
+        try:
+            while True:
+                await self._wake.wait()
+                self._wake.clear()
+                while self._replies:
+                    await self._send(self._replies.popleft())
+                for probe in list(self._slots):
+                    text = self._slots.get(probe)
+                    if text is None:
+                        continue
+                    now = loop.time()
+                    wait = self._next_send.get(probe, 0.0) - now
+                    if wait > 0:
+                        self._wake_in(loop, wait)
+                        continue
+                    self._slots[probe] = None
+                    await self._send(text)
+                    if self.max_hz > 0:
+                        # Average at most max_hz, tolerating jitter down to half a period.
+                        interval = 1.0 / self.max_hz
+                        self._next_send[probe] = max(self._next_send.get(probe, now) + interval,
+                                                     now + 0.5 * interval)
+        except ConnectionClosed:
+            pass
+        except asyncio.CancelledError:
+            raise
+        except Exception:  # noqa: BLE001 - a bug here must not take the server down
+            log.exception("client %s: writer failed; closing", self.label)
+            self.ws.transport.abort()
+        finally:
+            if self._timer is not None:
+                self._timer.cancel()
+
+    def _wake_in(self, loop, delay: float) -> None:
+        """Wake the writer in ``delay`` s, unless a pending wake-up comes sooner (with
+        several rate-limited probes, the soonest one decides)."""
+        now = loop.time()
+        timer = self._timer
+        if timer is not None and not timer.cancelled() and now < timer.when() <= now + delay:
+            return
+        if timer is not None:
+            timer.cancel()
+        self._timer = loop.call_later(delay, self._wake.set)
+
+    async def _send(self, text: bytes) -> None:
+        transport = self.ws.transport
+        if transport.get_write_buffer_size() == 0:
+            await self.ws.send(text, text=True)    # cannot block: the buffer is empty
+        else:
+            # A timer, not asyncio.wait_for: before Python 3.12 that can swallow the
+            # writer's cancellation. Aborting the transport makes the send raise
+            # ConnectionClosed, which ends the writer.
+            timer = asyncio.get_running_loop().call_later(self.send_timeout, self._stalled)
+            try:
+                await self.ws.send(text, text=True)
+            finally:
+                timer.cancel()
+        self.sent += 1
+        self.counters.messages_sent += 1
+
+    def _stalled(self) -> None:
+        """The client has not read for ``send_timeout`` seconds: cut it off."""
+        self.counters.stalled_clients += 1
+        log.warning("client %s: not reading for %.0f s; disconnecting", self.label,
+                    self.send_timeout)
+        self.ws.transport.abort()

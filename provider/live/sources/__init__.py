@@ -1,0 +1,162 @@
+"""Frame sources for ``shlight serve``: one module per family, and the parser of source
+specifications that picks one.
+
+A *source* is a small blocking object (:class:`~.base.Source`: ``open``, ``read`` → a
+:class:`~.base.Frame`, ``close``) run by the capture thread (:mod:`provider.live.capture`).
+Families, one module each: :mod:`.demo` (the built-in scene), :mod:`.files` (an image, an
+image sequence), :mod:`.opencv` (video files, cameras, RTSP), :mod:`.http` (MJPEG over
+HTTP), :mod:`.theta` (a Ricoh Theta over Wi-Fi), :mod:`.relay` (another ``shlight
+serve``), :mod:`.picamera` (a Raspberry Pi camera). A new family is a module here with a
+:class:`~.base.Source` subclass, one ``kind`` in :meth:`SourceSpec.make` and one rule in
+:func:`parse_source`.
+
+Source specifications (``--source SPEC`` or ``--probe NAME=SPEC``)::
+
+    demo                        built-in animated scene (the default)
+    PATH.exr | .hdr | .png ...  one image, re-read whenever the file changes
+    'DIR/*.exr' | DIR           an image sequence (sorted), looped
+    PATH.mp4 | .avi | .mkv ...  a video file, looped (--no-loop: play once)
+    0 | camera:0 | /dev/video0  a camera (e.g. a Ricoh Theta in USB live mode)
+    picamera2[:N]               a Raspberry Pi camera through Picamera2
+    http[s]://...               MJPEG over HTTP (multipart/x-mixed-replace), or a JPEG
+                                snapshot URL polled at --fps; credentials as USER:PASS@
+    rtsp://... | opencv:TARGET  anything cv2.VideoCapture opens (FFmpeg back end)
+    theta://[USER:PASS@]HOST[:PORT][?api=2.0|2.1]
+                                a Ricoh Theta over Wi-Fi: Open Spherical Camera live
+                                preview (HTTP Digest auth in client mode)
+    ws[s]://HOST:PORT/[?probe=NAME&token=T]
+                                relay: the coefficients of another ``shlight serve``
+
+Only the standard library, OpenCV and ``websockets`` are used.
+"""
+from __future__ import annotations
+
+import os
+import re
+import urllib.parse
+from dataclasses import dataclass
+
+import cv2
+
+from ...core.errors import InputError
+from ...core.images import IMAGE_EXTENSIONS, read_image
+from .base import Frame, Source, SourceError, SourceFinished, SourceOptions, redact  # noqa: F401
+from .files import SequenceSource
+from .opencv import VIDEO_EXTENSIONS
+
+
+@dataclass
+class SourceSpec:
+    """A parsed source specification: ``make()`` builds a fresh source for each attempt."""
+
+    kind: str
+    target: object
+    options: SourceOptions
+    description: str
+
+    def make(self) -> Source:
+        # Families are imported when used: a Pi without websockets can still read its camera.
+        o, t = self.options, self.target
+        if self.kind == "demo":
+            from .demo import DemoSource
+            return DemoSource(fps=o.fps or 30.0)
+        if self.kind == "image":
+            from .files import ImageSource
+            return ImageSource(t, fps=o.fps or 2.0)
+        if self.kind == "sequence":
+            return SequenceSource(t, fps=o.fps or 1.0, loop=o.loop)
+        if self.kind == "video":
+            from .opencv import VideoFileSource
+            return VideoFileSource(t, fps=o.fps, loop=o.loop)
+        if self.kind in ("camera", "opencv"):
+            from .opencv import OpenCVSource
+            return OpenCVSource(t, o)
+        if self.kind == "picamera2":
+            from .picamera import Picamera2Source
+            return Picamera2Source(t, o)
+        if self.kind == "mjpeg":
+            from .http import MjpegHttpSource
+            return MjpegHttpSource(t, o)
+        if self.kind == "theta":
+            from .theta import ThetaSource
+            return ThetaSource(t, o)
+        if self.kind == "relay":
+            from .relay import RelaySource
+            return RelaySource(t, o)
+        raise AssertionError(self.kind)
+
+    @property
+    def nominal_fps(self) -> float | None:
+        """The rate this source is paced at, when we pace it (None otherwise)."""
+        defaults = {"demo": 30.0, "image": 2.0, "sequence": 1.0}
+        if self.kind in defaults:
+            return self.options.fps or defaults[self.kind]
+        if self.kind == "mjpeg":
+            return None
+        return self.options.fps if self.kind == "video" else None
+
+
+def parse_source(spec: str, options: SourceOptions | None = None) -> SourceSpec:
+    """Parse a ``--source`` specification (see the module docstring).
+
+    Raises :class:`InputError` for a specification that cannot work (a missing file, an
+    empty glob, an unknown scheme), so that ``shlight serve`` refuses to start with one
+    clear line rather than retrying forever.
+    """
+    o = options or SourceOptions()
+    s = spec.strip()
+    low = s.lower()
+    if not s:
+        raise InputError("empty source")
+    if low == "demo":
+        return SourceSpec("demo", None, o, "demo (built-in animated scene)")
+    if re.fullmatch(r"(camera:)?\d+", low):
+        index = int(low.split(":")[-1])
+        return SourceSpec("camera", index, o, f"camera {index}")
+    if low.startswith("/dev/video"):
+        return SourceSpec("camera", s, o, f"camera {s}")
+    if re.fullmatch(r"picamera2(:\d+)?", low):
+        index = int(low.split(":")[1]) if ":" in low else 0
+        return SourceSpec("picamera2", index, o, f"Raspberry Pi camera {index} (Picamera2)")
+    if low.startswith("opencv:"):
+        return SourceSpec("opencv", s[7:], o, f"OpenCV {redact(s[7:])}")
+    scheme = urllib.parse.urlsplit(s).scheme.lower() if "://" in s else ""
+    if scheme in ("http", "https"):
+        return SourceSpec("mjpeg", s, o, f"MJPEG {redact(s)}")
+    if scheme in ("theta", "osc", "thetas", "oscs"):
+        if not urllib.parse.urlsplit(s).hostname:
+            raise InputError(f"theta source needs a host, e.g. theta://192.168.1.1: {s}")
+        from .theta import ThetaSource
+        ThetaSource(s, o)  # validates the options
+        return SourceSpec("theta", s, o, f"Ricoh Theta {redact(s)} (OSC live preview)")
+    if scheme in ("ws", "wss"):
+        return SourceSpec("relay", s, o, f"relay {redact(s)}")
+    if scheme in ("rtsp", "rtsps", "rtmp", "udp", "tcp", "srt"):
+        return SourceSpec("opencv", s, o, f"stream {redact(s)}")
+    if scheme:
+        raise InputError(f"unknown source scheme {scheme}:// in {redact(s)}")
+    if any(c in s for c in "*?[") or os.path.isdir(s):
+        if not SequenceSource.expand(s):
+            raise InputError(f"no image files match {s}")
+        return SourceSpec("sequence", s, o, f"images {s}")
+    if not os.path.exists(s):
+        raise InputError(f"no such file or source: {s} (sources: demo, a file, a camera "
+                         f"index, http://, rtsp://, theta://, ws://; see shlight serve --help)")
+    if low.endswith(IMAGE_EXTENSIONS):
+        read_image(s)  # refuses an unreadable image now, with the reader's message
+        return SourceSpec("image", s, o, f"image {s}")
+    if os.path.isfile(s):
+        # A file that is neither an image nor a video would be retried forever: refuse it
+        # now, with one line (a file of frames on disk does not come back by retrying).
+        cap = cv2.VideoCapture(s)
+        try:
+            ok = cap.isOpened()
+        finally:
+            cap.release()
+        if not ok and low.endswith(VIDEO_EXTENSIONS):
+            raise InputError(f"OpenCV cannot open the video {s} (damaged, or a codec "
+                             "this OpenCV build lacks)")
+        if not ok:
+            raise InputError(f"cannot open {s} as a video (OpenCV) or an image "
+                             f"({', '.join(IMAGE_EXTENSIONS)})")
+    return SourceSpec("video", s, o, f"video {s}")

@@ -1,0 +1,143 @@
+"""What every frame source is: the :class:`Source` interface, the :class:`Frame` it
+returns, its errors and options, and small helpers the families share (pacing, URLs).
+
+A *source* is a small blocking object with three methods: :meth:`Source.open` connects,
+:meth:`Source.read` blocks until the next :class:`Frame` arrives and returns it, and
+:meth:`Source.close` lets go. A source raises :class:`SourceError` when it loses its
+camera or stream, and :class:`SourceFinished` at the end of a video that does not loop.
+The capture thread (:mod:`provider.live.capture`) runs it; one module per family of
+sources implements it.
+"""
+from __future__ import annotations
+
+import threading
+import time
+import urllib.parse
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ...core.errors import InputError
+
+USER_AGENT = "shlight"
+
+class SourceError(Exception):
+    """The source lost its camera or stream (the message says why); it will be re-created."""
+
+
+class SourceFinished(Exception):
+    """A finite source (a video played once) has no more frames."""
+
+
+class Interrupted(Exception):
+    """The capture is stopping (raised inside a blocked read)."""
+
+
+@dataclass
+class Frame:
+    """One frame from a source.
+
+    ``image`` is an (H, W, 3) RGB array (uint8, uint16 or float: the engine's frame
+    contract). MJPEG sources deliver ``jpeg`` bytes instead and the consumer decodes only
+    the frames it uses (:meth:`decoded`), so that frames skipped under load cost nothing.
+    A relay delivers ready-made ``lighting`` (an :class:`~provider.core.engine.SH9Result`).
+    ``time`` is the unix time of capture (arrival, for network streams).
+    """
+
+    image: np.ndarray | None
+    time: float
+    jpeg: bytes | None = None
+    lighting: object = None
+    info: dict = field(default_factory=dict)
+
+    def decoded(self) -> np.ndarray:
+        """The RGB image, decoding ``jpeg`` on first use; :class:`InputError` if corrupt."""
+        if self.image is None and self.jpeg is not None:
+            bgr = cv2.imdecode(np.frombuffer(self.jpeg, np.uint8), cv2.IMREAD_COLOR)
+            if bgr is None:
+                raise InputError(f"corrupt JPEG frame ({len(self.jpeg)} bytes)")
+            self.image = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+        if self.image is None:
+            raise InputError("frame has no image")
+        return self.image
+
+
+@dataclass
+class SourceOptions:
+    """Options shared by the sources (each uses the ones that apply to it)."""
+
+    fps: float | None = None          # pace of demo/files; polling rate of snapshot URLs
+    loop: bool = True                 # videos and sequences
+    timeout: float = 5.0              # seconds: connect/read timeout, hang detection
+    capture_size: tuple[int, int] | None = None   # cameras: requested (width, height)
+    fourcc: str | None = None         # cameras: e.g. "MJPG"
+    theta_api: str = "auto"           # "auto", "2.0" or "2.1"
+
+
+class Source:
+    """Base class: a blocking frame reader (see the module docstring)."""
+
+    #: Frames per second the source is expected to deliver (None: unknown, e.g. a camera).
+    nominal_fps: float | None = None
+
+    def __init__(self):
+        self._stop = threading.Event()
+
+    def open(self) -> None:
+        """Connect; raise :class:`SourceError` (or ``OSError``) on failure."""
+
+    def read(self) -> Frame:
+        """Block until the next frame and return it."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release the camera, file or connection (called after any failure too)."""
+
+    def interrupt(self) -> None:
+        """Ask a blocked :meth:`read` to give up soon (called from another thread)."""
+        self._stop.set()
+
+    def _sleep(self, seconds: float) -> None:
+        if seconds > 0 and self._stop.wait(seconds):
+            raise Interrupted()
+
+
+class Pacer:
+    """Releases a caller at a steady rate without bursts after a pause."""
+
+    def __init__(self, fps: float):
+        self.interval = 1.0 / fps
+        self._next = None
+
+    def wait(self, source: Source) -> None:
+        now = time.monotonic()
+        if self._next is None:
+            self._next = now
+        source._sleep(self._next - now)
+        self._next = max(self._next + self.interval, time.monotonic() - self.interval)
+
+
+# ---- URLs ----------------------------------------------------------------------------------
+
+def split_credentials(url: str) -> tuple[str, str | None, str | None]:
+    """(url without user:password@, user, password)."""
+    parts = urllib.parse.urlsplit(url)
+    if parts.username is None:
+        return url, None, None
+    host = parts.hostname or ""
+    if ":" in host:
+        host = f"[{host}]"
+    netloc = host + (f":{parts.port}" if parts.port else "")
+    clean = urllib.parse.urlunsplit((parts.scheme, netloc, parts.path, parts.query, parts.fragment))
+    return (clean, urllib.parse.unquote(parts.username),
+            urllib.parse.unquote(parts.password or ""))
+
+
+def redact(url: str) -> str:
+    """The URL for logs: no password, no token."""
+    clean, user, _ = split_credentials(url)
+    parts = urllib.parse.urlsplit(clean)
+    query = "&".join(q if not q.lower().startswith("token=") else "token=***"
+                     for q in parts.query.split("&")) if parts.query else ""
+    return urllib.parse.urlunsplit(parts._replace(query=query))

@@ -1,0 +1,86 @@
+"""Relay: the coefficients of another ``shlight serve`` (edge device → PC → many headsets)."""
+from __future__ import annotations
+
+import json
+import urllib.parse
+
+import numpy as np
+
+from ...core.engine import SH9Result
+from .base import USER_AGENT, Frame, Interrupted, Source, SourceError, SourceOptions, redact
+
+_RELAY_STATS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
+                "coverage_sr", "negative_energy_fraction", "negative_pixels",
+                "nonfinite_pixels", "order", "min_irradiance", "ringing", "window_cutoff")
+
+
+class RelaySource(Source):
+    """Subscribes to another ``shlight serve`` and re-serves its coefficients (edge device →
+    PC → many headsets). Frames carry ready-made lighting, timed by the upstream frame
+    time, so latency figures stay end-to-end. The probe is ``?probe=NAME`` (default: the
+    upstream's first probe); ``?token=`` is passed on. Upstream messages marked stale are
+    not relayed as fresh: this probe then goes stale too."""
+
+    def __init__(self, url: str, options: SourceOptions):
+        super().__init__()
+        self.url, self.options = url, options
+        query = urllib.parse.parse_qs(urllib.parse.urlsplit(url).query)
+        self.probe = query.get("probe", [None])[0]
+        self._ws = None
+
+    def open(self) -> None:
+        from websockets.sync.client import connect
+        try:
+            ws = connect(self.url, open_timeout=self.options.timeout,
+                         close_timeout=1, compression=None, max_size=1 << 20,
+                         user_agent_header=USER_AGENT)
+            # Held open across read() calls, not in a with-block: enter it by hand (newer
+            # websockets warn about connect() used outside a context manager).
+            self._ws = ws.__enter__()
+        except Exception as exc:  # noqa: BLE001 - refused, HTTP 401/404, timeout...
+            raise SourceError(f"{redact(self.url)}: {exc}") from None
+        hello = self._recv()
+        if hello.get("type") != "hello":
+            raise SourceError("the upstream did not say hello")
+        if self.probe is None:
+            probes = hello.get("probes") or ["default"]
+            self.probe = probes[0]
+        self._ws.send(json.dumps({"type": "subscribe", "probe": self.probe}))
+
+    def _recv(self) -> dict:
+        from websockets.exceptions import ConnectionClosed
+        try:
+            text = self._ws.recv(timeout=self.options.timeout)
+        except TimeoutError:
+            raise SourceError(f"no message from upstream in {self.options.timeout:g} s") from None
+        except ConnectionClosed as exc:
+            raise SourceError(f"upstream closed the connection ({exc})") from None
+        try:
+            msg = json.loads(text)
+        except ValueError:
+            raise SourceError("upstream sent something that is not JSON") from None
+        return msg if isinstance(msg, dict) else {}
+
+    def read(self) -> Frame:
+        while True:
+            if self._stop.is_set():
+                raise Interrupted()
+            msg = self._recv()
+            kind = msg.get("type")
+            if kind == "error":
+                raise SourceError(f"upstream error: {msg.get('error')}: {msg.get('detail', '')}")
+            if kind != "sh9" or msg.get("stale") or msg.get("probe") != self.probe:
+                continue
+            try:
+                coeffs = np.asarray(msg["coefficients"], np.float64).reshape(9, 3)
+                mats = np.asarray(msg["matrices"], np.float64).reshape(3, 4, 4)
+                t = float(msg["time"])
+            except (KeyError, TypeError, ValueError):
+                raise SourceError("upstream sent a malformed sh9 message") from None
+            stats = {k: msg[k] for k in _RELAY_STATS if k in msg}
+            return Frame(None, t, lighting=SH9Result(coeffs, mats, stats),
+                         info={"upstream_seq": msg.get("seq")})
+
+    def close(self) -> None:
+        if self._ws is not None:
+            self._ws.close()

@@ -1,0 +1,125 @@
+"""A Ricoh Theta over Wi-Fi: the Open Spherical Camera live preview (DESIGN.md §8)."""
+from __future__ import annotations
+
+import json
+import logging
+import time
+import urllib.error
+import urllib.parse
+import urllib.request
+
+from ...core.errors import InputError
+from .base import USER_AGENT, Frame, Source, SourceError, SourceOptions, split_credentials
+from .http import MultipartJpegReader, http_opener
+
+log = logging.getLogger("shlight.source")
+
+
+class OscCommandError(SourceError):
+    """An Open Spherical Camera command answered with an error."""
+
+    def __init__(self, command: str, code: str, message: str):
+        super().__init__(f"{command}: {code}: {message}")
+        self.code = code
+
+
+class ThetaSource(Source):
+    """A Ricoh Theta over Wi-Fi: the Open Spherical Camera live preview (DESIGN.md §8).
+
+    Every command is ``POST /osc/commands/execute`` with ``{"name", "parameters"}``. API
+    2.1 (Theta V/Z1, and an S switched to 2.1): ``camera.getLivePreview``. API 2.0 (the
+    Theta S default): ``camera.startSession`` gives a ``sessionId``, then
+    ``camera._getLivePreview {sessionId}``. ``api="auto"`` tries 2.1 and falls back to
+    2.0 when the camera rejects the command. The reply is an endless MJPEG multipart body
+    of equirect frames (S/SC: 640×320 at 10 fps). In client mode the camera asks for
+    HTTP Digest auth: give ``theta://USER:PASSWORD@HOST``.
+    """
+
+    EXECUTE = "/osc/commands/execute"
+
+    def __init__(self, url: str, options: SourceOptions):
+        super().__init__()
+        parts = urllib.parse.urlsplit(url)
+        query = urllib.parse.parse_qs(parts.query)
+        self.api = query.get("api", [options.theta_api])[0]
+        if self.api not in ("auto", "2.0", "2.1"):
+            raise InputError(f"theta source: api must be 2.0, 2.1 or auto, got {self.api!r}")
+        scheme = "https" if parts.scheme.endswith("s") and parts.scheme != "theta" else "http"
+        base = urllib.parse.urlunsplit((scheme, parts.netloc, "", "", ""))
+        self.base, user, password = split_credentials(base)
+        self.options = options
+        self._open = http_opener(self.base, user, password).open
+        self._resp, self._reader, self._session = None, None, None
+        self.api_used = None
+
+    def _execute(self, name: str, parameters: dict, *, stream: bool = False,
+                 timeout: float | None = None):
+        body = json.dumps({"name": name, "parameters": parameters}).encode()
+        req = urllib.request.Request(self.base + self.EXECUTE, data=body, method="POST", headers={
+            "Content-Type": "application/json;charset=utf-8", "Accept": "*/*",
+            "X-XSRF-Protected": "1", "User-Agent": USER_AGENT})
+        try:
+            resp = self._open(req, timeout=timeout or self.options.timeout)
+        except urllib.error.HTTPError as exc:
+            if exc.code == 401:  # client mode: Digest auth refused or not given
+                raise SourceError(
+                    f"{self.base}: the camera refused the credentials (HTTP 401); in client "
+                    "mode give theta://USER:PASSWORD@HOST (user: the serial number, e.g. "
+                    "THETAYL00100001; password: its digits)") from None
+            try:
+                err = json.loads(exc.read(4096) or b"{}").get("error") or {}
+            except ValueError:
+                err = {}
+            raise OscCommandError(name, str(err.get("code", f"HTTP {exc.code}")),
+                                  str(err.get("message", exc.reason))) from None
+        except urllib.error.URLError as exc:
+            raise SourceError(f"{self.base}: {exc.reason}") from None
+        if stream:
+            return resp
+        with resp:
+            try:
+                reply = json.loads(resp.read(1 << 20))
+            except ValueError:
+                raise SourceError(f"{name}: the camera's answer is not JSON") from None
+        if reply.get("state") == "error":
+            err = reply.get("error") or {}
+            raise OscCommandError(name, str(err.get("code")), str(err.get("message")))
+        return reply
+
+    def _preview(self, resp) -> None:
+        ctype = resp.headers.get_content_type()
+        if not ctype.startswith("multipart/"):
+            resp.close()
+            raise SourceError(f"live preview answered {ctype}, not multipart MJPEG")
+        self._resp, self._reader = resp, MultipartJpegReader(resp)
+
+    def open(self) -> None:
+        if self.api in ("auto", "2.1"):
+            try:
+                self._preview(self._execute("camera.getLivePreview", {}, stream=True))
+                self.api_used = "2.1"
+                return
+            except OscCommandError as exc:
+                if self.api == "2.1":
+                    raise
+                log.debug("%s: getLivePreview refused (%s); trying API 2.0", self.base, exc)
+        reply = self._execute("camera.startSession", {})
+        self._session = (reply.get("results") or {}).get("sessionId")
+        if not self._session:
+            raise SourceError("camera.startSession gave no sessionId")
+        self._preview(self._execute("camera._getLivePreview", {"sessionId": self._session},
+                                    stream=True))
+        self.api_used = "2.0"
+
+    def read(self) -> Frame:
+        return Frame(None, time.time(), jpeg=self._reader.next_jpeg())
+
+    def close(self) -> None:
+        if self._resp is not None:
+            self._resp.close()
+        if self._session:
+            try:  # frees the camera for the next session; the camera may be gone
+                self._execute("camera.closeSession", {"sessionId": self._session}, timeout=1.0)
+            except Exception:  # noqa: BLE001
+                pass
+            self._session = None

@@ -1,0 +1,10 @@
+"""Verification tools: proof that the shipped shaders compute what the CPU computes.
+
+* :mod:`.render`: a headless OpenGL context (moderngl + EGL), meshes, cameras;
+* :mod:`.harness`: ``shlight validate-shaders`` (GLSL, and HLSL through SPIR-V);
+* :mod:`.hlsl`: HLSL → SPIR-V → GLSL with glslang and spirv-cross;
+* :mod:`.contract`: the contract vectors shared with the C# tests;
+* :mod:`.pictures`: the comparison pictures against brute-force irradiance.
+
+Built on :mod:`provider.core`.
+"""
