@@ -203,6 +203,45 @@ def test_monobehaviours_compile_against_standin(build_dir):
     _compile(build_dir / "Runtime.dll", [*CORE, *RUNTIME, *SAMPLES, STANDIN], target="library")
 
 
+# Patterns Unity's compiler rejects because the member is a property returning a struct (CS1612:
+# "Cannot modify the return value of ... because it is not a variable"), a property passed by ref
+# (CS0206), or a generic constraint. The stand-in must reject them too, or a package change that Unity would not compile
+# passes here. Each line alone, compiled against the stand-in, must fail with that error.
+UNITY_REJECTS = {
+    "RenderSettings.ambientProbe[0, 0] = 1f;": "CS1612",
+    "new GameObject(\"g\").transform.rotation.x = 1f;": "CS1612",
+    "new GameObject(\"g\").transform.position.y = 1f;": "CS1612",
+    "new GameObject(\"g\").AddComponent<Light>().color.r = 1f;": "CS1612",
+    "new Material((Shader)null).color.g = 1f;": "CS1612",
+    "Bump(ref new GameObject(\"g\").AddComponent<Light>().intensity);": "CS0206",
+    # generic constraints as Unity declares them (GameObject.AddComponent<T> where T : Component)
+    "new GameObject(\"g\").AddComponent<System.Text.StringBuilder>();": "CS0311",
+}
+
+
+def test_standin_rejects_what_unity_rejects(tmp_path):
+    """The stand-in declares properties where Unity has properties: assigning through them fails."""
+    # control: the harness compiles when the line is valid
+    ok_lines = ["var sh = RenderSettings.ambientProbe; sh[0, 0] = 1f; RenderSettings.ambientProbe = sh;",
+                "var t = new GameObject(\"g\").transform; var q = t.rotation; q.x = 1f; t.rotation = q;",
+                "var m = new Matrix4x4(); m[1, 2] = 3f; Matrix4x4 copy = m; copy[1, 2] = 4f;"
+                " if (m[1, 2] != 3f || m.m12 != 3f) throw new System.Exception(\"not a value type\");"]
+    lines = {**{l: None for l in ok_lines}, **UNITY_REJECTS}
+    for i, (line, code) in enumerate(lines.items()):
+        src = tmp_path / f"probe{i}.cs"
+        src.write_text("using UnityEngine; using UnityEngine.Rendering;\n"
+                       "static class Probe { static void Bump(ref float v) { v += 1; }\n"
+                       f"  static void Main() {{ {line} }} }}\n")
+        mcs, _ = _mono_tools()
+        r = subprocess.run([mcs, "-nologo", "-target:exe", f"-out:{tmp_path / f'probe{i}.exe'}", str(STANDIN), str(src)],
+                           capture_output=True, text=True, timeout=120)
+        if code is None:
+            assert r.returncode == 0, f"valid line did not compile: {line}\n{r.stdout}{r.stderr}"
+        else:
+            assert r.returncode != 0 and code in r.stdout + r.stderr, \
+                f"the stand-in accepts what Unity rejects ({code}): {line}\n{r.stdout}{r.stderr}"
+
+
 def test_core_has_no_unity_dependency(build_dir):
     """The core compiles alone (no UnityEngine), as its asmdef's noEngineReferences promises."""
     for f in CORE:
