@@ -165,7 +165,14 @@ def test_core_against_generated_vectors(contract_exe, tmp_path):
                 "rotated_matrices_unity", "quaternion_roundtrip", "rotated_upload_float32",
                 "rotated_irradiance_unity", "rotated_ambient_shadesh9", "one_sided_light",
                 "intensity_multiplier", "furnace", "parser_rejects_invalid", "parser_accepts_valid",
-                "parser_invariant_culture", "subscribe_message", "uri"}
+                "parser_invariant_culture", "subscribe_message", "uri",
+                # lights (DESIGN.md §10): one-sided directional lights in Unity's frame, Unity's Lambert
+                # with the colour/intensity mapping in each colour-space mode, ambient-only SH9
+                "light_split", "light_direction_unity", "light_forward", "light_color_range",
+                "light_radiance_LinearIntensity", "light_radiance_GammaIntensity", "light_radiance_Gamma",
+                "light_ambient_only", "light_not_drawn_full_sh", "light_intensity_multiplier",
+                "light_without_ambient", "two_lights", "two_lights_first_drawn", "lights_parser_accepts",
+                "lights_parser_rejects", "no_allocation_per_frame"}
     assert expected <= set(checks), expected - set(checks)
     assert all(c["ok"] for c in checks.values())
     # the matrix algebra is exact to rounding; irradiance agrees to the constants' 6 digits
@@ -173,6 +180,9 @@ def test_core_against_generated_vectors(contract_exe, tmp_path):
     assert checks["rotated_matrices_unity"]["max_rel"] < 1e-14
     assert checks["irradiance_unity"]["max_rel"] < 1e-6
     assert checks["ambient_shadesh9_from_matrices"]["max_rel"] < 1e-6
+    # a white Lambertian surface facing the light shows ρE/π through Unity's Lambert to float rounding
+    for mode in ("LinearIntensity", "GammaIntensity", "Gamma"):
+        assert checks[f"light_radiance_{mode}"]["max_rel"] < 1e-6
     _print_agreement("generated vectors", report)
 
 
