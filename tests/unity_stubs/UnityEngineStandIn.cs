@@ -482,13 +482,15 @@ namespace UnityEngine
 
     public sealed class Debug
     {
+        /// <summary>Stand-in only: messages logged so far (a harness tells event frames from steady ones).</summary>
+        public static int StandInMessages;
         // stderr: a program built with the stand-in keeps stdout for its own output
-        public static void Log(object message) { Console.Error.WriteLine(message); }
-        public static void Log(object message, Object context) { Console.Error.WriteLine(message); }
-        public static void LogWarning(object message) { Console.Error.WriteLine("warning: " + message); }
-        public static void LogWarning(object message, Object context) { Console.Error.WriteLine("warning: " + message); }
-        public static void LogError(object message) { Console.Error.WriteLine("error: " + message); }
-        public static void LogError(object message, Object context) { Console.Error.WriteLine("error: " + message); }
+        public static void Log(object message) { StandInMessages++; Console.Error.WriteLine(message); }
+        public static void Log(object message, Object context) { StandInMessages++; Console.Error.WriteLine(message); }
+        public static void LogWarning(object message) { StandInMessages++; Console.Error.WriteLine("warning: " + message); }
+        public static void LogWarning(object message, Object context) { StandInMessages++; Console.Error.WriteLine("warning: " + message); }
+        public static void LogError(object message) { StandInMessages++; Console.Error.WriteLine("error: " + message); }
+        public static void LogError(object message, Object context) { StandInMessages++; Console.Error.WriteLine("error: " + message); }
     }
 
     public abstract class PropertyAttribute : Attribute { }
