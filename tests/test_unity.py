@@ -257,6 +257,36 @@ def test_standin_rejects_what_unity_rejects(tmp_path):
                 f"the stand-in accepts what Unity rejects ({code}): {line}\n{r.stdout}{r.stderr}"
 
 
+def test_mrtk_ambient_helper(build_dir):
+    """SH9MrtkAmbient switches on the "Spherical Harmonics" toggle (property and keyword) of MRTK2
+    and MRTK3 Graphics Tools materials so that the ambient probe reaches them, reports MRTK3
+    materials on which it cannot show (unlit), moves renderers off baked light probes, leaves other
+    materials alone, and puts everything back on disable (the materials are shared assets)."""
+    exe = _compile(build_dir / "MrtkAmbientTest.exe", [*CORE, *RUNTIME, STANDIN, CSHARP / "MrtkAmbientTest.cs"])
+    _, mono = _mono_tools()
+    r = subprocess.run([mono, str(exe)], capture_output=True, text=True, timeout=60)
+    report = json.loads(r.stdout.strip().splitlines()[-1])
+    assert r.returncode == 0 and not report["failures"], json.dumps(report, indent=1)
+    assert {"mrtk2_switched_on", "mrtk3_switched_on", "others_untouched", "unlit_reported", "light_probes_off",
+            "restored", "scope_whole_scene", "static_helper"} <= set(report["checks"])
+
+
+def test_mrtk_shader_names_match_their_sources():
+    """The shader, property and keyword names the helper looks for, as read in MRTK2's
+    MixedRealityStandard.shader and MRTK3 Graphics Tools' GraphicsToolsStandard*.shader (cited in
+    Sh9MrtkShaders.cs); a typo here would make the helper silently skip every material."""
+    text = (PKG / "Runtime" / "Core" / "Sh9MrtkShaders.cs").read_text()
+    rows = re.findall(r'new Sh9AmbientSwitch\("([^"]+)", "([^"]+)", "([^"]+)", (\w+)', text)
+    assert {r[0]: r[1:] for r in rows} == {
+        "Mixed Reality Toolkit/Standard": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "null"),
+        "Graphics Tools/Standard": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "GraphicsToolsLit"),
+        "Graphics Tools/Non-SRP/StandardNonSrp": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "GraphicsToolsLit"),
+        "Graphics Tools/Standard Canvas": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "GraphicsToolsLit"),
+        "Graphics Tools/Non-SRP/Standard CanvasNonSrp": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "GraphicsToolsLit"),
+    }
+    assert 'GraphicsToolsLit = { "_DIRECTIONAL_LIGHT", "_DISTANT_LIGHT" }' in text
+
+
 def test_core_has_no_unity_dependency(build_dir):
     """The core compiles alone (no UnityEngine), as its asmdef's noEngineReferences promises."""
     for f in CORE:
