@@ -17,11 +17,14 @@ Beyond compiling, from the SPIR-V (spirv-cross reflection, spirv-opt):
 * GPU instancing: _Color per instance in the instanced variants.
 * Single-pass instanced stereo: the render-target slice (SV_RenderTargetArrayIndex) is computed
   from the instance ID after optimisation, so each eye gets its own draw.
-Nothing here runs Unity or a GPU: it checks what a compiler and the macros can see.
+And the colour pass is run (SPIR-V -> GLSL by spirv-cross, software OpenGL through moderngl, the
+same route as `shlight validate-shaders`' HLSL path) with a light from one side.
+Nothing here runs Unity.
 """
 from __future__ import annotations
 
 import itertools
+import math
 import json
 import os
 import re
@@ -378,3 +381,109 @@ def test_all_variants_compile_with_unity_includes(tmp_path):
         total += len(jobs)
         print(f"\nUnity {version} CGIncludes: {len(jobs)} pass/stage/variant combinations compiled")
     assert total > 0
+
+
+# ---- the colour pass, run (software OpenGL): SH9 plus the main light where the client drives it -------
+
+def _gl_context():
+    try:
+        import moderngl
+    except ImportError:
+        pytest.skip("moderngl is not installed (pip install -e .[test])")
+    try:
+        return moderngl.create_context(standalone=True, require=330, backend="egl")
+    except Exception as exc:  # moderngl raises plain Exceptions when no GL library is found
+        pytest.skip(f"no OpenGL 3.3 context ({exc}); on Debian: apt-get install libegl1 libgl1-mesa-dri")
+
+
+def run_fragment(ctx, p: dict, defines: list[str], normals, values: dict, tmp_path: Path):
+    """Run pass `p`'s fragment stage once per normal (one point per pixel), with the uniform block
+    members in `values` (by name; others 0) and a white 1×1 _MainTex. Returns (N, 4) float32."""
+    import numpy as np
+    spv = tmp_path / f"run_{p['pipeline']}_{len(defines)}.spv"
+    ok, log = compile_pass(p, "fragment", defines, [STUBS], spv)
+    assert ok, log
+    glsl = subprocess.run([_tool("spirv-cross"), str(spv), "--version", "330", "--no-es", "--no-420pack-extension"],
+                          capture_output=True, text=True, timeout=60).stdout
+    refl = reflect(spv)
+    inputs = re.findall(r"^in (\w+) (\w+);", glsl, re.M)
+    assert {n for _, n in inputs} == {"i_uv", "i_worldNormal", "i_color"}, inputs
+    vertex = ("#version 330\nin vec3 normal;\nuniform float width;\n" +
+              "".join(f"out {t} {n};\n" for t, n in inputs) +
+              "void main() {\n  gl_Position = vec4((float(gl_VertexID) + 0.5) / width * 2.0 - 1.0, 0.0, 0.0, 1.0);\n"
+              "  gl_PointSize = 1.0;\n  i_uv = vec2(0.5);\n  i_worldNormal = normal;\n  i_color = vec4(1.0);\n}\n")
+    prog = ctx.program(vertex_shader=vertex, fragment_shader=glsl)
+    n = len(normals)
+    prog["width"].value = float(n)
+    buffers = []
+    for binding, ubo in enumerate(refl["ubos"]):
+        data = np.zeros(ubo["block_size"] // 4, np.float32)
+        for m in refl["types"][ubo["type"]]["members"]:
+            if m["name"] in values:
+                v = np.asarray(values[m["name"]], np.float32).reshape(-1)
+                data[m["offset"] // 4: m["offset"] // 4 + v.size] = v
+        name = "_Global" if ubo["name"] == "$Global" else ubo["name"]
+        buf = ctx.buffer(data.tobytes())
+        buf.bind_to_uniform_block(binding)
+        prog[name].binding = binding
+        buffers.append(buf)
+    texture = ctx.texture((1, 1), 4, np.ones(4, np.float32).tobytes(), dtype="f4")
+    texture.use(0)
+    fbo = ctx.framebuffer(color_attachments=[ctx.texture((n, 1), 4, dtype="f4")])
+    fbo.use()
+    fbo.clear()
+    vbo = ctx.buffer(np.asarray(normals, np.float32).tobytes())
+    vao = ctx.vertex_array(prog, [(vbo, "3f", "normal")])
+    vao.render(mode=ctx.POINTS, vertices=n)
+    return np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(n, 4)
+
+
+@pytest.mark.parametrize("pipeline", ["UniversalPipeline", "built-in"])
+@pytest.mark.parametrize("colour_space", ["linear", "gamma"])
+def test_colour_pass_adds_the_driven_main_light(tmp_path, pipeline, colour_space):
+    """The compiled colour pass, run: radiance = albedo · (E(n)/π + main light · max(0, N·L)) with a
+    light from +X only, in Unity's frame: +X gets the ambient plus the light, -X and ±Y only the
+    ambient; with _SHMainLightScale 0 (the client does not drive a light) no light at all, whatever
+    the scene's light says. Built-in reads _WorldSpaceLightPos0/_LightColor0, URP
+    _MainLightPosition/_MainLightColor. In gamma projects, lighting is done in linear: the light
+    colour (the sRGB encoding of E/π, as SH9LightingClient sets it) is decoded exactly."""
+    import numpy as np
+    ctx = _gl_context()
+    p = next(q for q in parse_shader(SHADER.read_text()) if q["pipeline"] == pipeline and q["name"] == "SH9Diffuse")
+    defines = ["SHADER_API_D3D11", "SHADER_TARGET=35", "UNITY_VERSION=202230", "SHADER_STAGE_FRAGMENT"]
+    gamma = colour_space == "gamma"
+    if gamma:
+        defines.append("UNITY_COLORSPACE_GAMMA")
+    ambient = 0.05                                # uniform radiance: E = π·0.05, E/π = 0.05
+    m = np.zeros((3, 4, 4))
+    m[:, 3, 3] = math.pi * ambient
+    light = np.array([0.9, 0.6, 0.3])              # E/π of the light on a surface facing it (linear)
+    srgb = np.array([_linear_to_gamma_exact(c) for c in light])
+    direction = np.array([1.0, 0.0, 0.0, 0.0])    # toward the light, Unity world frame
+    normals = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (math.sqrt(0.5), math.sqrt(0.5), 0)]
+    common = {"_SHIrradianceR": m[0], "_SHIrradianceG": m[1], "_SHIrradianceB": m[2], "_Exposure": 1.0,
+              "_Color": [1, 1, 1, 1]}
+    lit = srgb if gamma else light
+    if pipeline == "built-in":
+        names = {"_WorldSpaceLightPos0": direction, "_LightColor0": [*lit, 1]}
+    else:
+        names = {"_MainLightPosition": direction, "_MainLightColor": [*lit, 1]}
+    for scale in (1.0, 0.0):
+        out = run_fragment(ctx, p, defines, normals, {**common, **names, "_SHMainLightScale": scale}, tmp_path)
+        cosines = np.maximum(0, np.asarray(normals, float) @ direction[:3])
+        want = ambient + scale * cosines[:, None] * light[None, :]
+        if gamma:    # the pass encodes with UnityCG's LinearToGammaSpace
+            want = np.maximum(1.055 * want ** 0.416666667 - 0.055, 0)
+        assert np.allclose(out[:, :3], want, rtol=2e-3, atol=1e-4), (scale, out[:, :3], want)
+        assert np.allclose(out[:, 3], 1.0)
+
+
+def _linear_to_gamma_exact(v: float) -> float:
+    """UnityCG.cginc's LinearToGammaSpaceExact, which Sh9Math.LinearToGammaExact mirrors."""
+    if v <= 0.0:
+        return 0.0
+    if v <= 0.0031308:
+        return 12.92 * v
+    if v < 1.0:
+        return 1.055 * v ** 0.4166667 - 0.055
+    return v ** 0.45454545

@@ -57,6 +57,16 @@
 
 #define UNITY_POSITION(pos) float4 pos : SV_POSITION
 
+// Textures: separate texture and sampler state with DX11-style syntax (lines 448-470), DX9 style
+// otherwise (lines 545-565).
+#if defined(SHADER_API_D3D11) || defined(UNITY_COMPILER_HLSLCC)
+    #define UNITY_DECLARE_TEX2D(tex) Texture2D tex; SamplerState sampler##tex
+    #define UNITY_SAMPLE_TEX2D(tex, coord) tex.Sample(sampler##tex, coord)
+#else
+    #define UNITY_DECLARE_TEX2D(tex) sampler2D tex
+    #define UNITY_SAMPLE_TEX2D(tex, coord) tex2D(tex, coord)
+#endif
+
 // D3D-style clip space z in [0, 1], reversed (lines 670-678).
 #if defined(SHADER_API_D3D11) || defined(SHADER_API_METAL) || defined(SHADER_API_VULKAN)
     #define UNITY_REVERSED_Z 1

@@ -15,7 +15,9 @@
 #include "UnityCG.cginc"
 #include "sh9_irradiance.hlsl"
 
-sampler2D _MainTex;
+// Texture and sampler state declared separately on D3D11/GL/Vulkan/Metal (HLSLSupport.cginc's
+// UNITY_DECLARE_TEX2D), a DX9-style sampler2D elsewhere.
+UNITY_DECLARE_TEX2D(_MainTex);
 
 // SRP Batcher: every material property in one cbuffer named UnityPerMaterial, with the same layout
 // in every pass and variant. With GPU instancing, _Color is per instance (MaterialPropertyBlock
@@ -93,7 +95,7 @@ half4 SH9ForwardFragment(SH9Varyings i) : SV_Target
 {
     UNITY_SETUP_STEREO_EYE_INDEX_POST_VERTEX(i);
     float3 n = normalize(i.worldNormal);
-    float4 albedo = tex2D(_MainTex, i.uv) * i.color;
+    float4 albedo = UNITY_SAMPLE_TEX2D(_MainTex, i.uv) * i.color;
     float3 lightColor = SH9_MAIN_LIGHT_COLOR;
 #ifdef UNITY_COLORSPACE_GAMMA
     // Gamma project: light in linear, encode at the end. SH9LightingClient sets the light's colour
