@@ -815,6 +815,56 @@ def test_live_client_reconnects_at_once_on_resume(live_exe, tmp_path):
             relay.close()
 
 
+def _srgb_to_linear(v: float) -> float:
+    return v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4 if v < 1 else v ** 2.2
+
+
+def test_live_client_drives_the_directional_light(live_exe, tmp_path):
+    """DESIGN.md §10 end to end: `shlight serve --lights 1` on a panorama with a small, very bright
+    source sends a light; the component shows it on its Directional Light (forward = minus the
+    direction toward the light, in Unity's frame), with colour × intensity = E/π (linear colour space,
+    lightsUseLinearIntensity on), _SHMainLightScale 1, and gives the ambient probe and SH9 globals the
+    ambient SH only."""
+    if "--lights" not in _serve_help():
+        pytest.skip("`shlight serve --help` lists no --lights: the provider does not send lights yet "
+                    "(needs `shlight serve --lights N` adding DESIGN.md §10's fields to each sh9 message)")
+    from provider import sh
+    import cv2
+    image = tmp_path / "sun.png"
+    img = np.full((64, 128, 3), 20, np.uint8)
+    img[14:16, 95:97] = 255                      # a sun at u = 0.75 (wire +X), a little above the horizon
+    assert cv2.imwrite(str(image), img)
+    with ServeProcess("--source", str(image), "--lights", "1", "--keepalive", "0.25") as server:
+        client = _LiveClient(live_exe, server.url, "-", "default", "40", "--light", "--color-space=linear",
+                             "--linear-intensity")
+        try:
+            _, ev = client.wait_for("a message with a light (--lights 1, a sun-like source)",
+                                    lambda e: e["event"] == "applied" and e["lights"] >= 1, timeout=30)
+            assert client.quit() == 0
+        finally:
+            client.kill()
+    d = np.array(ev["wire_light_directions"][:3])
+    e = np.array(ev["wire_light_irradiance"][:3])
+    assert d[0] > 0.8, f"the light should come from +X (u = 0.75): {d}"
+    lt = ev["light"]
+    assert ev["light_active"] and lt["enabled"] and ev["main_light_scale"] == 1 and not lt["use_color_temperature"]
+    # forward: where the light travels, in Unity's frame (x, y, -z)
+    assert np.allclose(lt["forward"], -(d @ S3), atol=1e-5), (lt["forward"], d)
+    # colour.linear × intensity = E/π: a white Lambertian surface facing it shows ρE/π in Unity
+    seen = np.array([_srgb_to_linear(c) for c in lt["color"]]) * lt["intensity"]
+    assert np.allclose(seen, e / math.pi, rtol=1e-4), (seen, e / math.pi)
+    # the SH9 and the ambient probe carry the ambient only (one light: nothing folded back)
+    amb = np.array(ev["wire_ambient_coefficients"]).reshape(9, 3)
+    expected = S4 @ sh.irradiance_matrices(amb) @ S4
+    applied = np.array(ev["matrices"]).reshape(3, 4, 4)
+    if ev["lights"] == 1:
+        assert np.allclose(applied, expected, rtol=0, atol=2e-7 * np.abs(expected).max())
+        lu = _unity_coefficients(amb)
+        assert np.allclose(ev["ambient"], _ambient_from_coefficients(lu), rtol=0, atol=3e-6 * np.abs(lu).max())
+    full = S4 @ sh.irradiance_matrices(np.array(ev["wire_coefficients"]).reshape(9, 3)) @ S4
+    assert not np.allclose(applied, full), "the SH9 globals still hold the light"
+
+
 # ---- TLS (wss://) ---------------------------------------------------------------------------------
 
 def _openssl(*args, cwd):
