@@ -1109,7 +1109,12 @@ def test_package_manifest_and_layout():
     readme = (PKG / "README.md").read_text()
     for needle in ("Add package from disk", "?path=unity_package", "--host 0.0.0.0", "--token",
                    "InternetClient", "PrivateNetworkClientServer", "nothing lights up",
-                   "UnityCG.cginc", "UndoCosineRescaling", "PackCoefficients", "URP"):
+                   "UnityCG.cginc", "UndoCosineRescaling", "PackCoefficients", "URP",
+                   # the sections a HoloLens/MRTK/URP user needs (issue 15) and the lights mapping (§10)
+                   "SH9MrtkAmbient", "Spherical Harmonics", "Graphics Tools/Standard", "DepthOnly",
+                   "depth priming", "UnityPerMaterial", "OnApplicationPause", "--tls-cert",
+                   "subjectAltName", "fullchain", "lightsUseLinearIntensity", "gamma colour space",
+                   "Nothing in this package has been run inside Unity"):
         assert needle in readme, needle
 
 

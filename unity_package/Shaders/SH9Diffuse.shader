@@ -4,7 +4,7 @@
 // the server's lights (_SHMainLightScale). The passes are in SH9DiffusePasses.hlsl.
 //
 // * URP (first SubShader, picked by URP through its RenderPipeline tag): the colour pass (no
-//   LightMode tag: URP draws it as SRPDefaultUnlit in forward and deferred), ShadowCaster,
+//   LightMode tag: URP draws it as SRPDefaultUnlit), ShadowCaster,
 //   DepthOnly (needed with depth priming) and DepthNormals; SRP Batcher layout (UnityPerMaterial).
 // * Built-in pipeline (second SubShader; the built-in pipeline skips the URP one): ForwardBase
 //   (for the main directional light) and ShadowCaster.
