@@ -8,9 +8,14 @@
 * tests/csharp/LiveClient.cs (package code + stand-in, playing Unity's player loop) talks to a
   live ``shlight serve`` over a real WebSocket: messages parsed and applied (matrices and ambient
   probe against the Python conversion, a rotated transform), a stale source and its return, a
-  server killed and restarted on the same port (the client reconnects by itself), a wrong token.
-* The package's HLSL include equals shaders/sh9_irradiance.hlsl byte for byte; the demo shader's
-  program compiles with glslangValidator's HLSL front end (stand-in UnityCG.cginc).
+  server killed and restarted on the same port (the client reconnects by itself), a wrong token;
+  suspend/resume with a connection that died unnoticed (reconnect at once on resume); zero
+  managed allocations per Update in the steady state (Mono's per-thread allocation counter);
+  wss:// with a private-CA certificate, trusted or not by the client's store (a TLS proxy now;
+  `shlight serve --tls-cert` when the provider has it).
+* The stand-in rejects what Unity's compiler rejects (properties, struct semantics, constraints).
+* The package's HLSL include equals shaders/sh9_irradiance.hlsl byte for byte (the shader's
+  passes and variants are compiled in tests/test_unity_shaders.py).
 
 Nothing here runs Unity. ``python3 tests/test_unity.py --write-meta`` adds missing .meta files.
 """
@@ -165,7 +170,14 @@ def test_core_against_generated_vectors(contract_exe, tmp_path):
                 "rotated_matrices_unity", "quaternion_roundtrip", "rotated_upload_float32",
                 "rotated_irradiance_unity", "rotated_ambient_shadesh9", "one_sided_light",
                 "intensity_multiplier", "furnace", "parser_rejects_invalid", "parser_accepts_valid",
-                "parser_invariant_culture", "subscribe_message", "uri"}
+                "parser_invariant_culture", "subscribe_message", "uri",
+                # lights (DESIGN.md §10): one-sided directional lights in Unity's frame, Unity's Lambert
+                # with the colour/intensity mapping in each colour-space mode, ambient-only SH9
+                "light_split", "light_direction_unity", "light_forward", "light_color_range",
+                "light_radiance_LinearIntensity", "light_radiance_GammaIntensity", "light_radiance_Gamma",
+                "light_ambient_only", "light_not_drawn_full_sh", "light_intensity_multiplier",
+                "light_without_ambient", "two_lights", "two_lights_first_drawn", "lights_parser_accepts",
+                "lights_parser_rejects", "no_allocation_per_frame"}
     assert expected <= set(checks), expected - set(checks)
     assert all(c["ok"] for c in checks.values())
     # the matrix algebra is exact to rounding; irradiance agrees to the constants' 6 digits
@@ -173,6 +185,9 @@ def test_core_against_generated_vectors(contract_exe, tmp_path):
     assert checks["rotated_matrices_unity"]["max_rel"] < 1e-14
     assert checks["irradiance_unity"]["max_rel"] < 1e-6
     assert checks["ambient_shadesh9_from_matrices"]["max_rel"] < 1e-6
+    # a white Lambertian surface facing the light shows ρE/π through Unity's Lambert to float rounding
+    for mode in ("LinearIntensity", "GammaIntensity", "Gamma"):
+        assert checks[f"light_radiance_{mode}"]["max_rel"] < 1e-6
     _print_agreement("generated vectors", report)
 
 
@@ -201,6 +216,75 @@ def test_monobehaviours_compile_against_standin(build_dir):
     """SH9LightingClient and the sample script type-check against the UnityEngine stand-in."""
     assert RUNTIME and SAMPLES
     _compile(build_dir / "Runtime.dll", [*CORE, *RUNTIME, *SAMPLES, STANDIN], target="library")
+
+
+# Patterns Unity's compiler rejects because the member is a property returning a struct (CS1612:
+# "Cannot modify the return value of ... because it is not a variable"), a property passed by ref
+# (CS0206), or a generic constraint. The stand-in must reject them too, or a package change that Unity would not compile
+# passes here. Each line alone, compiled against the stand-in, must fail with that error.
+UNITY_REJECTS = {
+    "RenderSettings.ambientProbe[0, 0] = 1f;": "CS1612",
+    "new GameObject(\"g\").transform.rotation.x = 1f;": "CS1612",
+    "new GameObject(\"g\").transform.position.y = 1f;": "CS1612",
+    "new GameObject(\"g\").AddComponent<Light>().color.r = 1f;": "CS1612",
+    "new Material((Shader)null).color.g = 1f;": "CS1612",
+    "Bump(ref new GameObject(\"g\").AddComponent<Light>().intensity);": "CS0206",
+    # generic constraints as Unity declares them (GameObject.AddComponent<T> where T : Component)
+    "new GameObject(\"g\").AddComponent<System.Text.StringBuilder>();": "CS0311",
+}
+
+
+def test_standin_rejects_what_unity_rejects(tmp_path):
+    """The stand-in declares properties where Unity has properties: assigning through them fails."""
+    # control: the harness compiles when the line is valid
+    ok_lines = ["var sh = RenderSettings.ambientProbe; sh[0, 0] = 1f; RenderSettings.ambientProbe = sh;",
+                "var t = new GameObject(\"g\").transform; var q = t.rotation; q.x = 1f; t.rotation = q;",
+                "var m = new Matrix4x4(); m[1, 2] = 3f; Matrix4x4 copy = m; copy[1, 2] = 4f;"
+                " if (m[1, 2] != 3f || m.m12 != 3f) throw new System.Exception(\"not a value type\");"]
+    lines = {**{l: None for l in ok_lines}, **UNITY_REJECTS}
+    for i, (line, code) in enumerate(lines.items()):
+        src = tmp_path / f"probe{i}.cs"
+        src.write_text("using UnityEngine; using UnityEngine.Rendering;\n"
+                       "static class Probe { static void Bump(ref float v) { v += 1; }\n"
+                       f"  static void Main() {{ {line} }} }}\n")
+        mcs, _ = _mono_tools()
+        r = subprocess.run([mcs, "-nologo", "-target:exe", f"-out:{tmp_path / f'probe{i}.exe'}", str(STANDIN), str(src)],
+                           capture_output=True, text=True, timeout=120)
+        if code is None:
+            assert r.returncode == 0, f"valid line did not compile: {line}\n{r.stdout}{r.stderr}"
+        else:
+            assert r.returncode != 0 and code in r.stdout + r.stderr, \
+                f"the stand-in accepts what Unity rejects ({code}): {line}\n{r.stdout}{r.stderr}"
+
+
+def test_mrtk_ambient_helper(build_dir):
+    """SH9MrtkAmbient switches on the "Spherical Harmonics" toggle (property and keyword) of MRTK2
+    and MRTK3 Graphics Tools materials so that the ambient probe reaches them, reports MRTK3
+    materials on which it cannot show (unlit), moves renderers off baked light probes, leaves other
+    materials alone, and puts everything back on disable (the materials are shared assets)."""
+    exe = _compile(build_dir / "MrtkAmbientTest.exe", [*CORE, *RUNTIME, STANDIN, CSHARP / "MrtkAmbientTest.cs"])
+    _, mono = _mono_tools()
+    r = subprocess.run([mono, str(exe)], capture_output=True, text=True, timeout=60)
+    report = json.loads(r.stdout.strip().splitlines()[-1])
+    assert r.returncode == 0 and not report["failures"], json.dumps(report, indent=1)
+    assert {"mrtk2_switched_on", "mrtk3_switched_on", "others_untouched", "unlit_reported", "light_probes_off",
+            "restored", "scope_whole_scene", "static_helper"} <= set(report["checks"])
+
+
+def test_mrtk_shader_names_match_their_sources():
+    """The shader, property and keyword names the helper looks for, as read in MRTK2's
+    MixedRealityStandard.shader and MRTK3 Graphics Tools' GraphicsToolsStandard*.shader (cited in
+    Sh9MrtkShaders.cs); a typo here would make the helper silently skip every material."""
+    text = (PKG / "Runtime" / "Core" / "Sh9MrtkShaders.cs").read_text()
+    rows = re.findall(r'new Sh9AmbientSwitch\("([^"]+)", "([^"]+)", "([^"]+)", (\w+)', text)
+    assert {r[0]: r[1:] for r in rows} == {
+        "Mixed Reality Toolkit/Standard": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "null"),
+        "Graphics Tools/Standard": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "GraphicsToolsLit"),
+        "Graphics Tools/Non-SRP/StandardNonSrp": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "GraphicsToolsLit"),
+        "Graphics Tools/Standard Canvas": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "GraphicsToolsLit"),
+        "Graphics Tools/Non-SRP/Standard CanvasNonSrp": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "GraphicsToolsLit"),
+    }
+    assert 'GraphicsToolsLit = { "_DIRECTIONAL_LIGHT", "_DISTANT_LIGHT" }' in text
 
 
 def test_core_has_no_unity_dependency(build_dir):
@@ -278,6 +362,87 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+class _Relay:
+    """A TCP relay on 127.0.0.1 in front of a server: the network between headset and PC. With ``tls``
+    (an ssl.SSLContext) it terminates TLS, as a TLS proxy (nginx, stunnel) in front of ``shlight serve``
+    does. ``hold()`` turns every open connection into a black hole: bytes stop passing either way and
+    nothing is closed, as when the headset slept and its Wi-Fi connection died unnoticed. Connections
+    made afterwards pass normally."""
+
+    def __init__(self, target_port: int, tls=None):
+        self.target_port, self.tls = target_port, tls
+        self.listener = socket.socket()
+        self.listener.bind(("127.0.0.1", 0))
+        self.listener.listen(16)
+        self.port = self.listener.getsockname()[1]
+        self.pairs: list[dict] = []
+        self.handshake_errors: list[str] = []
+        self.closed = False
+        threading.Thread(target=self._accept, daemon=True).start()
+
+    def _accept(self):
+        while not self.closed:
+            try:
+                client, _ = self.listener.accept()
+            except OSError:
+                return
+            threading.Thread(target=self._serve, args=(client,), daemon=True).start()
+
+    def _serve(self, client):
+        if self.tls is not None:
+            try:
+                client.settimeout(10)
+                client = self.tls.wrap_socket(client, server_side=True)
+                client.settimeout(None)
+            except (OSError, ValueError) as exc:
+                self.handshake_errors.append(str(exc))
+                client.close()
+                return
+        try:
+            upstream = socket.create_connection(("127.0.0.1", self.target_port), timeout=10)
+            upstream.settimeout(None)
+        except OSError:
+            client.close()
+            return
+        pair = {"held": False, "socks": (client, upstream)}
+        self.pairs.append(pair)
+        for a, b in ((client, upstream), (upstream, client)):
+            threading.Thread(target=self._pump, args=(a, b, pair), daemon=True).start()
+
+    @staticmethod
+    def _pump(a, b, pair):
+        try:
+            while True:
+                data = a.recv(65536)
+                if not data:
+                    break
+                if not pair["held"]:
+                    b.sendall(data)
+        except OSError:
+            pass
+        if not pair["held"]:
+            for sock in (a, b):
+                try:
+                    sock.close()
+                except OSError:
+                    pass
+
+    def hold(self) -> int:
+        for pair in self.pairs:
+            pair["held"] = True
+        return len(self.pairs)
+
+    def close(self):
+        self.closed = True
+        self.listener.close()
+        for pair in self.pairs:
+            for sock in pair["socks"]:
+                try:
+                    sock.close()
+                except OSError:
+                    pass
+
+
 class _Serve(ServeProcess):
     """``shlight serve`` on a fixed port (so that it can come back on it), started at once."""
 
@@ -303,11 +468,12 @@ class _Serve(ServeProcess):
 class _LiveClient:
     """tests/csharp/LiveClient.exe under Mono; its JSON event lines collected by a thread."""
 
-    def __init__(self, exe: Path, *args: str):
+    def __init__(self, exe: Path, *args: str, env: dict | None = None):
         _, mono = _mono_tools()
         self.args = args
         self.proc = subprocess.Popen([mono, str(exe), *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=subprocess.PIPE, text=True, bufsize=1)
+                                     stderr=subprocess.PIPE, text=True, bufsize=1,
+                                     env={**os.environ, **(env or {})})
         self.events: list[dict] = []
         self.log: list[str] = []
         self.cond = threading.Condition()
@@ -354,6 +520,11 @@ class _LiveClient:
     def applied(self, start: int = 0) -> list[dict]:
         with self.cond:
             return [e for e in self.events[start:] if e["event"] == "applied"]
+
+    def send(self, command: str) -> None:
+        """A stdin command of LiveClient.cs: pause, resume, blur, focus."""
+        self.proc.stdin.write(command + "\n")
+        self.proc.stdin.flush()
 
     def quit(self) -> int:
         if self.proc.poll() is None:
@@ -521,6 +692,16 @@ def test_live_client_against_shlight_serve(live_exe, tmp_path):
             exit_event = c.wait_for("the exit event", lambda e: e["event"] == "exit")[1]
             assert exit_event["ambient_mode_restored"] == "Trilight"
         assert main.events[-1]["received"] >= 3 and intruder.events[-1]["received"] == 0
+        # 7. no garbage per frame: the component's Update allocated nothing on the main thread in
+        #    steady frames (no state change or connection event), including frames that applied a
+        #    new message, across live, stale, back-live and reconnected stretches
+        for c in (main, rotated):
+            ex = c.events[-1]
+            print(f"\nallocations ({' '.join(c.args[4:]) or 'main'}): {ex['steady_alloc_bytes']} bytes in "
+                  f"{ex['steady_frames']} steady frames ({ex['steady_applied_frames']} applied a new message; "
+                  f"{ex['event_frames']} event frames not counted)")
+            assert ex["steady_frames"] >= 20, ex
+            assert ex["steady_alloc_bytes"] == 0, f"Update allocated in steady frames: {ex}"
         print(f"\nlive client: {len(main.applied())} applied events, {down['error']!r} while down, "
               f"refused: {refused['error']!r}; {time.monotonic() - t0:.1f} s")
     finally:
@@ -528,6 +709,305 @@ def test_live_client_against_shlight_serve(live_exe, tmp_path):
             c.kill()
         for s in servers:
             s.kill()
+
+
+def test_live_client_allocates_nothing_per_frame(live_exe, tmp_path):
+    """Zero managed allocations per frame in the steady state, measured under Mono: a server sending
+    every frame at 30 fps (so that most frames apply a new message), a client on a rotated transform
+    with Intensity 2, the ambient probe and a Directional Light to drive (switched off: no lights on
+    the wire); Update bracketed by GC.GetAllocatedBytesForCurrentThread in LiveClient.cs."""
+    image = tmp_path / "room.png"
+    _write_panorama(image, 0.65, 0.30, (255, 190, 90))
+    with ServeProcess("--source", str(image), "--fps", "30", "--change-threshold", "0", "--keepalive", "0.25") as server:
+        client = _LiveClient(live_exe, server.url, "-", "default", "60", "0.2", "0.5", "-0.1", "0.8",
+                             "--intensity=2", "--light")
+        try:
+            client.wait_for("a live message", lambda e: e["event"] == "applied" and not e["stale"])
+            deadline = time.monotonic() + 4.0
+            while time.monotonic() < deadline:
+                time.sleep(0.2)
+            assert client.quit() == 0, client.describe()
+            ex = client.wait_for("the exit event", lambda e: e["event"] == "exit")[1]
+        finally:
+            client.kill()
+    print(f"\nallocations per frame: {ex['steady_alloc_bytes']} bytes in {ex['steady_frames']} steady frames, "
+          f"{ex['steady_applied_frames']} of which applied a new message (worst frame {ex['worst_steady_frame_bytes']} B; "
+          f"{ex['event_frames']} event frames not counted)")
+    assert ex["steady_frames"] >= 100 and ex["steady_applied_frames"] >= 30, ex
+    assert ex["steady_alloc_bytes"] == 0, ex
+    # the driven light was switched off (no lights on the wire) and restored on disable
+    applied = [e for e in client.events if e["event"] == "applied"]
+    assert applied and all(e["light"]["enabled"] is False and e["main_light_scale"] == 0 for e in applied)
+    assert ex["light_restored"]["enabled"] is True and ex["light_restored"]["intensity"] == 1.25
+
+
+def test_live_client_reconnects_at_once_on_resume(live_exe, tmp_path):
+    """Suspend/resume as a HoloLens app meets it: while the app is suspended its connection dies
+    without either side noticing (the relay turns it into a black hole) and the room's light
+    changes. On resume (OnApplicationPause(false) + OnApplicationFocus(true)) the client reconnects
+    at once and shows the new light; a client that gets no resume call (the control) stays on the
+    dead connection, which only the 30 s receive watchdog would end. Focus coming back alone
+    reconnects only when the stream has gone quiet, not after every system menu."""
+    from provider import compute_sh9
+    image = tmp_path / "room.png"
+    scenes = {"A": (0.65, 0.30, (255, 190, 90)), "B": (0.20, 0.70, (80, 140, 255))}
+    expected = {}
+    for name, (u, v, colour) in scenes.items():
+        q = tmp_path / f"{name}.png"
+        _write_panorama(q, u, v, colour)
+        expected[name] = compute_sh9(str(q)).coefficients
+
+    def is_scene(ev, name):
+        c = np.array(ev["wire_coefficients"]).reshape(9, 3)
+        return np.allclose(c, expected[name], rtol=0, atol=1e-9 * np.abs(expected[name]).max())
+
+    _write_panorama(image, *scenes["A"])
+    clients = []
+    with ServeProcess("--source", str(image), "--fps", "10", "--keepalive", "0.25") as server:
+        relay = _Relay(server.port)
+        url = f"ws://127.0.0.1:{relay.port}/"
+        try:
+            app, control, menu = (_LiveClient(live_exe, url, "-", "default", "60") for _ in range(3))
+            clients += [app, control, menu]
+            for c in clients:
+                c.wait_for("scene A", lambda e: e["event"] == "applied" and is_scene(e, "A"))
+
+            # a system menu opens and closes on a healthy connection: no reconnect
+            menu.send("blur")
+            time.sleep(0.5)
+            n = len(menu.events)
+            menu.send("focus")
+            menu.wait_for("focus back", lambda e: e["event"] == "focused", n)
+            time.sleep(1.0)
+            assert all(e.get("connections", 0) <= 1 for e in menu.events) and \
+                not any("reconnecting now" in line for line in menu.log), "focus on a live stream reconnected"
+
+            # suspend: the app stops; its connection (and the others') dies silently; the room changes
+            app.send("pause")
+            app.wait_for("paused", lambda e: e["event"] == "paused")
+            menu.send("blur")
+            assert relay.hold() == 3
+            _write_panorama(image, *scenes["B"])
+            time.sleep(3.0)        # longer than the focus heuristic's 2.5 s of silence
+
+            n_app, n_control, n_menu = len(app.events), len(control.events), len(menu.events)
+            t0 = time.monotonic()
+            app.send("resume")
+            menu.send("focus")    # focus alone, after the stream went quiet: reconnects too
+            _, fresh = app.wait_for("scene B after resume",
+                                    lambda e: e["event"] == "applied" and is_scene(e, "B"), n_app, timeout=10)
+            took = time.monotonic() - t0
+            assert fresh["connections"] == 2 and fresh["state"] == "Live" and fresh["has_lighting"]
+            menu.wait_for("scene B after focus", lambda e: e["event"] == "applied" and is_scene(e, "B"), n_menu, timeout=10)
+            # the control, never told, is still on the dead connection with the old light
+            time.sleep(1.0)
+            assert not any(e["event"] == "applied" and is_scene(e, "B") for e in control.events[n_control:]), \
+                "the control client got the new light without a resume: the relay did not hold its connection"
+            # the lighting was kept (never the grey fallback) between resume and fresh data
+            assert all(e["has_lighting"] for e in app.events[n_app:] if e["event"] == "applied")
+            print(f"\nresume -> fresh lighting in {took:.2f} s (control still on the dead connection)")
+            assert took < 5.0
+            for c in clients:
+                assert c.quit() == 0, c.describe()
+        finally:
+            for c in clients:
+                c.kill()
+            relay.close()
+
+
+def _srgb_to_linear(v: float) -> float:
+    return v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4 if v < 1 else v ** 2.2
+
+
+def test_live_client_drives_the_directional_light(live_exe, tmp_path):
+    """DESIGN.md §10 end to end: `shlight serve --lights 1` on a panorama with a small, very bright
+    source sends a light; the component shows it on its Directional Light (forward = minus the
+    direction toward the light, in Unity's frame), with colour × intensity = E/π (linear colour space,
+    lightsUseLinearIntensity on), _SHMainLightScale 1, and gives the ambient probe and SH9 globals the
+    ambient SH only."""
+    if "--lights" not in _serve_help():
+        pytest.skip("`shlight serve --help` lists no --lights: the provider does not send lights yet "
+                    "(needs `shlight serve --lights N` adding DESIGN.md §10's fields to each sh9 message)")
+    from provider import sh
+    import cv2
+    image = tmp_path / "sun.png"
+    img = np.full((64, 128, 3), 20, np.uint8)
+    img[14:16, 95:97] = 255                      # a sun at u = 0.75 (wire +X), a little above the horizon
+    assert cv2.imwrite(str(image), img)
+    with ServeProcess("--source", str(image), "--lights", "1", "--keepalive", "0.25") as server:
+        client = _LiveClient(live_exe, server.url, "-", "default", "40", "--light", "--color-space=linear",
+                             "--linear-intensity")
+        try:
+            _, ev = client.wait_for("a message with a light (--lights 1, a sun-like source)",
+                                    lambda e: e["event"] == "applied" and e["lights"] >= 1, timeout=30)
+            assert client.quit() == 0
+        finally:
+            client.kill()
+    d = np.array(ev["wire_light_directions"][:3])
+    e = np.array(ev["wire_light_irradiance"][:3])
+    assert d[0] > 0.8, f"the light should come from +X (u = 0.75): {d}"
+    lt = ev["light"]
+    assert ev["light_active"] and lt["enabled"] and ev["main_light_scale"] == 1 and not lt["use_color_temperature"]
+    # forward: where the light travels, in Unity's frame (x, y, -z)
+    assert np.allclose(lt["forward"], -(d @ S3), atol=1e-5), (lt["forward"], d)
+    # colour.linear × intensity = E/π: a white Lambertian surface facing it shows ρE/π in Unity
+    seen = np.array([_srgb_to_linear(c) for c in lt["color"]]) * lt["intensity"]
+    assert np.allclose(seen, e / math.pi, rtol=1e-4), (seen, e / math.pi)
+    # the SH9 and the ambient probe carry the ambient only (one light: nothing folded back)
+    amb = np.array(ev["wire_ambient_coefficients"]).reshape(9, 3)
+    expected = S4 @ sh.irradiance_matrices(amb) @ S4
+    applied = np.array(ev["matrices"]).reshape(3, 4, 4)
+    if ev["lights"] == 1:
+        assert np.allclose(applied, expected, rtol=0, atol=2e-7 * np.abs(expected).max())
+        lu = _unity_coefficients(amb)
+        assert np.allclose(ev["ambient"], _ambient_from_coefficients(lu), rtol=0, atol=3e-6 * np.abs(lu).max())
+    full = S4 @ sh.irradiance_matrices(np.array(ev["wire_coefficients"]).reshape(9, 3)) @ S4
+    assert not np.allclose(applied, full), "the SH9 globals still hold the light"
+
+
+# ---- TLS (wss://) ---------------------------------------------------------------------------------
+
+def _openssl(*args, cwd):
+    exe = shutil.which("openssl")
+    if not exe:
+        pytest.skip("openssl is not installed (apt-get install openssl)")
+    r = subprocess.run([exe, *args], cwd=cwd, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stdout + r.stderr
+    return r.stdout
+
+
+def _private_ca(folder: Path, names=("localhost",)) -> dict:
+    """A private CA and a server certificate signed by it, for DNS ``names`` (what a PC on a LAN gets
+    from an own CA): the shape of certificate the README asks for (subjectAltName with the host name,
+    serverAuth, SHA-256, RSA 2048)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    _openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-sha256", "-days", "2", "-keyout", "ca.key",
+             "-out", "ca.pem", "-subj", "/CN=shlight test private CA",
+             "-addext", "basicConstraints=critical,CA:TRUE", "-addext", "keyUsage=critical,keyCertSign,cRLSign", cwd=folder)
+    _openssl("req", "-newkey", "rsa:2048", "-nodes", "-sha256", "-keyout", "server.key", "-out", "server.csr",
+             "-subj", f"/CN={names[0]}", cwd=folder)
+    (folder / "ext.cnf").write_text("subjectAltName=" + ",".join(f"DNS:{n}" for n in names) + "\n"
+                                    "extendedKeyUsage=serverAuth\nbasicConstraints=CA:FALSE\n"
+                                    "keyUsage=critical,digitalSignature,keyEncipherment\n")
+    _openssl("x509", "-req", "-sha256", "-in", "server.csr", "-CA", "ca.pem", "-CAkey", "ca.key", "-CAcreateserial",
+             "-out", "server.pem", "-days", "2", "-extfile", "ext.cnf", cwd=folder)
+    return {"ca": folder / "ca.pem", "cert": folder / "server.pem", "key": folder / "server.key"}
+
+
+def _mono_home(folder: Path, trusted_ca: Path | None) -> dict:
+    """A HOME for the Mono client whose certificate store trusts ``trusted_ca`` (or nothing): Mono's
+    TLS (BoringSSL) reads trusted roots from ~/.config/.mono/new-certs/Trust/<subject hash>.0, which is
+    where Mono's cert-sync installs them. The client code is the same either way: only the device's
+    trust store differs, as between a HoloLens with and without the private CA's root installed."""
+    trust = folder / ".config" / ".mono" / "new-certs" / "Trust"
+    trust.mkdir(parents=True, exist_ok=True)
+    if trusted_ca is not None:
+        h = _openssl("x509", "-hash", "-noout", "-in", str(trusted_ca), cwd=folder).strip()
+        shutil.copy(trusted_ca, trust / f"{h}.0")
+    return {"HOME": str(folder)}
+
+
+def _check_tls_clients(live_exe, url, tmp_path, pki, expected_scene=None):
+    """A client that trusts the CA gets live lighting over wss:// (converted exactly as over ws://);
+    one whose store lacks the CA is refused with a message that says what certificate is needed."""
+    trusted = _LiveClient(live_exe, url, "tls-token", "default", "40", env=_mono_home(tmp_path / "home-trusts", pki["ca"]))
+    untrusted = _LiveClient(live_exe, url, "tls-token", "default", "40", env=_mono_home(tmp_path / "home-bare", None))
+    try:
+        _, ev = trusted.wait_for("live lighting over TLS", lambda e: e["event"] == "applied" and not e["stale"])
+        assert ev["state"] == "Live" and ev["connections"] == 1
+        _check_applied(ev)
+        if expected_scene is not None:
+            assert np.allclose(np.array(ev["wire_coefficients"]).reshape(9, 3), expected_scene, rtol=0,
+                               atol=1e-9 * np.abs(expected_scene).max())
+        _, refused = untrusted.wait_for("the untrusted certificate refused",
+                                        lambda e: e["event"] == "state" and "TLS" in e["error"])
+        assert refused["state"] == "Disconnected" and not untrusted.applied()
+        assert "trusts" in refused["error"] and "localhost" in refused["error"], refused["error"]
+        print(f"\nuntrusted certificate: {refused['error']!r}")
+        assert trusted.quit() == 0 and untrusted.quit() == 0
+    finally:
+        trusted.kill()
+        untrusted.kill()
+
+
+def test_live_client_over_tls_behind_a_tls_proxy(live_exe, tmp_path):
+    """wss:// through a TLS-terminating proxy in front of `shlight serve` (the set-up the README
+    describes for servers without TLS of their own), with a certificate from a private CA: trusted
+    when the CA's root is in the device's store, refused with a clear message when it is not."""
+    import ssl
+    from provider import compute_sh9
+    pki = _private_ca(tmp_path / "pki")
+    image = tmp_path / "room.png"
+    _write_panorama(image, 0.65, 0.30, (255, 190, 90))
+    tls = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
+    tls.load_cert_chain(pki["cert"], pki["key"])
+    with ServeProcess("--source", str(image), "--token", "tls-token", "--keepalive", "0.25") as server:
+        relay = _Relay(server.port, tls=tls)
+        try:
+            _check_tls_clients(live_exe, f"wss://localhost:{relay.port}/", tmp_path, pki,
+                               compute_sh9(str(image)).coefficients)
+            # the wrong scheme either way is named as such
+            plain_to_tls = _LiveClient(live_exe, f"ws://localhost:{relay.port}/", "tls-token", "default", "20")
+            tls_to_plain = _LiveClient(live_exe, f"wss://localhost:{server.port}/", "tls-token", "default", "20",
+                                       env=_mono_home(tmp_path / "home-trusts", pki["ca"]))
+            try:
+                _, a = plain_to_tls.wait_for("ws:// to a TLS port", lambda e: e["event"] == "state" and e["error"])
+                _, b = tls_to_plain.wait_for("wss:// to a plain port", lambda e: e["event"] == "state" and e["error"])
+                assert "must start with wss://" in a["error"], a["error"]
+                assert "does not serve wss://" in b["error"], b["error"]
+                assert plain_to_tls.quit() == 0 and tls_to_plain.quit() == 0
+            finally:
+                plain_to_tls.kill()
+                tls_to_plain.kill()
+        finally:
+            relay.close()
+
+
+def _serve_help() -> str:
+    r = subprocess.run([sys.executable, "-m", "provider.cli", "serve", "--help"], cwd=ROOT,
+                       capture_output=True, text=True, timeout=60)
+    return r.stdout
+
+
+def test_live_client_over_tls_served_by_shlight(live_exe, tmp_path):
+    """wss:// served by `shlight serve --tls-cert FILE --tls-key FILE` itself, with a certificate from
+    a private CA: trusted when the CA's root is in the device's store, refused clearly when not."""
+    if "--tls-cert" not in _serve_help():
+        pytest.skip("`shlight serve --help` lists no --tls-cert: the provider cannot serve wss:// yet "
+                    "(needs `shlight serve --tls-cert FILE --tls-key FILE`)")
+    import ssl
+    from provider import compute_sh9
+    pki = _private_ca(tmp_path / "pki")
+    image = tmp_path / "room.png"
+    _write_panorama(image, 0.65, 0.30, (255, 190, 90))
+    port = _free_port()
+    # started on a fixed port and waited for by a TLS handshake, not by its log line (which may
+    # read wss:// where servertools.SERVING expects ws://)
+    proc = subprocess.Popen([sys.executable, "-m", "provider.cli", "serve", "--source", str(image), "--port", str(port),
+                             "--token", "tls-token", "--keepalive", "0.25",
+                             "--tls-cert", str(pki["cert"]), "--tls-key", str(pki["key"])],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        ctx = ssl.create_default_context(cafile=str(pki["ca"]))
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                with socket.create_connection(("localhost", port), timeout=2) as raw, \
+                        ctx.wrap_socket(raw, server_hostname="localhost"):
+                    break
+            except OSError:
+                if proc.poll() is not None or time.monotonic() > deadline:
+                    pytest.fail("shlight serve with --tls-cert did not accept a TLS connection:\n" +
+                                (proc.stdout.read() if proc.poll() is not None else "(still running)"))
+                time.sleep(0.2)
+        _check_tls_clients(live_exe, f"wss://localhost:{port}/", tmp_path, pki, compute_sh9(str(image)).coefficients)
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
 
 
 def test_live_client_times_out_on_a_silent_server(live_exe):
@@ -557,35 +1037,7 @@ def test_hlsl_include_identical_to_shaders_dir():
                     "copy shaders/sh9_irradiance.hlsl over it")
 
 
-def test_demo_shader_declares_stereo_instancing():
-    src = (PKG / "Shaders" / "SH9Diffuse.shader").read_text()
-    for token in ("UNITY_VERTEX_INPUT_INSTANCE_ID", "UNITY_VERTEX_OUTPUT_STEREO", "UNITY_SETUP_INSTANCE_ID",
-                  "UNITY_INITIALIZE_VERTEX_OUTPUT_STEREO", "#pragma multi_compile_instancing",
-                  '#include "sh9_irradiance.hlsl"', "SHIrradiance(", "UNITY_PI"):
-        assert token in src, token
-    assert 'Shader "Shlight/SH9 Diffuse"' in src
-    assert "LightMode" not in re.sub(r"//.*", "", src)  # no LightMode tag: built-in and URP both draw it
-
-
-@pytest.mark.parametrize("gamma", [False, True], ids=["linear", "gamma"])
-def test_demo_shader_compiles_with_glslang_hlsl(tmp_path, gamma):
-    """The CGPROGRAM of SH9Diffuse.shader through glslangValidator's HLSL front end, with a
-    stand-in UnityCG.cginc (tests/unity_stubs): checks the shader's own code, not Unity's macros."""
-    glslang = shutil.which("glslangValidator")
-    if not glslang:
-        pytest.skip("glslangValidator not installed (apt-get install glslang-tools)")
-    src = (PKG / "Shaders" / "SH9Diffuse.shader").read_text()
-    prog = re.search(r"CGPROGRAM(.*?)ENDCG", src, re.S).group(1)
-    prog = "\n".join(l for l in prog.splitlines() if not l.strip().startswith("#pragma"))
-    f = tmp_path / "sh9diffuse.hlsl"
-    f.write_text(prog)
-    for stage, entry in (("vert", "vert"), ("frag", "frag")):
-        cmd = [glslang, "-D", "-V", f"-I{ROOT / 'tests' / 'unity_stubs'}", f"-I{PKG / 'Shaders'}",
-               "-S", stage, "-e", entry, "-o", str(tmp_path / f"{entry}.spv"), str(f)]
-        if gamma:
-            cmd.insert(1, "-DUNITY_COLORSPACE_GAMMA")
-        r = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
-        assert r.returncode == 0, r.stdout + r.stderr
+# The shader's passes, variants, SRP Batcher layout and stereo are tested in tests/test_unity_shaders.py.
 
 
 # ---- package layout ----------------------------------------------------------------------------
@@ -657,7 +1109,12 @@ def test_package_manifest_and_layout():
     readme = (PKG / "README.md").read_text()
     for needle in ("Add package from disk", "?path=unity_package", "--host 0.0.0.0", "--token",
                    "InternetClient", "PrivateNetworkClientServer", "nothing lights up",
-                   "UnityCG.cginc", "UndoCosineRescaling", "PackCoefficients", "URP"):
+                   "UnityCG.cginc", "UndoCosineRescaling", "PackCoefficients", "URP",
+                   # the sections a HoloLens/MRTK/URP user needs (issue 15) and the lights mapping (§10)
+                   "SH9MrtkAmbient", "Spherical Harmonics", "Graphics Tools/Standard", "DepthOnly",
+                   "depth priming", "UnityPerMaterial", "OnApplicationPause", "--tls-cert",
+                   "subjectAltName", "fullchain", "lightsUseLinearIntensity", "gamma colour space",
+                   "Nothing in this package has been run inside Unity"):
         assert needle in readme, needle
 
 

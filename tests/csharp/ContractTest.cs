@@ -299,6 +299,234 @@ static class ContractTest
                 new double[] { 1, 1, 1 }, 1e-6, "uniform ShadeSH9");
     }
 
+    // ---- lights (DESIGN.md §10): a directional light split off the SH9 ---------------------------
+
+    /// <summary>Wire coefficients (27) of a uniform radiance per channel.</summary>
+    static double[] Uniform(double r, double g, double b)
+    {
+        var c = new double[27];
+        double k = Math.Sqrt(4 * Math.PI);   // L00 of a uniform radiance L is L·sqrt(4π)
+        c[0] = r * k; c[1] = g * k; c[2] = b * k;
+        return c;
+    }
+
+    /// <summary>A message with one light toward the wire direction d (irradiance e) over a uniform
+    /// ambient: "coefficients" the full SH9 (ambient + the light's SH9 projection), "ambient_*" the rest.</summary>
+    static string LightMessage(double[] d, double[] e, double[] ambient, bool sendAmbient)
+    {
+        double[] full = (double[])ambient.Clone();
+        Sh9Math.AddDirectionalLight(full, d[0], d[1], d[2], e[0], e[1], e[2]);
+        return "{\"type\":\"sh9\",\"version\":1,\"probe\":\"p\",\"seq\":3,\"time\":1,\"stale\":false,\"frame\":\"rh-y-up\"," +
+               "\"coefficients\":" + JsonArray(full) + ",\"matrices\":" + JsonArray(Sh9Math.MatricesFromCoefficients(full)) +
+               ",\"lights\":1,\"light_directions\":" + JsonArray(d) + ",\"light_irradiance\":" + JsonArray(e) +
+               (sendAmbient ? ",\"ambient_coefficients\":" + JsonArray(ambient) +
+                              ",\"ambient_matrices\":" + JsonArray(Sh9Math.MatricesFromCoefficients(ambient)) : "") + "}";
+    }
+
+    /// <summary>
+    /// The colour Unity's shaders see for a Light of colour c (sRGB-encoded) and intensity i, as Unity's
+    /// documentation of GraphicsSettings.lightsUseLinearIntensity describes it, written here
+    /// independently of the package: linear intensity: c.linear × i; gamma intensity: (c × i).linear;
+    /// gamma colour space: c × i, then linearised by SH9 Diffuse (UNITY_COLORSPACE_GAMMA).
+    /// </summary>
+    static double[] UnitySeesLinear(double[] rgbi, Sh9LightColorSpace space)
+    {
+        var f = new double[3];
+        for (int c = 0; c < 3; c++)
+        {
+            double srgb = rgbi[c], i = rgbi[3];
+            f[c] = space == Sh9LightColorSpace.LinearIntensity ? SrgbToLinear(srgb) * i : SrgbToLinear(srgb * i);
+        }
+        return f;
+    }
+
+    // IEC 61966-2-1 sRGB decoding, extended above 1 with pow 2.2 like UnityCG.cginc's GammaToLinearSpaceExact.
+    static double SrgbToLinear(double v)
+    {
+        return v <= 0.04045 ? v / 12.92 : v < 1 ? Math.Pow((v + 0.055) / 1.055, 2.4) : Math.Pow(v, 2.2);
+    }
+
+    static double Dot(double[] a, double[] b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+    static void OneSidedDirectionalLight(string label, double[] wireDir, double[] quaternion, double[] expectWorld)
+    {
+        double[] e = { 3.0, 2.0, 1.0 };                      // warm light, irradiance on a facing surface
+        double[] ambient = Uniform(0.05, 0.05, 0.05);
+        Sh9Message msg = Sh9Protocol.Parse(LightMessage(wireDir, e, ambient, true)).Sh9;
+        var snap = new Sh9Snapshot(msg, 0, 1);
+        var v = new Sh9LightingValues();
+        double[] q = quaternion ?? new double[] { 0, 0, 0, 1 };
+        v.Set(snap, q[0], q[1], q[2], q[3], 1.0, true);
+        Expect("light_split", v.LightActive, label + ": light not active");
+        Compare("light_direction_unity", v.LightDirection, expectWorld, 1e-12, label);
+        // the light's transform: forward (R·(0,0,1), the direction the light travels) = -toward
+        var lq = new double[4];
+        Sh9Math.LookRotation(-v.LightDirection[0], -v.LightDirection[1], -v.LightDirection[2], lq);
+        double[] forward = Sh9Math.Rotate(Sh9Math.QuaternionToMatrix(lq[0], lq[1], lq[2], lq[3]), 0, 0, 1);
+        Compare("light_forward", forward, new[] { -expectWorld[0], -expectWorld[1], -expectWorld[2] }, 1e-12, label);
+        // Unity's directional light is seen from -forward (_WorldSpaceLightPos0 / _MainLightPosition);
+        // a white Lambertian surface shows colour × max(0, N·L) with no 1/π: it must equal ρE/π
+        double[] toLight = { -forward[0], -forward[1], -forward[2] };
+        var rgbi = new double[4];
+        foreach (Sh9LightColorSpace space in new[] { Sh9LightColorSpace.LinearIntensity, Sh9LightColorSpace.GammaIntensity,
+                                                     Sh9LightColorSpace.Gamma })
+        {
+            Sh9Math.LightColorFromLinear(v.LightIrradiance[0] / Math.PI, v.LightIrradiance[1] / Math.PI,
+                                         v.LightIrradiance[2] / Math.PI, space, rgbi);
+            Expect("light_color_range", rgbi[0] >= 0 && rgbi[0] <= 1 && rgbi[1] >= 0 && rgbi[1] <= 1 && rgbi[2] >= 0 &&
+                   rgbi[2] <= 1 && rgbi[3] > 0, label + " " + space + ": colour outside [0, 1] or no intensity");
+            double[] seen = UnitySeesLinear(rgbi, space);
+            foreach (double sign in new[] { 1.0, -1.0 })
+            {
+                double[] n = { sign * expectWorld[0], sign * expectWorld[1], sign * expectWorld[2] };
+                double lambert = Math.Max(0, Dot(n, toLight));
+                var shown = new double[3];
+                var want = new double[3];
+                for (int c = 0; c < 3; c++)
+                {
+                    shown[c] = seen[c] * lambert;                              // Unity's Lambert, albedo 1
+                    want[c] = e[c] * Math.Max(0, sign) / Math.PI;              // ρ·E/π: all on the lit side, none behind
+                }
+                Compare("light_radiance_" + space, shown, want, 1e-6, label + (sign > 0 ? " lit side" : " far side"));
+            }
+        }
+        // the ambient probe and SH9 globals carry the ambient only: the light is not counted twice
+        double[] probe = ToDouble(v.AmbientProbe);
+        double[] flat = Sh9Math.ShadeSH9(Sh9Math.PackUnityShaderConstants(probe), expectWorld[0], expectWorld[1], expectWorld[2]);
+        Compare("light_ambient_only", flat, new[] { 0.05, 0.05, 0.05 }, 1e-6, label + " ShadeSH9 toward the light");
+        Compare("light_ambient_only", v.Irradiance(expectWorld[0], expectWorld[1], expectWorld[2]),
+                new[] { 0.05 * Math.PI, 0.05 * Math.PI, 0.05 * Math.PI }, 1e-6, label + " SH9 toward the light");
+        // without a light to draw, the full SH9 (light included) as before
+        var full = new Sh9LightingValues();
+        full.Set(snap, q[0], q[1], q[2], q[3], 1.0, false);
+        Expect("light_not_drawn_full_sh", !full.LightActive, label + ": light active although not drawn");
+        double[] fe = full.Irradiance(expectWorld[0], expectWorld[1], expectWorld[2]);
+        double[] fb = full.Irradiance(-expectWorld[0], -expectWorld[1], -expectWorld[2]);
+        Expect("light_not_drawn_full_sh", fe[0] > 0.5 * e[0] && fe[0] > 3 * fb[0],
+               label + ": full SH9 not lit toward the light: " + fe[0] + " vs " + fb[0]);
+    }
+
+    static void Lights()
+    {
+        double s = Math.Sqrt(0.5);
+        // In Unity's frame after the z flip: wire +X stays +X, wire +Z is Unity -Z.
+        OneSidedDirectionalLight("wire +x", new double[] { 1, 0, 0 }, null, new double[] { 1, 0, 0 });
+        OneSidedDirectionalLight("wire -x", new double[] { -1, 0, 0 }, null, new double[] { -1, 0, 0 });
+        OneSidedDirectionalLight("wire +z", new double[] { 0, 0, 1 }, null, new double[] { 0, 0, -1 });
+        OneSidedDirectionalLight("wire +y (overhead sun)", new double[] { 0, 1, 0 }, null, new double[] { 0, 1, 0 });
+        OneSidedDirectionalLight("wire oblique", new double[] { 0.6, 0.0, 0.8 }, null, new double[] { 0.6, 0, -0.8 });
+        // probe on a transform turned by Quaternion.Euler(0, 90, 0): local right lands on world back (-z)
+        OneSidedDirectionalLight("yaw 90, wire +x", new double[] { 1, 0, 0 }, new[] { 0, s, 0, s }, new double[] { 0, 0, -1 });
+
+        // the client's Intensity scales the light as it scales the SH9
+        double[] d = { 1, 0, 0 }, e = { 3, 2, 1 };
+        Sh9Message msg = Sh9Protocol.Parse(LightMessage(d, e, Uniform(0.05, 0.05, 0.05), true)).Sh9;
+        var snap = new Sh9Snapshot(msg, 0, 1);
+        var v = new Sh9LightingValues();
+        v.Set(snap, 0, 0, 0, 1, 2.5, true);
+        Compare("light_intensity_multiplier", v.LightIrradiance, new[] { 7.5, 5.0, 2.5 }, 1e-12, "2.5x");
+
+        // A message with lights but no ambient_* cannot be split: the full SH9, no light drawn.
+        Sh9Message noAmbient = Sh9Protocol.Parse(LightMessage(d, e, Uniform(0.05, 0.05, 0.05), false)).Sh9;
+        Expect("light_without_ambient", noAmbient.Lights == 1 && !noAmbient.HasLightSplit, "HasLightSplit without ambient");
+        var na = new Sh9LightingValues();
+        na.Set(new Sh9Snapshot(noAmbient, 0, 1), 0, 0, 0, 1, 1.0, true);
+        Expect("light_without_ambient", !na.LightActive, "light drawn without an ambient SH9");
+
+        // Two lights: the first is drawn, the second stays in the SH9 (its order-2 projection).
+        double[] d2 = { 0, 1, 0 }, e2 = { 1, 1, 1 };
+        double[] amb = Uniform(0.1, 0.2, 0.3);
+        double[] full2 = (double[])amb.Clone();
+        Sh9Math.AddDirectionalLight(full2, d[0], d[1], d[2], e[0], e[1], e[2]);
+        Sh9Math.AddDirectionalLight(full2, d2[0], d2[1], d2[2], e2[0], e2[1], e2[2]);
+        string two = "{\"type\":\"sh9\",\"coefficients\":" + JsonArray(full2) + ",\"lights\":2,\"light_directions\":[1,0,0,0,1,0]," +
+                     "\"light_irradiance\":[3,2,1,1,1,1],\"ambient_coefficients\":" + JsonArray(amb) + "}";
+        Sh9Message m2 = Sh9Protocol.Parse(two).Sh9;
+        Expect("two_lights_parsed", m2.Lights == 2 && m2.HasLightSplit && m2.AmbientMatrices != null, "parse");
+        var v2 = new Sh9LightingValues();
+        v2.Set(new Sh9Snapshot(m2, 0, 1), 0, 0, 0, 1, 1.0, true);
+        double[] ambPlusSecond = (double[])amb.Clone();
+        Sh9Math.AddDirectionalLight(ambPlusSecond, d2[0], d2[1], d2[2], e2[0], e2[1], e2[2]);
+        Compare("two_lights", ToDouble(v2.Matrices),
+                Sh9Math.MatricesToUnity(Sh9Math.MatricesFromCoefficients(ambPlusSecond)), 1e-6, "ambient + second light");
+        Compare("two_lights_first_drawn", v2.LightIrradiance, e, 0, "first light drawn");
+    }
+
+    static void LightParserChecks()
+    {
+        string z27 = JsonArray(new double[27]);
+        string head = "{\"type\":\"sh9\",\"coefficients\":" + z27;
+        // lights off: empty arrays, ambient absent, null or empty: all accepted
+        foreach (string tail in new[] { "}", ",\"lights\":0}", ",\"lights\":0,\"light_directions\":[],\"light_irradiance\":[]}",
+                                       ",\"lights\":0,\"light_directions\":[],\"light_irradiance\":[],\"ambient_coefficients\":[],\"ambient_matrices\":[]}",
+                                       ",\"lights\":0,\"ambient_coefficients\":null}",
+                                       ",\"lights\":0,\"light_directions\":[],\"light_irradiance\":[],\"ambient_coefficients\":" + z27 + "}" })
+        {
+            Sh9Message m = null;
+            string error = null;
+            try { m = Sh9Protocol.Parse(head + tail).Sh9; }
+            catch (FormatException e) { error = e.Message; }
+            Expect("lights_parser_accepts", m != null && m.Lights == 0 && !m.HasLightSplit && m.LightDirections.Length == 0,
+                   "lights off: " + tail + " " + error);
+        }
+        // a light toward a non-unit direction is normalised; wire layout kept
+        Sh9Message ok = Sh9Protocol.Parse(head + ",\"lights\":1,\"light_directions\":[0,1.5e-0,0],\"light_irradiance\":[1,1,1]," +
+                                          "\"ambient_coefficients\":" + z27 + "}").Sh9;
+        Expect("lights_parser_accepts", ok.Lights == 1 && ok.LightDirections[1] == 1.0 && ok.HasLightSplit &&
+               ok.AmbientMatrices != null && ok.AmbientMatrices.Length == 48, "one light, derived ambient matrices");
+        // bad input: a clear message naming the field
+        var bad = new Dictionary<string, string>
+        {
+            { ",\"lights\":1,\"light_directions\":[1,0],\"light_irradiance\":[1,1,1]}", "light_directions" },
+            { ",\"lights\":1,\"light_directions\":[1,0,0],\"light_irradiance\":[]}", "light_irradiance" },
+            { ",\"lights\":1}", "light_directions" },
+            { ",\"lights\":-1}", "lights" },
+            { ",\"lights\":1.5}", "lights" },
+            { ",\"lights\":\"1\"}", "lights" },
+            { ",\"lights\":1,\"light_directions\":[0,0,0],\"light_irradiance\":[1,1,1]}", "unit vector" },
+            { ",\"lights\":1,\"light_directions\":[1,0,0],\"light_irradiance\":[1,-1,1]}", "negative" },
+            { ",\"lights\":0,\"ambient_coefficients\":[1,2,3]}", "ambient_coefficients" },
+            { ",\"lights\":0,\"ambient_matrices\":[1]}", "ambient_matrices" },
+            { ",\"lights\":1,\"light_directions\":[1,0,0],\"light_irradiance\":[1,\"x\",1]}", "light_irradiance" },
+        };
+        foreach (KeyValuePair<string, string> kv in bad)
+        {
+            string error = null;
+            try { Sh9Protocol.Parse(head + kv.Key); }
+            catch (FormatException e) { error = e.Message; }
+            Expect("lights_parser_rejects", error != null && error.Contains(kv.Value),
+                   "accepted or unclear: " + kv.Key + " -> " + (error ?? "accepted"));
+        }
+    }
+
+    // ---- no allocation on the per-frame paths ---------------------------------------------------
+
+    static void NoAllocation()
+    {
+        double[] d = { 0.6, 0, 0.8 }, e = { 3, 2, 1 };
+        var snap = new Sh9Snapshot(Sh9Protocol.Parse(LightMessage(d, e, Uniform(0.05, 0.05, 0.05), true)).Sh9, 0, 1);
+        var v = new Sh9LightingValues();
+        var q = new double[4];
+        var rgbi = new double[4];
+        var r9 = new double[9];
+        v.Set(snap, 0.1, 0.2, 0.3, 0.9, 1.5, true);   // warm-up (JIT)
+        v.SetUniform(1, 1, 1);
+        Sh9Math.LookRotation(1, 2, 3, q);
+        Sh9Math.LightColorFromLinear(1, 2, 3, Sh9LightColorSpace.GammaIntensity, rgbi);
+        Sh9Math.QuaternionToMatrix(0, 0, 0, 1, r9);
+        long before = GC.GetAllocatedBytesForCurrentThread();
+        for (int i = 0; i < 1000; i++)
+        {
+            v.Set(snap, 0.1, 0.2 + i * 1e-4, 0.3, 0.9, 1.5, (i & 1) == 0);
+            v.SetUniform(1, 0.5, 0.25);
+            Sh9Math.LookRotation(1, 2, 3 + i, q);
+            Sh9Math.LightColorFromLinear(1, 2, 3, (Sh9LightColorSpace)(i % 3), rgbi);
+            Sh9Math.QuaternionToMatrix(0.1, 0.2, 0.3, 0.9, r9);
+        }
+        long bytes = GC.GetAllocatedBytesForCurrentThread() - before;
+        Expect("no_allocation_per_frame", bytes == 0, "Sh9LightingValues.Set & co allocated " + bytes + " bytes in 1000 calls");
+    }
+
     // ---- parser robustness ----------------------------------------------------------------
 
     static void ParserChecks()
@@ -365,6 +593,9 @@ static class ContractTest
             }
             OneSidedLights();
             ParserChecks();
+            Lights();
+            LightParserChecks();
+            NoAllocation();
         }
         catch (Exception ex)
         {

@@ -8,12 +8,23 @@
 //   {"event":"applied","seq":..,"stale":..,"matrices":[48],"ambient":[27],"wire_matrices":[48],...}
 //                                                            when a new message has been applied
 // The "matrices" are what Update passed to Shader.SetGlobalMatrix (_SHIrradianceR/G/B) and
-// "ambient" what it assigned to RenderSettings.ambientProbe, read back from the stand-in.
+// "ambient" what it assigned to RenderSettings.ambientProbe, read back from the stand-in; with
+// --light, "light" is the driven Directional Light as the stand-in holds it.
 // Stdin: "quit" ends the program (exit 0), and so does the end of stdin (the test runner went
-// away); it also ends after the time limit in args. The component's log (Debug.Log of the
-// stand-in) goes to stderr.
+// away); it also ends after the time limit in args. "pause" plays a suspended app (Unity calls
+// OnApplicationPause(true) and OnApplicationFocus(false), then no Update until the app is back);
+// "resume" plays its return (OnApplicationPause(false), OnApplicationFocus(true), Update again);
+// "blur" / "focus" play OnApplicationFocus(false) / (true) alone, with Update going on.
+// The component's log (Debug.Log of the stand-in) goes to stderr.
+//
+// Allocations: every Update is bracketed by GC.GetAllocatedBytesForCurrentThread (the main
+// thread's managed allocations, Mono's exact per-thread counter). Frames in which the component
+// logged something (a state change, a connection event) are event frames; all others, after
+// warm-up (the first 3 applied messages), are steady frames, and the exit event reports their
+// count, how many of them applied a new message, and the bytes they allocated.
 //
 // usage: LiveClient.exe URL TOKEN PROBE SECONDS [QX QY QZ QW] [--token-in-query] [--intensity=X]
+//        [--light] [--color-space=linear|gamma] [--linear-intensity]
 //   TOKEN or PROBE "-": empty. QX..QW: the rotation of the component's transform.
 using System;
 using System.Globalization;
@@ -50,6 +61,31 @@ static class LiveClient
         m.Invoke(target, null);
     }
 
+    static void Call(object target, string method, bool argument)
+    {
+        MethodInfo m = target.GetType().GetMethod(method, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public);
+        m.Invoke(target, new object[] { argument });
+    }
+
+    // A delegate, not MethodInfo.Invoke: reflection would allocate in the frames being measured.
+    static Action Method(object target, string method)
+    {
+        MethodInfo m = target.GetType().GetMethod(method, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public);
+        return (Action)m.CreateDelegate(typeof(Action), target);
+    }
+
+    static string LightJson(Light light)
+    {
+        if (light == null) return "null";
+        Vector3 f = light.transform.forward;   // the stand-in's rotation * Vector3.forward
+        Color c = light.color;
+        return "{\"enabled\":" + (light.enabled ? "true" : "false") +
+               ",\"forward\":" + Array(new double[] { f.x, f.y, f.z }) +
+               ",\"color\":" + Array(new double[] { c.r, c.g, c.b }) +
+               ",\"intensity\":" + MiniJson.Number(light.intensity) +
+               ",\"use_color_temperature\":" + (light.useColorTemperature ? "true" : "false") + "}";
+    }
+
     static string Array(float[] v)
     {
         return Array(System.Array.ConvertAll(v, x => (double)x));  // MiniJson.Number takes double
@@ -79,6 +115,12 @@ static class LiveClient
         return result;
     }
 
+    static float GlobalFloat(string name)
+    {
+        float v;
+        return Shader.StandInGlobalFloats.TryGetValue(Shader.PropertyToID(name), out v) ? v : float.NaN;
+    }
+
     static float[] AmbientProbe()
     {
         var result = new float[27];
@@ -100,10 +142,22 @@ static class LiveClient
         double seconds = double.Parse(args[3], CultureInfo.InvariantCulture);
 
         var component = new SH9LightingClient();
+        Light light = null;
         foreach (string f in flags)
         {
             if (f == "--token-in-query") SetField(component, "tokenInQuery", true);
             else if (f.StartsWith("--intensity=")) component.Intensity = float.Parse(f.Substring(12), CultureInfo.InvariantCulture);
+            else if (f == "--light")
+            {
+                light = new GameObject("Sun").AddComponent<Light>();
+                light.type = LightType.Directional;
+                light.color = new Color(1f, 0.95f, 0.8f);   // the scene's own values, restored on disable
+                light.intensity = 1.25f;
+                component.DirectionalLight = light;
+            }
+            else if (f == "--color-space=gamma") QualitySettings.StandInColorSpace = ColorSpace.Gamma;
+            else if (f == "--color-space=linear") QualitySettings.StandInColorSpace = ColorSpace.Linear;
+            else if (f == "--linear-intensity") UnityEngine.Rendering.GraphicsSettings.lightsUseLinearIntensity = true;
             else throw new ArgumentException("unknown option " + f);
         }
         if (args.Length >= 8)
@@ -120,17 +174,26 @@ static class LiveClient
         SetField(component, "logToConsole", true);   // to stderr (the stand-in's Debug.Log)
 
         bool quit = false;
+        var commands = new System.Collections.Concurrent.ConcurrentQueue<string>();
         var stdin = new Thread(() =>
         {
             string line;
             while ((line = Console.In.ReadLine()) != null)
+            {
                 if (line.Trim() == "quit") break;
+                commands.Enqueue(line.Trim());
+            }
             quit = true;
         });
         stdin.IsBackground = true;
         stdin.Start();
 
         Call(component, "OnEnable");
+        Action update = Method(component, "Update");
+        bool paused = false;
+        int appliedSeen = 0;
+        long steadyFrames = 0, steadyApplied = 0, steadyBytes = 0, eventFrames = 0, worstSteadyFrame = 0;
+        Sh9Message beforeUpdate = null;
         Sh9ConnectionState lastState = (Sh9ConnectionState)(-1);
         long lastApplied = -1;
         bool lastStale = false;
@@ -141,7 +204,56 @@ static class LiveClient
         {
             while (!quit && clock.Elapsed.TotalSeconds < seconds)
             {
-                Call(component, "Update");
+                string command;
+                while (commands.TryDequeue(out command))
+                {
+                    if (command == "pause" && !paused)
+                    {
+                        Call(component, "OnApplicationPause", true);
+                        Call(component, "OnApplicationFocus", false);
+                        paused = true;
+                        Emit("{\"event\":\"paused\",\"t\":" + MiniJson.Number(clock.Elapsed.TotalSeconds) + "}");
+                    }
+                    else if (command == "blur")
+                    {
+                        Call(component, "OnApplicationFocus", false);   // e.g. a system menu opened; Update goes on
+                        Emit("{\"event\":\"blurred\",\"t\":" + MiniJson.Number(clock.Elapsed.TotalSeconds) + "}");
+                    }
+                    else if (command == "focus")
+                    {
+                        Emit("{\"event\":\"focused\",\"t\":" + MiniJson.Number(clock.Elapsed.TotalSeconds) +
+                             ",\"connections\":" + component.Connections + "}");
+                        Call(component, "OnApplicationFocus", true);
+                    }
+                    else if (command == "resume" && paused)
+                    {
+                        Emit("{\"event\":\"resumed\",\"t\":" + MiniJson.Number(clock.Elapsed.TotalSeconds) +
+                             ",\"connections\":" + component.Connections + "}");
+                        Call(component, "OnApplicationPause", false);
+                        Call(component, "OnApplicationFocus", true);
+                        paused = false;
+                    }
+                }
+                if (paused)
+                {
+                    Thread.Sleep(20);   // a suspended app runs no Update
+                    continue;
+                }
+                beforeUpdate = component.LastMessage;
+                int logged = Debug.StandInMessages;
+                long allocated = GC.GetAllocatedBytesForCurrentThread();
+                update();
+                allocated = GC.GetAllocatedBytesForCurrentThread() - allocated;
+                bool appliedNow = !ReferenceEquals(component.LastMessage, beforeUpdate);
+                if (appliedNow) appliedSeen++;
+                if (Debug.StandInMessages != logged) eventFrames++;
+                else if (appliedSeen > 3)
+                {
+                    steadyFrames++;
+                    if (appliedNow) steadyApplied++;
+                    steadyBytes += allocated;
+                    worstSteadyFrame = Math.Max(worstSteadyFrame, allocated);
+                }
                 if (component.State != lastState)
                 {
                     lastState = component.State;
@@ -174,7 +286,14 @@ static class LiveClient
                          ",\"hello_probes\":" + (hello == null ? 0 : hello.Probes.Length) +
                          ",\"matrices\":" + Array(GlobalMatrices()) + ",\"ambient\":" + Array(AmbientProbe()) +
                          ",\"wire_matrices\":" + Array(msg.Matrices) + ",\"wire_coefficients\":" + Array(msg.Coefficients) +
-                         ",\"ambient_mode\":\"" + RenderSettings.ambientMode + "\"}");
+                         ",\"ambient_mode\":\"" + RenderSettings.ambientMode + "\"" +
+                         ",\"lights\":" + msg.Lights + ",\"light_active\":" + (component.LightActive ? "true" : "false") +
+                         ",\"light\":" + LightJson(light) +
+                         ",\"main_light_scale\":" + MiniJson.Number(GlobalFloat("_SHMainLightScale")) +
+                         ",\"wire_light_directions\":" + Array(msg.LightDirections) +
+                         ",\"wire_light_irradiance\":" + Array(msg.LightIrradiance) +
+                         ",\"wire_ambient_coefficients\":" + (msg.AmbientCoefficients == null ? "null" : Array(msg.AmbientCoefficients)) +
+                         "}");
                 }
                 Thread.Sleep(20);
             }
@@ -184,7 +303,12 @@ static class LiveClient
             long received = component.MessagesReceived;
             Call(component, "OnDisable");
             Emit("{\"event\":\"exit\",\"state\":\"" + component.State + "\",\"received\":" + received +
-                 ",\"ambient_mode_restored\":\"" + RenderSettings.ambientMode + "\"}");
+                 ",\"connections\":" + component.Connections +
+                 ",\"ambient_mode_restored\":\"" + RenderSettings.ambientMode + "\"" +
+                 ",\"light_restored\":" + LightJson(light) +
+                 ",\"steady_frames\":" + steadyFrames + ",\"steady_applied_frames\":" + steadyApplied +
+                 ",\"steady_alloc_bytes\":" + steadyBytes + ",\"worst_steady_frame_bytes\":" + worstSteadyFrame +
+                 ",\"event_frames\":" + eventFrames + "}");
         }
         // Everything is said and the component is stopped. Mono's own runtime shutdown can
         // deadlock on thread-pool threads left in socket calls (seen under heavy CPU load, where

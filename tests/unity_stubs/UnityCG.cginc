@@ -1,49 +1,89 @@
-// COMPILE-ONLY STAND-IN FOR Unity's UnityCG.cginc -- NOT UNITY.
-// Just enough declarations and macros for glslangValidator's HLSL front end to type-check the
-// package's SH9Diffuse.shader program (tests/test_unity.py). The stereo/instancing macros are
-// defined the way Unity defines them when instancing is off (empty), so only the shader's own
-// code is checked, not Unity's.
-#ifndef UNITY_CG_STANDIN_INCLUDED
-#define UNITY_CG_STANDIN_INCLUDED
+// STAND-IN FOR Unity's CGIncludes/UnityCG.cginc -- NOT UNITY'S FILE.
+// The functions and macros of UnityCG.cginc (with UnityShaderUtilities.cginc) that the package's
+// shaders use, written from a reading of Unity's built-in shader includes (2022.3 line numbers).
+// It includes the stand-in UnityShaderVariables/UnityInstancing, which define the stereo and
+// instancing macros as Unity does, so that the shader's stereo and instancing code is checked.
+#ifndef UNITY_CG_INCLUDED
+#define UNITY_CG_INCLUDED
 
 #define UNITY_PI 3.14159265359f
-#define fixed half
-#define fixed2 half2
-#define fixed3 half3
-#define fixed4 half4
 
-float4x4 unity_ObjectToWorld;
-float4x4 unity_WorldToObject;
-float4x4 unity_MatrixVP;
+#include "UnityShaderVariables.cginc"
 
-#define UNITY_VERTEX_INPUT_INSTANCE_ID
-#define UNITY_VERTEX_OUTPUT_STEREO
-#define UNITY_SETUP_INSTANCE_ID(v)
-#define UNITY_TRANSFER_INSTANCE_ID(v, o)
-#define UNITY_INITIALIZE_VERTEX_OUTPUT_STEREO(o)
-#define UNITY_SETUP_STEREO_EYE_INDEX_POST_VERTEX(i)
-#define UNITY_INITIALIZE_OUTPUT(type, name) name = (type)0
+// UnityShaderUtilities.cginc lines 46-58 (replaced by the instanced version with INSTANCING_ON)
+inline float4 UnityObjectToClipPos(in float3 pos)
+{
+    return mul(UNITY_MATRIX_VP, mul(unity_ObjectToWorld, float4(pos, 1.0)));
+}
+inline float4 UnityObjectToClipPos(float4 pos) { return UnityObjectToClipPos(pos.xyz); }
+
+#include "UnityInstancing.cginc"
+
+// lines 97-131: sRGB curves
+inline float GammaToLinearSpaceExact(float value)
+{
+    if (value <= 0.04045F) return value / 12.92F;
+    else if (value < 1.0F) return pow((value + 0.055F) / 1.055F, 2.4F);
+    else return pow(value, 2.2F);
+}
+inline half3 GammaToLinearSpace(half3 sRGB)
+{
+    return sRGB * (sRGB * (sRGB * 0.305306011h + 0.682171111h) + 0.012522878h);
+}
+inline half3 LinearToGammaSpace(half3 linRGB)
+{
+    linRGB = max(linRGB, half3(0.h, 0.h, 0.h));
+    return max(1.055h * pow(linRGB, 0.416666667h) - 0.055h, 0.h);
+}
+
+// lines 179-198
+inline float3 UnityObjectToWorldNormal(in float3 norm)
+{
+    return normalize(mul(norm, (float3x3)unity_WorldToObject));
+}
+inline float3 UnityWorldSpaceLightDir(in float3 worldPos)
+{
+    return _WorldSpaceLightPos0.xyz - worldPos * _WorldSpaceLightPos0.w;
+}
+
 #define TRANSFORM_TEX(tex, name) (tex.xy * name##_ST.xy + name##_ST.zw)
 
-float4 UnityObjectToClipPos(float4 pos)
+// lines 904-994: shadow casters (normal offset; point-light cube shadows store the distance)
+float4 UnityClipSpaceShadowCasterPos(float4 vertex, float3 normal)
 {
-    return mul(unity_MatrixVP, mul(unity_ObjectToWorld, float4(pos.xyz, 1.0)));
+    float4 wPos = mul(unity_ObjectToWorld, vertex);
+    if (unity_LightShadowBias.z != 0.0)
+    {
+        float3 wNormal = UnityObjectToWorldNormal(normal);
+        float3 wLight = normalize(UnityWorldSpaceLightDir(wPos.xyz));
+        float shadowCos = dot(wNormal, wLight);
+        float shadowSine = sqrt(1 - shadowCos * shadowCos);
+        wPos.xyz -= wNormal * (unity_LightShadowBias.z * shadowSine);
+    }
+    return mul(UNITY_MATRIX_VP, wPos);
 }
-
-float3 UnityObjectToWorldNormal(float3 n)
+float4 UnityApplyLinearShadowBias(float4 clipPos)
 {
-    return normalize(mul(n, (float3x3)unity_WorldToObject));
-}
-
-half3 GammaToLinearSpace(half3 c)
-{
-    return c * (c * (c * 0.305306011h + 0.682171111h) + 0.012522878h);
-}
-
-half3 LinearToGammaSpace(half3 c)
-{
-    c = max(c, half3(0.h, 0.h, 0.h));
-    return max(1.055h * pow(c, 0.416666667h) - 0.055h, 0.h);
-}
-
+#if defined(UNITY_REVERSED_Z)
+    clipPos.z += max(-1, min(unity_LightShadowBias.x / clipPos.w, 0));
+    float clamped = min(clipPos.z, clipPos.w * UNITY_NEAR_CLIP_VALUE);
+#else
+    clipPos.z += saturate(unity_LightShadowBias.x / clipPos.w);
+    float clamped = max(clipPos.z, clipPos.w * UNITY_NEAR_CLIP_VALUE);
 #endif
+    clipPos.z = lerp(clipPos.z, clamped, unity_LightShadowBias.y);
+    return clipPos;
+}
+#if defined(SHADOWS_CUBE) && !defined(SHADOWS_CUBE_IN_DEPTH_TEX)
+    #define V2F_SHADOW_CASTER_NOPOS float3 vec : TEXCOORD0;
+    #define TRANSFER_SHADOW_CASTER_NOPOS(o, opos) o.vec = mul(unity_ObjectToWorld, v.vertex).xyz - _LightPositionRange.xyz; opos = UnityObjectToClipPos(v.vertex);
+    #define SHADOW_CASTER_FRAGMENT(i) return (length(i.vec) + unity_LightShadowBias.x) * _LightPositionRange.w;
+#else
+    #define V2F_SHADOW_CASTER_NOPOS
+    #define TRANSFER_SHADOW_CASTER_NOPOS(o, opos) opos = UnityClipSpaceShadowCasterPos(v.vertex, v.normal); opos = UnityApplyLinearShadowBias(opos);
+    #define SHADOW_CASTER_FRAGMENT(i) return 0;
+#endif
+#define V2F_SHADOW_CASTER V2F_SHADOW_CASTER_NOPOS UNITY_POSITION(pos)
+#define TRANSFER_SHADOW_CASTER_NORMALOFFSET(o) TRANSFER_SHADOW_CASTER_NOPOS(o, o.pos)
+
+#endif // UNITY_CG_INCLUDED

@@ -1,10 +1,16 @@
 // COMPILE-ONLY STAND-IN FOR UnityEngine -- NOT UNITY.
 //
-// The smallest set of UnityEngine types that the package's MonoBehaviours and sample scripts
-// use, so that Mono's mcs can type-check them on a machine without Unity. Signatures follow the
-// Unity scripting API (2020.3); behaviour is a trivial model at best: Shader.SetGlobalMatrix and
-// RenderSettings just store what they are given so a test can read it back. Nothing that runs
-// against this file has run in Unity, and no test claims so.
+// The UnityEngine members that the package's MonoBehaviours, its sample and the test harnesses
+// use, so that Mono's mcs can type-check them on a machine without Unity and a harness can drive
+// them. The declarations mirror the Unity 2020.3 scripting API (as documented, and as declared in
+// Unity-Technologies/UnityCsReference, branch 2020.3): properties where Unity has properties (so
+// `RenderSettings.ambientProbe[0, 0] = x` or `transform.rotation.x = y` fail with CS1612 here as
+// they do in Unity), value types as structs of plain fields (Matrix4x4 m00..m33,
+// SphericalHarmonicsL2's 27 floats, Color, Vector3, Quaternion), the same generic constraints,
+// overloads and enum values. Behaviour is a trivial model: setters store what they get so that a
+// test can read it back, and nothing here allocates on the paths a frame takes (the harness measures
+// the component's allocations). Members named StandIn* exist only here, for the harnesses.
+// Nothing that runs against this file has run in Unity, and no test claims so.
 using System;
 using System.Collections.Generic;
 
@@ -12,80 +18,360 @@ namespace UnityEngine
 {
     public class Object
     {
-        public string name = "";
-        public static T FindObjectOfType<T>() where T : Object { return null; }
-        public static void Destroy(Object obj) { }
+        // Stand-in only: every live object, for FindObjectsOfType.
+        static readonly List<Object> standInLive = new List<Object>();
+        bool destroyed;
+        string objectName = "";
+
+        public Object() { standInLive.Add(this); }
+
+        public string name { get { return objectName; } set { objectName = value ?? ""; } }
+
+        public static T FindObjectOfType<T>() where T : Object
+        {
+            foreach (Object o in standInLive) { var t = o as T; if (t != null) return t; }
+            return null;
+        }
+
+        public static T[] FindObjectsOfType<T>() where T : Object
+        {
+            var found = new List<T>();
+            foreach (Object o in standInLive) { var t = o as T; if (t != null) found.Add(t); }
+            return found.ToArray();
+        }
+
+        public static void Destroy(Object obj)
+        {
+            if (obj == null) return;
+            obj.destroyed = true;
+            standInLive.Remove(obj);
+        }
+
+        // Unity's == treats a destroyed object as null (UnityEngineObject.bindings.cs, CompareBaseObjects).
+        public static bool operator ==(Object x, Object y)
+        {
+            bool xNull = ReferenceEquals(x, null) || x.destroyed, yNull = ReferenceEquals(y, null) || y.destroyed;
+            if (xNull || yNull) return xNull && yNull;
+            return ReferenceEquals(x, y);
+        }
+        public static bool operator !=(Object x, Object y) { return !(x == y); }
+        public static implicit operator bool(Object exists) { return exists != null; }
+        public override bool Equals(object other) { return ReferenceEquals(this, other); }
+        public override int GetHashCode() { return base.GetHashCode(); }
     }
 
     public class Component : Object
     {
-        Transform t;
-        public Transform transform { get { return t ?? (t = this as Transform ?? new Transform()); } }
-        public GameObject gameObject { get { return null; } }
-        public T GetComponent<T>() where T : Component { return null; }
+        internal GameObject owner;
+        Transform ownTransform;
+
+        public Transform transform
+        {
+            get
+            {
+                if (owner != null) return owner.transform;
+                if (ownTransform == null) ownTransform = this as Transform ?? new Transform();
+                return ownTransform;
+            }
+        }
+
+        public GameObject gameObject { get { return owner; } }
+
+        public T GetComponent<T>() { return owner == null ? default(T) : owner.GetComponent<T>(); }
+
+        public T[] GetComponentsInChildren<T>(bool includeInactive)
+        {
+            return owner == null ? new T[0] : owner.GetComponentsInChildren<T>(includeInactive);
+        }
     }
 
     public class Behaviour : Component
     {
-        public bool enabled = true;
-        public bool isActiveAndEnabled { get { return enabled; } }
+        bool isEnabled = true;
+        public bool enabled { get { return isEnabled; } set { isEnabled = value; } }
+        public bool isActiveAndEnabled { get { return isEnabled; } }
     }
 
     public class MonoBehaviour : Behaviour { }
 
     public class Transform : Component
     {
-        public Quaternion rotation = Quaternion.identity;
-        public Vector3 position;
-        public Vector3 localPosition;
-        public Vector3 localScale = new Vector3(1, 1, 1);
-        public void SetParent(Transform parent, bool worldPositionStays) { }
+        Quaternion worldRotation = Quaternion.identity;
+        Vector3 worldPosition, local, scale = new Vector3(1, 1, 1);
+        Transform parent;
+        internal readonly List<Transform> children = new List<Transform>();
+
+        public Quaternion rotation { get { return worldRotation; } set { worldRotation = value; } }
+        public Vector3 position { get { return worldPosition; } set { worldPosition = value; } }
+        public Vector3 localPosition { get { return local; } set { local = value; } }
+        public Vector3 localScale { get { return scale; } set { scale = value; } }
+        /// <summary>rotation * Vector3.forward, as in Unity.</summary>
+        public Vector3 forward { get { return worldRotation * Vector3.forward; } }
+
+        public void SetParent(Transform p, bool worldPositionStays)
+        {
+            if (parent != null) parent.children.Remove(this);
+            parent = p;
+            if (p != null) p.children.Add(this);
+        }
     }
 
     public sealed class GameObject : Object
     {
-        public GameObject(string name) { this.name = name; }
-        public Transform transform { get { return new Transform(); } }
-        public T AddComponent<T>() where T : Component, new() { return new T(); }
-        public T GetComponent<T>() where T : Component { return null; }
-        public static GameObject CreatePrimitive(PrimitiveType type) { return new GameObject(type.ToString()); }
+        readonly Transform ownTransform;
+        readonly List<Component> components = new List<Component>();
+
+        public GameObject(string name)
+        {
+            this.name = name;
+            ownTransform = new Transform();
+            ownTransform.owner = this;
+            components.Add(ownTransform);
+        }
+
+        public Transform transform { get { return ownTransform; } }
+
+        public T AddComponent<T>() where T : Component
+        {
+            var c = (T)Activator.CreateInstance(typeof(T));
+            c.owner = this;
+            components.Add(c);
+            return c;
+        }
+
+        public T GetComponent<T>()
+        {
+            foreach (Component c in components) if (c is T) return (T)(object)c;
+            return default(T);
+        }
+
+        public T[] GetComponentsInChildren<T>(bool includeInactive)
+        {
+            var found = new List<T>();
+            Collect(this, found);
+            return found.ToArray();
+        }
+
+        static void Collect<T>(GameObject g, List<T> found)
+        {
+            foreach (Component c in g.components) if (c is T) found.Add((T)(object)c);
+            foreach (Transform child in g.ownTransform.children)
+                if (child.gameObject != null) Collect(child.gameObject, found);
+        }
+
+        public static GameObject CreatePrimitive(PrimitiveType type)
+        {
+            var g = new GameObject(type.ToString());
+            g.AddComponent<MeshRenderer>();
+            return g;
+        }
     }
 
     public enum PrimitiveType { Sphere = 0, Capsule = 1, Cylinder = 2, Cube = 3, Plane = 4, Quad = 5 }
 
     public class Renderer : Component
     {
-        public Material sharedMaterial;
+        Material[] materials = new Material[0];
+        Rendering.LightProbeUsage probeUsage = Rendering.LightProbeUsage.BlendProbes;
+        /// <summary>Stand-in only: the block last given to SetPropertyBlock (copied, as Unity copies it).</summary>
+        public MaterialPropertyBlock StandInPropertyBlock;
+
+        public Material sharedMaterial
+        {
+            get { return materials.Length == 0 ? null : materials[0]; }
+            set { materials = new[] { value }; }
+        }
+
+        // Unity returns a copy of the array (GetSharedMaterialArray) and copies the one it is given.
+        public Material[] sharedMaterials
+        {
+            get { return (Material[])materials.Clone(); }
+            set { materials = value == null ? new Material[0] : (Material[])value.Clone(); }
+        }
+
+        public Rendering.LightProbeUsage lightProbeUsage { get { return probeUsage; } set { probeUsage = value; } }
+
+        public void SetPropertyBlock(MaterialPropertyBlock properties)
+        {
+            StandInPropertyBlock = properties == null ? null : properties.StandInCopy();
+        }
+    }
+
+    public class MeshRenderer : Renderer { }
+
+    public sealed class MaterialPropertyBlock
+    {
+        readonly Dictionary<int, Color> colors = new Dictionary<int, Color>();
+        public void SetColor(string name, Color value) { SetColor(Shader.PropertyToID(name), value); }
+        public void SetColor(int nameID, Color value) { colors[nameID] = value; }
+        public void Clear() { colors.Clear(); }
+        public bool isEmpty { get { return colors.Count == 0; } }
+
+        /// <summary>Stand-in only.</summary>
+        public bool StandInTryGetColor(string name, out Color value) { return colors.TryGetValue(Shader.PropertyToID(name), out value); }
+        internal MaterialPropertyBlock StandInCopy()
+        {
+            var copy = new MaterialPropertyBlock();
+            foreach (KeyValuePair<int, Color> kv in colors) copy.colors[kv.Key] = kv.Value;
+            return copy;
+        }
     }
 
     public class Material : Object
     {
-        public Material(Shader shader) { }
-        public Material(Material source) { }
-        public Color color;
-        public void SetColor(string property, Color value) { }
+        Shader materialShader;
+        readonly Dictionary<int, float> floats = new Dictionary<int, float>();
+        readonly Dictionary<int, Color> colors = new Dictionary<int, Color>();
+        readonly HashSet<string> keywords = new HashSet<string>(StringComparer.Ordinal);
+
+        public Material(Shader shader) { materialShader = shader; }
+
+        public Material(Material source)
+        {
+            materialShader = source.materialShader;
+            name = source.name;
+            foreach (KeyValuePair<int, float> kv in source.floats) floats[kv.Key] = kv.Value;
+            foreach (KeyValuePair<int, Color> kv in source.colors) colors[kv.Key] = kv.Value;
+            keywords.UnionWith(source.keywords);
+        }
+
+        public Shader shader { get { return materialShader; } set { materialShader = value; } }
+        public Color color { get { return GetColor("_Color"); } set { SetColor("_Color", value); } }
+
+        public bool HasProperty(int nameID) { return materialShader != null && materialShader.StandInHasProperty(nameID); }
+        public bool HasProperty(string name) { return HasProperty(Shader.PropertyToID(name)); }
+        public void SetFloat(string name, float value) { SetFloat(Shader.PropertyToID(name), value); }
+        public void SetFloat(int nameID, float value) { floats[nameID] = value; }
+        public float GetFloat(string name) { return GetFloat(Shader.PropertyToID(name)); }
+        public float GetFloat(int nameID) { float v; return floats.TryGetValue(nameID, out v) ? v : 0f; }
+        public void SetColor(string name, Color value) { SetColor(Shader.PropertyToID(name), value); }
+        public void SetColor(int nameID, Color value) { colors[nameID] = value; }
+        public Color GetColor(string name) { return GetColor(Shader.PropertyToID(name)); }
+        public Color GetColor(int nameID) { Color c; return colors.TryGetValue(nameID, out c) ? c : default(Color); }
+        public void EnableKeyword(string keyword) { keywords.Add(keyword); }
+        public void DisableKeyword(string keyword) { keywords.Remove(keyword); }
+        public bool IsKeywordEnabled(string keyword) { return keywords.Contains(keyword); }
+        public string[] shaderKeywords
+        {
+            get { var k = new string[keywords.Count]; keywords.CopyTo(k); return k; }
+            set { keywords.Clear(); if (value != null) keywords.UnionWith(value); }
+        }
     }
 
-    public enum TextAnchor { UpperLeft = 0, UpperCenter = 1, MiddleCenter = 4, LowerCenter = 7 }
+    public sealed class Shader : Object
+    {
+        static readonly Dictionary<string, int> ids = new Dictionary<string, int>(StringComparer.Ordinal);
+        static readonly Dictionary<string, Shader> byName = new Dictionary<string, Shader>(StringComparer.Ordinal);
+        /// <summary>Stand-in only: what SetGlobalMatrix received, by property id.</summary>
+        public static readonly Dictionary<int, Matrix4x4> StandInGlobalMatrices = new Dictionary<int, Matrix4x4>();
+        /// <summary>Stand-in only: what SetGlobalFloat received, by property id.</summary>
+        public static readonly Dictionary<int, float> StandInGlobalFloats = new Dictionary<int, float>();
+        readonly HashSet<int> properties = new HashSet<int>();
+
+        Shader() { }
+
+        /// <summary>Stand-in only: a shader of this name with these material properties (what an
+        /// imported .shader file would be), found by Shader.Find afterwards.</summary>
+        public static Shader StandInCreate(string name, params string[] propertyNames)
+        {
+            var s = new Shader();
+            s.name = name;
+            foreach (string p in propertyNames) s.properties.Add(PropertyToID(p));
+            byName[name] = s;
+            return s;
+        }
+
+        internal bool StandInHasProperty(int id) { return properties.Contains(id); }
+
+        public static Shader Find(string name) { Shader s; return byName.TryGetValue(name, out s) ? s : null; }
+
+        public static int PropertyToID(string name)
+        {
+            int id;
+            if (!ids.TryGetValue(name, out id)) ids[name] = id = ids.Count + 1;
+            return id;
+        }
+
+        public static void SetGlobalMatrix(int nameID, Matrix4x4 value) { StandInGlobalMatrices[nameID] = value; }
+        public static void SetGlobalMatrix(string name, Matrix4x4 value) { SetGlobalMatrix(PropertyToID(name), value); }
+        public static void SetGlobalFloat(int nameID, float value) { StandInGlobalFloats[nameID] = value; }
+        public static void SetGlobalFloat(string name, float value) { SetGlobalFloat(PropertyToID(name), value); }
+    }
+
+    public enum LightType { Spot = 0, Directional = 1, Point = 2, Area = 3, Rectangle = 3, Disc = 4 }
+
+    public enum LightShadows { None = 0, Hard = 1, Soft = 2 }
+
+    public sealed class Light : Behaviour
+    {
+        LightType lightType = LightType.Point;
+        Color lightColor = Color.white;
+        float lightIntensity = 1f;
+        bool colorTemperature;
+        LightShadows lightShadows = LightShadows.None;
+
+        public LightType type { get { return lightType; } set { lightType = value; } }
+        public Color color { get { return lightColor; } set { lightColor = value; } }
+        public float intensity { get { return lightIntensity; } set { lightIntensity = value; } }
+        public bool useColorTemperature { get { return colorTemperature; } set { colorTemperature = value; } }
+        public LightShadows shadows { get { return lightShadows; } set { lightShadows = value; } }
+    }
+
+    public enum ColorSpace { Uninitialized = -1, Gamma = 0, Linear = 1 }
+
+    public sealed class QualitySettings : Object
+    {
+        /// <summary>Stand-in only: what activeColorSpace reports (Unity: Player Settings → Color Space).</summary>
+        public static ColorSpace StandInColorSpace = ColorSpace.Linear;
+        public static ColorSpace activeColorSpace { get { return StandInColorSpace; } }
+    }
+
+    public sealed class RenderSettings : Object
+    {
+        static Rendering.AmbientMode mode = Rendering.AmbientMode.Trilight;
+        static Rendering.SphericalHarmonicsL2 probe;
+        static Light sunLight;
+
+        public static Rendering.AmbientMode ambientMode { get { return mode; } set { mode = value; } }
+        public static Rendering.SphericalHarmonicsL2 ambientProbe { get { return probe; } set { probe = value; } }
+        public static Light sun { get { return sunLight; } set { sunLight = value; } }
+    }
+
+    public enum TextAnchor
+    {
+        UpperLeft = 0, UpperCenter = 1, UpperRight = 2, MiddleLeft = 3, MiddleCenter = 4, MiddleRight = 5,
+        LowerLeft = 6, LowerCenter = 7, LowerRight = 8
+    }
 
     public sealed class TextMesh : Component
     {
-        public string text;
-        public float characterSize = 1;
-        public int fontSize;
-        public TextAnchor anchor;
-        public Color color;
+        string content = "";
+        float size = 1f;
+        int font;
+        TextAnchor textAnchor;
+        Color textColor = Color.white;
+
+        public string text { get { return content; } set { content = value; } }
+        public float characterSize { get { return size; } set { size = value; } }
+        public int fontSize { get { return font; } set { font = value; } }
+        public TextAnchor anchor { get { return textAnchor; } set { textAnchor = value; } }
+        public Color color { get { return textColor; } set { textColor = value; } }
     }
 
     public struct Vector3
     {
         public float x, y, z;
         public Vector3(float x, float y, float z) { this.x = x; this.y = y; this.z = z; }
+        public static Vector3 zero { get { return new Vector3(0, 0, 0); } }
+        public static Vector3 one { get { return new Vector3(1, 1, 1); } }
         public static Vector3 up { get { return new Vector3(0, 1, 0); } }
         public static Vector3 right { get { return new Vector3(1, 0, 0); } }
         public static Vector3 forward { get { return new Vector3(0, 0, 1); } }
         public static Vector3 operator *(Vector3 a, float d) { return new Vector3(a.x * d, a.y * d, a.z * d); }
+        public static Vector3 operator *(float d, Vector3 a) { return new Vector3(a.x * d, a.y * d, a.z * d); }
         public static Vector3 operator +(Vector3 a, Vector3 b) { return new Vector3(a.x + b.x, a.y + b.y, a.z + b.z); }
+        public static Vector3 operator -(Vector3 a, Vector3 b) { return new Vector3(a.x - b.x, a.y - b.y, a.z - b.z); }
+        public static Vector3 operator -(Vector3 a) { return new Vector3(-a.x, -a.y, -a.z); }
     }
 
     public struct Quaternion
@@ -93,10 +379,29 @@ namespace UnityEngine
         public float x, y, z, w;
         public Quaternion(float x, float y, float z, float w) { this.x = x; this.y = y; this.z = z; this.w = w; }
         public static Quaternion identity { get { return new Quaternion(0, 0, 0, 1); } }
-        public static bool operator ==(Quaternion a, Quaternion b) { return a.x == b.x && a.y == b.y && a.z == b.z && a.w == b.w; }
+
+        // The rotation of a vector by a unit quaternion (v' = q v q*), written out.
+        public static Vector3 operator *(Quaternion q, Vector3 v)
+        {
+            float tx = 2f * (q.y * v.z - q.z * v.y), ty = 2f * (q.z * v.x - q.x * v.z), tz = 2f * (q.x * v.y - q.y * v.x);
+            return new Vector3(v.x + q.w * tx + (q.y * tz - q.z * ty),
+                               v.y + q.w * ty + (q.z * tx - q.x * tz),
+                               v.z + q.w * tz + (q.x * ty - q.y * tx));
+        }
+
+        // Unity's == compares with a tolerance (dot > 1 - kEpsilon); the package compares exactly itself.
+        public static bool operator ==(Quaternion a, Quaternion b)
+        {
+            return a.x * b.x + a.y * b.y + a.z * b.z + a.w * b.w > 1.0f - 0.000001f;
+        }
         public static bool operator !=(Quaternion a, Quaternion b) { return !(a == b); }
-        public override bool Equals(object o) { return o is Quaternion && this == (Quaternion)o; }
-        public override int GetHashCode() { return x.GetHashCode() ^ y.GetHashCode() ^ z.GetHashCode() ^ w.GetHashCode(); }
+        public override bool Equals(object o)
+        {
+            if (!(o is Quaternion)) return false;
+            var q = (Quaternion)o;
+            return x.Equals(q.x) && y.Equals(q.y) && z.Equals(q.z) && w.Equals(q.w);
+        }
+        public override int GetHashCode() { return x.GetHashCode() ^ (y.GetHashCode() << 2) ^ (z.GetHashCode() >> 2) ^ (w.GetHashCode() >> 1); }
     }
 
     public struct Color
@@ -105,94 +410,165 @@ namespace UnityEngine
         public Color(float r, float g, float b, float a) { this.r = r; this.g = g; this.b = b; this.a = a; }
         public Color(float r, float g, float b) : this(r, g, b, 1f) { }
         public static Color white { get { return new Color(1, 1, 1, 1); } }
-        /// <summary>sRGB → linear per channel, as Unity's Color.linear.</summary>
+        public static Color black { get { return new Color(0, 0, 0, 1); } }
         public Color linear { get { return new Color(Mathf.GammaToLinearSpace(r), Mathf.GammaToLinearSpace(g), Mathf.GammaToLinearSpace(b), a); } }
+        public Color gamma { get { return new Color(Mathf.LinearToGammaSpace(r), Mathf.LinearToGammaSpace(g), Mathf.LinearToGammaSpace(b), a); } }
+        public static Color operator *(Color c, float d) { return new Color(c.r * d, c.g * d, c.b * d, c.a * d); }
     }
 
     public struct Matrix4x4
     {
-        // Row-major; the real type has fields m00..m33 and the same [row, column] indexer.
-        // Copy-on-write keeps value semantics (a copy never sees later writes).
-        float[] m;
+        // Unity's fields, named m<row><column>; the one-index indexer is column-major.
+        public float m00, m10, m20, m30, m01, m11, m21, m31, m02, m12, m22, m32, m03, m13, m23, m33;
+
         public float this[int row, int column]
         {
-            get { return m == null ? 0f : m[4 * row + column]; }
-            set { m = m == null ? new float[16] : (float[])m.Clone(); m[4 * row + column] = value; }
+            get { return this[row + column * 4]; }
+            set { this[row + column * 4] = value; }
         }
-    }
 
-    public sealed class Shader : Object
-    {
-        static readonly Dictionary<string, int> ids = new Dictionary<string, int>();
-        /// <summary>Stand-in only: what SetGlobalMatrix received, by property id.</summary>
-        public static readonly Dictionary<int, Matrix4x4> StandInGlobalMatrices = new Dictionary<int, Matrix4x4>();
-        public static int PropertyToID(string name)
+        public float this[int index]
         {
-            int id;
-            if (!ids.TryGetValue(name, out id)) ids[name] = id = ids.Count + 1;
-            return id;
+            get
+            {
+                switch (index)
+                {
+                    case 0: return m00; case 1: return m10; case 2: return m20; case 3: return m30;
+                    case 4: return m01; case 5: return m11; case 6: return m21; case 7: return m31;
+                    case 8: return m02; case 9: return m12; case 10: return m22; case 11: return m32;
+                    case 12: return m03; case 13: return m13; case 14: return m23; case 15: return m33;
+                    default: throw new IndexOutOfRangeException("Invalid matrix index!");
+                }
+            }
+            set
+            {
+                switch (index)
+                {
+                    case 0: m00 = value; break; case 1: m10 = value; break; case 2: m20 = value; break; case 3: m30 = value; break;
+                    case 4: m01 = value; break; case 5: m11 = value; break; case 6: m21 = value; break; case 7: m31 = value; break;
+                    case 8: m02 = value; break; case 9: m12 = value; break; case 10: m22 = value; break; case 11: m32 = value; break;
+                    case 12: m03 = value; break; case 13: m13 = value; break; case 14: m23 = value; break; case 15: m33 = value; break;
+                    default: throw new IndexOutOfRangeException("Invalid matrix index!");
+                }
+            }
         }
-        public static void SetGlobalMatrix(int nameID, Matrix4x4 value) { StandInGlobalMatrices[nameID] = value; }
-        public static void SetGlobalMatrix(string name, Matrix4x4 value) { SetGlobalMatrix(PropertyToID(name), value); }
-        public static Shader Find(string name) { return null; }
     }
 
-    public static class RenderSettings
-    {
-        public static Rendering.AmbientMode ambientMode = Rendering.AmbientMode.Trilight;
-        public static Rendering.SphericalHarmonicsL2 ambientProbe;
-    }
-
-    public static class Mathf
+    public struct Mathf
     {
         public static float Max(float a, float b) { return a > b ? a : b; }
         public static float Min(float a, float b) { return a < b ? a : b; }
-        public static float GammaToLinearSpace(float v)
+        public static float Clamp(float value, float min, float max) { return value < min ? min : value > max ? max : value; }
+        // The curves of UnityCG.cginc's GammaToLinearSpaceExact / LinearToGammaSpaceExact.
+        public static float GammaToLinearSpace(float value)
         {
-            return v <= 0.04045f ? v / 12.92f : (float)Math.Pow((v + 0.055) / 1.055, 2.4);
+            if (value <= 0.04045f) return value / 12.92f;
+            if (value < 1.0f) return (float)Math.Pow((value + 0.055) / 1.055, 2.4);
+            return (float)Math.Pow(value, 2.2);
+        }
+        public static float LinearToGammaSpace(float value)
+        {
+            if (value <= 0.0f) return 0.0f;
+            if (value <= 0.0031308f) return 12.92f * value;
+            if (value < 1.0f) return 1.055f * (float)Math.Pow(value, 0.4166667) - 0.055f;
+            return (float)Math.Pow(value, 0.45454545);
         }
     }
 
-    public static class Time
+    public sealed class Time
     {
         public static float unscaledTime { get { return (float)(DateTime.UtcNow - DateTime.Today).TotalSeconds; } }
     }
 
-    public static class Debug
+    public sealed class Debug
     {
+        /// <summary>Stand-in only: messages logged so far (a harness tells event frames from steady ones).</summary>
+        public static int StandInMessages;
         // stderr: a program built with the stand-in keeps stdout for its own output
-        public static void Log(object message) { Console.Error.WriteLine(message); }
-        public static void Log(object message, Object context) { Console.Error.WriteLine(message); }
-        public static void LogWarning(object message, Object context) { Console.Error.WriteLine("warning: " + message); }
-        public static void LogError(object message, Object context) { Console.Error.WriteLine("error: " + message); }
+        public static void Log(object message) { StandInMessages++; Console.Error.WriteLine(message); }
+        public static void Log(object message, Object context) { StandInMessages++; Console.Error.WriteLine(message); }
+        public static void LogWarning(object message) { StandInMessages++; Console.Error.WriteLine("warning: " + message); }
+        public static void LogWarning(object message, Object context) { StandInMessages++; Console.Error.WriteLine("warning: " + message); }
+        public static void LogError(object message) { StandInMessages++; Console.Error.WriteLine("error: " + message); }
+        public static void LogError(object message, Object context) { StandInMessages++; Console.Error.WriteLine("error: " + message); }
     }
 
+    public abstract class PropertyAttribute : Attribute { }
+
     [AttributeUsage(AttributeTargets.Field)] public sealed class SerializeField : Attribute { }
-    [AttributeUsage(AttributeTargets.Field)] public sealed class HeaderAttribute : Attribute { public HeaderAttribute(string header) { } }
-    [AttributeUsage(AttributeTargets.Field)] public sealed class TooltipAttribute : Attribute { public TooltipAttribute(string tooltip) { } }
-    [AttributeUsage(AttributeTargets.Field)] public sealed class RangeAttribute : Attribute { public RangeAttribute(float min, float max) { } }
-    [AttributeUsage(AttributeTargets.Field)] public sealed class MinAttribute : Attribute { public MinAttribute(float min) { } }
-    [AttributeUsage(AttributeTargets.Class)] public sealed class AddComponentMenu : Attribute { public AddComponentMenu(string menuName) { } }
-    [AttributeUsage(AttributeTargets.Class)] public sealed class DisallowMultipleComponent : Attribute { }
-    [AttributeUsage(AttributeTargets.Class)] public sealed class HelpURLAttribute : Attribute { public HelpURLAttribute(string url) { } }
+    [AttributeUsage(AttributeTargets.Field, Inherited = true, AllowMultiple = true)]
+    public class HeaderAttribute : PropertyAttribute { public readonly string header; public HeaderAttribute(string header) { this.header = header; } }
+    [AttributeUsage(AttributeTargets.Field, Inherited = true, AllowMultiple = false)]
+    public class TooltipAttribute : PropertyAttribute { public readonly string tooltip; public TooltipAttribute(string tooltip) { this.tooltip = tooltip; } }
+    [AttributeUsage(AttributeTargets.Field, Inherited = true, AllowMultiple = false)]
+    public sealed class RangeAttribute : PropertyAttribute { public readonly float min, max; public RangeAttribute(float min, float max) { this.min = min; this.max = max; } }
+    [AttributeUsage(AttributeTargets.Field, Inherited = true, AllowMultiple = false)]
+    public sealed class MinAttribute : PropertyAttribute { public readonly float min; public MinAttribute(float min) { this.min = min; } }
+    [AttributeUsage(AttributeTargets.Class, AllowMultiple = false)]
+    public sealed class AddComponentMenu : Attribute { public AddComponentMenu(string menuName) { } }
+    [AttributeUsage(AttributeTargets.Class, Inherited = false)]
+    public sealed class DisallowMultipleComponent : Attribute { }
+    [AttributeUsage(AttributeTargets.Class, AllowMultiple = false)]
+    public sealed class HelpURLAttribute : Attribute { public HelpURLAttribute(string url) { } }
 }
 
 namespace UnityEngine.Rendering
 {
     public enum AmbientMode { Skybox = 0, Trilight = 1, Flat = 3, Custom = 4 }
 
+    public enum LightProbeUsage { Off = 0, BlendProbes = 1, UseProxyVolume = 2, CustomProvided = 4 }
+
+    public sealed class GraphicsSettings : Object
+    {
+        static bool linearIntensity;
+        public static bool lightsUseLinearIntensity { get { return linearIntensity; } set { linearIntensity = value; } }
+    }
+
     public struct SphericalHarmonicsL2
     {
-        float[] v; // the real type stores 27 floats shr0..shb8; indexer [rgb, coefficient]
+        // Unity's 27 private floats: shr0..shr8, shg0..shg8, shb0..shb8; indexer [rgb, coefficient].
+        float shr0, shr1, shr2, shr3, shr4, shr5, shr6, shr7, shr8;
+        float shg0, shg1, shg2, shg3, shg4, shg5, shg6, shg7, shg8;
+        float shb0, shb1, shb2, shb3, shb4, shb5, shb6, shb7, shb8;
+
+        public void Clear() { this = default(SphericalHarmonicsL2); }
+
         public float this[int rgb, int coefficient]
         {
-            get { return v == null ? 0f : v[rgb * 9 + coefficient]; }
+            get
+            {
+                switch (Index(rgb, coefficient))
+                {
+                    case 0: return shr0; case 1: return shr1; case 2: return shr2; case 3: return shr3; case 4: return shr4;
+                    case 5: return shr5; case 6: return shr6; case 7: return shr7; case 8: return shr8;
+                    case 9: return shg0; case 10: return shg1; case 11: return shg2; case 12: return shg3; case 13: return shg4;
+                    case 14: return shg5; case 15: return shg6; case 16: return shg7; case 17: return shg8;
+                    case 18: return shb0; case 19: return shb1; case 20: return shb2; case 21: return shb3; case 22: return shb4;
+                    case 23: return shb5; case 24: return shb6; case 25: return shb7; default: return shb8;
+                }
+            }
             set
             {
-                if (rgb < 0 || rgb > 2 || coefficient < 0 || coefficient > 8) throw new IndexOutOfRangeException("Invalid index!");
-                v = v == null ? new float[27] : (float[])v.Clone(); // copy-on-write: value semantics
-                v[rgb * 9 + coefficient] = value;
+                switch (Index(rgb, coefficient))
+                {
+                    case 0: shr0 = value; break; case 1: shr1 = value; break; case 2: shr2 = value; break;
+                    case 3: shr3 = value; break; case 4: shr4 = value; break; case 5: shr5 = value; break;
+                    case 6: shr6 = value; break; case 7: shr7 = value; break; case 8: shr8 = value; break;
+                    case 9: shg0 = value; break; case 10: shg1 = value; break; case 11: shg2 = value; break;
+                    case 12: shg3 = value; break; case 13: shg4 = value; break; case 14: shg5 = value; break;
+                    case 15: shg6 = value; break; case 16: shg7 = value; break; case 17: shg8 = value; break;
+                    case 18: shb0 = value; break; case 19: shb1 = value; break; case 20: shb2 = value; break;
+                    case 21: shb3 = value; break; case 22: shb4 = value; break; case 23: shb5 = value; break;
+                    case 24: shb6 = value; break; case 25: shb7 = value; break; default: shb8 = value; break;
+                }
             }
+        }
+
+        static int Index(int rgb, int coefficient)
+        {
+            if (rgb < 0 || rgb > 2 || coefficient < 0 || coefficient > 8)
+                throw new IndexOutOfRangeException("Invalid index!");
+            return rgb * 9 + coefficient;
         }
     }
 }

@@ -1,7 +1,12 @@
 // Lights the scene from a running `shlight serve`: receives SH9 coefficients over a WebSocket
 // (Sh9Client, off the main thread) and, on the main thread in Update, sets the global shader
-// matrices _SHIrradianceR/G/B (Unity frame, re-oriented by this transform) and optionally
-// RenderSettings.ambientProbe so that Unity's own shaders follow the room too.
+// matrices _SHIrradianceR/G/B (Unity frame, re-oriented by this transform), optionally
+// RenderSettings.ambientProbe so that Unity's own shaders follow the room too, and optionally a
+// Directional Light from the first light the server splits off (DESIGN.md §10).
+//
+// Update allocates nothing in the steady state (measured under Mono by tests/csharp/LiveClient.cs):
+// settings are compared field by field, the conversion works in preallocated buffers, and Unity
+// is only given structs.
 using System;
 using System.Collections.Concurrent;
 using UnityEngine;
@@ -43,12 +48,25 @@ namespace Shlight.Lighting
         [SerializeField] float staleAfterSeconds = 3f;
         [SerializeField] bool logToConsole = true;
 
+        [Header("Directional light (when the server splits off lights)")]
+        [Tooltip("A Directional Light to show the server's first light (sun, a bright window) as a real " +
+                 "light: direction, colour and intensity are set every message, and the SH9 globals and " +
+                 "ambient probe then get the rest of the room only, so the light is not counted twice. " +
+                 "Empty: every light stays in the SH9. The light is switched off while the server sends none.")]
+        [SerializeField] Light directionalLight;
+
         static readonly int IdR = Shader.PropertyToID("_SHIrradianceR");
         static readonly int IdG = Shader.PropertyToID("_SHIrradianceG");
         static readonly int IdB = Shader.PropertyToID("_SHIrradianceB");
+        // 1 while the driven light carries part of the room's light: SH9 Diffuse then adds the main
+        // directional light to SHIrradiance; 0 otherwise (a scene's own default light is not added).
+        static readonly int IdMainLightScale = Shader.PropertyToID("_SHMainLightScale");
 
         Sh9Client client;
-        string clientConfig;
+        // the settings the running client was made with (compared field by field: no garbage per frame)
+        string usedUrl, usedToken, usedProbe;
+        bool usedTokenInQuery;
+        float usedMaxHz, usedStaleAfter;
         readonly ConcurrentQueue<string> logQueue = new ConcurrentQueue<string>();
         readonly Sh9LightingValues values = new Sh9LightingValues();
         Matrix4x4 matrixR = default(Matrix4x4), matrixG = default(Matrix4x4), matrixB = default(Matrix4x4);
@@ -56,10 +74,25 @@ namespace Shlight.Lighting
         long appliedVersion = -1;
         Quaternion appliedRotation;
         float appliedIntensity = float.NaN;
+        Light appliedLight;
+        Sh9LightColorSpace appliedColorSpace = (Sh9LightColorSpace)(-1);
         bool savedAmbient;
         AmbientMode savedAmbientMode;
         SphericalHarmonicsL2 savedAmbientProbe;
+        Light savedLight;
+        bool savedLightEnabled, savedLightColorTemperature;
+        Color savedLightColor;
+        float savedLightIntensity;
+        Quaternion savedLightRotation;
+        bool lightDriven;
+        readonly double[] lightRotation = new double[4];
+        readonly double[] lightColor = new double[4];
+        double lastForcedReconnect = double.NegativeInfinity;
         Sh9ConnectionState state = Sh9ConnectionState.Disconnected;
+
+        /// <summary>On regaining focus, reconnect at once when nothing arrived for this long (the
+        /// server sends at least every --keepalive, 1 s by default).</summary>
+        const double FocusSilenceSeconds = 2.5;
 
         /// <summary>Raised on the main thread when <see cref="State"/> changes.</summary>
         public event Action<Sh9ConnectionState> StateChanged;
@@ -90,6 +123,10 @@ namespace Shlight.Lighting
         public string Probe { get { return probe; } set { probe = value; } }
         public float Intensity { get { return intensity; } set { intensity = Mathf.Max(0f, value); } }
         public bool DriveAmbientProbe { get { return driveAmbientProbe; } set { driveAmbientProbe = value; } }
+        /// <summary>The Directional Light driven from the server's first light (null: none).</summary>
+        public Light DirectionalLight { get { return directionalLight; } set { directionalLight = value; } }
+        /// <summary>True while <see cref="DirectionalLight"/> shows a light the server split off.</summary>
+        public bool LightActive { get { return lightDriven; } }
 
         void OnEnable()
         {
@@ -102,13 +139,43 @@ namespace Shlight.Lighting
         {
             Disconnect();
             RestoreAmbient();
+            RestoreLight();
+            Shader.SetGlobalFloat(IdMainLightScale, 0f);
+        }
+
+        // Coming back from suspend (HoloLens: the app was left and resumed; the headset slept): the
+        // socket may be dead without anyone having noticed, and the receive watchdog would take 30 s.
+        // Reconnect at once; the last lighting stays up meanwhile.
+        void OnApplicationPause(bool pauseStatus)
+        {
+            if (!pauseStatus) ReconnectAfterResume("app resumed", 0);
+        }
+
+        // Some platforms report a return only as focus; reconnect then too, but only when the stream
+        // has gone quiet (focus also comes back after every system menu, with a healthy connection).
+        void OnApplicationFocus(bool hasFocus)
+        {
+            if (hasFocus) ReconnectAfterResume("focus back", FocusSilenceSeconds);
+        }
+
+        void ReconnectAfterResume(string why, double silentFor)
+        {
+            if (client == null) return;
+            double now = System.Diagnostics.Stopwatch.GetTimestamp() / (double)System.Diagnostics.Stopwatch.Frequency;
+            if (now - lastForcedReconnect < 1.0) return; // pause(false) and focus(true) both arrive on resume
+            if (silentFor > 0 && client.State != Sh9ConnectionState.Disconnected &&
+                !(client.SecondsSinceLastFrame > silentFor)) return;
+            lastForcedReconnect = now;
+            client.ReconnectNow(why);
         }
 
         /// <summary>(Re)connect with the current settings.</summary>
         public void Connect()
         {
             Disconnect();
-            clientConfig = ConfigKey();
+            usedUrl = serverUrl; usedToken = token; usedTokenInQuery = tokenInQuery; usedProbe = probe;
+            usedMaxHz = maxHz; usedStaleAfter = staleAfterSeconds;
+            appliedVersion = -1; // versions restart with each client
             try
             {
                 client = new Sh9Client(new Sh9ClientOptions
@@ -138,14 +205,22 @@ namespace Shlight.Lighting
             client = null;
         }
 
-        string ConfigKey()
+        bool SettingsChanged()
         {
-            return serverUrl + "\n" + token + "\n" + tokenInQuery + "\n" + probe + "\n" + maxHz + "\n" + staleAfterSeconds;
+            return usedUrl != serverUrl || usedToken != token || usedTokenInQuery != tokenInQuery ||
+                   usedProbe != probe || usedMaxHz != maxHz || usedStaleAfter != staleAfterSeconds;
+        }
+
+        static Sh9LightColorSpace CurrentLightColorSpace()
+        {
+            if (QualitySettings.activeColorSpace != ColorSpace.Linear) return Sh9LightColorSpace.Gamma;
+            return GraphicsSettings.lightsUseLinearIntensity ? Sh9LightColorSpace.LinearIntensity
+                                                             : Sh9LightColorSpace.GammaIntensity;
         }
 
         void Update()
         {
-            if (clientConfig != ConfigKey()) Connect(); // changed in the inspector or by script
+            if (SettingsChanged()) Connect(); // changed in the inspector or by script
 
             string line;
             while (logQueue.TryDequeue(out line))
@@ -153,16 +228,21 @@ namespace Shlight.Lighting
 
             Sh9Snapshot snap = client == null ? null : client.Latest;
             Quaternion rotation = followTransformRotation ? transform.rotation : Quaternion.identity;
+            Light light = UsableLight();
+            Sh9LightColorSpace colorSpace = CurrentLightColorSpace();
             if (snap != null)
             {
-                if (snap.Version != appliedVersion || !SameRotation(rotation, appliedRotation) || intensity != appliedIntensity)
+                if (snap.Version != appliedVersion || !SameRotation(rotation, appliedRotation) || intensity != appliedIntensity ||
+                    light != appliedLight || colorSpace != appliedColorSpace)
                 {
-                    values.Set(snap.UnityMatrices, Sh9Math.QuaternionToMatrix(rotation.x, rotation.y, rotation.z, rotation.w),
-                               intensity);
+                    values.Set(snap, rotation.x, rotation.y, rotation.z, rotation.w, intensity, light != null);
                     appliedVersion = snap.Version;
                     appliedRotation = rotation;
                     appliedIntensity = intensity;
+                    appliedLight = light;
+                    appliedColorSpace = colorSpace;
                     CopyValues();
+                    ApplyLight(light, colorSpace);
                     HasLighting = true;
                     LastMessage = snap.Message;
                     LastSeq = snap.Message.Seq;
@@ -170,18 +250,21 @@ namespace Shlight.Lighting
                 LastMessageStale = snap.Message.Stale;
                 AgeSeconds = (float)(snap.Message.AgeSeconds + snap.SecondsSinceReceived);
             }
-            else
+            else if (!HasLighting)
             {
                 // no data yet: a uniform fallback (re-evaluated so that colour/intensity edits show)
                 Color linear = fallbackRadiance.linear;
                 values.SetUniform(linear.r * intensity, linear.g * intensity, linear.b * intensity);
                 CopyValues();
+                ApplyLight(light, colorSpace);
             }
+            // (a new client after a settings change has no snapshot yet: the last lighting stays)
 
             // Globals every frame: cheap, and survives anything else that touches them.
             Shader.SetGlobalMatrix(IdR, matrixR);
             Shader.SetGlobalMatrix(IdG, matrixG);
             Shader.SetGlobalMatrix(IdB, matrixB);
+            Shader.SetGlobalFloat(IdMainLightScale, lightDriven ? 1f : 0f);
             if (driveAmbientProbe)
             {
                 if (!savedAmbient)
@@ -232,6 +315,91 @@ namespace Shlight.Lighting
             for (int c = 0; c < 3; c++)
                 for (int i = 0; i < 9; i++)
                     ambient[c, i] = sh[9 * c + i];
+        }
+
+        // The assigned light if it can be driven (a Directional Light); null otherwise, after saying why once.
+        Light UsableLight()
+        {
+            Light light = directionalLight;
+            if (light == null)
+            {
+                if (savedLight != null) RestoreLight();
+                return null;
+            }
+            if (light.type != LightType.Directional)
+            {
+                if (savedLight != light)
+                {
+                    RestoreLight();
+                    savedLight = light; // remembered only so that the error is said once
+                    lightDriven = false;
+                    Debug.LogError("[SH9] Directional Light: \"" + light.name + "\" is a " + light.type +
+                                   " light; assign a Directional light (the server's lights are at infinity)", this);
+                }
+                return null;
+            }
+            if (savedLight != light)
+            {
+                RestoreLight();
+                savedLight = light;
+                savedLightEnabled = light.enabled;
+                savedLightColor = light.color;
+                savedLightIntensity = light.intensity;
+                savedLightRotation = light.transform.rotation;
+                savedLightColorTemperature = light.useColorTemperature;
+                WarnAboutOtherDirectionalLights(light);
+            }
+            return light;
+        }
+
+        // Built-in forward and URP shade with one main directional light (URP: RenderSettings.sun or the
+        // brightest): another enabled directional light can take that place from the driven one.
+        void WarnAboutOtherDirectionalLights(Light driven)
+        {
+            foreach (Light other in FindObjectsOfType<Light>())
+            {
+                if (other != driven && other.enabled && other.type == LightType.Directional)
+                    Debug.LogWarning("[SH9] another enabled Directional Light (\"" + other.name + "\") may become the " +
+                                     "main light instead of \"" + driven.name + "\": disable it or set the driven one " +
+                                     "as Sun Source (Lighting window)", this);
+            }
+        }
+
+        // Show the first light (values.LightActive) on the driven light, or switch that light off.
+        void ApplyLight(Light light, Sh9LightColorSpace colorSpace)
+        {
+            lightDriven = light != null && values.LightActive;
+            if (light == null) return;
+            if (!lightDriven)
+            {
+                light.enabled = false; // the SH9 carries all of the light now
+                return;
+            }
+            double[] d = values.LightDirection, e = values.LightIrradiance;
+            // a directional light shines along its transform.forward: away from the light
+            Sh9Math.LookRotation(-d[0], -d[1], -d[2], lightRotation);
+            light.transform.rotation = new Quaternion((float)lightRotation[0], (float)lightRotation[1],
+                                                      (float)lightRotation[2], (float)lightRotation[3]);
+            // Unity's Lambert is albedo × light × N·L with no 1/π; ours is ρE/π: give it E/π
+            Sh9Math.LightColorFromLinear(e[0] / Math.PI, e[1] / Math.PI, e[2] / Math.PI, colorSpace, lightColor);
+            light.useColorTemperature = false;
+            light.color = new Color((float)lightColor[0], (float)lightColor[1], (float)lightColor[2], 1f);
+            light.intensity = (float)lightColor[3];
+            light.enabled = true;
+        }
+
+        void RestoreLight()
+        {
+            Light light = savedLight;
+            savedLight = null;
+            lightDriven = false;
+            appliedLight = null;
+            if (light == null || light.type != LightType.Directional) return;
+            light.enabled = savedLightEnabled;
+            light.color = savedLightColor;
+            light.intensity = savedLightIntensity;
+            light.transform.rotation = savedLightRotation;
+            light.useColorTemperature = savedLightColorTemperature;
         }
 
         void RestoreAmbient()

@@ -1,11 +1,16 @@
-// Diffuse (Lambertian) surface lit by the room: radiance = albedo · E(n) / π, with E(n) from
-// the three SH9 irradiance matrices that SH9LightingClient sets as globals (sh9_irradiance.hlsl).
+// Diffuse (Lambertian) surface lit by the room: radiance = albedo · (E(n)/π + main light · N·L),
+// with E(n) from the three SH9 irradiance matrices that SH9LightingClient sets as globals
+// (sh9_irradiance.hlsl) and the main directional light only while that component drives it from
+// the server's lights (_SHMainLightScale). The passes are in SH9DiffusePasses.hlsl.
 //
-// * Built-in render pipeline and URP: the pass has no LightMode tag, so the built-in pipeline
-//   draws it as an ordinary forward pass and URP draws it as "SRPDefaultUnlit". It needs no
-//   Unity light, light probe or lightmap. (Not SRP-Batcher compatible: see the README.)
-// * HoloLens single-pass instanced stereo (and multiview): instance ID in, stereo target eye out.
-// * Gamma and linear colour space: lighting is computed in linear and encoded at the end.
+// * URP (first SubShader, picked by URP through its RenderPipeline tag): the colour pass (no
+//   LightMode tag: URP draws it as SRPDefaultUnlit), ShadowCaster,
+//   DepthOnly (needed with depth priming) and DepthNormals; SRP Batcher layout (UnityPerMaterial).
+// * Built-in pipeline (second SubShader; the built-in pipeline skips the URP one): ForwardBase
+//   (for the main directional light) and ShadowCaster.
+// * HoloLens single-pass instanced stereo and multiview in every pass; GPU instancing with a
+//   per-instance _Color; gamma and linear colour space (lighting in linear, encoded at the end).
+// Only Unity's built-in CGIncludes are used, so the shader compiles with or without URP installed.
 Shader "Shlight/SH9 Diffuse"
 {
     Properties
@@ -14,9 +19,10 @@ Shader "Shlight/SH9 Diffuse"
         _MainTex ("Albedo (RGB)", 2D) = "white" {}
         _Exposure ("Exposure (linear)", Float) = 1.0
     }
+
     SubShader
     {
-        Tags { "RenderType" = "Opaque" "Queue" = "Geometry" }
+        Tags { "RenderPipeline" = "UniversalPipeline" "RenderType" = "Opaque" "Queue" = "Geometry" }
         LOD 100
 
         Pass
@@ -26,61 +32,108 @@ Shader "Shlight/SH9 Diffuse"
             Cull Back
 
             CGPROGRAM
-            #pragma vertex vert
-            #pragma fragment frag
+            #pragma vertex SH9ForwardVertex
+            #pragma fragment SH9ForwardFragment
             #pragma target 3.5
             #pragma multi_compile_instancing
-            #include "UnityCG.cginc"
-            #include "sh9_irradiance.hlsl"
+            #define SH9_URP
+            #include "SH9DiffusePasses.hlsl"
+            ENDCG
+        }
 
-            sampler2D _MainTex;
-            float4 _MainTex_ST;
-            half4 _Color;
-            float _Exposure;
+        Pass
+        {
+            Name "ShadowCaster"
+            Tags { "LightMode" = "ShadowCaster" }
+            ZWrite On
+            ZTest LEqual
+            ColorMask 0
+            Cull Back
 
-            struct appdata
-            {
-                float4 vertex : POSITION;
-                float3 normal : NORMAL;
-                float2 uv : TEXCOORD0;
-                UNITY_VERTEX_INPUT_INSTANCE_ID
-            };
+            CGPROGRAM
+            #pragma vertex SH9ShadowVertex
+            #pragma fragment SH9ShadowFragment
+            #pragma target 3.5
+            #pragma multi_compile_instancing
+            #pragma multi_compile_vertex _ _CASTING_PUNCTUAL_LIGHT_SHADOW
+            #define SH9_URP
+            #include "SH9DiffusePasses.hlsl"
+            ENDCG
+        }
 
-            struct v2f
-            {
-                float4 pos : SV_POSITION;
-                float2 uv : TEXCOORD0;
-                float3 worldNormal : TEXCOORD1;
-                UNITY_VERTEX_OUTPUT_STEREO
-            };
+        Pass
+        {
+            Name "DepthOnly"
+            Tags { "LightMode" = "DepthOnly" }
+            ZWrite On
+            ColorMask R
+            Cull Back
 
-            v2f vert(appdata v)
-            {
-                v2f o;
-                UNITY_SETUP_INSTANCE_ID(v);
-                UNITY_INITIALIZE_OUTPUT(v2f, o);
-                UNITY_INITIALIZE_VERTEX_OUTPUT_STEREO(o);
-                o.pos = UnityObjectToClipPos(v.vertex);
-                o.uv = TRANSFORM_TEX(v.uv, _MainTex);
-                o.worldNormal = UnityObjectToWorldNormal(v.normal); // Unity world frame, like the matrices
-                return o;
-            }
+            CGPROGRAM
+            #pragma vertex SH9DepthOnlyVertex
+            #pragma fragment SH9DepthOnlyFragment
+            #pragma target 3.5
+            #pragma multi_compile_instancing
+            #define SH9_URP
+            #include "SH9DiffusePasses.hlsl"
+            ENDCG
+        }
 
-            half4 frag(v2f i) : SV_Target
-            {
-                UNITY_SETUP_STEREO_EYE_INDEX_POST_VERTEX(i);
-                float3 n = normalize(i.worldNormal);
-                half4 albedo = tex2D(_MainTex, i.uv) * _Color;
-            #ifdef UNITY_COLORSPACE_GAMMA
-                albedo.rgb = GammaToLinearSpace(albedo.rgb);
-            #endif
-                // Lambert: radiance = ρ E / π (DESIGN.md §2); E is clamped at 0 in SHIrradiance.
-                float3 radiance = albedo.rgb * SHIrradiance(n) * (_Exposure / UNITY_PI);
-            #ifdef UNITY_COLORSPACE_GAMMA
-                radiance = LinearToGammaSpace(radiance);
-            #endif
-                return half4(radiance, albedo.a);
-            }
+        Pass
+        {
+            Name "DepthNormals"
+            Tags { "LightMode" = "DepthNormals" }
+            ZWrite On
+            Cull Back
+
+            CGPROGRAM
+            #pragma vertex SH9DepthNormalsVertex
+            #pragma fragment SH9DepthNormalsFragment
+            #pragma target 3.5
+            #pragma multi_compile_instancing
+            #pragma multi_compile_fragment _ _GBUFFER_NORMALS_OCT
+            #define SH9_URP
+            #include "SH9DiffusePasses.hlsl"
+            ENDCG
+        }
+    }
+
+    SubShader
+    {
+        Tags { "RenderType" = "Opaque" "Queue" = "Geometry" }
+        LOD 100
+
+        Pass
+        {
+            Name "SH9Diffuse"
+            Tags { "LightMode" = "ForwardBase" }
+            ZWrite On
+            Cull Back
+
+            CGPROGRAM
+            #pragma vertex SH9ForwardVertex
+            #pragma fragment SH9ForwardFragment
+            #pragma target 3.5
+            #pragma multi_compile_instancing
+            #include "SH9DiffusePasses.hlsl"
+            ENDCG
+        }
+
+        Pass
+        {
+            Name "ShadowCaster"
+            Tags { "LightMode" = "ShadowCaster" }
+            ZWrite On
+            ZTest LEqual
+            Cull Back
+
+            CGPROGRAM
+            #pragma vertex SH9ShadowVertex
+            #pragma fragment SH9ShadowFragment
+            #pragma target 3.5
+            #pragma multi_compile_instancing
+            #pragma multi_compile_shadowcaster
+            #include "SH9DiffusePasses.hlsl"
             ENDCG
         }
     }

@@ -10,6 +10,7 @@
 using System;
 using System.IO;
 using System.Net.Security;
+using System.Security.Authentication;
 using System.Net.Sockets;
 using System.Net.WebSockets;
 using System.Text;
@@ -73,8 +74,10 @@ namespace Shlight.Lighting
         int connections;
         int phase;                 // 0 disconnected, 1 connecting, 2 connected (Volatile)
         int httpStatus;            // status of the last refused handshake (Volatile)
-        long lastFrameTimestamp;   // any frame, for the receive timeout
+        long lastFrameTimestamp;   // any frame, for the receive timeout and SecondsSinceLastFrame
         volatile bool watchdogFired;
+        volatile bool reconnectRequested;
+        CancellationTokenSource backoffWait; // the pending backoff delay (under gate), cancelled by ReconnectNow
 
         /// <summary>Raised on the receive thread for every accepted "sh9" message (never touch Unity objects in it).</summary>
         public event Action<Sh9Snapshot> SnapshotReceived;
@@ -106,6 +109,46 @@ namespace Shlight.Lighting
         /// <summary>Successful connections so far (1 + reconnects).</summary>
         public int Connections { get { return Volatile.Read(ref connections); } }
         public bool IsRunning { get { lock (gate) return loop != null; } }
+
+        /// <summary>Seconds since the last frame of any kind arrived on a connection (-1 before the first).</summary>
+        public double SecondsSinceLastFrame
+        {
+            get
+            {
+                long t = Volatile.Read(ref lastFrameTimestamp);
+                if (t == 0) return -1;
+                return (System.Diagnostics.Stopwatch.GetTimestamp() - t) / (double)System.Diagnostics.Stopwatch.Frequency;
+            }
+        }
+
+        /// <summary>
+        /// Drop the current connection (or connection attempt, or backoff wait) and connect again at
+        /// once, with the backoff reset; the last lighting is kept. For an app coming back from suspend:
+        /// its socket may be dead without either side having noticed (the OS froze the app; Wi-Fi slept),
+        /// and only the receive watchdog would notice, <see cref="Sh9ClientOptions.ReceiveTimeoutSeconds"/>
+        /// later. Safe from any thread; does nothing when the client is not running.
+        /// </summary>
+        public void ReconnectNow(string reason)
+        {
+            ClientWebSocket ws;
+            CancellationTokenSource wait;
+            lock (gate)
+            {
+                if (loop == null) return;
+                reconnectRequested = true;
+                ws = current;
+                wait = backoffWait;
+            }
+            Emit("reconnecting now" + (string.IsNullOrEmpty(reason) ? "" : " (" + reason + ")"));
+            if (ws != null)
+            {
+                try { ws.Abort(); } catch (Exception) { }
+            }
+            if (wait != null)
+            {
+                try { wait.Cancel(); } catch (ObjectDisposedException) { }
+            }
+        }
 
         public Sh9ConnectionState State
         {
@@ -213,6 +256,7 @@ namespace Shlight.Lighting
             {
                 Volatile.Write(ref phase, 1);
                 watchdogFired = false;     // else a failed reconnect after a watchdog abort goes unreported
+                reconnectRequested = false; // this attempt is the one asked for
                 bool gotData = false;
                 var ws = new ClientWebSocket();
                 lock (gate) current = ws;
@@ -249,11 +293,27 @@ namespace Shlight.Lighting
                         catch (WebSocketException e)
                         {
                             if (ct.IsCancellationRequested) throw;
-                            if (FindSocketError(e) != null)
+                            Exception tls = Uri.Scheme == "wss" ? FindTlsError(e) : null;
+                            if (tls != null)
+                            {
+                                Volatile.Write(ref httpStatus, 0);
+                                throw new Sh9ConnectionException(TlsAdvice(tls));
+                            }
+                            SocketException socketError = FindSocketError(e);
+                            if (socketError != null && socketError.SocketErrorCode == SocketError.ConnectionReset)
+                            {
+                                // TCP worked, then the server hung up on the HTTP upgrade: typically a TLS
+                                // server (or TLS proxy) asked for ws:// in plain text
+                                Volatile.Write(ref httpStatus, 0);
+                                throw new Sh9ConnectionException(Uri.Host + ":" + Uri.Port + " reset the connection " +
+                                    "when asked for a WebSocket (" + socketError.Message + "): if the server uses TLS " +
+                                    "(shlight serve --tls-cert, or a TLS proxy), the URL must start with wss://");
+                            }
+                            if (socketError != null)
                             {
                                 Volatile.Write(ref httpStatus, 0);
                                 throw new Sh9ConnectionException("cannot reach " + Uri.Host + ":" + Uri.Port + ": " +
-                                                      FindSocketError(e).Message + " (is `shlight serve` running, " +
+                                                      socketError.Message + " (is `shlight serve` running, " +
                                                       "with --host 0.0.0.0 when the headset is another machine? " +
                                                       "firewall?)");
                             }
@@ -280,7 +340,7 @@ namespace Shlight.Lighting
                 catch (Exception e)
                 {
                     if (ct.IsCancellationRequested) break;
-                    if (!watchdogFired) SetError(Describe(e));
+                    if (!watchdogFired && !reconnectRequested) SetError(Describe(e));
                 }
                 finally
                 {
@@ -291,11 +351,29 @@ namespace Shlight.Lighting
                 }
                 if (ct.IsCancellationRequested) break;
                 if (gotData) backoff = options.MinBackoffSeconds;
-                double delay = backoff * (0.75 + 0.5 * random.NextDouble());
-                Emit("disconnected (" + LastError + "); retrying in " + delay.ToString("0.0") + " s");
-                try { await Task.Delay(TimeSpan.FromSeconds(delay), ct).ConfigureAwait(false); }
-                catch (OperationCanceledException) { break; }
-                backoff = Math.Min(backoff * 2, options.MaxBackoffSeconds);
+                if (!reconnectRequested)
+                {
+                    double delay = backoff * (0.75 + 0.5 * random.NextDouble());
+                    Emit("disconnected (" + LastError + "); retrying in " + delay.ToString("0.0") + " s");
+                    var wait = CancellationTokenSource.CreateLinkedTokenSource(ct);
+                    lock (gate) backoffWait = wait;
+                    try
+                    {
+                        // ReconnectNow may have come between the check above and here: then skip the wait
+                        if (!reconnectRequested)
+                            await Task.Delay(TimeSpan.FromSeconds(delay), wait.Token).ConfigureAwait(false);
+                    }
+                    catch (OperationCanceledException)
+                    {
+                        if (ct.IsCancellationRequested) break;
+                    }
+                    finally
+                    {
+                        lock (gate) backoffWait = null;
+                        wait.Dispose();
+                    }
+                }
+                backoff = reconnectRequested ? options.MinBackoffSeconds : Math.Min(backoff * 2, options.MaxBackoffSeconds);
             }
             Volatile.Write(ref phase, 0);
         }
@@ -303,6 +381,30 @@ namespace Shlight.Lighting
         static void ObserveLater(Task t)
         {
             t.ContinueWith(x => { var ignored = x.Exception; }, TaskContinuationOptions.OnlyOnFaulted);
+        }
+
+        // The TLS handshake failed: an AuthenticationException (certificate refused), or an IOException
+        // from the handshake (the server closed the stream: it does not speak TLS at all).
+        static Exception FindTlsError(Exception e)
+        {
+            for (; e != null; e = e.InnerException)
+                if (e is AuthenticationException || (e is IOException && !(e.InnerException is SocketException))) return e;
+            return null;
+        }
+
+        string TlsAdvice(Exception tls)
+        {
+            Exception inner = tls;
+            while (inner.InnerException != null) inner = inner.InnerException;
+            string why = inner.Message.Split('\n')[0].Trim();
+            if (!(tls is AuthenticationException))
+                return "TLS handshake with " + Uri.Host + ":" + Uri.Port + " failed (" + why + "): the server closed " +
+                       "the connection instead of answering TLS, so it does not serve wss:// on this port (a plain " +
+                       "`shlight serve` needs ws://; for wss:// start it with --tls-cert/--tls-key or put a TLS proxy in front)";
+            return "TLS handshake with " + Uri.Host + ":" + Uri.Port + " failed (" + why + "): the server's " +
+                   "certificate is not accepted. It must chain to a root this device trusts, be valid now, and name \"" +
+                   Uri.Host + "\" (a DNS name in its subjectAltName); a self-signed certificate is refused (see the " +
+                   "README's TLS section)";
         }
 
         static SocketException FindSocketError(Exception e)
@@ -386,7 +488,8 @@ namespace Shlight.Lighting
             {
                 Volatile.Write(ref httpStatus, 0);
                 return "the server at " + Uri.Host + ":" + Uri.Port + " does not speak HTTP/WebSocket " +
-                       "(is this the port of `shlight serve`?)";
+                       "(is this the port of `shlight serve`?" +
+                       (Uri.Scheme == "ws" && text.Length > 0 && text[0] == '\x15' ? " It answered with TLS: use wss://" : "") + ")";
             }
             if (code == 101) return null; // it would work now: nothing to explain
             Volatile.Write(ref httpStatus, code);

@@ -5,7 +5,8 @@ using System;
 
 namespace Shlight.Lighting
 {
-    /// <summary>One accepted "sh9" message, already converted to Unity's frame (immutable).</summary>
+    /// <summary>One accepted "sh9" message, already converted to Unity's frame (immutable).
+    /// Built on the receive thread, where allocating is fine; nothing here runs per frame.</summary>
     public sealed class Sh9Snapshot
     {
         /// <summary>The message as received (right-handed wire frame).</summary>
@@ -14,6 +15,16 @@ namespace Shlight.Lighting
         public readonly double[] UnityMatrices;
         /// <summary>Coefficients in Unity's frame (z-odd terms negated), wire layout.</summary>
         public readonly double[] UnityCoefficients;
+        /// <summary>
+        /// With <see cref="Sh9Message.HasLightSplit"/>: the ambient matrices in Unity's frame, plus the
+        /// order-2 part of every light after the first (only the first is drawn as a Unity light, the
+        /// others stay in the SH9 so that nothing is lost). Null otherwise.
+        /// </summary>
+        public readonly double[] UnityAmbientMatrices;
+        /// <summary>Direction toward the first light in Unity's frame (x, y, -z); null without lights.</summary>
+        public readonly double[] UnityLightDirection;
+        /// <summary>RGB irradiance of the first light on a surface facing it; null without lights.</summary>
+        public readonly double[] LightIrradiance;
         /// <summary>When it arrived, in <see cref="System.Diagnostics.Stopwatch"/> ticks.</summary>
         public readonly long ReceivedTimestamp;
         /// <summary>1, 2, 3, ... per accepted message of this client (changes when new data arrives).</summary>
@@ -25,6 +36,24 @@ namespace Shlight.Lighting
             Message = message;
             UnityMatrices = Sh9Math.MatricesToUnity(message.Matrices);
             UnityCoefficients = Sh9Math.CoefficientsToUnity(message.Coefficients);
+            if (message.HasLightSplit)
+            {
+                double[] d = message.LightDirections, e = message.LightIrradiance;
+                UnityLightDirection = new[] { d[0], d[1], -d[2] };
+                LightIrradiance = new[] { e[0], e[1], e[2] };
+                double[] ambient = message.AmbientMatrices;
+                if (message.Lights > 1)
+                {
+                    var extra = new double[27];
+                    for (int i = 1; i < message.Lights; i++)
+                        Sh9Math.AddDirectionalLight(extra, d[3 * i], d[3 * i + 1], d[3 * i + 2],
+                                                    e[3 * i], e[3 * i + 1], e[3 * i + 2]);
+                    double[] em = Sh9Math.MatricesFromCoefficients(extra);
+                    ambient = (double[])ambient.Clone();
+                    for (int i = 0; i < 48; i++) ambient[i] += em[i];
+                }
+                UnityAmbientMatrices = Sh9Math.MatricesToUnity(ambient);
+            }
             ReceivedTimestamp = receivedTimestamp;
             Version = version;
         }
@@ -40,13 +69,30 @@ namespace Shlight.Lighting
         }
     }
 
-    /// <summary>Unity-frame lighting for one orientation and intensity: what gets uploaded.</summary>
+    /// <summary>
+    /// Unity-frame lighting for one orientation and intensity: what gets uploaded. Every Set*
+    /// method works in preallocated buffers: calling it every frame allocates nothing.
+    /// </summary>
     public sealed class Sh9LightingValues
     {
-        /// <summary>M_r, M_g, M_b (48 floats, row-major) for _SHIrradianceR/G/B, Unity world frame.</summary>
+        /// <summary>M_r, M_g, M_b (48 floats, row-major) for _SHIrradianceR/G/B, Unity world frame.
+        /// The ambient part only while <see cref="LightActive"/> (the light is drawn separately).</summary>
         public readonly float[] Matrices = new float[48];
-        /// <summary>SphericalHarmonicsL2 values, layout sh[rgb, i] = [9 * rgb + i].</summary>
+        /// <summary>SphericalHarmonicsL2 values, layout sh[rgb, i] = [9 * rgb + i]; from the same
+        /// matrices as <see cref="Matrices"/>.</summary>
         public readonly float[] AmbientProbe = new float[27];
+        /// <summary>True when the first light of the message is to be drawn as a directional light.</summary>
+        public bool LightActive { get; private set; }
+        /// <summary>Unit direction toward the light, Unity world frame (rotation applied).</summary>
+        public readonly double[] LightDirection = new double[3];
+        /// <summary>RGB irradiance of the light on a surface facing it (intensity applied).</summary>
+        public readonly double[] LightIrradiance = new double[3];
+
+        readonly double[] rotation = new double[9];
+        readonly double[] rotated = new double[48];
+        readonly double[] scaled = new double[48];
+        readonly double[] probe = new double[27];
+        readonly double[] scratch = new double[48];
 
         /// <summary>
         /// Convert: M_world = R̃ (S M S) R̃ᵀ · intensity, ambient probe from M_world.
@@ -55,11 +101,54 @@ namespace Shlight.Lighting
         /// </summary>
         public void Set(double[] unityMatrices, double[] rotation, double intensity)
         {
-            double[] m = rotation == null ? unityMatrices : Sh9Math.RotateMatrices(unityMatrices, rotation);
-            if (intensity != 1.0) m = Sh9Math.Scale(m, intensity);
-            double[] sh = Sh9Math.AmbientProbeFromMatrices(m);
+            LightActive = false;
+            Apply(unityMatrices, rotation, intensity);
+        }
+
+        /// <summary>
+        /// The snapshot for a probe whose transform.rotation is the quaternion (qx, qy, qz, qw).
+        /// With <paramref name="drawLight"/> and a message that splits off lights, the matrices and
+        /// ambient probe get the ambient SH9 and <see cref="LightDirection"/>/<see cref="LightIrradiance"/>
+        /// the first light (so a Unity light can show it without counting it twice); otherwise they get
+        /// the full SH9 and <see cref="LightActive"/> is false.
+        /// </summary>
+        public void Set(Sh9Snapshot snapshot, double qx, double qy, double qz, double qw, double intensity,
+                        bool drawLight)
+        {
+            if (snapshot == null) throw new ArgumentNullException("snapshot");
+            Sh9Math.QuaternionToMatrix(qx, qy, qz, qw, this.rotation);
+            bool light = drawLight && snapshot.UnityAmbientMatrices != null;
+            LightActive = light;
+            Apply(light ? snapshot.UnityAmbientMatrices : snapshot.UnityMatrices, this.rotation, intensity);
+            if (!light)
+            {
+                LightDirection[0] = LightDirection[1] = LightDirection[2] = 0;
+                LightIrradiance[0] = LightIrradiance[1] = LightIrradiance[2] = 0;
+                return;
+            }
+            double[] d = snapshot.UnityLightDirection, r = this.rotation;
+            LightDirection[0] = r[0] * d[0] + r[1] * d[1] + r[2] * d[2];
+            LightDirection[1] = r[3] * d[0] + r[4] * d[1] + r[5] * d[2];
+            LightDirection[2] = r[6] * d[0] + r[7] * d[1] + r[8] * d[2];
+            for (int c = 0; c < 3; c++) LightIrradiance[c] = snapshot.LightIrradiance[c] * intensity;
+        }
+
+        void Apply(double[] unityMatrices, double[] rotation, double intensity)
+        {
+            double[] m = unityMatrices;
+            if (rotation != null)
+            {
+                Sh9Math.RotateMatrices(m, rotation, rotated);
+                m = rotated;
+            }
+            if (intensity != 1.0)
+            {
+                for (int i = 0; i < 48; i++) scaled[i] = m[i] * intensity;
+                m = scaled;
+            }
+            Sh9Math.AmbientProbeFromMatrices(m, probe);
             for (int i = 0; i < 48; i++) Matrices[i] = (float)m[i];
-            for (int i = 0; i < 27; i++) AmbientProbe[i] = (float)sh[i];
+            for (int i = 0; i < 27; i++) AmbientProbe[i] = (float)probe[i];
         }
 
         /// <summary>A uniform environment of the given linear radiance per channel: E = π·L everywhere.</summary>
@@ -67,20 +156,20 @@ namespace Shlight.Lighting
         {
             Array.Clear(Matrices, 0, 48);
             Array.Clear(AmbientProbe, 0, 27);
-            double[] rgb = { r, g, b };
-            for (int c = 0; c < 3; c++)
-            {
-                Matrices[16 * c + 15] = (float)(Math.PI * rgb[c]);
-                AmbientProbe[9 * c] = (float)rgb[c];
-            }
+            LightActive = false;
+            Matrices[15] = (float)(Math.PI * r);
+            Matrices[31] = (float)(Math.PI * g);
+            Matrices[47] = (float)(Math.PI * b);
+            AmbientProbe[0] = (float)r;
+            AmbientProbe[9] = (float)g;
+            AmbientProbe[18] = (float)b;
         }
 
-        /// <summary>E(n) RGB of the current matrices (not clamped); n in Unity world frame.</summary>
+        /// <summary>E(n) RGB of the current matrices (not clamped, light not included); n in Unity world frame.</summary>
         public double[] Irradiance(double x, double y, double z)
         {
-            var m = new double[48];
-            for (int i = 0; i < 48; i++) m[i] = Matrices[i];
-            return Sh9Math.Irradiance(m, x, y, z);
+            for (int i = 0; i < 48; i++) scratch[i] = Matrices[i];
+            return Sh9Math.Irradiance(scratch, x, y, z);
         }
     }
 }

@@ -132,18 +132,72 @@ namespace Shlight.Lighting
         /// </summary>
         public static double[] QuaternionToMatrix(double qx, double qy, double qz, double qw)
         {
+            var r = new double[9];
+            QuaternionToMatrix(qx, qy, qz, qw, r);
+            return r;
+        }
+
+        /// <summary>As <see cref="QuaternionToMatrix(double,double,double,double)"/>, into
+        /// <paramref name="result"/> (9 values; no allocation, for per-frame use).</summary>
+        public static void QuaternionToMatrix(double qx, double qy, double qz, double qw, double[] result)
+        {
+            Check(result, 9, "result");
             double n = Math.Sqrt(qx * qx + qy * qy + qz * qz + qw * qw);
-            if (!(n > 1e-12)) return new double[] { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+            if (!(n > 1e-12)) { qx = qy = qz = 0; qw = 1; n = 1; }
             qx /= n; qy /= n; qz /= n; qw /= n;
             double x = qx * 2, y = qy * 2, z = qz * 2;
             double xx = qx * x, yy = qy * y, zz = qz * z, xy = qx * y, xz = qx * z, yz = qy * z;
             double wx = qw * x, wy = qw * y, wz = qw * z;
-            return new[]
+            result[0] = 1 - (yy + zz); result[1] = xy - wz; result[2] = xz + wy;
+            result[3] = xy + wz; result[4] = 1 - (xx + zz); result[5] = yz - wx;
+            result[6] = xz - wy; result[7] = yz + wx; result[8] = 1 - (xx + yy);
+        }
+
+        /// <summary>
+        /// Unit quaternion (x, y, z, w) of the rotation whose forward (R·(0,0,1), Unity's
+        /// transform.forward) is <paramref name="fx"/>, <paramref name="fy"/>, <paramref name="fz"/>,
+        /// with its up as close to world +Y as possible (world +X when forward is vertical): what
+        /// Quaternion.LookRotation(forward) gives. Written into <paramref name="q"/> (4 values).
+        /// A directional light's roll does not matter; only R·(0,0,1) is relied on.
+        /// </summary>
+        public static void LookRotation(double fx, double fy, double fz, double[] q)
+        {
+            Check(q, 4, "q");
+            double n = Math.Sqrt(fx * fx + fy * fy + fz * fz);
+            if (!(n > 1e-12)) { q[0] = q[1] = q[2] = 0; q[3] = 1; return; }
+            fx /= n; fy /= n; fz /= n;
+            double ux = 0, uy = 1, uz = 0;
+            if (Math.Abs(fy) > 0.999) { ux = 1; uy = 0; }
+            // right = up × forward, up' = forward × right (Unity's Vector3.Cross is the usual formula,
+            // so Cross(up, forward) = right for the identity basis)
+            double rx = uy * fz - uz * fy, ry = uz * fx - ux * fz, rz = ux * fy - uy * fx;
+            double rn = Math.Sqrt(rx * rx + ry * ry + rz * rz);
+            rx /= rn; ry /= rn; rz /= rn;
+            double vx = fy * rz - fz * ry, vy = fz * rx - fx * rz, vz = fx * ry - fy * rx;
+            // columns (right, up', forward): m[row, col]
+            double m00 = rx, m01 = vx, m02 = fx, m10 = ry, m11 = vy, m12 = fy, m20 = rz, m21 = vz, m22 = fz;
+            double tr = m00 + m11 + m22, x, y, z, w;
+            if (tr > 0)
             {
-                1 - (yy + zz), xy - wz, xz + wy,
-                xy + wz, 1 - (xx + zz), yz - wx,
-                xz - wy, yz + wx, 1 - (xx + yy),
-            };
+                double s = Math.Sqrt(tr + 1.0) * 2;
+                w = 0.25 * s; x = (m21 - m12) / s; y = (m02 - m20) / s; z = (m10 - m01) / s;
+            }
+            else if (m00 > m11 && m00 > m22)
+            {
+                double s = Math.Sqrt(1.0 + m00 - m11 - m22) * 2;
+                w = (m21 - m12) / s; x = 0.25 * s; y = (m01 + m10) / s; z = (m02 + m20) / s;
+            }
+            else if (m11 > m22)
+            {
+                double s = Math.Sqrt(1.0 + m11 - m00 - m22) * 2;
+                w = (m02 - m20) / s; x = (m01 + m10) / s; y = 0.25 * s; z = (m12 + m21) / s;
+            }
+            else
+            {
+                double s = Math.Sqrt(1.0 + m22 - m00 - m11) * 2;
+                w = (m10 - m01) / s; x = (m02 + m20) / s; y = (m12 + m21) / s; z = 0.25 * s;
+            }
+            q[0] = x; q[1] = y; q[2] = z; q[3] = w;
         }
 
         /// <summary>Rotate a direction: R v.</summary>
@@ -165,35 +219,42 @@ namespace Shlight.Lighting
         /// </summary>
         public static double[] RotateMatrices(double[] matrices, double[] rotation)
         {
+            var result = new double[48];
+            RotateMatrices(matrices, rotation, result);
+            return result;
+        }
+
+        /// <summary>As <see cref="RotateMatrices(double[],double[])"/>, into <paramref name="result"/>
+        /// (48 values, must not be <paramref name="matrices"/>; no allocation).</summary>
+        public static void RotateMatrices(double[] matrices, double[] rotation, double[] result)
+        {
             Check(matrices, 48, "matrices");
             Check(rotation, 9, "rotation");
-            var rt = new double[16];
-            for (int i = 0; i < 3; i++)
-                for (int j = 0; j < 3; j++) rt[4 * i + j] = rotation[3 * i + j];
-            rt[15] = 1;
-            var result = new double[48];
-            var tmp = new double[16];
+            Check(result, 48, "result");
+            if (ReferenceEquals(matrices, result)) throw new ArgumentException("result must not be the input");
             for (int c = 0; c < 3; c++)
             {
                 int o = 16 * c;
-                // tmp = R̃ M
+                // result = R̃ M R̃ᵀ, R̃ = diag(R, 1): (R̃ M R̃ᵀ)_ij = Σ_kl R̃_ik M_kl R̃_jl
                 for (int i = 0; i < 4; i++)
                     for (int j = 0; j < 4; j++)
                     {
                         double s = 0;
-                        for (int k = 0; k < 4; k++) s += rt[4 * i + k] * matrices[o + 4 * k + j];
-                        tmp[4 * i + j] = s;
-                    }
-                // result = tmp R̃ᵀ
-                for (int i = 0; i < 4; i++)
-                    for (int j = 0; j < 4; j++)
-                    {
-                        double s = 0;
-                        for (int k = 0; k < 4; k++) s += tmp[4 * i + k] * rt[4 * j + k];
+                        for (int k = 0; k < 4; k++)
+                        {
+                            double rik = i == 3 ? (k == 3 ? 1 : 0) : (k == 3 ? 0 : rotation[3 * i + k]);
+                            if (rik == 0) continue;
+                            double row = 0;
+                            for (int l = 0; l < 4; l++)
+                            {
+                                double rjl = j == 3 ? (l == 3 ? 1 : 0) : (l == 3 ? 0 : rotation[3 * j + l]);
+                                row += matrices[o + 4 * k + l] * rjl;
+                            }
+                            s += rik * row;
+                        }
                         result[o + 4 * i + j] = s;
                     }
             }
-            return result;
         }
 
         /// <summary>Multiply every entry by <paramref name="scale"/> (intensity multiplier).</summary>
@@ -230,8 +291,17 @@ namespace Shlight.Lighting
         /// </summary>
         public static double[] AmbientProbeFromMatrices(double[] unityMatrices)
         {
-            Check(unityMatrices, 48, "matrices");
             var sh = new double[27];
+            AmbientProbeFromMatrices(unityMatrices, sh);
+            return sh;
+        }
+
+        /// <summary>As <see cref="AmbientProbeFromMatrices(double[])"/>, into <paramref name="sh"/>
+        /// (27 values; no allocation).</summary>
+        public static void AmbientProbeFromMatrices(double[] unityMatrices, double[] sh)
+        {
+            Check(unityMatrices, 48, "matrices");
+            Check(sh, 27, "sh");
             double invPi = 1.0 / Math.PI;
             for (int c = 0; c < 3; c++)
             {
@@ -261,7 +331,6 @@ namespace Shlight.Lighting
                 sh[s + 7] = 2 * m02 * invPi;       // xz
                 sh[s + 8] = a * invPi;             // x² - y²
             }
-            return sh;
         }
 
         /// <summary>
@@ -313,6 +382,79 @@ namespace Shlight.Lighting
             return rgb;
         }
 
+        // ---- directional lights (DESIGN.md §10) --------------------------------------------
+
+        /// <summary>
+        /// Add a directional light to wire-layout coefficients (27, index 3*i + c): the SH9 projection
+        /// of irradiance·max(0, n·d) is irradiance × Y_lm(d) in radiance units (Funk-Hecke: the clamped
+        /// cosine's band-l factor is exactly Â_l), so E from the result gains the light's order-2 part.
+        /// Used to fold lights that are not drawn as lights back into the ambient SH9.
+        /// </summary>
+        public static void AddDirectionalLight(double[] coefficients, double dx, double dy, double dz,
+                                               double r, double g, double b)
+        {
+            Check(coefficients, 27, "coefficients");
+            double[] y = {
+                0.282095, 0.488603 * dy, 0.488603 * dz, 0.488603 * dx, 1.092548 * dx * dy, 1.092548 * dy * dz,
+                0.315392 * (3 * dz * dz - 1), 1.092548 * dx * dz, 0.546274 * (dx * dx - dy * dy) };
+            for (int i = 0; i < 9; i++)
+            {
+                coefficients[3 * i] += y[i] * r;
+                coefficients[3 * i + 1] += y[i] * g;
+                coefficients[3 * i + 2] += y[i] * b;
+            }
+        }
+
+        /// <summary>sRGB-encoded → linear, the curve of UnityCG.cginc's GammaToLinearSpaceExact
+        /// (piecewise sRGB below 1, pow 2.2 above).</summary>
+        public static double GammaToLinearExact(double value)
+        {
+            if (value <= 0.04045) return value / 12.92;
+            if (value < 1.0) return Math.Pow((value + 0.055) / 1.055, 2.4);
+            return Math.Pow(value, 2.2);
+        }
+
+        /// <summary>Linear → sRGB-encoded, UnityCG.cginc's LinearToGammaSpaceExact (the inverse of
+        /// <see cref="GammaToLinearExact"/>).</summary>
+        public static double LinearToGammaExact(double value)
+        {
+            if (value <= 0.0) return 0.0;
+            if (value <= 0.0031308) return 12.92 * value;
+            if (value < 1.0) return 1.055 * Math.Pow(value, 0.4166667) - 0.055;
+            return Math.Pow(value, 0.45454545);
+        }
+
+        /// <summary>
+        /// Light.color (sRGB-encoded, each channel in [0, 1]) and Light.intensity for a Unity light
+        /// whose shaders must see the linear colour <paramref name="r"/>, <paramref name="g"/>,
+        /// <paramref name="b"/> (for our use: light irradiance / π, so that Unity's Lambert,
+        /// albedo × light colour × N·L with no 1/π, shows ρE/π like DESIGN.md §2).
+        /// How Unity turns (color, intensity) into the shader's colour (GraphicsSettings.lightsUseLinearIntensity
+        /// documentation): <see cref="Sh9LightColorSpace.LinearIntensity"/>: color.linear × intensity;
+        /// <see cref="Sh9LightColorSpace.GammaIntensity"/>: (color × intensity) converted to linear;
+        /// <see cref="Sh9LightColorSpace.Gamma"/> (gamma colour space): color × intensity, used as is by
+        /// shaders that light in gamma space. Result: rgbi = (color.r, color.g, color.b, intensity).
+        /// </summary>
+        public static void LightColorFromLinear(double r, double g, double b, Sh9LightColorSpace space, double[] rgbi)
+        {
+            Check(rgbi, 4, "rgbi");
+            r = Math.Max(0, r); g = Math.Max(0, g); b = Math.Max(0, b);
+            if (space != Sh9LightColorSpace.LinearIntensity)
+            {
+                // the product color × intensity is what gets linearised (or shaded in gamma): encode it
+                r = LinearToGammaExact(r); g = LinearToGammaExact(g); b = LinearToGammaExact(b);
+            }
+            double intensity = Math.Max(r, Math.Max(g, b));
+            if (!(intensity > 0)) { rgbi[0] = rgbi[1] = rgbi[2] = rgbi[3] = 0; return; }
+            r /= intensity; g /= intensity; b /= intensity;
+            if (space == Sh9LightColorSpace.LinearIntensity)
+            {
+                // color.linear must be the normalised linear colour: store its sRGB encoding
+                r = LinearToGammaExact(r); g = LinearToGammaExact(g); b = LinearToGammaExact(b);
+            }
+            rgbi[0] = r; rgbi[1] = g; rgbi[2] = b; rgbi[3] = intensity;
+        }
+
         static void Check(double[] a, int n, string what)
         {
             if (a == null) throw new ArgumentNullException(what);
@@ -320,3 +462,18 @@ namespace Shlight.Lighting
         }
     }
 }
+
+    /// <summary>How Unity turns a Light's colour and intensity into the colour its shaders see.</summary>
+    public enum Sh9LightColorSpace
+    {
+        /// <summary>Linear colour space with GraphicsSettings.lightsUseLinearIntensity on (URP's
+        /// setting in linear projects): color.linear × intensity.</summary>
+        LinearIntensity = 0,
+        /// <summary>Linear colour space with lightsUseLinearIntensity off (the built-in pipeline's
+        /// default): (color × intensity) converted to linear.</summary>
+        GammaIntensity = 1,
+        /// <summary>Gamma colour space: color × intensity, in gamma; Unity's own shaders then light in
+        /// gamma and no light setting reproduces ρE/π for every albedo (SH9 Diffuse linearises it).</summary>
+        Gamma = 2,
+    }
+

@@ -34,6 +34,26 @@ namespace Shlight.Lighting
         public double Fps = double.NaN;
         public double WindowCutoff;
         public double[] MinIrradiance;
+
+        // Lights (DESIGN.md §10). Coefficients/Matrices above stay the full SH9 of everything;
+        // these split it into an ambient SH9 plus directional lights.
+        /// <summary>Number of directional lights k (0 when the scene needs none or the server does not send lights).</summary>
+        public int Lights;
+        /// <summary>3k numbers: unit vectors toward each light, right-handed wire frame (normalised here).</summary>
+        public double[] LightDirections = EmptyNumbers;
+        /// <summary>3k numbers: RGB irradiance on a surface facing each light.</summary>
+        public double[] LightIrradiance = EmptyNumbers;
+        /// <summary>27 numbers: SH9 of everything but the lights (null when not sent or sent empty).</summary>
+        public double[] AmbientCoefficients;
+        /// <summary>48 numbers: irradiance matrices of <see cref="AmbientCoefficients"/> (derived when only
+        /// the coefficients were sent; null when neither was).</summary>
+        public double[] AmbientMatrices;
+
+        /// <summary>True when the message carries at least one light and the ambient SH9 that goes with
+        /// it, i.e. when a client can show the lights as lights without counting them twice.</summary>
+        public bool HasLightSplit { get { return Lights > 0 && AmbientMatrices != null; } }
+
+        internal static readonly double[] EmptyNumbers = new double[0];
         /// <summary>Every field of the message as parsed (numbers are double, arrays List&lt;object&gt;).</summary>
         public Dictionary<string, object> Fields;
     }
@@ -135,7 +155,61 @@ namespace Shlight.Lighting
                 m.Matrices = Sh9Math.MatricesFromCoefficients(m.Coefficients);
                 m.MatricesDerived = true;
             }
+            ParseLights(obj, m);
             return m;
+        }
+
+        /// <summary>Most lights a message may carry (a bound for hostile input; the provider sends a few).</summary>
+        public const int MaxLights = 64;
+
+        // DESIGN.md §10: "lights": k, "light_directions": [3k], "light_irradiance": [3k],
+        // "ambient_coefficients": [27], "ambient_matrices": [48]. With k = 0 the arrays are empty and
+        // the ambient_* fields may be absent or empty.
+        static void ParseLights(Dictionary<string, object> obj, Sh9Message m)
+        {
+            double k = GetNumber(obj, "lights", 0);
+            if (k < 0 || k > MaxLights || k != Math.Floor(k))
+                throw new FormatException("\"lights\" must be a whole number from 0 to " + MaxLights + ", got " +
+                                          MiniJson.Number(k));
+            m.Lights = (int)k;
+            double[] dirs = GetNumbers(obj, "light_directions", 0, false) ?? Sh9Message.EmptyNumbers;
+            double[] irr = GetNumbers(obj, "light_irradiance", 0, false) ?? Sh9Message.EmptyNumbers;
+            if (dirs.Length != 3 * m.Lights)
+                throw new FormatException("\"light_directions\" must have 3 × lights = " + 3 * m.Lights +
+                                          " numbers, got " + dirs.Length);
+            if (irr.Length != 3 * m.Lights)
+                throw new FormatException("\"light_irradiance\" must have 3 × lights = " + 3 * m.Lights +
+                                          " numbers, got " + irr.Length);
+            for (int i = 0; i < m.Lights; i++)
+            {
+                double x = dirs[3 * i], y = dirs[3 * i + 1], z = dirs[3 * i + 2];
+                double n = Math.Sqrt(x * x + y * y + z * z);
+                // a unit vector on the wire; accept float rounding, refuse anything that is not a direction
+                if (!(n > 0.5 && n < 2.0))
+                    throw new FormatException("\"light_directions\"[" + i + "] is not a unit vector (length " +
+                                              MiniJson.Number(n) + ")");
+                dirs[3 * i] = x / n; dirs[3 * i + 1] = y / n; dirs[3 * i + 2] = z / n;
+                for (int c = 0; c < 3; c++)
+                    if (irr[3 * i + c] < 0)
+                        throw new FormatException("\"light_irradiance\"[" + (3 * i + c) + "] is negative (" +
+                                                  MiniJson.Number(irr[3 * i + c]) + ")");
+            }
+            m.LightDirections = dirs;
+            m.LightIrradiance = irr;
+            m.AmbientCoefficients = GetOptionalNumbers(obj, "ambient_coefficients", 27);
+            m.AmbientMatrices = GetOptionalNumbers(obj, "ambient_matrices", 48);
+            if (m.AmbientMatrices == null && m.AmbientCoefficients != null)
+                m.AmbientMatrices = Sh9Math.MatricesFromCoefficients(m.AmbientCoefficients);
+        }
+
+        // Absent, null or [] all mean "not sent"; anything else must have exactly `length` numbers.
+        static double[] GetOptionalNumbers(Dictionary<string, object> obj, string key, int length)
+        {
+            double[] v = GetNumbers(obj, key, 0, false);
+            if (v == null || v.Length == 0) return null;
+            if (v.Length != length)
+                throw new FormatException("\"" + key + "\" must have " + length + " numbers (or be empty), got " + v.Length);
+            return v;
         }
 
         static Sh9Hello ParseHello(Dictionary<string, object> obj)

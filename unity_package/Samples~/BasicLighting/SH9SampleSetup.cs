@@ -18,6 +18,7 @@ public class SH9SampleSetup : MonoBehaviour
     public float sphereSize = 0.2f;
 
     TextMesh label;
+    static readonly int ColorId = Shader.PropertyToID("_Color");
 
     void Start()
     {
@@ -50,9 +51,13 @@ public class SH9SampleSetup : MonoBehaviour
         sphere.transform.SetParent(transform, false);
         sphere.transform.localPosition = offset + Vector3.right * (slot * sphereSize * 1.3f);
         sphere.transform.localScale = new Vector3(sphereSize, sphereSize, sphereSize);
-        Material instance = new Material(material);
-        instance.color = tint;
-        sphere.GetComponent<Renderer>().sharedMaterial = instance;
+        // One shared material, the colour per renderer: with GPU instancing the spheres still draw
+        // together and each keeps its colour (_Color is a per-instance property of SH9 Diffuse).
+        Renderer renderer = sphere.GetComponent<Renderer>();
+        renderer.sharedMaterial = material;
+        var block = new MaterialPropertyBlock();
+        block.SetColor(ColorId, tint);
+        renderer.SetPropertyBlock(block);
     }
 
     void Update()
