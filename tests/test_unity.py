@@ -820,25 +820,26 @@ def _srgb_to_linear(v: float) -> float:
 
 
 def test_live_client_drives_the_directional_light(live_exe, tmp_path):
-    """DESIGN.md §10 end to end: `shlight serve --lights 1` on a panorama with a small, very bright
+    """DESIGN.md §10 end to end: `shlight serve --lights auto --max-lights 1` on a panorama with a small, very bright
     source sends a light; the component shows it on its Directional Light (forward = minus the
     direction toward the light, in Unity's frame), with colour × intensity = E/π (linear colour space,
     lightsUseLinearIntensity on), _SHMainLightScale 1, and gives the ambient probe and SH9 globals the
     ambient SH only."""
     if "--lights" not in _serve_help():
         pytest.skip("`shlight serve --help` lists no --lights: the provider does not send lights yet "
-                    "(needs `shlight serve --lights N` adding DESIGN.md §10's fields to each sh9 message)")
-    from provider import sh
+                    "(needs `shlight serve --lights auto` adding DESIGN.md §10's fields to each sh9 message)")
+    from provider.core import sh
     import cv2
     image = tmp_path / "sun.png"
     img = np.full((64, 128, 3), 20, np.uint8)
     img[14:16, 95:97] = 255                      # a sun at u = 0.75 (wire +X), a little above the horizon
     assert cv2.imwrite(str(image), img)
-    with ServeProcess("--source", str(image), "--lights", "1", "--keepalive", "0.25") as server:
+    with ServeProcess("--source", str(image), "--lights", "auto", "--max-lights", "1",
+                      "--keepalive", "0.25") as server:
         client = _LiveClient(live_exe, server.url, "-", "default", "40", "--light", "--color-space=linear",
                              "--linear-intensity")
         try:
-            _, ev = client.wait_for("a message with a light (--lights 1, a sun-like source)",
+            _, ev = client.wait_for("a message with a light (--lights auto, a sun-like source)",
                                     lambda e: e["event"] == "applied" and e["lights"] >= 1, timeout=30)
             assert client.quit() == 0
         finally:
