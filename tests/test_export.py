@@ -300,6 +300,19 @@ def test_lights_from_a_message_or_from_stats():
     b = cv.export(total, "webxr", lights=lights, ambient=ambient)
     np.testing.assert_allclose(a["sphericalHarmonicsCoefficients"],
                                b["sphericalHarmonicsCoefficients"], atol=1e-12)
+    # the wire path: export_message takes them from the message, or from the engine's stats
+    msg = coefficient_message(type("R", (), {"coefficients": total, "matrices": np.zeros((3, 4, 4)),
+                                             "stats": {}})())
+    stats = {"lights": 1, "light_directions": d[None], "light_irradiance": e[None],
+             "ambient_coefficients": amb}
+    for ex in (export_message(dict(msg, lights=1, light_directions=d.tolist(),
+                                   light_irradiance=e.tolist()), "arcore"),
+               export_message(msg, "arcore", lights_from=stats)):
+        assert ex["lights"] == 1
+        np.testing.assert_allclose(ex["mainLightDirection"], d)
+        np.testing.assert_allclose(np.reshape(ex["sphericalHarmonics"], (9, 3)),
+                                   cv.CONDON_SHORTLEY[:, None] * amb, atol=1e-12)
+    assert export_message(msg, "arcore", lights_from={})["lights"] == 0
     assert cv.lights_from_fields({"coefficients": [0] * 27}) == ([], None)
     assert cv.lights_from_fields({"lights": 0}) == ([], None)
 
