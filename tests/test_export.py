@@ -347,7 +347,7 @@ def test_bad_input_is_one_clear_error():
             check_format(bad)
 
 
-def test_export_cache_converts_once_per_message_and_format():
+def test_export_cache_converts_once_per_message_and_format(caplog):
     msg = coefficient_message(type("R", (), {"coefficients": hemisphere_sh(AXES["+x"]),
                                              "matrices": np.zeros((3, 4, 4)), "stats": {}})(),
                               probe="p", seq=3)
@@ -361,6 +361,9 @@ def test_export_cache_converts_once_per_message_and_format():
     assert cache.text(None, "webxr") is None
     broken = dict(msg, seq=5, lights=1, light_directions=[0, 0, 0], light_irradiance=[1, 1, 1])
     assert cache.text(broken, "webxr") is None        # logged, never raised into the server
+    assert cache.text(dict(broken, seq=6), "webxr") is None
+    assert len([r for r in caplog.records if "cannot convert" in r.getMessage()]) == 1
+    assert cache.text(dict(msg, seq=7), "webxr") is not None
 
 
 # ---- the golden vectors ------------------------------------------------------------------------------------

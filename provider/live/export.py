@@ -62,6 +62,7 @@ class ExportCache:
 
     def __init__(self):
         self._texts: dict[tuple[str, str], tuple[int, bytes | None]] = {}
+        self._failing: set[tuple[str, str]] = set()     # logged once until it works again
         self.conversions = 0
 
     def text(self, message: dict | None, fmt: str) -> bytes | None:
@@ -74,8 +75,12 @@ class ExportCache:
             return cached[1]
         try:
             text = dumps(export_message(message, fmt)).encode()
+            self._failing.discard(key)
         except (InputError, ValueError) as exc:   # e.g. malformed light fields from a relay
-            log.error("probe %s: cannot convert message %s to %s: %s", key[0], seq, fmt, exc)
+            if key not in self._failing:
+                log.error("probe %s: cannot convert its messages to %s (sent to nobody "
+                          "until they convert): %s", key[0], fmt, exc)
+                self._failing.add(key)
             text = None
         self.conversions += 1
         self._texts[key] = (seq, text)
