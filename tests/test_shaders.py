@@ -247,7 +247,8 @@ def test_vectors_file_format_and_internal_consistency():
     doc = json.loads(contract.VECTORS_PATH.read_text())
     assert doc["version"] == 1 and doc["frame"] == "rh-y-up"
     assert doc["unity_frame"] == "unity-lh-y-up: (x, y, z) -> (x, y, -z)"
-    assert set(doc) == {"version", "frame", "unity_frame", "description", "cases"}
+    assert set(doc) == {"version", "frame", "unity_frame", "description", "cases",
+                        "exports_description", "exports"}   # exports: tests/test_export.py
     names = [c["name"] for c in doc["cases"]]
     for required in ("furnace", "one_sided_+x", "random", "panorama_sky", "panorama_lab_ringing"):
         assert required in names

@@ -1,8 +1,8 @@
-"""`shlight` command line: compute | serve | validate-shaders | bench.
+"""`shlight` command line: compute | export | serve | validate-shaders | bench.
 
 User errors (bad files, bad options) print one clear line to stderr and exit with status
 2; they never show a traceback. Each command's options live in a module of this package
-(:mod:`.compute`, :mod:`.serve`, :mod:`.validate`, :mod:`.bench`, the engine options shared
+(:mod:`.compute`, :mod:`.export`, :mod:`.serve`, :mod:`.validate`, :mod:`.bench`, the engine options shared
 by several in :mod:`.options`); what the command does lives in its layer and is imported
 only when the command runs.
 """
@@ -18,6 +18,7 @@ from ..core.errors import InputError
 #: (command, module of this package, help)
 COMMANDS = (
     ("compute", "compute", "print the wire JSON (DESIGN.md §3) for one image"),
+    ("export", "export", "print one image's lighting in another engine's layout (--to FORMAT)"),
     ("serve", "serve", "serve live coefficients over WebSocket (default: demo source)"),
     ("validate-shaders", "validate", "prove the GLSL/HLSL compute what the CPU computes"),
     ("bench", "bench", "speed against error: Markdown table and PNG plot"),

@@ -6,6 +6,12 @@ nested arrays, no null, no NaN). Output modes, as in Filament's cmgen:
 * ``coefficients``: *raw radiance* projections L_lm (not pre-convolved, not divided by π);
 * ``matrices``: *irradiance* E (a Lambertian surface of albedo ρ shows ρ·E/π).
 
+Every message also says what its numbers are: ``frame`` (``rh-y-up``), ``basis``
+(``sh9-real``: the real SH of DESIGN.md §1), ``condon_shortley`` (false: no
+Condon-Shortley phase), ``coefficients_mode`` / ``matrices_mode`` (the quantity) and
+``units`` (``input-linear``: linear in the input's units). Other engines' layouts:
+:mod:`provider.live.export`.
+
 The JSON Schema ships as ``provider/live/sh9_message.schema.json`` (:func:`load_schema`).
 """
 from __future__ import annotations
@@ -19,6 +25,8 @@ import numpy as np
 
 SCHEMA_VERSION = 1
 FRAME = "rh-y-up"
+BASIS = "sh9-real"
+UNITS = "input-linear"
 
 _STAT_NUMBERS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
                  "coverage_sr", "negative_energy_fraction")
@@ -55,6 +63,9 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
         "frame": FRAME,
         "coefficients_mode": "radiance",
         "matrices_mode": "irradiance",
+        "basis": BASIS,
+        "condon_shortley": False,
+        "units": UNITS,
         "coefficients": [float(v) for v in coeffs.reshape(-1)],   # L00.r, L00.g, L00.b, ...
         "matrices": [float(v) for v in mats.reshape(-1)],          # M_r, M_g, M_b row-major
     }

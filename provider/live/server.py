@@ -13,7 +13,8 @@ HoloLens). With ``--token T`` a client presents the token either as the query pa
 refused with HTTP 401. Browsers send an ``Origin`` header: it must be the server's own
 origin (the dashboard) or one given with ``--allow-origin``, else HTTP 403. Programs
 (Unity, Python) send no Origin and are not affected. Optional query parameters
-``?probe=NAME&max_hz=N`` subscribe at connect time (an unknown probe: HTTP 404).
+``?probe=NAME&max_hz=N&to=FORMAT`` subscribe at connect time (an unknown probe: HTTP 404;
+an unknown format: HTTP 400).
 
 Messages (JSON text frames; JSON Schema: ``provider/live/sh9_message.schema.json``)
 -------------------------------------------------------------------------------
@@ -36,19 +37,25 @@ Server → client:
   messages resume by themselves after the source reconnects. ``seq`` counts the probe's
   messages. A client only ever gets the *newest* message of a probe: a slow client
   skips messages, never lags behind.
+* ``export``, instead of ``sh9``, to a client that asked for another engine's layout
+  with ``to`` (``threejs``, ``webxr``, ``unity``, ``arcore``, ``gltf``,
+  ``openxr-android``; ``sh9``: the provider's own message again): the same message
+  converted by :mod:`provider.live.export` (once per message and format, however many
+  clients asked), with the fields that say what its numbers are.
 * ``subscribed``, the answer to a subscribe: ``{"type": "subscribed", "probe": "theta",
-  "max_hz": 30}``.
+  "max_hz": 30}``, with ``"to"`` when the subscribe had one or a format is in use.
 * ``pong``, the answer to a ping: ``{"type": "pong", "time": <server unix time>,
   "id": <the ping's id>}`` (clients on another machine can estimate their clock offset).
 * ``error``: ``{"type": "error", "error": "<code>", "detail": "<text>"}``, codes
-  ``bad_json``, ``bad_request``, ``unknown_type``, ``unknown_probe``. The connection
-  stays open.
+  ``bad_json``, ``bad_request``, ``unknown_type``, ``unknown_probe``,
+  ``unknown_format`` (the detail lists the formats). The connection stays open.
 
 Client → server (all optional; a plain client just listens):
 
-* ``{"type": "subscribe", "probe": "theta", "max_hz": 30}``: receive only this probe
-  (``"*"``: all, the default) at most ``max_hz`` messages per second (0: no cap beyond
-  the server's ``--max-hz``). Either field may be left out to keep its value.
+* ``{"type": "subscribe", "probe": "theta", "max_hz": 30, "to": "webxr"}``: receive only
+  this probe (``"*"``: all, the default) at most ``max_hz`` messages per second (0: no
+  cap beyond the server's ``--max-hz``), in the layout ``to`` (default ``sh9``). Any
+  field may be left out to keep its value.
 * ``{"type": "ping", "id": 7}``.
 
 A client message larger than ``--max-message-bytes`` closes the connection with code
@@ -57,7 +64,8 @@ A client message larger than ``--max-message-bytes`` closes the connection with 
 HTTP (same port; the token is needed as for WebSockets, except for ``/healthz`` and ``/static/``)
 -------------------------------------------------------------------------------------------------
 ``/`` the dashboard, ``/healthz`` (JSON; status ``ok`` or ``degraded``),
-``/latest.json?probe=NAME`` (the latest sh9 message), ``/thumbnail.jpg?probe=NAME``
+``/latest.json?probe=NAME[&to=FORMAT]`` (the latest sh9 message, or its export;
+an unknown format: HTTP 400), ``/thumbnail.jpg?probe=NAME``
 (the newest frame, tone-mapped), ``/metrics`` (Prometheus text format).
 """
 from __future__ import annotations
@@ -84,6 +92,7 @@ from websockets.http11 import Request, Response
 from .. import __version__
 from ..core.errors import InputError
 from .dashboard import DASHBOARD_CSP, MetricsText, static_file, thumbnail_jpeg
+from .export import FORMATS, NATIVE, ExportCache, check_format
 from .message import FRAME, SCHEMA_VERSION, dumps
 from .probe import Probe
 from .session import ALL, ClientSession, Counters
@@ -136,6 +145,7 @@ class ProviderServer:
         self._server = None
         self._tasks: list[asyncio.Task] = []
         self._thumbnails: dict[str, tuple[int, bytes]] = {}
+        self.exports = ExportCache()
         self._allowed_origins = {o.rstrip("/").lower() for o in self.settings.allowed_origins}
 
     # -- lifecycle ----------------------------------------------------------------------------
@@ -187,19 +197,33 @@ class ProviderServer:
     def publish(self, probe: str, text: bytes) -> None:
         """Hand a probe's new message to every client subscribed to it."""
         for client in self._subscribers.get(probe, ()):
-            client.offer(probe, text)
+            converted = text if client.to is None else self._latest(probe, client.to)
+            if converted is not None:
+                client.offer(probe, converted)
 
-    def _subscribe(self, client: ClientSession, probe: str | None, max_hz: float | None) -> None:
+    def _latest(self, probe: str, to: str | None) -> bytes | None:
+        """The probe's latest message, in the layout ``to`` (None: the sh9 message)."""
+        p = self.probes[probe]
+        return p.latest_text if to is None else self.exports.text(p.latest_message, to)
+
+    def _subscribe(self, client: ClientSession, probe: str | None, max_hz: float | None,
+                   to: str | None = ...) -> None:
         if max_hz is not None:
             cap = self.settings.max_hz
             client.max_hz = min(max_hz, cap) if (cap > 0 and max_hz > 0) else (max_hz or cap)
+        if to is not ... and to != client.to:   # ...: keep it; None: the sh9 message
+            client.to = to
+            for name, subscribers in self._subscribers.items():
+                latest = self._latest(name, to) if client in subscribers else None
+                if latest is not None:
+                    client.offer(name, latest)      # the latest lighting, in the new layout
         if probe is None or probe == client.subscription:
             return
         wanted = set(self.probes) if probe == ALL else {probe}
         for name, subscribers in self._subscribers.items():
             if name in wanted and client not in subscribers:
                 subscribers.add(client)
-                latest = self.probes[name].latest_text
+                latest = self._latest(name, client.to)
                 if latest is not None:
                     client.offer(name, latest)    # a new subscriber needs no wait
             elif name not in wanted and client in subscribers:
@@ -223,6 +247,7 @@ class ProviderServer:
         try:
             probe = query.get("probe", [ALL])[0]
             client.subscription = None     # so that _subscribe adds it and offers the latest
+            client.to = check_format(query.get("to", [None])[0])   # checked in the handshake
             self._subscribe(client, probe, self._query_hz(query))
             # hello still goes first: the writer sends replies before lighting
             client.reply(self._hello(probe, client.max_hz))
@@ -251,6 +276,7 @@ class ProviderServer:
         probe = next(iter(self.probes.values()))
         return {"type": "hello", "version": SCHEMA_VERSION, "provider": f"shlight {__version__}",
                 "frame": FRAME, "probes": list(self.probes), "subscribed": subscribed,
+                "formats": [NATIVE, *FORMATS],
                 "max_hz": float(max_hz or 0.0),
                 "keepalive_s": probe.temporal.keepalive, "stale_after_s": probe.stale_after,
                 "max_message_bytes": self.settings.max_message_bytes,
@@ -278,9 +304,16 @@ class ProviderServer:
             if max_hz is not None and not (_finite_number(max_hz) and max_hz >= 0):
                 return self._client_error(client, "bad_request",
                                           "max_hz must be a number >= 0 (0: no cap)")
-            self._subscribe(client, probe, None if max_hz is None else float(max_hz))
-            client.reply({"type": "subscribed", "probe": client.subscription,
-                          "max_hz": float(client.max_hz)})
+            try:
+                to = check_format(msg["to"]) if "to" in msg else ...
+            except InputError as exc:
+                return self._client_error(client, "unknown_format", str(exc))
+            self._subscribe(client, probe, None if max_hz is None else float(max_hz), to)
+            reply = {"type": "subscribed", "probe": client.subscription,
+                     "max_hz": float(client.max_hz)}
+            if "to" in msg or client.to:
+                reply["to"] = client.to or NATIVE
+            client.reply(reply)
         elif kind == "ping":
             ident = msg.get("id")
             pong = {"type": "pong", "time": time.time()}
@@ -357,6 +390,11 @@ class ProviderServer:
             self.counters.rejected["unknown_probe"] += 1
             return _response(404, f"no probe {probe!r}; probes: {', '.join(self.probes)}\n"
                              .encode(), "text/plain; charset=utf-8")
+        try:
+            check_format(query.get("to", [None])[0])
+        except InputError as exc:
+            self.counters.rejected["unknown_format"] += 1
+            return _response(400, f"{exc}\n".encode(), "text/plain; charset=utf-8")
         if len(self.clients) >= self.settings.max_clients:
             self.counters.rejected["too_many_clients"] += 1
             log.warning("refused %s: %d clients connected (--max-clients)", _peer(connection),
@@ -381,9 +419,14 @@ class ProviderServer:
             if probe is None:
                 return _json_error(404, "unknown_probe", f"no probe {name!r}")
             if path == "/latest.json":
-                if probe.latest_text is None:
+                try:
+                    to = check_format(query.get("to", [None])[0])
+                except InputError as exc:
+                    return _json_error(400, "unknown_format", str(exc))
+                latest = self._latest(name, to)
+                if latest is None:
                     return _json_error(503, "no_lighting_yet", f"probe {name} has no lighting yet")
-                return _response(200, probe.latest_text, "application/json")
+                return _response(200, latest, "application/json")
             if probe.image is None:
                 return _json_error(503, "no_frame_yet", f"probe {name} has no frame yet")
             return _response(200, await self._thumbnail(probe), "image/jpeg")

@@ -45,6 +45,7 @@ class ClientSession:
         host, port = (ws.remote_address or ("?", 0))[:2]
         self.label = f"{host}:{port}"
         self.subscription = ALL
+        self.to: str | None = None      # another engine's layout (provider.live.export)
         self.max_hz = 0.0
         self.sent = 0
         self._slots: dict[str, bytes] = {}

@@ -13,7 +13,9 @@ any small parser read it)::
                 "unity_matrices" (48: S M S, S = diag(1, 1, -1, 1)),
                 "unity_normals" (3N: (x, y, -z)),
                 and in rotation cases "rotation" (9, row-major, right-handed),
-                "rotated_matrices" (48: R̃ M R̃ᵀ), "unity_rotated_matrices" (48)}]}
+                "rotated_matrices" (48: R̃ M R̃ᵀ), "unity_rotated_matrices" (48)}],
+     "exports_description": "...", "exports": [golden vectors of every `shlight export`
+     format: see provider/verify/export_vectors.py]}
 
 "irradiance" is ñᵀMñ evaluated in float64 from "matrices" (what every shader computes); it
 differs from Σ Â_l L_lm Y_lm(n) by the 6-digit constants of DESIGN.md §2 (< 1e-6 of the scale).
@@ -27,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core import sh
+from .export_vectors import DESCRIPTION as EXPORTS_DESCRIPTION, export_vectors
 from .render import SHADER_DIR
 
 VECTORS_PATH = SHADER_DIR / "contract_vectors.json"
@@ -141,7 +144,8 @@ def contract_vectors(hdri_dir: Path = HDRI_DIR) -> dict:
              vector_case("panorama_sky_rotated", sky, rotation=sh.rotation_from_euler(30, -20, 10))]
     return {"version": 1, "frame": "rh-y-up",
             "unity_frame": "unity-lh-y-up: (x, y, z) -> (x, y, -z)",
-            "description": DESCRIPTION, "cases": cases}
+            "description": DESCRIPTION, "cases": cases,
+            "exports_description": EXPORTS_DESCRIPTION, "exports": export_vectors(sky)}
 
 
 def dumps(vectors: dict) -> str:
@@ -149,14 +153,16 @@ def dumps(vectors: dict) -> str:
     def value(v):
         return json.dumps(v, allow_nan=False)
     lines = ["{"]
-    top = [k for k in vectors if k != "cases"]
+    lists = [k for k in ("cases", "exports") if k in vectors]
+    top = [k for k in vectors if k not in lists]
     for k in top:
         lines.append(f" {json.dumps(k)}: {value(vectors[k])},")
-    lines.append(' "cases": [')
-    for i, case in enumerate(vectors.get("cases", [])):
-        items = [f"   {json.dumps(k)}: {value(v)}" for k, v in case.items()]
-        lines.append("  {\n" + ",\n".join(items) + "\n  }" + ("," if i + 1 < len(vectors["cases"]) else ""))
-    lines.append(" ]")
+    for n, key in enumerate(lists):
+        lines.append(f" {json.dumps(key)}: [")
+        for i, case in enumerate(vectors[key]):
+            items = [f"   {json.dumps(k)}: {value(v)}" for k, v in case.items()]
+            lines.append("  {\n" + ",\n".join(items) + "\n  }" + ("," if i + 1 < len(vectors[key]) else ""))
+        lines.append(" ]" + ("," if n + 1 < len(lists) else ""))
     lines.append("}")
     return "\n".join(lines) + "\n"
 

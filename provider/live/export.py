@@ -1,0 +1,87 @@
+"""Wire messages in other engines' layouts: ``/latest.json?to=FORMAT``, ``subscribe`` ``to``
+and ``shlight export``.
+
+:func:`export_message` turns one ``sh9`` message (DESIGN.md §3, with §10's light fields when
+the engine produced them) into an ``export`` message: a short envelope (``type``,
+``version``, ``probe``, ``seq``, ``time``, ``stale``, ``age_s``) plus what
+:func:`provider.core.conventions.export` returns for the format (its payload and its
+self-description). :class:`ExportCache` converts a probe's message once per format, however
+many clients asked for it.
+"""
+from __future__ import annotations
+
+import logging
+
+from ..core.conventions import FORMATS, export, lights_from_fields
+from ..core.errors import InputError
+from .message import SCHEMA_VERSION, dumps
+
+log = logging.getLogger("shlight.server")
+
+#: The name of the provider's own layout: ``to=sh9`` is the same as no ``to``.
+NATIVE = "sh9"
+
+_ENVELOPE = ("probe", "seq", "time", "stale", "age_s")
+
+
+def check_format(fmt) -> str | None:
+    """``None`` for the native message (``None`` or ``"sh9"``), else the format name;
+    InputError (listing the formats) for anything else."""
+    if fmt is None or fmt == NATIVE:
+        return None
+    if isinstance(fmt, str) and fmt in FORMATS:
+        return fmt
+    shown = repr(fmt[:40]) if isinstance(fmt, str) else type(fmt).__name__
+    raise InputError(f"unknown format {shown}; formats: {', '.join(FORMATS)} "
+                     f"(or {NATIVE}: the provider's own message)")
+
+
+def export_message(message: dict, fmt: str, *, lights_from=None, **options) -> dict:
+    """The ``export`` message of an ``sh9`` message in format ``fmt`` (one of FORMATS).
+
+    The lights (DESIGN.md §10 fields) are the message's own, or those of ``lights_from``
+    (e.g. an ``SH9Result.stats``) when the message has none. ``options``:
+    ``babylon_handedness`` (gltf), ``condon_shortley`` (arcore, openxr-android); see
+    :func:`provider.core.conventions.export`.
+    """
+    fields = message if message.get("lights") or lights_from is None else lights_from
+    lights, ambient = lights_from_fields(fields)
+    out = {"type": "export", "version": SCHEMA_VERSION}
+    out.update((k, message[k]) for k in _ENVELOPE if k in message)
+    out.update(export(message["coefficients"], fmt, lights=lights, ambient=ambient, **options))
+    out["lights"] = len(lights)
+    return out
+
+
+class ExportCache:
+    """Per (probe, format), the serialised export of the probe's latest message.
+
+    Conversion happens once per probe message (its ``seq``) per format asked for, never
+    per client.
+    """
+
+    def __init__(self):
+        self._texts: dict[tuple[str, str], tuple[int, bytes | None]] = {}
+        self._failing: set[tuple[str, str]] = set()     # logged once until it works again
+        self.conversions = 0
+
+    def text(self, message: dict | None, fmt: str) -> bytes | None:
+        """The export of ``message`` as UTF-8 JSON; None when there is nothing to send."""
+        if message is None:
+            return None
+        key, seq = (message.get("probe", ""), fmt), message.get("seq")
+        cached = self._texts.get(key)
+        if cached is not None and cached[0] == seq:
+            return cached[1]
+        try:
+            text = dumps(export_message(message, fmt)).encode()
+            self._failing.discard(key)
+        except (InputError, ValueError) as exc:   # e.g. malformed light fields from a relay
+            if key not in self._failing:
+                log.error("probe %s: cannot convert its messages to %s (sent to nobody "
+                          "until they convert): %s", key[0], fmt, exc)
+                self._failing.add(key)
+            text = None
+        self.conversions += 1
+        self._texts[key] = (seq, text)
+        return text
