@@ -33,7 +33,7 @@ from pathlib import Path
 
 _SEQ = re.compile(rb'"seq":(\d+)')
 _TIME = re.compile(rb'"time":([0-9.eE+-]+)')
-_SERVING = re.compile(r"serving ws://[^ ]*:(\d+)/")
+_SERVING = re.compile(r"serving wss?://[^ ]*:(\d+)/")
 
 
 def _cpu_seconds(pid: int) -> float:

@@ -74,6 +74,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="cap on messages per second per client and probe (default: none)")
     net.add_argument("--deflate", action="store_true",
                      help="offer permessage-deflate compression (costs CPU per client)")
+    net.add_argument("--tls-cert", metavar="FILE", default=None,
+                     help="serve wss:// and https:// with this PEM certificate (chain)")
+    net.add_argument("--tls-key", metavar="FILE", default=None,
+                     help="the certificate's private key (PEM; unencrypted)")
     tmp = parser.add_argument_group("temporal behaviour")
     _add_temporal_arguments(tmp)
     parser.add_argument("--log-level", default="info",
@@ -164,6 +168,7 @@ def build_server(args):
     from ..live.probe import Probe, TemporalSettings
     from ..live.server import ProviderServer, ServeSettings
     from ..live.sources import SourceOptions, parse_source
+    from ..live.tls import server_context
     named = [_split_assignment(t, "--probe") for t in args.probe]
     if args.source is not None or not named:
         named.insert(0, ("default", args.source or "demo"))
@@ -184,7 +189,8 @@ def build_server(args):
     s = ServeSettings(host=args.host, port=args.port, token=args.token,
                       allowed_origins=tuple(args.allow_origin), max_clients=args.max_clients,
                       max_message_bytes=args.max_message_bytes, send_timeout=args.send_timeout,
-                      max_hz=args.max_hz, deflate=args.deflate)
+                      max_hz=args.max_hz, deflate=args.deflate,
+                      tls=server_context(args.tls_cert, args.tls_key))
     if not (0 <= s.port <= 65535):
         raise InputError(f"--port {s.port}: out of range")
     if s.max_clients < 1 or s.max_message_bytes < 256 or not s.send_timeout > 0 or s.max_hz < 0:

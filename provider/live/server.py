@@ -71,6 +71,7 @@ import math
 import re
 import signal
 import socket
+import ssl
 import time
 from dataclasses import dataclass
 from urllib.parse import parse_qs, urlsplit
@@ -108,6 +109,7 @@ class ServeSettings:
     send_timeout: float = 10.0
     max_hz: float = 0.0             # cap on every client's rate (0: none)
     deflate: bool = False           # permessage-deflate (costs CPU per client and message)
+    tls: ssl.SSLContext | None = None   # wss:// and https:// (provider.live.tls)
 
 
 class ProviderServer:
@@ -146,7 +148,8 @@ class ProviderServer:
                 self._handler, s.host, s.port, process_request=self._process_request,
                 max_size=s.max_message_bytes, max_queue=4, write_limit=1 << 15,
                 compression="deflate" if s.deflate else None, close_timeout=2,
-                ping_interval=20, ping_timeout=20, server_header=f"shlight/{__version__}")
+                ping_interval=20, ping_timeout=20, server_header=f"shlight/{__version__}",
+                ssl=s.tls)
         except OSError as exc:
             raise InputError(f"cannot listen on {s.host}:{s.port}: {exc.strerror or exc}") from None
         self._tasks = [asyncio.create_task(self._run_probe(p), name=f"probe-{p.name}")
@@ -514,8 +517,9 @@ async def serve_until_stopped(server: ProviderServer, stop: asyncio.Event | None
         host = s.host if s.host not in ("0.0.0.0", "::", "") else (_lan_address() or s.host)
         if ":" in host:
             host = f"[{host}]"
-        log.info("serving ws://%s:%d/ (dashboard: http://%s:%d/%s); probes: %s", host,
-                 server.port, host, server.port, "?token=..." if s.token else "",
+        tls = "s" if s.tls is not None else ""
+        log.info("serving ws%s://%s:%d/ (dashboard: http%s://%s:%d/%s); probes: %s", tls, host,
+                 server.port, tls, host, server.port, "?token=..." if s.token else "",
                  ", ".join(f"{p.name} <- {p.spec.description}" for p in server.probes.values()))
         if s.host not in ("127.0.0.1", "localhost", "::1") and not s.token:
             log.warning("listening on %s without --token: anyone on the network can connect",
