@@ -78,6 +78,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="serve wss:// and https:// with this PEM certificate (chain)")
     net.add_argument("--tls-key", metavar="FILE", default=None,
                      help="the certificate's private key (PEM; unencrypted)")
+    net.add_argument("--mqtt", metavar="URL", default=None,
+                     help="also publish every probe's messages to an MQTT broker: "
+                          "mqtt://[USER:PASS@]HOST[:PORT]/PREFIX or mqtts://... (topic "
+                          "PREFIX/PROBE, retained, QoS 0)")
+    net.add_argument("--mqtt-ca", metavar="FILE", default=None,
+                     help="mqtts://: trust this CA certificate (PEM) instead of the system's")
     tmp = parser.add_argument_group("temporal behaviour")
     _add_temporal_arguments(tmp)
     parser.add_argument("--log-level", default="info",
@@ -210,7 +216,14 @@ def build_server(args):
         probes.append(Probe(name, spec, projection=ns.projection,
                             engine_options=engine_options(ns), temporal=temporal,
                             backoff_max=ns.reconnect_max))
-    return ProviderServer(probes, s)
+    publishers = []
+    if args.mqtt:
+        from ..live.mqtt import MqttPublisher, parse_mqtt_url
+        publishers.append(MqttPublisher(parse_mqtt_url(args.mqtt), ca_file=args.mqtt_ca,
+                                        backoff_max=args.reconnect_max))
+    elif args.mqtt_ca:
+        raise InputError("--mqtt-ca needs --mqtt mqtts://...")
+    return ProviderServer(probes, s, publishers)
 
 
 def run(args) -> int:

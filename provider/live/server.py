@@ -124,7 +124,8 @@ class ProviderServer:
     #: their opening handshake.
     SHUTDOWN_GRACE_S = 2.0
 
-    def __init__(self, probes: list[Probe], settings: ServeSettings | None = None):
+    def __init__(self, probes: list[Probe], settings: ServeSettings | None = None,
+                 publishers=()):
         if not probes:
             raise InputError("no probes to serve")
         self.settings = settings or ServeSettings()
@@ -132,6 +133,9 @@ class ProviderServer:
         for p in probes:
             p.publish = self.publish
         self.clients: set[ClientSession] = set()
+        # Other destinations of every message (provider.live.mqtt.MqttPublisher): offer(),
+        # start(loop), stop() (blocking), health(), add_metrics().
+        self.publishers = list(publishers)
         self._subscribers: dict[str, set[ClientSession]] = {name: set() for name in self.probes}
         self.counters = Counters()
         self.started_at = time.time()
@@ -152,6 +156,8 @@ class ProviderServer:
                 ssl=s.tls)
         except OSError as exc:
             raise InputError(f"cannot listen on {s.host}:{s.port}: {exc.strerror or exc}") from None
+        for publisher in self.publishers:
+            publisher.start(asyncio.get_running_loop())
         self._tasks = [asyncio.create_task(self._run_probe(p), name=f"probe-{p.name}")
                        for p in self.probes.values()]
 
@@ -173,6 +179,8 @@ class ProviderServer:
         for task in self._tasks:
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
+        for publisher in self.publishers:
+            await asyncio.to_thread(publisher.stop)
 
     @property
     def port(self) -> int:
@@ -191,6 +199,8 @@ class ProviderServer:
         """Hand a probe's new message to every client subscribed to it."""
         for client in self._subscribers.get(probe, ()):
             client.offer(probe, text)
+        for publisher in self.publishers:
+            publisher.offer(probe, text)
 
     def _subscribe(self, client: ClientSession, probe: str | None, max_hz: float | None) -> None:
         if max_hz is not None:
@@ -404,9 +414,14 @@ class ProviderServer:
     def health(self) -> dict:
         probes = {name: p.health() for name, p in self.probes.items()}
         ok = all(p["state"] == "live" for p in probes.values())
-        return {"status": "ok" if ok else "degraded", "provider": f"shlight {__version__}",
-                "uptime_s": round(time.time() - self.started_at, 3),
-                "clients": len(self.clients), "probes": probes}
+        health = {"status": "ok" if ok else "degraded", "provider": f"shlight {__version__}",
+                  "uptime_s": round(time.time() - self.started_at, 3),
+                  "clients": len(self.clients), "probes": probes}
+        for publisher in self.publishers:        # e.g. "mqtt": {"state": "connected", ...}
+            health[publisher.kind] = publisher.health()
+            if health[publisher.kind]["state"] != "connected":
+                health["status"] = "degraded"
+        return health
 
     def metrics(self) -> str:
         m, c = MetricsText(), self.counters
@@ -450,6 +465,8 @@ class ProviderServer:
               per(lambda p: p.capture.reconnects))
         m.add("shlight_probe_subscribers", "gauge", "Clients subscribed to the probe.",
               per(lambda p: len(self._subscribers[p.name])))
+        for publisher in self.publishers:
+            publisher.add_metrics(m)
         return m.text()
 
 
