@@ -202,3 +202,30 @@ def test_bad_mqtt_options_are_one_line(argv, words):
     assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
     last = res.stderr.strip().splitlines()[-1]
     assert last.startswith("shlight serve: error:") and words in last, res.stderr
+
+
+def test_dashboard_shows_the_mqtt_state(tmp_path):
+    dashboard = pytest.importorskip("test_dashboard")
+    if dashboard.sync_playwright is None or not os.path.exists(dashboard.CHROMIUM):
+        pytest.skip("needs playwright and chromium (see tests/test_dashboard.py)")
+    broker = Mosquitto(tmp_path).start()
+    try:
+        with ServeProcess("--source", "demo", "--reconnect-max", "1",
+                          "--mqtt", f"mqtt://127.0.0.1:{broker.port}/dash") as proc, \
+                dashboard.sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=dashboard.CHROMIUM,
+                                         args=dashboard.CHROMIUM_ARGS)
+            try:
+                with dashboard.open_dashboard(browser, proc.http + "/") as page:
+                    page.wait_for_selector('#s-mqtt[data-state="connected"]', timeout=15000)
+                    assert f"mqtt://127.0.0.1:{broker.port}/dash" in page.text_content("#s-mqtt")
+                    assert page.is_visible("#mqtt-row dt")
+                    broker.stop()
+                    page.wait_for_selector('#s-mqtt[data-state="down"]', timeout=20000)
+                    broker.start()
+                    page.wait_for_selector('#s-mqtt[data-state="connected"]', timeout=30000)
+                    assert page.text_content("#conn") == "live"
+            finally:
+                browser.close()
+    finally:
+        broker.stop()
