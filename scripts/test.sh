@@ -1,17 +1,19 @@
 #!/usr/bin/env bash
 # One command on a fresh machine: install what the tests need and run them.
 #   system packages (Debian): Mesa EGL for headless OpenGL, Chromium for the dashboard,
-#   Mono for the C# client, glslang + spirv-cross for the HLSL, Xvfb for the viewer;
-#   Python: shlight[test] into .venv.
+#   Mono for the C# client, glslang + spirv-cross for the HLSL, Xvfb for the viewer,
+#   mosquitto for the MQTT tests, npm (when missing) for three.js;
+#   Python: shlight[test] into .venv; npm: three.js into tests/js (the browser client tests).
 # As root, missing system packages are installed with apt-get; otherwise the script says
 # which to install (the tests that need them are then skipped with that reason).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-PKGS="libegl1 libegl-mesa0 libgl1-mesa-dri chromium mono-mcs glslang-tools spirv-cross xvfb"
+PKGS="libegl1 libegl-mesa0 libgl1-mesa-dri chromium mono-mcs glslang-tools spirv-cross xvfb mosquitto"
 missing=()
 for p in $PKGS; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+command -v npm >/dev/null || missing+=(npm)
 if [ ${#missing[@]} -gt 0 ]; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
         echo "installing system packages: ${missing[*]}"
@@ -23,4 +25,8 @@ if [ ${#missing[@]} -gt 0 ]; then
     fi
 fi
 bash scripts/setup.sh test
+if command -v npm >/dev/null; then      # three.js for tests/test_js_client.py (exact version pinned)
+    (cd tests/js && npm install --no-package-lock --no-audit --no-fund --loglevel=error >/dev/null) ||
+        echo "WARNING: npm install in tests/js failed; the three.js tests will be skipped"
+fi
 exec .venv/bin/python -m pytest "$@"

@@ -84,7 +84,8 @@ from websockets.http11 import Request, Response
 
 from .. import __version__
 from ..core.errors import InputError
-from .dashboard import DASHBOARD_CSP, MetricsText, static_file, thumbnail_jpeg
+from .dashboard import (DASHBOARD_CSP, PUBLIC_FILES, PUBLIC_HEADERS, MetricsText, static_file,
+                        thumbnail_jpeg)
 from .message import FRAME, SCHEMA_VERSION, dumps
 from .probe import Probe
 from .session import ALL, ClientSession, Counters
@@ -339,9 +340,9 @@ class ProviderServer:
         upgrade = "websocket" in request.headers.get("Upgrade", "").lower()
         if path == "/healthz" and not upgrade:
             return _response(200, json.dumps(self.health()).encode(), "application/json")
-        if path.startswith("/static/") and not upgrade:
-            # The dashboard's script and style sheet: public package files, no secret in
-            # them, and a browser fetches them without the page's ?token=.
+        if (path.startswith("/static/") or path in PUBLIC_FILES) and not upgrade:
+            # The dashboard's script and style sheet, the JS client and the WebXR page:
+            # public package files, no secret in them, fetched without the page's ?token=.
             return await self._route_http(path, query)
         if not self._authorized(request, query):
             self.counters.rejected["token"] += 1
@@ -381,11 +382,11 @@ class ProviderServer:
         if path in ("/", "/index.html"):
             body, ctype = static_file("index.html")
             return _response(200, body, ctype, [("Content-Security-Policy", DASHBOARD_CSP)])
-        if path.startswith("/static/"):
-            found = static_file(path[len("/static/"):])
+        if path.startswith("/static/") or path in PUBLIC_FILES:
+            found = static_file(PUBLIC_FILES.get(path) or path[len("/static/"):])
             if found is None:
                 return _response(404, b"not found\n", "text/plain; charset=utf-8")
-            return _response(200, *found)
+            return _response(200, *found, PUBLIC_HEADERS)
         if path == "/metrics":
             return _response(200, self.metrics().encode(), MetricsText.CONTENT_TYPE)
         if path in ("/latest.json", "/thumbnail.jpg"):
