@@ -88,7 +88,7 @@ from .dashboard import (DASHBOARD_CSP, PUBLIC_FILES, PUBLIC_HEADERS, MetricsText
                         thumbnail_jpeg)
 from .message import FRAME, SCHEMA_VERSION, dumps
 from .probe import Probe
-from .session import ALL, ClientSession, Counters
+from .session import ALL, ClientSession, Counters, text_frame
 
 log = logging.getLogger("shlight.server")
 
@@ -198,8 +198,10 @@ class ProviderServer:
     # -- fan-out --------------------------------------------------------------------------------
     def publish(self, probe: str, text: bytes) -> None:
         """Hand a probe's new message to every client subscribed to it."""
-        for client in self._subscribers.get(probe, ()):
-            client.offer(probe, text)
+        subscribers = self._subscribers.get(probe, ())
+        frame = text_frame(text) if subscribers else None
+        for client in subscribers:
+            client.offer(probe, text, frame)
         for publisher in self.publishers:
             publisher.offer(probe, text)
 
