@@ -23,7 +23,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 SHLIGHT = [sys.executable, "-m", "provider.cli"]
-SERVING = re.compile(r"serving ws://[^ ]*:(\d+)/")
+SERVING = re.compile(r"serving wss?://[^ ]*:(\d+)/")
 
 
 def poll(predicate, timeout: float = 10.0, interval: float = 0.02, what: str = "condition"):

@@ -74,6 +74,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="cap on messages per second per client and probe (default: none)")
     net.add_argument("--deflate", action="store_true",
                      help="offer permessage-deflate compression (costs CPU per client)")
+    net.add_argument("--tls-cert", metavar="FILE", default=None,
+                     help="serve wss:// and https:// with this PEM certificate (chain)")
+    net.add_argument("--tls-key", metavar="FILE", default=None,
+                     help="the certificate's private key (PEM; unencrypted)")
+    net.add_argument("--mqtt", metavar="URL", default=None,
+                     help="also publish every probe's messages to an MQTT broker: "
+                          "mqtt://[USER:PASS@]HOST[:PORT]/PREFIX or mqtts://... (topic "
+                          "PREFIX/PROBE, retained, QoS 0)")
+    net.add_argument("--mqtt-ca", metavar="FILE", default=None,
+                     help="mqtts://: trust this CA certificate (PEM) instead of the system's")
     tmp = parser.add_argument_group("temporal behaviour")
     _add_temporal_arguments(tmp)
     parser.add_argument("--log-level", default="info",
@@ -164,6 +174,7 @@ def build_server(args):
     from ..live.probe import Probe, TemporalSettings
     from ..live.server import ProviderServer, ServeSettings
     from ..live.sources import SourceOptions, parse_source
+    from ..live.tls import server_context
     named = [_split_assignment(t, "--probe") for t in args.probe]
     if args.source is not None or not named:
         named.insert(0, ("default", args.source or "demo"))
@@ -184,7 +195,8 @@ def build_server(args):
     s = ServeSettings(host=args.host, port=args.port, token=args.token,
                       allowed_origins=tuple(args.allow_origin), max_clients=args.max_clients,
                       max_message_bytes=args.max_message_bytes, send_timeout=args.send_timeout,
-                      max_hz=args.max_hz, deflate=args.deflate)
+                      max_hz=args.max_hz, deflate=args.deflate,
+                      tls=server_context(args.tls_cert, args.tls_key))
     if not (0 <= s.port <= 65535):
         raise InputError(f"--port {s.port}: out of range")
     if s.max_clients < 1 or s.max_message_bytes < 256 or not s.send_timeout > 0 or s.max_hz < 0:
@@ -204,7 +216,14 @@ def build_server(args):
         probes.append(Probe(name, spec, projection=ns.projection,
                             engine_options=engine_options(ns), temporal=temporal,
                             backoff_max=ns.reconnect_max))
-    return ProviderServer(probes, s)
+    publishers = []
+    if args.mqtt:
+        from ..live.mqtt import MqttPublisher, parse_mqtt_url
+        publishers.append(MqttPublisher(parse_mqtt_url(args.mqtt), ca_file=args.mqtt_ca,
+                                        backoff_max=args.reconnect_max))
+    elif args.mqtt_ca:
+        raise InputError("--mqtt-ca needs --mqtt mqtts://...")
+    return ProviderServer(probes, s, publishers)
 
 
 def run(args) -> int:

@@ -22,6 +22,14 @@ DASHBOARD_CSP = ("default-src 'none'; script-src 'self'; style-src 'self'; img-s
                  "connect-src 'self'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'")
 
 
+#: Public files served at the top level without a token (the browser client, its three.js
+#: adapter, the WebXR example page), and the origins that may import them: any (they hold
+#: no secret; ES modules are fetched with CORS).
+PUBLIC_FILES = {"/client.js": "client.js", "/client-three.js": "client-three.js",
+                "/xr.html": "xr.html"}
+PUBLIC_HEADERS = [("Access-Control-Allow-Origin", "*")]
+
+
 def static_file(name: str) -> tuple[bytes, str] | None:
     """(body, content type) of a file of provider/live/static, or None.
 

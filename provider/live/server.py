@@ -79,6 +79,7 @@ import math
 import re
 import signal
 import socket
+import ssl
 import time
 from dataclasses import dataclass
 from urllib.parse import parse_qs, urlsplit
@@ -91,11 +92,12 @@ from websockets.http11 import Request, Response
 
 from .. import __version__
 from ..core.errors import InputError
-from .dashboard import DASHBOARD_CSP, MetricsText, static_file, thumbnail_jpeg
+from .dashboard import (DASHBOARD_CSP, PUBLIC_FILES, PUBLIC_HEADERS, MetricsText, static_file,
+                        thumbnail_jpeg)
 from .export import FORMATS, NATIVE, ExportCache, check_format
 from .message import FRAME, SCHEMA_VERSION, dumps
 from .probe import Probe
-from .session import ALL, ClientSession, Counters
+from .session import ALL, ClientSession, Counters, text_frame
 
 log = logging.getLogger("shlight.server")
 
@@ -117,6 +119,7 @@ class ServeSettings:
     send_timeout: float = 10.0
     max_hz: float = 0.0             # cap on every client's rate (0: none)
     deflate: bool = False           # permessage-deflate (costs CPU per client and message)
+    tls: ssl.SSLContext | None = None   # wss:// and https:// (provider.live.tls)
 
 
 class ProviderServer:
@@ -131,7 +134,8 @@ class ProviderServer:
     #: their opening handshake.
     SHUTDOWN_GRACE_S = 2.0
 
-    def __init__(self, probes: list[Probe], settings: ServeSettings | None = None):
+    def __init__(self, probes: list[Probe], settings: ServeSettings | None = None,
+                 publishers=()):
         if not probes:
             raise InputError("no probes to serve")
         self.settings = settings or ServeSettings()
@@ -139,6 +143,9 @@ class ProviderServer:
         for p in probes:
             p.publish = self.publish
         self.clients: set[ClientSession] = set()
+        # Other destinations of every message (provider.live.mqtt.MqttPublisher): offer(),
+        # start(loop), stop() (blocking), health(), add_metrics().
+        self.publishers = list(publishers)
         self._subscribers: dict[str, set[ClientSession]] = {name: set() for name in self.probes}
         self.counters = Counters()
         self.started_at = time.time()
@@ -156,9 +163,12 @@ class ProviderServer:
                 self._handler, s.host, s.port, process_request=self._process_request,
                 max_size=s.max_message_bytes, max_queue=4, write_limit=1 << 15,
                 compression="deflate" if s.deflate else None, close_timeout=2,
-                ping_interval=20, ping_timeout=20, server_header=f"shlight/{__version__}")
+                ping_interval=20, ping_timeout=20, server_header=f"shlight/{__version__}",
+                ssl=s.tls)
         except OSError as exc:
             raise InputError(f"cannot listen on {s.host}:{s.port}: {exc.strerror or exc}") from None
+        for publisher in self.publishers:
+            publisher.start(asyncio.get_running_loop())
         self._tasks = [asyncio.create_task(self._run_probe(p), name=f"probe-{p.name}")
                        for p in self.probes.values()]
 
@@ -180,6 +190,8 @@ class ProviderServer:
         for task in self._tasks:
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
+        for publisher in self.publishers:
+            await asyncio.to_thread(publisher.stop)
 
     @property
     def port(self) -> int:
@@ -195,11 +207,19 @@ class ProviderServer:
 
     # -- fan-out --------------------------------------------------------------------------------
     def publish(self, probe: str, text: bytes) -> None:
-        """Hand a probe's new message to every client subscribed to it."""
-        for client in self._subscribers.get(probe, ()):
-            converted = text if client.to is None else self._latest(probe, client.to)
+        """Hand a probe's new message to every client subscribed to it (and to the publishers,
+        e.g. MQTT); each format a client asked for is converted and framed once."""
+        subscribers = self._subscribers.get(probe, ())
+        framed = {}     # format (None: the sh9 message) -> (text, WebSocket frame), made once
+        for client in subscribers:
+            if client.to not in framed:
+                converted = text if client.to is None else self._latest(probe, client.to)
+                framed[client.to] = (converted, converted and text_frame(converted))
+            converted, frame = framed[client.to]
             if converted is not None:
-                client.offer(probe, converted)
+                client.offer(probe, converted, frame)
+        for publisher in self.publishers:
+            publisher.offer(probe, text)
 
     def _latest(self, probe: str, to: str | None) -> bytes | None:
         """The probe's latest message, in the layout ``to`` (None: the sh9 message)."""
@@ -359,9 +379,9 @@ class ProviderServer:
         upgrade = "websocket" in request.headers.get("Upgrade", "").lower()
         if path == "/healthz" and not upgrade:
             return _response(200, json.dumps(self.health()).encode(), "application/json")
-        if path.startswith("/static/") and not upgrade:
-            # The dashboard's script and style sheet: public package files, no secret in
-            # them, and a browser fetches them without the page's ?token=.
+        if (path.startswith("/static/") or path in PUBLIC_FILES) and not upgrade:
+            # The dashboard's script and style sheet, the JS client and the WebXR page:
+            # public package files, no secret in them, fetched without the page's ?token=.
             return await self._route_http(path, query)
         if not self._authorized(request, query):
             self.counters.rejected["token"] += 1
@@ -406,11 +426,11 @@ class ProviderServer:
         if path in ("/", "/index.html"):
             body, ctype = static_file("index.html")
             return _response(200, body, ctype, [("Content-Security-Policy", DASHBOARD_CSP)])
-        if path.startswith("/static/"):
-            found = static_file(path[len("/static/"):])
+        if path.startswith("/static/") or path in PUBLIC_FILES:
+            found = static_file(PUBLIC_FILES.get(path) or path[len("/static/"):])
             if found is None:
                 return _response(404, b"not found\n", "text/plain; charset=utf-8")
-            return _response(200, *found)
+            return _response(200, *found, PUBLIC_HEADERS)
         if path == "/metrics":
             return _response(200, self.metrics().encode(), MetricsText.CONTENT_TYPE)
         if path in ("/latest.json", "/thumbnail.jpg"):
@@ -444,9 +464,14 @@ class ProviderServer:
     def health(self) -> dict:
         probes = {name: p.health() for name, p in self.probes.items()}
         ok = all(p["state"] == "live" for p in probes.values())
-        return {"status": "ok" if ok else "degraded", "provider": f"shlight {__version__}",
-                "uptime_s": round(time.time() - self.started_at, 3),
-                "clients": len(self.clients), "probes": probes}
+        health = {"status": "ok" if ok else "degraded", "provider": f"shlight {__version__}",
+                  "uptime_s": round(time.time() - self.started_at, 3),
+                  "clients": len(self.clients), "probes": probes}
+        for publisher in self.publishers:        # e.g. "mqtt": {"state": "connected", ...}
+            health[publisher.kind] = publisher.health()
+            if health[publisher.kind]["state"] != "connected":
+                health["status"] = "degraded"
+        return health
 
     def metrics(self) -> str:
         m, c = MetricsText(), self.counters
@@ -490,6 +515,8 @@ class ProviderServer:
               per(lambda p: p.capture.reconnects))
         m.add("shlight_probe_subscribers", "gauge", "Clients subscribed to the probe.",
               per(lambda p: len(self._subscribers[p.name])))
+        for publisher in self.publishers:
+            publisher.add_metrics(m)
         return m.text()
 
 
@@ -557,8 +584,9 @@ async def serve_until_stopped(server: ProviderServer, stop: asyncio.Event | None
         host = s.host if s.host not in ("0.0.0.0", "::", "") else (_lan_address() or s.host)
         if ":" in host:
             host = f"[{host}]"
-        log.info("serving ws://%s:%d/ (dashboard: http://%s:%d/%s); probes: %s", host,
-                 server.port, host, server.port, "?token=..." if s.token else "",
+        tls = "s" if s.tls is not None else ""
+        log.info("serving ws%s://%s:%d/ (dashboard: http%s://%s:%d/%s); probes: %s", tls, host,
+                 server.port, tls, host, server.port, "?token=..." if s.token else "",
                  ", ".join(f"{p.name} <- {p.spec.description}" for p in server.probes.values()))
         if s.host not in ("127.0.0.1", "localhost", "::1") and not s.token:
             log.warning("listening on %s without --token: anyone on the network can connect",

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 from websockets.asyncio.server import ServerConnection
 from websockets.exceptions import ConnectionClosed
+from websockets.protocol import State
 
 from .message import dumps
 
@@ -15,6 +16,20 @@ log = logging.getLogger("shlight.server")
 
 #: Subscription to every probe.
 ALL = "*"
+
+
+def text_frame(payload: bytes) -> bytes:
+    """``payload`` as one unmasked, unfragmented WebSocket text frame (RFC 6455 §5.2): what
+    a server sends, the same bytes for every client without compression, so built once per
+    message for all of them."""
+    n = len(payload)
+    if n < 126:
+        head = bytes((0x81, n))
+    elif n < 1 << 16:
+        head = bytes((0x81, 126)) + n.to_bytes(2, "big")
+    else:
+        head = bytes((0x81, 127)) + n.to_bytes(8, "big")
+    return head + payload
 
 
 @dataclass
@@ -53,13 +68,47 @@ class ClientSession:
         self._next_send: dict[str, float] = {}
         self._wake = asyncio.Event()
         self._timer: asyncio.TimerHandle | None = None
+        # Frames may be written straight to the socket (see offer) unless this connection
+        # compresses them (permessage-deflate: per-client bytes).
+        self._direct = not ws.protocol.extensions
 
-    def offer(self, probe: str, text: bytes) -> None:
-        """Make ``text`` the probe's pending message (replacing an unsent older one)."""
+    def offer(self, probe: str, text: bytes, frame: bytes | None = None) -> None:
+        """Make ``text`` the probe's pending message (replacing an unsent older one).
+
+        ``frame`` (``text_frame(text)``, shared by all clients) is written to the socket at
+        once when nothing else waits for this client and its socket has taken everything
+        so far: the common case, with no task switch per client. Otherwise the message
+        takes the slot and the writer task sends it (send timeout, latest only).
+        """
+        if frame is not None and self._direct and self._write_now(probe, frame):
+            return
         if self._slots.get(probe) is not None:
             self.counters.messages_skipped += 1
         self._slots[probe] = text
         self._wake.set()
+
+    def _write_now(self, probe: str, frame: bytes) -> bool:
+        if self._replies or self._slots.get(probe) is not None:
+            return False
+        ws = self.ws
+        transport = ws.transport
+        if ws.protocol.state is not State.OPEN or transport.get_write_buffer_size():
+            return False
+        if self.max_hz > 0:
+            now = asyncio.get_running_loop().time()
+            if self._next_send.get(probe, 0.0) > now:
+                return False
+            self._next_send[probe] = self._next_after(probe, now)
+        transport.write(frame)
+        self.sent += 1
+        self.counters.messages_sent += 1
+        return True
+
+    def _next_after(self, probe: str, now: float) -> float:
+        """When the probe's next message may go (at most max_hz on average, tolerating
+        jitter down to half a period)."""
+        interval = 1.0 / self.max_hz
+        return max(self._next_send.get(probe, now) + interval, now + 0.5 * interval)
 
     def forget(self, probe: str) -> None:
         self._slots.pop(probe, None)
@@ -90,10 +139,7 @@ class ClientSession:
                     self._slots[probe] = None
                     await self._send(text)
                     if self.max_hz > 0:
-                        # Average at most max_hz, tolerating jitter down to half a period.
-                        interval = 1.0 / self.max_hz
-                        self._next_send[probe] = max(self._next_send.get(probe, now) + interval,
-                                                     now + 0.5 * interval)
+                        self._next_send[probe] = self._next_after(probe, now)
         except ConnectionClosed:
             pass
         except asyncio.CancelledError:

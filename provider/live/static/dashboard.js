@@ -77,6 +77,7 @@
       setProbes(Array.isArray(msg.probes) ? msg.probes.map(String) : []);
       $("provider").textContent = `${msg.provider || ""} · ${msg.frame || ""}`;
       setConn("live", "live");
+      refreshMqtt();
     } else if (msg.type === "sh9") {
       if (!Array.isArray(msg.matrices) || msg.matrices.length !== 48 ||
           !Array.isArray(msg.coefficients) || msg.coefficients.length !== 27) return;
@@ -281,6 +282,23 @@
     }
   }
 
+  // ---- MQTT publishing (shlight serve --mqtt): its state from /healthz ----------------------
+  async function refreshMqtt() {
+    if (document.hidden) return;
+    try {
+      const resp = await fetch(new URL("/healthz", location.href), { cache: "no-store" });
+      const mqtt = resp.ok ? (await resp.json()).mqtt : null;
+      $("mqtt-row").hidden = !mqtt;
+      if (!mqtt) return;
+      const el = $("s-mqtt");
+      el.dataset.state = mqtt.state;
+      el.textContent = `${mqtt.state} · ${mqtt.broker} · ${mqtt.published} sent` +
+        (mqtt.state !== "connected" && mqtt.error ? ` · ${mqtt.error}` : "");
+    } catch (err) {
+      // the server is away; the WebSocket shows it
+    }
+  }
+
   // ---- wiring ------------------------------------------------------------------------------
   function init() {
     buildBars();
@@ -295,6 +313,7 @@
     $("auto").addEventListener("change", requestDraw);
     setInterval(() => { if (state.connected) showNumbers(); }, 250);
     setInterval(() => { if (state.connected) refreshThumbnail(); }, 1000);
+    setInterval(() => { if (state.connected) refreshMqtt(); }, 2000);
     setInterval(() => {
       if (!state.connected) return;
       const id = ++state.pingId;

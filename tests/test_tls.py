@@ -1,0 +1,129 @@
+"""``shlight serve --tls-cert FILE --tls-key FILE``: wss:// and https:// with a throwaway
+self-signed certificate, real clients that trust exactly that certificate, and one-line
+errors for every bad certificate or key."""
+from __future__ import annotations
+
+import datetime
+import ipaddress
+import json
+import os
+import ssl
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+from cryptography import x509
+from cryptography.hazmat.primitives import hashes, serialization
+from cryptography.hazmat.primitives.asymmetric import ec
+from cryptography.x509.oid import NameOID
+
+from servertools import ServeProcess, connect, recv_json, recv_until, run_cli
+
+
+def make_certificate(folder: Path, name: str = "server") -> tuple[Path, Path]:
+    """A self-signed certificate for localhost / 127.0.0.1 and its key (PEM files)."""
+    key = ec.generate_private_key(ec.SECP256R1())
+    subject = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "localhost")])
+    now = datetime.datetime.now(datetime.timezone.utc)
+    cert = (x509.CertificateBuilder().subject_name(subject).issuer_name(subject)
+            .public_key(key.public_key()).serial_number(x509.random_serial_number())
+            .not_valid_before(now - datetime.timedelta(minutes=5))
+            .not_valid_after(now + datetime.timedelta(days=1))
+            .add_extension(x509.SubjectAlternativeName([
+                x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
+                critical=False)
+            .add_extension(x509.BasicConstraints(ca=True, path_length=None), critical=True)
+            .sign(key, hashes.SHA256()))
+    cert_path, key_path = folder / f"{name}.crt", folder / f"{name}.key"
+    cert_path.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    key_path.write_bytes(key.private_bytes(serialization.Encoding.PEM,
+                                           serialization.PrivateFormat.PKCS8,
+                                           serialization.NoEncryption()))
+    return cert_path, key_path
+
+
+@pytest.fixture(scope="module")
+def certs(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("tls")
+    return folder, make_certificate(folder), make_certificate(folder, "other")
+
+
+def test_wss_and_https_with_a_self_signed_certificate(certs):
+    _, (cert, key), (other_cert, _) = certs
+    with ServeProcess("--source", "demo", "--tls-cert", str(cert), "--tls-key", str(key),
+                      "--token", "s3cret") as proc:
+        assert f"serving wss://127.0.0.1:{proc.port}/" in proc.output
+        assert f"dashboard: https://127.0.0.1:{proc.port}/" in proc.output
+        trust = ssl.create_default_context(cafile=str(cert))
+        url = f"wss://127.0.0.1:{proc.port}/?token=s3cret"
+        with connect(url, ssl=trust) as ws:
+            hello = recv_json(ws)
+            assert hello["type"] == "hello"
+            msg = recv_until(ws, lambda m: m["type"] == "sh9")
+            assert len(msg["coefficients"]) == 27 and msg["stale"] is False
+        # https: the same routes, same token rules
+        with urllib.request.urlopen(f"https://127.0.0.1:{proc.port}/latest.json?token=s3cret",
+                                    context=trust, timeout=10) as resp:
+            latest = json.loads(resp.read())
+        assert latest["type"] == "sh9" and latest["probe"] == "default"
+        with urllib.request.urlopen(f"https://localhost:{proc.port}/healthz", context=trust,
+                                    timeout=10) as resp:
+            assert json.loads(resp.read())["status"] in ("ok", "degraded")
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(f"https://127.0.0.1:{proc.port}/metrics", context=trust,
+                                   timeout=10)
+        assert refused.value.code == 401
+        # A client that trusts another certificate refuses this server.
+        with pytest.raises(ssl.SSLCertVerificationError):
+            connect(url, ssl=ssl.create_default_context(cafile=str(other_cert)),
+                    open_timeout=10)
+        # Plain ws:// to a TLS port gets no WebSocket.
+        with pytest.raises(Exception) as plain:
+            connect(f"ws://127.0.0.1:{proc.port}/?token=s3cret", open_timeout=10)
+        assert not isinstance(plain.value, AssertionError)
+        assert proc.proc.poll() is None and "Traceback" not in proc.output
+    assert proc.proc.returncode == 0, proc.output
+
+
+def test_serve_help_lists_tls():
+    res = run_cli("serve", "--help")
+    assert res.returncode == 0 and "--tls-cert" in res.stdout and "--tls-key" in res.stdout
+
+
+def _bad_cases(folder: Path, cert: Path, key: Path, other_key: Path):
+    not_pem = folder / "not.pem"
+    not_pem.write_text("hello\n")
+    garbage = folder / "garbage.pem"
+    garbage.write_text("-----BEGIN CERTIFICATE-----\nAAAA\n-----END CERTIFICATE-----\n")
+    return [
+        (["--tls-cert", str(folder / "missing.crt"), "--tls-key", str(key)], "no such file"),
+        (["--tls-cert", str(cert), "--tls-key", str(folder / "missing.key")], "no such file"),
+        (["--tls-cert", str(folder), "--tls-key", str(key)], "not a file"),
+        (["--tls-cert", str(not_pem), "--tls-key", str(key)], "not a PEM file"),
+        (["--tls-cert", str(garbage), "--tls-key", str(key)], "no valid certificate"),
+        (["--tls-cert", str(cert), "--tls-key", str(cert)], "no valid private key"),
+        (["--tls-cert", str(cert), "--tls-key", str(other_key)], "does not match"),
+        (["--tls-key", str(key)], "--tls-key needs --tls-cert"),
+        (["--tls-cert", str(cert)], "holds no private key"),
+    ]
+
+
+def test_tls_errors_are_one_line(certs):
+    folder, (cert, key), (_, other_key) = certs
+    for argv, words in _bad_cases(folder, cert, key, other_key):
+        res = run_cli("serve", *argv)
+        assert res.returncode == 2, (argv, res.stderr)
+        assert "Traceback" not in res.stderr
+        last = res.stderr.strip().splitlines()[-1]
+        assert last.startswith("shlight serve: error:") and words in last, (argv, res.stderr)
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root reads any file")
+def test_unreadable_key_is_one_line(certs):
+    folder, (cert, key), _ = certs
+    locked = folder / "locked.key"
+    locked.write_bytes(key.read_bytes())
+    locked.chmod(0)
+    res = run_cli("serve", "--tls-cert", str(cert), "--tls-key", str(locked))
+    assert res.returncode == 2 and "cannot read" in res.stderr.strip().splitlines()[-1]
