@@ -216,6 +216,8 @@ def run(args) -> int:
     if level > logging.DEBUG:
         logging.getLogger("websockets").setLevel(logging.WARNING)
     from ..live.server import serve_until_stopped
+    from .threads import limit_opencv_threads
+    limit_opencv_threads(1)     # why: provider/cli/threads.py
     server = build_server(args)
     try:
         asyncio.run(serve_until_stopped(server))
