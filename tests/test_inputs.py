@@ -110,7 +110,7 @@ def test_the_engine_refuses_what_the_command_line_refuses():
 
 def test_huge_non_equirect_frames_say_what_they_cost_before_building():
     note = precompute_note(8192, 4096, "fisheye")
-    assert "--downsample" in note and "GB" in note
+    assert "--downsample 8 (1024×512)" in note and "4.4 GB" in note
     assert precompute_note(8192, 4096, "fisheye", downsample=8) is None
     assert precompute_note(8192, 4096, "equirect") is None     # separable: always quick
     assert precompute_note(640, 480, "fisheye") is None

@@ -387,11 +387,12 @@ def check_options(*, encoding="auto", exposure=1.0, downsample=1, rotation=None,
 
 
 #: Rough cost of integrating the per-pixel weights of a fisheye, dual-fisheye or cube map
-#: frame once (measured on an x86-64 core: 4 to 6 µs and ~130 bytes per pixel at peak).
-PRECOMPUTE_S_PER_PIXEL = 5e-6
+#: frame once (measured on one x86-64 core: 1 to 1.8 µs and ~130 bytes per pixel at peak; an
+#: 8192×4096 fisheye frame took 37 s and 4.4 GB).
+PRECOMPUTE_S_PER_PIXEL = 1.2e-6
 PRECOMPUTE_BYTES_PER_PIXEL = 130
-#: Frames (after --downsample) above this many pixels get a note before the build.
-PRECOMPUTE_NOTE_PIXELS = 2_000_000
+#: Frames (after --downsample) above this many pixels (about 10 s, 1 GB) get a note first.
+PRECOMPUTE_NOTE_PIXELS = 8_000_000
 
 
 def precompute_note(width: int, height: int, projection="equirect", downsample: int = 1):
@@ -407,20 +408,22 @@ def precompute_note(width: int, height: int, projection="equirect", downsample: 
     if name == "equirect" or pixels <= PRECOMPUTE_NOTE_PIXELS:
         return None
     factor = downsample
-    while (width // factor) * (height // factor) > PRECOMPUTE_NOTE_PIXELS / 2:
+    while (width // factor) * (height // factor) > 1_000_000:     # about a second
         factor *= 2
     small = (width // factor) * (height // factor)
     return (f"a {width}×{height} {name} frame{f' at --downsample {downsample}' if downsample > 1 else ''}"
-            f" needs its per-pixel weights integrated once: about "
+            f" needs its per-pixel weights integrated once: "
             f"{_duration(pixels * PRECOMPUTE_S_PER_PIXEL)} and "
             f"{pixels * PRECOMPUTE_BYTES_PER_PIXEL / 1e9:.1f} GB of memory before the first "
-            f"result. --downsample {factor} ({width // factor}×{height // factor}) takes about "
+            f"result. --downsample {factor} ({width // factor}×{height // factor}) takes "
             f"{_duration(small * PRECOMPUTE_S_PER_PIXEL)} and changes the lighting by well "
             "under 1 % (nine SH coefficients are very low frequency)")
 
 
 def _duration(seconds: float) -> str:
-    return f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
+    if seconds < 1:
+        return "under a second"
+    return f"about {seconds:.0f} s" if seconds < 90 else f"about {seconds / 60:.0f} min"
 
 
 def _count_pixels(mask: np.ndarray) -> int:

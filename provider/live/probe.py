@@ -176,10 +176,19 @@ class Probe:
                  self.projection, width, height)
         note = precompute_note(width, height, self.projection,
                                self.engine_options.get("downsample", 1))
+        progress = None
         if note:
             log.warning("probe %s: %s", self.name, note)
+            steps = iter((0.25, 0.5, 0.75, 1.0))
+            step = [next(steps)]
+
+            def progress(fraction):
+                while step[0] is not None and fraction >= step[0]:
+                    log.info("probe %s: per-pixel weights %.0f %% done", self.name, step[0] * 100)
+                    step[0] = next(steps, None)
         try:
-            projector = SH9Projector(width, height, self.projection, **self.engine_options)
+            projector = SH9Projector(width, height, self.projection, progress=progress,
+                                     **self.engine_options)
         except Exception as exc:  # noqa: BLE001 - a bug must not become a rebuild per frame
             reason = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
             log.error("probe %s: cannot project %d×%d frames with these options: %s "
