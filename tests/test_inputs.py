@@ -133,6 +133,10 @@ def test_an_exr_with_another_extension_is_read_as_exr(tmp_path):
     (["--projection", "fisheye", "--fov", "0"], ["--fov 0"]),
     (["--projection", "fisheye", "--radius", "inf"], ["--radius", "finite"]),
     (["--probe", "a=demo", "--probe-args", "a=--projection fisheye --fov 0"], ["--fov 0"]),
+    (["--max-hz", "nan"], ["--max-hz >= 0", "finite"]),
+    (["--send-timeout", "inf"], ["--send-timeout > 0", "finite"]),
+    (["--capture-size", "0x0"], ["--capture-size", "WIDTHxHEIGHT"]),
+    (["--fps", "nan"], ["--fps nan", "out of range"]),
 ])
 def test_serve_refuses_at_start_what_no_frame_can_fix(args, words):
     res = run_cli("serve", "--port", "0", *args)

@@ -117,7 +117,7 @@ def _add_temporal_arguments(g) -> None:
 
 def _size(text: str) -> tuple[int, int]:
     m = re.fullmatch(r"\s*(\d+)\s*[xX×]\s*(\d+)\s*", text)
-    if not m:
+    if not m or int(m.group(1)) < 1 or int(m.group(2)) < 1:
         raise argparse.ArgumentTypeError("expected WIDTHxHEIGHT, e.g. 1280x720")
     return int(m.group(1)), int(m.group(2))
 
@@ -187,9 +187,10 @@ def build_server(args):
                       max_hz=args.max_hz, deflate=args.deflate)
     if not (0 <= s.port <= 65535):
         raise InputError(f"--port {s.port}: out of range")
-    if s.max_clients < 1 or s.max_message_bytes < 256 or not s.send_timeout > 0 or s.max_hz < 0:
+    if (s.max_clients < 1 or s.max_message_bytes < 256 or not 0 < s.send_timeout < math.inf
+            or not 0 <= s.max_hz < math.inf):
         raise InputError("--max-clients >= 1, --max-message-bytes >= 256, --send-timeout > 0 "
-                         "and --max-hz >= 0 are required")
+                         "and --max-hz >= 0 are required (finite numbers)")
     probes = []
     for name, text in named:
         ns = overrides.get(name, args)
