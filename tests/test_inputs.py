@@ -98,8 +98,10 @@ def test_the_engine_refuses_what_the_command_line_refuses():
     for rotation in (np.full((3, 3), np.nan), 2 * R, np.diag([1.0, 1.0, -1.0]), np.eye(2)):
         with pytest.raises(InputError, match="rotation"):
             compute_sh9(img[:120], rotation=rotation)
-    with pytest.raises(InputError):
-        check_options(exposure=float("inf"))
+    for options in (dict(exposure=float("inf")), dict(downsample="two"), dict(downsample=1.5),
+                    dict(rotation="not a matrix"), dict(order_budget=float("nan"))):
+        with pytest.raises(InputError):
+            check_options(**options)
     with pytest.raises(InputError):
         SH9Projector(1, 1, "dual-fisheye")
     p = SH9Projector(240, 240, "fisheye", rotation=R)        # a real rotation is fine

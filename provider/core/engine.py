@@ -376,10 +376,17 @@ def check_options(*, encoding="auto", exposure=1.0, downsample=1, rotation=None,
     if not (isinstance(order_budget, (int, float)) and math.isfinite(order_budget)
             and order_budget >= 0):
         raise InputError(f"order budget must be a finite number >= 0; got {order_budget!r}")
-    if isinstance(downsample, bool) or not float(downsample).is_integer() or downsample < 1:
+    try:
+        whole = not isinstance(downsample, bool) and float(downsample).is_integer()
+    except (TypeError, ValueError):
+        whole = False
+    if not whole or downsample < 1:
         raise InputError(f"downsample must be a positive integer; got {downsample!r}")
     if rotation is not None:
-        R = np.asarray(rotation, np.float64)
+        try:
+            R = np.asarray(rotation, np.float64)
+        except (TypeError, ValueError):
+            R = np.full(1, np.nan)
         if (R.shape != (3, 3) or not np.all(np.isfinite(R))
                 or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0):
             raise InputError("rotation must be a finite 3×3 rotation matrix (orthonormal, "
