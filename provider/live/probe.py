@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.engine import SH9Projector, SH9Result
+from ..core.engine import SH9Projector, SH9Result, precompute_note
 from ..core.errors import InputError
 from .capture import Capture
 from .message import coefficient_message, dumps
@@ -171,7 +171,6 @@ class Probe:
         """The projector for frames of this size, or the InputError saying why there is
         none. Said once: frames of this size are then rejected without rebuilding (an
         impossible geometry cannot be retried 30 times a second) and without a log line."""
-        from ..core.engine import precompute_note
         log.info("probe %s: building the %s projector for %d×%d frames", self.name,
                  self.projection, width, height)
         note = precompute_note(width, height, self.projection,
