@@ -13,8 +13,32 @@ The package is layered, data flowing one way (docs/architecture.md):
   verification, benchmarks);
 * :mod:`provider.cli`: the ``shlight`` command line.
 """
-from .core.sh import irradiance, irradiance_matrices, rotate_coefficients, rotate_matrices  # noqa: F401
-from .core.engine import SH9Projector, SH9Result, compute_sh9  # noqa: F401
-from .core.errors import InputError  # noqa: F401
+from __future__ import annotations
+
+import importlib
 
 __version__ = "0.1.0"
+
+# The library names are imported on first use (PEP 562), not here: importing the package
+# must not load numpy, so that `shlight --help` is instant and the command line can size
+# numpy's thread pools before numpy starts them (provider/cli/threads.py).
+_EXPORTS = {
+    "irradiance": "core.sh", "irradiance_matrices": "core.sh",
+    "rotate_coefficients": "core.sh", "rotate_matrices": "core.sh",
+    "SH9Projector": "core.engine", "SH9Result": "core.engine", "compute_sh9": "core.engine",
+    "InputError": "core.errors",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'provider' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -1,13 +1,43 @@
 #!/usr/bin/env bash
 # Create .venv (if needed) and install shlight with the given extras, e.g. `scripts/setup.sh test`.
+# The install is editable (code changes need no reinstall), so it is skipped when
+# pyproject.toml and the extras are those of the last install: a second run takes a moment.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
-if [ ! -x .venv/bin/python ]; then
-    "$PY" -m venv .venv
-fi
 extras=${1:-}
+
+if [ ! -x .venv/bin/python ]; then
+    # Debian and Ubuntu ship venv's pip bootstrap (ensurepip) as a separate package.
+    if ! "$PY" -c 'import ensurepip, venv' 2>/dev/null; then
+        ver=$("$PY" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+        if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+            echo "installing python3-venv (Python's venv needs it on Debian/Ubuntu)"
+            export DEBIAN_FRONTEND=noninteractive
+            apt-get update -qq
+            apt-get install -y -qq --no-install-recommends "python$ver-venv" >/dev/null 2>&1 ||
+                apt-get install -y -qq --no-install-recommends python3-venv >/dev/null
+        else
+            echo "error: $PY cannot create a virtual environment (no ensurepip)." >&2
+            echo "       On Debian/Ubuntu: sudo apt-get install python3-venv  (or python$ver-venv)" >&2
+            exit 1
+        fi
+    fi
+    "$PY" -m venv .venv
+    .venv/bin/python -m pip install -q --upgrade pip >/dev/null
+fi
+
+stamp=.venv/.shlight-install
+want="$(.venv/bin/python -c 'import hashlib; print(hashlib.sha256(open("pyproject.toml", "rb").read()).hexdigest())') ${extras}"
+have=$(cat "$stamp" 2>/dev/null || true)
+# An install with extras also serves a plain request (serve-demo.sh after test.sh).
+if [ -x .venv/bin/shlight ] && { [ "$have" = "$want" ] || [ "${have%% *} " = "$want" ]; } &&
+        .venv/bin/python -c 'import provider' 2>/dev/null; then
+    exit 0
+fi
 spec="."
 [ -n "$extras" ] && spec=".[${extras}]"
-.venv/bin/python -m pip install -q --upgrade pip >/dev/null
-.venv/bin/python -m pip install -q -e "$spec"
+echo "installing shlight${extras:+[$extras]} into .venv"
+# setuptools prints an informational block on every editable install; it is not a problem.
+PYTHONWARNINGS="ignore:Editable installation" .venv/bin/python -m pip install -q -e "$spec"
+echo "$want" > "$stamp"

@@ -8,27 +8,33 @@ Sections (all written to ``--out``, default ./bench-results):
 * ``speed_vs_error.md`` / ``.png``: time per frame and relative RMS irradiance error of each
   path (exact, the linear-domain fast paths, the paper's 8-bit 64×48 pipeline) for frame
   sizes 640×320, 1920×960, 3840×1920, uint8 and float. Test frames are the real panoramas
-  in tests/data/hdri, resized; the error is against the float64 exact projection of the
-  *same* frame, and for uint8 also against the HDR original (what clipping costs).
+  shipped in provider/data/hdri, resized; the error is against the float64 exact projection
+  of the *same* frame, and for uint8 also against the HDR original (what clipping costs).
 * ``fisheye_edge.md``: a 640×480 uint8 fisheye frame per path: time, and instructions per
   frame counted by ``valgrind --tool=callgrind`` (a 1 GHz core at IPC≈1 runs 33 M
-  instructions in a 30 fps frame).
+  instructions in a 30 fps frame); the count is most of a run's time, so ``--quick`` skips
+  it unless ``--instructions``.
 * ``fisheye_fill.md``: error of each lower-hemisphere fill model on the real panoramas.
 * ``scenes.md``: per real panorama, what SH9 itself misses (truncation error against
   brute-force irradiance), whether order 2 rings negative, what ``--dering auto`` costs,
   and which order ``--order auto`` keeps.
 * ``server.md`` / ``server.json`` (only with ``--sections server``, see
   :mod:`provider.bench.server`): frame-to-client latency p50/p99 of a real ``shlight serve``
-  and the number of clients one core keeps at 30 Hz.
+  and the number of clients one core keeps at 30 Hz; then ``server_idle.md`` /
+  ``server_idle.json`` (:mod:`provider.bench.idle`): the CPU of a server with no client.
+
+Before it starts, the run lists the sections with what each costs; each section then says
+when it starts and how long it took.
 """
 from __future__ import annotations
 
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
-from .common import SINGLE_CORE_ENV
+from .common import SINGLE_CORE_ENV, _progress
 
 
 def run(args) -> int:
@@ -36,43 +42,98 @@ def run(args) -> int:
     # One core: BLAS and OpenCV threads must be pinned before numpy/cv2 start their pools.
     if any(os.environ.get(k) != v for k, v in SINGLE_CORE_ENV.items()):
         env = {**os.environ, **SINGLE_CORE_ENV}
+        instructions = [] if args.instructions is None else \
+            ["--instructions" if args.instructions else "--no-instructions"]
         argv = [sys.executable, "-m", "provider.cli", "bench"] + sys.argv[2:] \
             if len(sys.argv) > 1 and sys.argv[1] == "bench" else \
             [sys.executable, "-m", "provider.cli", "bench", "--out", args.out] + \
             (["--quick"] if args.quick else []) + ["--sections", args.sections, "--hdri", args.hdri,
-                                                    "--repeat", str(args.repeat)] + \
-            (["--no-instructions"] if args.no_instructions else [])
+                                                    "--repeat", str(args.repeat)] + instructions
         return subprocess.call(argv, env=env)
     import cv2
     cv2.setNumThreads(1)
     from ..core.errors import InputError
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     hdri = sorted(Path(args.hdri).glob("*.exr")) + sorted(Path(args.hdri).glob("*.hdr"))
     if not hdri:
         raise InputError(f"no .exr/.hdr panoramas in {args.hdri}")
-    sections = {s.strip() for s in args.sections.split(",") if s.strip()}
-    unknown = sections - {"speed", "edge", "fill", "scenes", "server"}
+    order = [s.strip() for s in args.sections.split(",") if s.strip()]
+    unknown = set(order) - set(SECTION_COST_S)
     if unknown:
-        raise InputError(f"unknown bench sections: {', '.join(sorted(unknown))}")
-    if "speed" in sections:
-        from .speed import bench_speed
-        bench_speed(hdri, out, args)
-    if "edge" in sections:
-        from .edge import bench_edge
-        bench_edge(hdri, out, args)
-    if "fill" in sections:
-        from .scenes import bench_fill
-        bench_fill(hdri, out, args)
-    if "scenes" in sections:
-        from .scenes import bench_scenes
-        bench_scenes(hdri, out, args)
-    if "server" in sections:
-        try:
-            from . import server as server_bench
-        except ImportError as exc:
-            print(f"server benchmark unavailable: {exc}", file=sys.stderr)
-        else:
-            server_bench.main(["--out", str(out)] + (["--quick"] if args.quick else []))
+        raise InputError(f"unknown bench sections: {', '.join(sorted(unknown))} "
+                         f"(sections: {', '.join(SECTION_COST_S)})")
+    sections = [s for s in SECTION_COST_S if s in order]
+    if args.instructions is None:       # callgrind is most of a quick run's time: opt in
+        args.instructions = not args.quick
+    out.mkdir(parents=True, exist_ok=True)
+    costs = {s: _cost(s, args) for s in sections}
+    _progress(f"shlight bench: {', '.join(f'{s} (~{_duration(c)})' for s, c in costs.items())}"
+              f"; about {_duration(sum(costs.values()))} in all on a 2-core x86-64 "
+              f"machine{' (--quick: rough numbers)' if args.quick else ''}")
+    for i, name in enumerate(sections, 1):
+        _progress(f"[{i}/{len(sections)}] {name}: {SECTION_WHAT[name]} (~{_duration(costs[name])})")
+        t0 = time.monotonic()
+        _SECTIONS[name](hdri, out, args)
+        _progress(f"[{i}/{len(sections)}] {name} done in {_duration(time.monotonic() - t0)}")
     print(f"results in {out}/")
     return 0
+
+
+#: What each section measures, and about what it costs (seconds, measured on this
+#: project's 2-core x86-64 machine): (--quick, full); "edge" adds the callgrind count.
+SECTION_WHAT = {
+    "speed": "time per frame against irradiance error, per path and frame size",
+    "edge": "a 640×480 fisheye frame against a 1 GHz core",
+    "fill": "fisheye fill models on the real panoramas",
+    "scenes": "what SH9 misses on each real panorama",
+    "server": "latency and clients per core of a real shlight serve, then its idle CPU",
+}
+SECTION_COST_S = {"speed": (5, 80), "edge": (2, 5), "fill": (2, 10), "scenes": (10, 10),
+                  "server": (20, 75)}
+INSTRUCTIONS_COST_S = (150, 130)    # valgrind runs Python and numpy under emulation
+
+
+def _cost(section: str, args) -> float:
+    quick = 0 if args.quick else 1
+    cost = SECTION_COST_S[section][quick]
+    if section == "edge" and args.instructions:
+        cost += INSTRUCTIONS_COST_S[quick]
+    return cost
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 100 else f"{seconds / 60:.1f} min"
+
+
+def _speed(hdri, out, args):
+    from .speed import bench_speed
+    bench_speed(hdri, out, args)
+
+
+def _edge(hdri, out, args):
+    from .edge import bench_edge
+    bench_edge(hdri, out, args)
+
+
+def _fill(hdri, out, args):
+    from .scenes import bench_fill
+    bench_fill(hdri, out, args)
+
+
+def _scenes(hdri, out, args):
+    from .scenes import bench_scenes
+    bench_scenes(hdri, out, args)
+
+
+def _server(hdri, out, args):
+    try:
+        from . import server as server_bench
+    except ImportError as exc:
+        print(f"server benchmark unavailable: {exc}", file=sys.stderr)
+    else:
+        server_bench.main(["--out", str(out)] + (["--quick"] if args.quick else []))
+    from .idle import bench_idle    # what the server costs with no client at all
+    bench_idle(out, args.quick, _progress)
+
+
+_SECTIONS = {"speed": _speed, "edge": _edge, "fill": _fill, "scenes": _scenes, "server": _server}

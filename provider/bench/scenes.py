@@ -60,7 +60,7 @@ def bench_scenes(hdri, out: Path, args):
     from ..verify.pictures import brute_force_irradiance
     from ..core.projections import Equirect
     lines = ["# Real scenes: what SH9 misses, ringing, and what deringing costs", "",
-             "Per panorama (512×256 float, tests/data/hdri). *Truncation*: relative RMS "
+             "Per panorama (512×256 float, provider/data/hdri). *Truncation*: relative RMS "
              "irradiance error of exact order-2 SH against brute-force irradiance "
              "(∫ L max(n·ω, 0) dω over every pixel) at 512 normals, and its largest error at one "
              "normal as a fraction of the mean irradiance; *min E*: the lowest order-2 "

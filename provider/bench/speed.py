@@ -89,7 +89,7 @@ def _write_speed(rows, out, panoramas, args):
         "",
         f"Command: `shlight bench{' --quick' if args.quick else ''}`; machine: "
         f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores (one used).",
-        f"Frames: {', '.join(n for n, _ in panoramas)} (tests/data/hdri), resized to each size; "
+        f"Frames: {', '.join(n for n, _ in panoramas)} (provider/data/hdri), resized to each size; "
         "uint8 frames are sRGB-encoded with auto exposure (median → 0.18), so suns clip.",
         "Timing: each call gets the next of these frames in turn, as live video delivers "
         "them (not one frame again and again, which the cache would flatter); the median call. "

@@ -8,12 +8,16 @@ only when the command runs.
 """
 from __future__ import annotations
 
-import argparse
-import importlib
-import sys
+from .threads import limit_blas_threads
 
-from .. import __version__
-from ..core.errors import InputError
+limit_blas_threads()        # before anything below (or a command) imports numpy
+
+import argparse  # noqa: E402
+import importlib  # noqa: E402
+import sys  # noqa: E402
+
+from .. import __version__  # noqa: E402
+from ..core.errors import InputError  # noqa: E402
 
 #: (command, module of this package, help)
 COMMANDS = (
@@ -25,16 +29,27 @@ COMMANDS = (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+class _Parser(argparse.ArgumentParser):
+    """A usage error is one line (and where to read more), not the whole usage block."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
+
+
+def build_parser(argv=None) -> argparse.ArgumentParser:
+    """The parser; only the command named in ``argv`` gets its options (and imports), so
+    that ``shlight --help`` and each command load only what they need (None: all)."""
+    parser = _Parser(
         prog="shlight", description="Live SH9 ambient lighting for AR headsets.")
     parser.add_argument("--version", action="version", version=f"shlight {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    wanted = None if argv is None else next((a for a in argv if not a.startswith("-")), "")
     for name, module, helptext in COMMANDS:
         p = sub.add_parser(name, help=helptext)
-        mod = importlib.import_module(f"{__name__}.{module}")
-        mod.add_arguments(p)
-        p.set_defaults(func=mod.run)
+        if wanted is None or wanted == name:
+            mod = importlib.import_module(f"{__name__}.{module}")
+            mod.add_arguments(p)
+            p.set_defaults(func=mod.run)
     return parser
 
 
@@ -47,7 +62,8 @@ def _run(args) -> int:
 
 
 def main(argv=None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
@@ -60,4 +76,8 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print(f"shlight {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:     # `shlight compute pano.exr | head`: the reader left, fine
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 

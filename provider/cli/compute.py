@@ -15,13 +15,23 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    from ..core.engine import compute_sh9
+    from ..core.engine import SH9Projector, precompute_note
     from ..core.images import read_image
     from ..live.message import coefficient_message, dumps
+    from .feedback import Progress, say
     from .options import engine_options
+    options = engine_options(args)
     image = read_image(args.image)
-    result = compute_sh9(image, projection=args.projection, error_estimate=True,
-                         **engine_options(args))
+    height, width = image.shape[:2]
+    note = precompute_note(width, height, args.projection, args.downsample)
+    if note:
+        say("compute", "note", note)
+    projector = SH9Projector(width, height, args.projection, error_estimate=True,
+                             progress=Progress("compute", "per-pixel weights") if note else None,
+                             **options)
+    for warning in projector.warnings:
+        say("compute", "warning", warning)
+    result = projector.project(image)
     msg = coefficient_message(result, probe=args.probe, seq=0,
                               time=os.path.getmtime(args.image), projection=args.projection)
     text = dumps(msg) if not args.pretty else json.dumps(msg, indent=2, allow_nan=False)

@@ -3,8 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
-
-import numpy as np
+import math
 
 from ..core.errors import InputError
 
@@ -13,10 +12,24 @@ def _floats(text: str, n: int, what: str):
     try:
         vals = [float(v) for v in text.replace(";", ",").split(",")]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{what}: expected {n} comma-separated numbers")
+        raise argparse.ArgumentTypeError(f"expected {n} comma-separated numbers, got {text!r}")
     if len(vals) != n:
-        raise argparse.ArgumentTypeError(f"{what}: expected {n} numbers, got {len(vals)}")
+        raise argparse.ArgumentTypeError(f"expected {n} numbers, got {len(vals)}")
+    if not all(math.isfinite(v) for v in vals):
+        raise argparse.ArgumentTypeError(f"expected finite numbers, got {text!r}")
     return vals
+
+
+def finite_float(text: str) -> float:
+    """An argparse type: a float that is not NaN or infinite (they would pass every range
+    check and poison the maths)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
 
 
 def add_engine_arguments(p: argparse.ArgumentParser) -> None:
@@ -27,41 +40,50 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                    help="image geometry (default: equirect, 2:1)")
     g.add_argument("--encoding", default="auto", choices=["auto", "srgb", "linear"],
                    help="transfer function of 8/16-bit input (auto = sRGB; float is linear)")
-    g.add_argument("--exposure", type=float, default=1.0,
+    g.add_argument("--exposure", type=finite_float, default=1.0,
                    help="linear scale on radiance (e.g. 2**EV); default 1")
     g.add_argument("--downsample", type=int, default=1,
                    help="fast path: area-average the linearised frame by this factor")
     g.add_argument("--order", default="2", choices=["0", "1", "2", "auto"],
                    help="highest SH band kept (auto: lowest within --order-budget)")
-    g.add_argument("--order-budget", type=float, default=0.02,
+    g.add_argument("--order-budget", type=finite_float, default=0.02,
                    help="irradiance error budget for --order auto (default 0.02 = 2%%)")
     g.add_argument("--dering", default="off", choices=["off", "auto"],
                    help="auto: window the SH just enough that irradiance is never negative")
     g.add_argument("--rotate", metavar="YAW,PITCH,ROLL", default=None,
                    type=lambda t: _floats(t, 3, "--rotate"),
                    help="sensor rotation in degrees (about +Y, +X, -Z), applied to coefficients")
-    g.add_argument("--fov", type=float, default=None,
+    g.add_argument("--fov", type=finite_float, default=None,
                    help="fisheye field of view in degrees (fisheye 180, dual-fisheye 200)")
     g.add_argument("--center", metavar="CX,CY", default=None,
                    type=lambda t: _floats(t, 2, "--center"), help="fisheye image-circle centre (px)")
-    g.add_argument("--radius", type=float, default=None,
+    g.add_argument("--radius", type=finite_float, default=None,
                    help="fisheye pixel radius at fov/2 (default: inscribed circle)")
     g.add_argument("--calibration", default=None,
                    help="JSON file with an OpenCV fisheye calibration {\"K\": 3x3, \"D\": 4}")
     g.add_argument("--fill", default="ground", choices=["ground", "mirror", "zero"],
                    help="fisheye: model of the unseen hemisphere (default ground)")
-    g.add_argument("--albedo", type=float, default=0.1,
+    g.add_argument("--albedo", type=finite_float, default=0.1,
                    help="fisheye fill albedo (default 0.1, measured best on real scenes)")
 
 
 def engine_options(args) -> dict:
     """Translate parsed arguments into :class:`~provider.core.engine.SH9Projector` options."""
+    from ..core.engine import check_options
     from ..core.sh import rotation_from_euler
     opts = dict(encoding=args.encoding, exposure=args.exposure, downsample=args.downsample,
                 order=args.order if args.order == "auto" else int(args.order),
                 order_budget=args.order_budget, dering=args.dering)
     if args.rotate:
         opts["rotation"] = rotation_from_euler(*args.rotate)
+    check_options(**opts)
+    # What no frame size can make valid is refused here, before any frame (serve: at start).
+    if args.fov is not None and not 0 < args.fov <= 360:
+        raise InputError(f"--fov {args.fov:g}: a field of view is in (0, 360] degrees")
+    if args.radius is not None and args.radius <= 0:
+        raise InputError(f"--radius {args.radius:g}: must be positive")
+    if not 0 <= args.albedo <= 1:
+        raise InputError(f"--albedo {args.albedo:g}: must be in [0, 1]")
     if args.projection == "fisheye":
         opts.update(fill=args.fill, albedo=args.albedo)
         if args.fov is not None:
@@ -74,8 +96,9 @@ def engine_options(args) -> dict:
             try:
                 with open(args.calibration) as f:
                     cal = json.load(f)
+                import numpy as np
                 opts["K"], opts["D"] = np.asarray(cal["K"], float), np.asarray(cal["D"], float)
-            except (OSError, ValueError, KeyError) as exc:
+            except (OSError, ValueError, KeyError, TypeError) as exc:
                 raise InputError(f"cannot use calibration {args.calibration}: {exc}") from None
     elif args.projection == "dual-fisheye" and args.fov is not None:
         opts["fov_deg"] = args.fov

@@ -127,7 +127,7 @@ def _add_temporal_arguments(g) -> None:
 
 def _size(text: str) -> tuple[int, int]:
     m = re.fullmatch(r"\s*(\d+)\s*[xX×]\s*(\d+)\s*", text)
-    if not m:
+    if not m or int(m.group(1)) < 1 or int(m.group(2)) < 1:
         raise argparse.ArgumentTypeError("expected WIDTHxHEIGHT, e.g. 1280x720")
     return int(m.group(1)), int(m.group(2))
 
@@ -199,9 +199,10 @@ def build_server(args):
                       tls=server_context(args.tls_cert, args.tls_key))
     if not (0 <= s.port <= 65535):
         raise InputError(f"--port {s.port}: out of range")
-    if s.max_clients < 1 or s.max_message_bytes < 256 or not s.send_timeout > 0 or s.max_hz < 0:
+    if (s.max_clients < 1 or s.max_message_bytes < 256 or not 0 < s.send_timeout < math.inf
+            or not 0 <= s.max_hz < math.inf):
         raise InputError("--max-clients >= 1, --max-message-bytes >= 256, --send-timeout > 0 "
-                         "and --max-hz >= 0 are required")
+                         "and --max-hz >= 0 are required (finite numbers)")
     probes = []
     for name, text in named:
         ns = overrides.get(name, args)
@@ -235,6 +236,8 @@ def run(args) -> int:
     if level > logging.DEBUG:
         logging.getLogger("websockets").setLevel(logging.WARNING)
     from ..live.server import serve_until_stopped
+    from .threads import limit_opencv_threads
+    limit_opencv_threads(1)     # why: provider/cli/threads.py
     server = build_server(args)
     try:
         asyncio.run(serve_until_stopped(server))

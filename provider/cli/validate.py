@@ -7,7 +7,7 @@ def add_arguments(p) -> None:
     from ..verify.harness import DENSE_NORMALS, FLOAT32_TOLERANCE
     p.add_argument("panoramas", nargs="*", metavar="PANORAMA",
                    help="equirect panoramas (.exr, .hdr, ...) for the real-scene cases and the "
-                        "pictures (default: tests/data/hdri/*.exr of a source checkout)")
+                        "pictures (default: the nine real panoramas shipped with shlight)")
     p.add_argument("--out", default="out/validate",
                    help="folder for the PNG pictures and report.json (default: out/validate)")
     p.add_argument("--no-pictures", action="store_true", help="skip the PNG pictures")

@@ -93,24 +93,22 @@ class SH9Projector:
     error_estimate : bool
         Estimate SH9's truncation error per frame against brute-force irradiance from a
         64×32-ish copy of the frame (costs one extra small resize).
+    progress : callable or None
+        Called with the fraction done while the per-pixel weights of a fisheye, dual-fisheye
+        or cube map frame are integrated (seconds to minutes for very large frames: see
+        :func:`precompute_note`).
     **projection_options
         Passed to the projection (fov_deg, center, radius, K, D, fill, albedo, ...).
     """
 
     def __init__(self, width: int, height: int, projection="equirect", *, encoding="auto",
                  exposure=1.0, downsample=1, rotation=None, order=2, dering="off",
-                 order_budget=0.02, error_estimate=False, **projection_options):
-        if order not in ORDERS:
-            raise InputError(f"order must be one of 0, 1, 2, auto; got {order!r}")
-        if dering not in DERING:
-            raise InputError(f"dering must be 'off' or 'auto'; got {dering!r}")
-        if encoding not in ("auto", "srgb", "linear"):
-            raise InputError(f"encoding must be auto, srgb or linear; got {encoding!r}")
-        if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):
-            raise InputError(f"exposure must be a positive finite number; got {exposure!r}")
+                 order_budget=0.02, error_estimate=False, progress=None, **projection_options):
+        check_options(encoding=encoding, exposure=exposure, downsample=downsample,
+                      rotation=rotation, order=order, dering=dering, order_budget=order_budget)
         downsample = int(downsample)
-        if downsample < 1 or width // downsample < 1 or height // downsample < 1:
-            raise InputError("downsample must be a positive integer below the frame size")
+        if width // downsample < 1 or height // downsample < 1:
+            raise InputError(f"--downsample {downsample} is larger than the {width}×{height} frame")
         try:
             if isinstance(projection, Projection):
                 full = projection
@@ -119,6 +117,8 @@ class SH9Projector:
             self.projection = full if downsample == 1 else full.scaled(downsample)
         except ProjectionError as exc:
             raise InputError(str(exc)) from None
+        #: Allowed but probably wrong (e.g. a 2:1 panorama read as a fisheye): say them.
+        self.warnings = list(full.warnings)
         self.width, self.height = int(width), int(height)
         self.encoding, self.exposure, self.downsample = encoding, float(exposure), downsample
         self.order, self.dering, self.order_budget = order, dering, float(order_budget)
@@ -135,10 +135,21 @@ class SH9Projector:
             self._cols = cols                               # (6, W) float64
             self._weights = None
         else:
-            self._weights = p.sh_weights.astype(np.float32)  # (H·W, 9)
+            p.progress = progress
+            try:
+                self._weights = p.sh_weights.astype(np.float32)  # (H·W, 9)
+            finally:
+                p.progress = None
         self._luts = {}
         self._estimator = None
         self._coverage = 4 * math.pi if isinstance(p, Equirect) else p.coverage
+        if not self._coverage > 0:
+            raise InputError(f"no pixel of the {p.width}×{p.height} frame sees anything with "
+                             "this geometry (check --center, --radius, --fov)")
+        if self._coverage > 4 * math.pi * 1.01:   # integration of a frame far too coarse
+            raise InputError(f"this {p.width}×{p.height} {p.name} frame integrates to "
+                             f"{self._coverage:.1f} sr, more than the whole sphere (4π = "
+                             "12.6 sr): the frame is too small for this projection")
 
     # -- linearisation -------------------------------------------------------------------
     def _lut(self, dtype) -> np.ndarray:
@@ -261,8 +272,9 @@ class SH9Projector:
                              f"was built for {self.width}×{self.height}")
         return np.ascontiguousarray(frame)
 
-    def project(self, frame: np.ndarray) -> SH9Result:
-        """Coefficients, matrices and statistics of one frame.
+    def project(self, frame: np.ndarray, error_estimate: bool | None = None) -> SH9Result:
+        """Coefficients, matrices and statistics of one frame (``error_estimate``: whether
+        to estimate SH9's error on this frame; None: as the projector was built).
 
         ``stats`` keys: ``compute_ms``, ``clipped_fraction`` (fraction of channel samples at
         the top code value of an integer frame), ``negative_pixels`` and
@@ -280,7 +292,7 @@ class SH9Projector:
         if self._sh_rotation is not None:
             coeffs = self._sh_rotation @ coeffs
         result = self._finish(coeffs, stats)
-        if self.error_estimate:
+        if self.error_estimate if error_estimate is None else error_estimate:
             if small is None:
                 small = (self._linearise(frame) if frame.dtype in (np.uint8, np.uint16)
                          else self._clean_float(frame, {}))
@@ -331,12 +343,12 @@ class SH9Projector:
             normals = sh.fibonacci_sphere(256)
             kernel = np.maximum(normals @ dirs.T, 0.0) * omega  # (256, P)
             sh_w = coarse.sh_weights  # (P, 9), includes any fill model
-            self._estimator = (factor, coarse, crop, normals, kernel.astype(np.float32), sh_w)
+            self._estimator = (factor, coarse, crop, normals, kernel, sh_w)
         factor, coarse, crop, normals, kernel, sh_w = self._estimator
         small = lin if factor == 1 else cv2.resize(
             lin[:crop[1], :crop[0]], (coarse.width, coarse.height), interpolation=cv2.INTER_AREA)
         px = small.reshape(-1, 3).astype(np.float64)
-        truth = kernel.astype(np.float64) @ px
+        truth = kernel @ px
         coarse_coeffs = sh_w.T @ px
         # The same order/window choices as the result, applied to the coarse projection.
         approx = sh.irradiance(self._same_processing(coarse_coeffs, order), normals)
@@ -347,6 +359,78 @@ class SH9Projector:
         if self.dering == "auto":
             out, _ = sh.dering(out)
         return sh.truncate_order(out, order)
+
+
+def check_options(*, encoding="auto", exposure=1.0, downsample=1, rotation=None, order=2,
+                  dering="off", order_budget=0.02) -> None:
+    """Raise :class:`InputError` for engine options that no frame can make valid (so that
+    ``shlight serve`` refuses them at start, in one line, rather than per frame)."""
+    if order not in ORDERS:
+        raise InputError(f"order must be one of 0, 1, 2, auto; got {order!r}")
+    if dering not in DERING:
+        raise InputError(f"dering must be 'off' or 'auto'; got {dering!r}")
+    if encoding not in ("auto", "srgb", "linear"):
+        raise InputError(f"encoding must be auto, srgb or linear; got {encoding!r}")
+    if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):
+        raise InputError(f"exposure must be a positive finite number; got {exposure!r}")
+    if not (isinstance(order_budget, (int, float)) and math.isfinite(order_budget)
+            and order_budget >= 0):
+        raise InputError(f"order budget must be a finite number >= 0; got {order_budget!r}")
+    try:
+        whole = not isinstance(downsample, bool) and float(downsample).is_integer()
+    except (TypeError, ValueError):
+        whole = False
+    if not whole or downsample < 1:
+        raise InputError(f"downsample must be a positive integer; got {downsample!r}")
+    if rotation is not None:
+        try:
+            R = np.asarray(rotation, np.float64)
+        except (TypeError, ValueError):
+            R = np.full(1, np.nan)
+        if (R.shape != (3, 3) or not np.all(np.isfinite(R))
+                or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0):
+            raise InputError("rotation must be a finite 3×3 rotation matrix (orthonormal, "
+                             "determinant +1)")
+
+
+#: Rough cost of integrating the per-pixel weights of a fisheye, dual-fisheye or cube map
+#: frame once (measured on one x86-64 core: 1 to 1.8 µs and ~130 bytes per pixel at peak; an
+#: 8192×4096 fisheye frame took 37 s and 4.4 GB).
+PRECOMPUTE_S_PER_PIXEL = 1.2e-6
+PRECOMPUTE_BYTES_PER_PIXEL = 130
+#: Frames (after --downsample) above this many pixels (about 10 s, 1 GB) get a note first.
+PRECOMPUTE_NOTE_PIXELS = 8_000_000
+
+
+def precompute_note(width: int, height: int, projection="equirect", downsample: int = 1):
+    """One line saying what building a projector for such frames costs, with the
+    ``--downsample`` that makes it cheap, when that is a lot; None otherwise. (Equirect
+    frames are separable and always quick.)"""
+    name = projection if isinstance(projection, str) else getattr(projection, "name", "")
+    try:
+        downsample = max(1, int(downsample))
+    except (TypeError, ValueError):
+        return None
+    pixels = (width // downsample) * (height // downsample)
+    if name == "equirect" or pixels <= PRECOMPUTE_NOTE_PIXELS:
+        return None
+    factor = downsample
+    while (width // factor) * (height // factor) > 1_000_000:     # about a second
+        factor *= 2
+    small = (width // factor) * (height // factor)
+    return (f"a {width}×{height} {name} frame{f' at --downsample {downsample}' if downsample > 1 else ''}"
+            f" needs its per-pixel weights integrated once: "
+            f"{_duration(pixels * PRECOMPUTE_S_PER_PIXEL)} and "
+            f"{pixels * PRECOMPUTE_BYTES_PER_PIXEL / 1e9:.1f} GB of memory before the first "
+            f"result. --downsample {factor} ({width // factor}×{height // factor}) takes "
+            f"{_duration(small * PRECOMPUTE_S_PER_PIXEL)} and changes the lighting by well "
+            "under 1 % (nine SH coefficients are very low frequency)")
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 1:
+        return "under a second"
+    return f"about {seconds:.0f} s" if seconds < 90 else f"about {seconds / 60:.0f} min"
 
 
 def _count_pixels(mask: np.ndarray) -> int:

@@ -8,6 +8,9 @@ import numpy as np
 
 from .errors import InputError
 
+#: The first four bytes of every OpenEXR file.
+EXR_MAGIC = b"\x76\x2f\x31\x01"
+
 IMAGE_EXTENSIONS = (".exr", ".hdr", ".pic", ".png", ".jpg", ".jpeg", ".tif", ".tiff",
                     ".bmp", ".webp", ".pfm", ".ppm", ".pgm")
 
@@ -25,7 +28,14 @@ def read_image(path) -> np.ndarray:
         raise InputError(f"no such file: {path}")
     if os.path.isdir(path):
         raise InputError(f"{path} is a directory, not an image")
-    if path.lower().endswith(".exr"):
+    # By content, not by name: an EXR saved as .jpg is still an EXR (OpenCV's wheels cannot
+    # decode EXR, so the name alone would refuse it).
+    try:
+        with open(path, "rb") as f:
+            magic = f.read(4)
+    except OSError as exc:
+        raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
+    if magic == EXR_MAGIC or (path.lower().endswith(".exr") and len(magic) < 4):
         return _read_exr(path)
     img = cv2.imread(path, cv2.IMREAD_UNCHANGED)
     if img is None:

@@ -23,13 +23,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import sh
+from .geometry import ProjectionError, check_fov, check_lens_in_frame, finite  # noqa: F401
 
 #: Lower-hemisphere fill models for a fisheye (see :class:`Fisheye`).
 FILL_MODELS = ("zero", "ground", "mirror")
 
 
-class ProjectionError(ValueError):
-    """A projection cannot be built for this image size or these options."""
 
 
 def _gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -52,6 +51,10 @@ class Projection:
         self.width = int(width)
         self.height = int(height)
         self._weights = None
+        #: Things that are allowed but probably wrong (a panorama read as a fisheye).
+        self.warnings: list[str] = []
+        #: Called with the fraction done while the per-pixel weights are integrated.
+        self.progress = None
 
     # -- geometry -------------------------------------------------------------------
     def pixel_to_direction(self, px: np.ndarray, py: np.ndarray):
@@ -120,6 +123,8 @@ class Projection:
                     if extra is not None:
                         block[..., :9] += extra
                     out[r0:r0 + len(rows)] += block
+            if self.progress is not None:
+                self.progress(min(1.0, (r0 + len(rows)) / self.height))
         return out
 
     def _ensure(self):
@@ -248,21 +253,39 @@ class FisheyeLens:
     frame: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
-        if not (0 < self.fov_deg <= 360):
-            raise ProjectionError(f"fisheye field of view must be in (0, 360], got {self.fov_deg}")
+        self.fov_deg = check_fov(self.fov_deg)
         if self.K is not None:
-            self.K = np.asarray(self.K, np.float64).reshape(3, 3)
-            self.D = np.zeros(4) if self.D is None else np.asarray(self.D, np.float64).ravel()
+            try:
+                self.K = np.asarray(self.K, np.float64).reshape(3, 3)
+                self.D = np.zeros(4) if self.D is None else np.asarray(self.D, np.float64).ravel()
+            except (TypeError, ValueError):
+                raise ProjectionError("an OpenCV fisheye calibration has K (3×3 numbers) and "
+                                      "D (4 numbers)") from None
             if self.D.size != 4:
                 raise ProjectionError("OpenCV fisheye distortion D must have 4 coefficients")
+            if not (np.all(np.isfinite(self.K)) and np.all(np.isfinite(self.D))
+                    and self.K[0, 0] > 0 and self.K[1, 1] > 0):
+                raise ProjectionError("the fisheye calibration K, D must be finite, with "
+                                      "positive focal lengths K[0][0], K[1][1]")
             if self.fov_deg >= 180:
                 raise ProjectionError(
                     "cv2.fisheye (Kannala-Brandt) calibrations are valid below 180°: "
                     "pass --fov < 180, or use the equidistant model with a focal length")
             self.cx, self.cy = float(self.K[0, 2]), float(self.K[1, 2])
-        elif self.focal <= 0:
-            raise ProjectionError("fisheye focal length must be positive")
+        elif not (math.isfinite(self.focal) and self.focal > 0):
+            raise ProjectionError(f"fisheye focal length must be positive, got {self.focal:g}")
+        self.cx = finite(self.cx, "fisheye centre x")
+        self.cy = finite(self.cy, "fisheye centre y")
         self.frame = _orthonormal_frame(self.forward, self.right)
+
+    @property
+    def circle_radius(self) -> float:
+        """Pixel radius of the image circle at the edge of the field of view (the
+        equidistant model's; for a calibration, its focal length times θ_max, close enough
+        to tell a usable circle from a few pixels)."""
+        focal = self.focal if self.K is None else float(min(self.K[0, 0], self.K[1, 1]))
+        return focal * self.theta_max
+
 
     @property
     def theta_max(self) -> float:
@@ -336,12 +359,27 @@ class Fisheye(Projection):
             raise ProjectionError(f"unknown fill model {fill!r}; choose from {FILL_MODELS}")
         if not 0 <= albedo <= 1:
             raise ProjectionError(f"albedo must be in [0, 1], got {albedo}")
-        cx, cy = center if center is not None else (width / 2, height / 2)
+        fov_deg = check_fov(fov_deg)
+        if center is None:
+            cx, cy = width / 2, height / 2
+        else:
+            try:
+                cx, cy = center
+            except (TypeError, ValueError):
+                raise ProjectionError(f"fisheye centre must be two numbers, got {center!r}") from None
         if radius is None:
             radius = min(width, height) / 2
+        radius = finite(radius, "fisheye radius")
+        if radius <= 0:
+            raise ProjectionError(f"fisheye radius must be positive, got {radius:g}")
         focal = radius / math.radians(fov_deg / 2)
         self.lens = FisheyeLens(cx, cy, focal, fov_deg, tuple(forward), tuple(right), K, D)
+        check_lens_in_frame(self.lens, 0, 0, width, height, "the fisheye")
         self.fill, self.albedo = fill, float(albedo)
+        if width >= 1.8 * height:
+            self.warnings.append(
+                f"a {width}×{height} frame is shaped like an equirect panorama (2:1), not a "
+                "fisheye circle: is --projection fisheye right?")
 
     def pixel_to_direction(self, px, py):
         theta, psi = self.lens.angles(px, py)
@@ -383,6 +421,8 @@ class Fisheye(Projection):
         p = Fisheye.__new__(Fisheye)
         Projection.__init__(p, self.width // factor, self.height // factor)
         p.lens = self.lens.scaled(factor)
+        check_lens_in_frame(p.lens, 0, 0, p.width, p.height,
+                            f"after --downsample {factor}, the fisheye")
         p.fill, p.albedo = self.fill, self.albedo
         return p
 
@@ -421,11 +461,15 @@ class DualFisheye(Projection):
             centers = ((319.5 * scale, 319.5 * scale), (959.5 * scale, 319.5 * scale))
         if focal is None:
             focal = 284.0 * scale / (math.pi / 2)
-        R = sh.rotation_from_euler(yaw_deg)
+        R = sh.rotation_from_euler(finite(yaw_deg, "dual-fisheye yaw"))
+        focal = finite(focal, "dual-fisheye focal length")
         self.lenses = (
             FisheyeLens(*centers[0], focal, fov_deg, tuple(R @ [0, 0, -1]), tuple(R @ [1, 0, 0])),
             FisheyeLens(*centers[1], focal, fov_deg, tuple(R @ [0, 0, 1]), tuple(R @ [-1, 0, 0])),
         )
+        half = width / 2
+        check_lens_in_frame(self.lenses[0], 0, 0, half, height, "the left lens's")
+        check_lens_in_frame(self.lenses[1], half, 0, width, height, "the right lens's")
         self._yaw = yaw_deg
 
     def _lens_index(self, px):
@@ -475,6 +519,9 @@ class CubeMap(Projection):
         if width != 6 * height:
             raise ProjectionError(
                 f"a cube map is six square faces side by side (6:1); got {width}×{height}")
+        if height < 2:
+            raise ProjectionError(f"cube map faces of {height} px are too small to integrate "
+                                  "(at least 2 px)")
         self.face = height
 
     def pixel_to_direction(self, px, py):
@@ -510,6 +557,8 @@ class CubeMap(Projection):
                     jac = (2.0 / n) ** 2 / (1 + a * a + b * b) ** 1.5 * wx * wy
                     out[:, f * n:(f + 1) * n, :9] += sh.sh_basis(d) * jac[..., None]
                     out[:, f * n:(f + 1) * n, 9] += jac
+            if self.progress is not None:
+                self.progress((f + 1) / 6)
         return out
 
     def scaled(self, factor):

@@ -17,7 +17,7 @@ import time
 
 from ..core.errors import InputError
 from .sources import Frame, SourceError, SourceFinished, SourceSpec
-from .sources.base import Interrupted, Source
+from .sources.base import Interrupted, Source, SourceUnavailable
 
 log = logging.getLogger("shlight.source")
 
@@ -34,6 +34,7 @@ class _Attempt:
         self.last_frame: float | None = None
         self.frames = 0
         self.error: str | None = None
+        self.unavailable = False     # the source said retrying soon cannot help
         self.finished = False
         self.abandoned = False
 
@@ -134,14 +135,21 @@ class Capture:
             if attempt.frames:
                 delay = self.backoff_min
             reason = attempt.error or "unknown error"
+            if attempt.unavailable:       # retrying soon cannot help: wait the longest
+                delay = self.backoff_max
+            # Say what is wrong once; retry quietly while it stays the same (a camera that
+            # is not plugged in must not fill the log all day).
             if self.state != "lost":
                 self.lost_since = time.time()
-                log.warning("probe %s: source lost (%s): %s", self.name,
-                            self.spec.description, reason)
+                log.warning("probe %s: source lost (%s): %s; retrying every %g s at most, "
+                            "quietly while nothing changes", self.name,
+                            self.spec.description, reason, self.backoff_max)
+            elif reason != self.reason:
+                log.info("probe %s: still no source, now: %s", self.name, reason)
             else:
-                log.info("probe %s: still no source (%s)", self.name, reason)
+                log.debug("probe %s: still no source (%s)", self.name, reason)
             self._set_state("lost", reason)
-            log.info("probe %s: reconnecting in %.1f s", self.name, delay)
+            log.debug("probe %s: reconnecting in %.1f s", self.name, delay)
             if self._stopping.wait(delay):
                 break
             delay = min(delay * 2, self.backoff_max)
@@ -190,6 +198,7 @@ class Capture:
         except Exception as exc:  # noqa: BLE001 - any failure means: lost, retry
             if not attempt.abandoned:
                 attempt.error = _describe(exc)
+                attempt.unavailable = isinstance(exc, SourceUnavailable)
         finally:
             if source is not None:
                 try:

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.engine import SH9Projector, SH9Result
+from ..core.engine import SH9Projector, SH9Result, precompute_note
 from ..core.errors import InputError
 from .capture import Capture
 from .message import coefficient_message, dumps
@@ -27,6 +27,11 @@ from .sources import Frame, SourceSpec
 from .temporal import ChangeGate, LightingFilter
 
 log = logging.getLogger("shlight.probe")
+
+#: Seconds between two estimates of SH9's own error (``error_estimate``): it follows the
+#: scene, not the frame, and costs about a small resize and a 256-normal product, which an
+#: edge core should not pay 30 times a second. Messages in between carry the last value.
+ERROR_ESTIMATE_INTERVAL_S = 1.0
 
 
 @dataclass
@@ -68,6 +73,8 @@ class Probe:
         self.compute_ms = 0.0
         self.latency_s = 0.0            # capture → message of the newest frame
         self._projectors: dict = {}
+        self._estimated_at = -1e9       # monotonic time of the last error estimate
+        self._error_estimate: float | None = None
         self._lighting: SH9Result | None = None
         self._frame_time = 0.0          # unix time of the newest frame (the source's clock)
         self._arrival = 0.0             # when it was processed here (our clock)
@@ -115,6 +122,9 @@ class Probe:
                 result = frame.lighting
             else:
                 result = await asyncio.to_thread(self._project, frame)
+        except _AlreadySaid as exc:
+            self._rejected(str(exc), quiet=True)
+            return
         except InputError as exc:
             self._rejected(str(exc))
             return
@@ -144,22 +154,55 @@ class Probe:
         if projector is None:
             if len(self._projectors) >= 4:   # a source that keeps changing size
                 self._projectors.clear()
-            log.info("probe %s: building the %s projector for %d×%d frames", self.name,
-                     self.projection, *key)
-            try:
-                projector = SH9Projector(key[0], key[1], self.projection, **self.engine_options)
-            except InputError as exc:
-                projector = exc
-            self._projectors[key] = projector
+            projector = self._projectors[key] = self._build_projector(*key)
+            self._estimated_at = -1e9
         if isinstance(projector, InputError):
-            raise projector
-        return projector.project(image)
+            raise _AlreadySaid(str(projector))
+        now = time.monotonic()
+        estimate = now - self._estimated_at >= ERROR_ESTIMATE_INTERVAL_S
+        result = projector.project(image, error_estimate=estimate)
+        if estimate:
+            self._estimated_at, self._error_estimate = now, result.stats.get("error_estimate")
+        elif self._error_estimate is not None:
+            result.stats["error_estimate"] = self._error_estimate
+        return result
 
-    def _rejected(self, reason: str) -> None:
+    def _build_projector(self, width: int, height: int):
+        """The projector for frames of this size, or the InputError saying why there is
+        none. Said once: frames of this size are then rejected without rebuilding (an
+        impossible geometry cannot be retried 30 times a second) and without a log line."""
+        log.info("probe %s: building the %s projector for %d×%d frames", self.name,
+                 self.projection, width, height)
+        note = precompute_note(width, height, self.projection,
+                               self.engine_options.get("downsample", 1))
+        progress = None
+        if note:
+            log.warning("probe %s: %s", self.name, note)
+            steps = iter((0.25, 0.5, 0.75, 1.0))
+            step = [next(steps)]
+
+            def progress(fraction):
+                while step[0] is not None and fraction >= step[0]:
+                    log.info("probe %s: per-pixel weights %.0f %% done", self.name, step[0] * 100)
+                    step[0] = next(steps, None)
+        try:
+            projector = SH9Projector(width, height, self.projection, progress=progress,
+                                     **self.engine_options)
+        except Exception as exc:  # noqa: BLE001 - a bug must not become a rebuild per frame
+            reason = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+            log.error("probe %s: cannot project %d×%d frames with these options: %s "
+                      "(frames of this size are rejected; fix the probe's options)",
+                      self.name, width, height, reason)
+            return InputError(reason)
+        for warning in projector.warnings:
+            log.warning("probe %s: %s", self.name, warning)
+        return projector
+
+    def _rejected(self, reason: str, quiet: bool = False) -> None:
         self.frames_rejected += 1
         self.error = reason
         now = time.monotonic()
-        if now - self._last_error_log > 10.0:        # one line per 10 s, not per frame
+        if not quiet and now - self._last_error_log > 10.0:   # one line per 10 s, not per frame
             self._last_error_log = now
             log.error("probe %s: frame rejected (%d so far): %s", self.name,
                       self.frames_rejected, reason)
@@ -216,3 +259,7 @@ class Probe:
                 "fps": round(self.capture.fps, 2), "compute_ms": round(self.compute_ms, 3),
                 "frames": self.frames_processed, "frames_rejected": self.frames_rejected,
                 "reconnects": self.capture.reconnects}
+
+
+class _AlreadySaid(InputError):
+    """A frame rejected for a reason already logged once (no projector for its size)."""

@@ -33,8 +33,8 @@ from .export_vectors import DESCRIPTION as EXPORTS_DESCRIPTION, export_vectors
 from .render import SHADER_DIR
 
 VECTORS_PATH = SHADER_DIR / "contract_vectors.json"
-#: Panoramas the real-scene cases come from (the repository's CC0 test fixtures).
-HDRI_DIR = SHADER_DIR.parent / "tests" / "data" / "hdri"
+#: Panoramas the real-scene cases come from (CC0, shipped with the package; the tests' too).
+HDRI_DIR = Path(__file__).resolve().parents[1] / "data" / "hdri"
 
 S3 = np.diag([1.0, 1.0, -1.0])          # right-handed -> Unity (left-handed): z -> -z
 S4 = np.diag([1.0, 1.0, -1.0, 1.0])
@@ -173,7 +173,7 @@ def write_contract_vectors(path: Path = VECTORS_PATH, hdri_dir: Path = HDRI_DIR)
     missing = [n for n in ("sky", "lab") if not (Path(hdri_dir) / f"{n}.exr").exists()]
     if missing:
         raise InputError(f"the contract vectors need {', '.join(m + '.exr' for m in missing)} "
-                         f"in {hdri_dir} (a source checkout's tests/data/hdri)")
+                         f"in {hdri_dir}")
     path = Path(path)
     path.write_text(dumps(contract_vectors(hdri_dir)))
     return path

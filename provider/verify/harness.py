@@ -393,7 +393,7 @@ def lit_diffuse_checks(ctx, size: int = 96) -> list[DemoCheck]:
 # -- command line ------------------------------------------------------------------------------------
 
 def default_panoramas() -> list[Path]:
-    """The CC0 panoramas of a source checkout (tests/data/hdri), if present."""
+    """The CC0 panoramas shipped with the package (provider/data/hdri)."""
     return sorted(contract.HDRI_DIR.glob("*.exr"))
 
 

@@ -10,7 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-SHADER_DIR = Path(__file__).resolve().parents[2] / "shaders"
+#: The shipped shaders: package data (provider/shaders, in a source checkout a link to the
+#: repository's shaders/ folder, which the Unity package and the examples use too).
+SHADER_DIR = Path(__file__).resolve().parents[1] / "shaders"
 
 INSTALL_HINT = ("headless OpenGL needs EGL and a Mesa driver: on Debian/Ubuntu "
                 "`sudo apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri`")

@@ -26,6 +26,11 @@ class SourceError(Exception):
     """The source lost its camera or stream (the message says why); it will be re-created."""
 
 
+class SourceUnavailable(SourceError):
+    """The source cannot work until someone acts (no such camera, a library not installed):
+    the capture says so once and retries only at its longest backoff."""
+
+
 class SourceFinished(Exception):
     """A finite source (a video played once) has no more frames."""
 

@@ -38,13 +38,19 @@ class DemoSource(Source):
         earth = ground * (0.5 + 0.5 * np.clip(1 + up, 0, 1))
         blend = np.clip(up * 20 + 0.5, 0, 1)                                # soft horizon
         self._base = (earth + (sky - earth) * blend).astype(np.float32)
+        lamp = (math.cos(math.radians(10)), math.sin(math.radians(10)), 0.0)
+        # The lamp does not move: its picture is made once (the demo runs all day at 30 fps).
+        self._lamp = self._disc(lamp, 9.0, 2.0) * np.float32([60, 14, 4])
         self._t0 = time.time()
 
-    def _disc(self, direction, radius_deg: float, softness_deg: float) -> np.ndarray:
+    def _disc(self, direction, radius_deg: float, softness_deg: float,
+              cos_d: np.ndarray | None = None) -> np.ndarray:
         """Soft-edged disc mask (H, W, 1) around ``direction``."""
-        cos_d = self._dirs @ np.asarray(direction, np.float32)
+        if cos_d is None:
+            cos_d = self._dirs @ np.asarray(direction, np.float32)
         inner, outer = math.radians(radius_deg), math.radians(radius_deg + softness_deg)
-        w = (cos_d - math.cos(outer)) / (math.cos(inner) - math.cos(outer))
+        w = (cos_d - np.float32(math.cos(outer))) * np.float32(
+            1 / (math.cos(inner) - math.cos(outer)))
         return np.clip(w, 0, 1)[..., None]
 
     def render(self, t: float) -> np.ndarray:
@@ -52,11 +58,11 @@ class DemoSource(Source):
         az = 2 * math.pi * t / self.period
         el = math.radians(35)
         sun = (math.cos(el) * math.sin(az), math.sin(el), -math.cos(el) * math.cos(az))
-        img = self._base + self._disc(sun, 4.0, 1.5) * np.float32([180, 165, 140])
-        img += self._disc(sun, 12.0, 10.0) * np.float32([1.5, 1.3, 1.0])    # glow
+        cos_d = self._dirs @ np.asarray(sun, np.float32)
+        img = self._base + self._disc(sun, 4.0, 1.5, cos_d) * np.float32([180, 165, 140])
+        img += self._disc(sun, 12.0, 10.0, cos_d) * np.float32([1.5, 1.3, 1.0])    # glow
         if int(t // self.switch) % 2 == 0:                                 # the lamp
-            lamp = (math.cos(math.radians(10)), math.sin(math.radians(10)), 0.0)
-            img += self._disc(lamp, 9.0, 2.0) * np.float32([60, 14, 4])
+            img += self._lamp
         return img
 
     def read(self) -> Frame:

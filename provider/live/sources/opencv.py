@@ -1,15 +1,40 @@
 """Everything ``cv2.VideoCapture`` reads: video files, cameras, network streams."""
 from __future__ import annotations
 
+import glob
+import logging
+import os
 import time
 
 import cv2
 import numpy as np
 
-from .base import Frame, Interrupted, Pacer, Source, SourceError, SourceFinished, SourceOptions, redact
+from .base import (Frame, Interrupted, Pacer, Source, SourceError, SourceFinished, SourceOptions,
+                   SourceUnavailable, redact)
 
 VIDEO_EXTENSIONS = (".mp4", ".m4v", ".mov", ".avi", ".mkv", ".webm", ".mjpeg", ".mjpg",
                     ".mpg", ".mpeg", ".ts", ".wmv", ".flv", ".ogv")
+
+
+def _quiet_opencv() -> None:
+    """OpenCV ("[ WARN:...] can't open camera by index") and its FFmpeg ("Connection
+    refused") print on stderr at every attempt, past our logging, which says what is wrong
+    once: mute them unless ``--log-level debug``. (FFmpeg's level is read when OpenCV first
+    loads it, so it is set before the first capture is opened.)"""
+    if logging.getLogger("shlight").getEffectiveLevel() > logging.DEBUG:
+        import cv2.utils.logging as cv_log
+        cv_log.setLogLevel(cv_log.LOG_LEVEL_ERROR)
+        os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")     # AV_LOG_QUIET
+
+
+def _missing_camera(target) -> str | None:
+    """Why a camera cannot be there (Linux: its /dev/video node is missing), or None."""
+    node = f"/dev/video{target}" if isinstance(target, int) else str(target)
+    if not node.startswith("/dev/") or not os.path.isdir("/dev") or os.path.exists(node):
+        return None
+    found = sorted(glob.glob("/dev/video*"))
+    return (f"no camera at {node} (cameras here: {', '.join(found) if found else 'none'}); "
+            "plug it in and it is picked up")
 
 
 def _bgr_to_rgb(img: np.ndarray) -> np.ndarray:
@@ -31,6 +56,7 @@ class VideoFileSource(Source):
         self._pacer = None
 
     def open(self) -> None:
+        _quiet_opencv()
         self._cap = cv2.VideoCapture(self.path)
         if not self._cap.isOpened():
             raise SourceError(f"OpenCV cannot open the video {self.path}")
@@ -71,7 +97,11 @@ class OpenCVSource(Source):
 
     def open(self) -> None:
         t, ms = self.target, int(self.options.timeout * 1000)
+        _quiet_opencv()
         if isinstance(t, int) or t.startswith("/dev/"):
+            missing = _missing_camera(t)
+            if missing:
+                raise SourceUnavailable(missing)
             cap = cv2.VideoCapture(t)
             if self.options.fourcc:
                 cap.set(cv2.CAP_PROP_FOURCC, cv2.VideoWriter_fourcc(*self.options.fourcc[:4]))
@@ -84,7 +114,9 @@ class OpenCVSource(Source):
                                                        cv2.CAP_PROP_READ_TIMEOUT_MSEC, ms])
         self._cap = cap
         if not cap.isOpened():
-            raise SourceError(f"OpenCV cannot open {redact(str(t))}")
+            raise SourceError(f"OpenCV cannot open {redact(str(t))} (unreachable, refused, busy "
+                              "or not something it reads; --log-level debug shows OpenCV's "
+                              "own messages)")
         fps = cap.get(cv2.CAP_PROP_FPS)
         self.nominal_fps = fps if fps and 0 < fps < 1000 else None
 

@@ -5,7 +5,7 @@ import time
 
 import numpy as np
 
-from .base import Frame, Interrupted, Source, SourceError, SourceOptions
+from .base import Frame, Interrupted, Source, SourceOptions, SourceUnavailable
 
 
 class Picamera2Source(Source):
@@ -24,8 +24,9 @@ class Picamera2Source(Source):
         try:
             from picamera2 import Picamera2
         except ImportError:
-            raise SourceError("picamera2 is not installed (on Raspberry Pi OS: "
-                              "sudo apt install python3-picamera2)") from None
+            raise SourceUnavailable("picamera2 is not installed (on Raspberry Pi OS: "
+                                    "sudo apt install python3-picamera2, and a venv made "
+                                    "with --system-site-packages)") from None
         self._cam = Picamera2(self.index)
         size = self.options.capture_size or (1280, 960)
         controls = {}

@@ -252,6 +252,8 @@
     badge.hidden = !stale;
     badge.textContent = stale ? `STALE · last frame ${age.toFixed(1)} s ago` : "";
     document.body.classList.toggle("is-stale", stale);
+    // Connected but stale is not "live": no green badge beside the red one.
+    if (state.connected) setConn(stale ? "connected" : "live", stale ? "connected" : "live");
   }
 
   // ---- panorama thumbnail ------------------------------------------------------------------
