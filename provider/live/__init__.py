@@ -6,7 +6,8 @@
 * :mod:`.temporal`: smoothing with snap-through, change threshold, keep-alive;
 * :mod:`.message`: the wire message and its JSON Schema;
 * :mod:`.server`: WebSocket fan-out and HTTP routes; :mod:`.session`: one client's outbox;
-* :mod:`.dashboard`: what the HTTP side shows (``static/``), the metrics text.
+* :mod:`.dashboard`: what the HTTP side shows (``static/``), thumbnails; :mod:`.status`:
+  /healthz and /metrics.
 
 Built on :mod:`provider.core`; nothing in the maths imports from here.
 """

@@ -1,5 +1,5 @@
-"""What ``shlight serve`` shows over plain HTTP: the dashboard's files, panorama
-thumbnails, and the Prometheus metrics text.
+"""What ``shlight serve`` shows over plain HTTP: the dashboard's files and panorama
+thumbnails (/healthz and /metrics: :mod:`provider.live.status`).
 
 The server routes requests here (see :mod:`provider.live.server`); nothing in this module
 touches the network.
@@ -76,31 +76,3 @@ def thumbnail_jpeg(image: np.ndarray, width: int = 512, quality: int = 80) -> by
     if not ok:  # pragma: no cover - OpenCV always encodes JPEG
         raise RuntimeError("JPEG encoding failed")
     return buf.tobytes()
-
-
-def _label(value: str) -> str:
-    return str(value).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
-
-
-class MetricsText:
-    """Builds the Prometheus text exposition format (version 0.0.4)."""
-
-    CONTENT_TYPE = "text/plain; version=0.0.4; charset=utf-8"
-
-    def __init__(self):
-        self._lines: list[str] = []
-
-    def add(self, name: str, kind: str, help_text: str, samples) -> None:
-        """``samples``: a number, or a list of (labels dict, number)."""
-        self._lines.append(f"# HELP {name} {help_text}")
-        self._lines.append(f"# TYPE {name} {kind}")
-        if not isinstance(samples, list):
-            samples = [({}, samples)]
-        for labels, value in samples:
-            lab = ",".join(f'{k}="{_label(v)}"' for k, v in labels.items())
-            v = float(value)
-            text = "NaN" if math.isnan(v) else ("+Inf" if v == math.inf else repr(v))
-            self._lines.append(f"{name}{{{lab}}} {text}" if lab else f"{name} {text}")
-
-    def text(self) -> str:
-        return "\n".join(self._lines) + "\n"

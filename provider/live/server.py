@@ -92,8 +92,8 @@ from websockets.http11 import Request, Response
 
 from .. import __version__
 from ..core.errors import InputError
-from .dashboard import (DASHBOARD_CSP, PUBLIC_FILES, PUBLIC_HEADERS, MetricsText, static_file,
-                        thumbnail_jpeg)
+from . import status
+from .dashboard import DASHBOARD_CSP, PUBLIC_FILES, PUBLIC_HEADERS, static_file, thumbnail_jpeg
 from .export import FORMATS, NATIVE, ExportCache, check_format
 from .message import FRAME, SCHEMA_VERSION, dumps
 from .probe import Probe
@@ -432,7 +432,7 @@ class ProviderServer:
                 return _response(404, b"not found\n", "text/plain; charset=utf-8")
             return _response(200, *found, PUBLIC_HEADERS)
         if path == "/metrics":
-            return _response(200, self.metrics().encode(), MetricsText.CONTENT_TYPE)
+            return _response(200, self.metrics().encode(), status.MetricsText.CONTENT_TYPE)
         if path in ("/latest.json", "/thumbnail.jpg"):
             name = query.get("probe", [next(iter(self.probes))])[0]
             probe = self.probes.get(name)
@@ -460,64 +460,12 @@ class ProviderServer:
             self._thumbnails[probe.name] = cached
         return cached[1]
 
-    # -- health and metrics -----------------------------------------------------------------------------
+    # -- health and metrics (provider.live.status) ---------------------------------------------------
     def health(self) -> dict:
-        probes = {name: p.health() for name, p in self.probes.items()}
-        ok = all(p["state"] == "live" for p in probes.values())
-        health = {"status": "ok" if ok else "degraded", "provider": f"shlight {__version__}",
-                  "uptime_s": round(time.time() - self.started_at, 3),
-                  "clients": len(self.clients), "probes": probes}
-        for publisher in self.publishers:        # e.g. "mqtt": {"state": "connected", ...}
-            health[publisher.kind] = publisher.health()
-            if health[publisher.kind]["state"] != "connected":
-                health["status"] = "degraded"
-        return health
+        return status.health(self)
 
     def metrics(self) -> str:
-        m, c = MetricsText(), self.counters
-        m.add("shlight_info", "gauge", "Provider version.", [({"version": __version__}, 1)])
-        m.add("shlight_clients", "gauge", "Connected WebSocket clients.", len(self.clients))
-        m.add("shlight_connections_total", "counter", "WebSocket connections accepted.",
-              c.connections)
-        m.add("shlight_rejected_connections_total", "counter",
-              "Handshakes refused, by reason.",
-              [({"reason": r}, n) for r, n in sorted(c.rejected.items())] or [({"reason": "token"}, 0)])
-        m.add("shlight_messages_sent_total", "counter", "Messages sent to clients.",
-              c.messages_sent)
-        m.add("shlight_messages_skipped_total", "counter",
-              "Messages replaced by a newer one before a slow client took them.",
-              c.messages_skipped)
-        m.add("shlight_client_errors_total", "counter",
-              "Malformed client messages answered with an error.", c.client_errors)
-        m.add("shlight_stalled_clients_total", "counter",
-              "Clients disconnected for not reading.", c.stalled_clients)
-        probes = list(self.probes.values())
-
-        def per(fn):
-            return [({"probe": p.name}, fn(p)) for p in probes]
-        m.add("shlight_probe_up", "gauge", "1 while the probe's source delivers frames.",
-              per(lambda p: 1 if p.state == "live" else 0))
-        m.add("shlight_probe_stale", "gauge", "1 while clients get stale lighting.",
-              per(lambda p: 1 if p.state == "stale" else 0))
-        m.add("shlight_probe_frames_total", "counter", "Frames projected.",
-              per(lambda p: p.frames_processed))
-        m.add("shlight_probe_frames_rejected_total", "counter", "Frames the engine refused.",
-              per(lambda p: p.frames_rejected))
-        m.add("shlight_probe_messages_total", "counter", "Messages published.",
-              per(lambda p: p.seq))
-        m.add("shlight_probe_source_fps", "gauge", "Frames per second from the source.",
-              per(lambda p: p.capture.fps))
-        m.add("shlight_probe_compute_seconds", "gauge", "Engine time of the last frame.",
-              per(lambda p: p.compute_ms / 1e3))
-        m.add("shlight_probe_latency_seconds", "gauge",
-              "Frame capture to message, last frame.", per(lambda p: p.latency_s))
-        m.add("shlight_probe_source_reconnects_total", "counter", "Source reconnections.",
-              per(lambda p: p.capture.reconnects))
-        m.add("shlight_probe_subscribers", "gauge", "Clients subscribed to the probe.",
-              per(lambda p: len(self._subscribers[p.name])))
-        for publisher in self.publishers:
-            publisher.add_metrics(m)
-        return m.text()
+        return status.metrics(self)
 
 
 def _finite_number(x) -> bool:

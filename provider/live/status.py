@@ -1,0 +1,99 @@
+"""What ``shlight serve`` reports about itself: /healthz and /metrics (Prometheus text).
+
+Reads the server's probes, clients, counters and publishers; changes nothing.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+from .. import __version__
+
+
+def _label(value: str) -> str:
+    return str(value).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+
+
+class MetricsText:
+    """Builds the Prometheus text exposition format (version 0.0.4)."""
+
+    CONTENT_TYPE = "text/plain; version=0.0.4; charset=utf-8"
+
+    def __init__(self):
+        self._lines: list[str] = []
+
+    def add(self, name: str, kind: str, help_text: str, samples) -> None:
+        """``samples``: a number, or a list of (labels dict, number)."""
+        self._lines.append(f"# HELP {name} {help_text}")
+        self._lines.append(f"# TYPE {name} {kind}")
+        if not isinstance(samples, list):
+            samples = [({}, samples)]
+        for labels, value in samples:
+            lab = ",".join(f'{k}="{_label(v)}"' for k, v in labels.items())
+            v = float(value)
+            text = "NaN" if math.isnan(v) else ("+Inf" if v == math.inf else repr(v))
+            self._lines.append(f"{name}{{{lab}}} {text}" if lab else f"{name} {text}")
+
+    def text(self) -> str:
+        return "\n".join(self._lines) + "\n"
+
+
+def health(server) -> dict:
+    """The /healthz document: overall status, each probe's state, each publisher's."""
+    probes = {name: p.health() for name, p in server.probes.items()}
+    ok = all(p["state"] == "live" for p in probes.values())
+    health = {"status": "ok" if ok else "degraded", "provider": f"shlight {__version__}",
+              "uptime_s": round(time.time() - server.started_at, 3),
+              "clients": len(server.clients), "probes": probes}
+    for publisher in server.publishers:        # e.g. "mqtt": {"state": "connected", ...}
+        health[publisher.kind] = publisher.health()
+        if health[publisher.kind]["state"] != "connected":
+            health["status"] = "degraded"
+    return health
+
+def metrics(server) -> str:
+    """The /metrics text (Prometheus exposition format)."""
+    m, c = MetricsText(), server.counters
+    m.add("shlight_info", "gauge", "Provider version.", [({"version": __version__}, 1)])
+    m.add("shlight_clients", "gauge", "Connected WebSocket clients.", len(server.clients))
+    m.add("shlight_connections_total", "counter", "WebSocket connections accepted.",
+          c.connections)
+    m.add("shlight_rejected_connections_total", "counter",
+          "Handshakes refused, by reason.",
+          [({"reason": r}, n) for r, n in sorted(c.rejected.items())] or [({"reason": "token"}, 0)])
+    m.add("shlight_messages_sent_total", "counter", "Messages sent to clients.",
+          c.messages_sent)
+    m.add("shlight_messages_skipped_total", "counter",
+          "Messages replaced by a newer one before a slow client took them.",
+          c.messages_skipped)
+    m.add("shlight_client_errors_total", "counter",
+          "Malformed client messages answered with an error.", c.client_errors)
+    m.add("shlight_stalled_clients_total", "counter",
+          "Clients disconnected for not reading.", c.stalled_clients)
+    probes = list(server.probes.values())
+
+    def per(fn):
+        return [({"probe": p.name}, fn(p)) for p in probes]
+    m.add("shlight_probe_up", "gauge", "1 while the probe's source delivers frames.",
+          per(lambda p: 1 if p.state == "live" else 0))
+    m.add("shlight_probe_stale", "gauge", "1 while clients get stale lighting.",
+          per(lambda p: 1 if p.state == "stale" else 0))
+    m.add("shlight_probe_frames_total", "counter", "Frames projected.",
+          per(lambda p: p.frames_processed))
+    m.add("shlight_probe_frames_rejected_total", "counter", "Frames the engine refused.",
+          per(lambda p: p.frames_rejected))
+    m.add("shlight_probe_messages_total", "counter", "Messages published.",
+          per(lambda p: p.seq))
+    m.add("shlight_probe_source_fps", "gauge", "Frames per second from the source.",
+          per(lambda p: p.capture.fps))
+    m.add("shlight_probe_compute_seconds", "gauge", "Engine time of the last frame.",
+          per(lambda p: p.compute_ms / 1e3))
+    m.add("shlight_probe_latency_seconds", "gauge",
+          "Frame capture to message, last frame.", per(lambda p: p.latency_s))
+    m.add("shlight_probe_source_reconnects_total", "counter", "Source reconnections.",
+          per(lambda p: p.capture.reconnects))
+    m.add("shlight_probe_subscribers", "gauge", "Clients subscribed to the probe.",
+          per(lambda p: len(server._subscribers[p.name])))
+    for publisher in server.publishers:
+        publisher.add_metrics(m)
+    return m.text()
