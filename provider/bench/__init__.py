@@ -17,6 +17,10 @@ Sections (all written to ``--out``, default ./bench-results):
 * ``scenes.md``: per real panorama, what SH9 itself misses (truncation error against
   brute-force irradiance), whether order 2 rings negative, what ``--dering auto`` costs,
   and which order ``--order auto`` keeps.
+* ``lights.md`` (with ``scenes``): per real panorama, SH9 alone against ambient +
+  directional lights (``--lights auto``), RMS and max error, the lights kept, and the
+  per-frame cost of the lights as a ratio to the plain exact path (see
+  :mod:`provider.bench.lights`).
 * ``server.md`` / ``server.json`` (only with ``--sections server``, see
   :mod:`provider.bench.server`): frame-to-client latency p50/p99 of a real ``shlight serve``
   and the number of clients one core keeps at 30 Hz.
@@ -67,6 +71,8 @@ def run(args) -> int:
     if "scenes" in sections:
         from .scenes import bench_scenes
         bench_scenes(hdri, out, args)
+        from .lights import bench_lights
+        bench_lights(hdri, out, args)
     if "server" in sections:
         try:
             from . import server as server_bench
