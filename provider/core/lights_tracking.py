@@ -48,6 +48,9 @@ class LightTracker:
       below that, at once when it makes the error worse by more than ``keep_gain``, and at
       once when its source vanishes (a lamp switched off: the flux left the frame, so
       ambient = full − light would be wrong).
+    * start: the first frame after construction or :meth:`reset` has no history to be
+      stable against, so its lights are chosen at once (a client that connects to a new
+      stream, or a still image served live, gets its lights in the first message).
     * add: a pending track must pass the extractor's acceptance test on top of the kept
       lights for ``add_frames`` consecutive frames (capacity aside); then it takes a free
       slot at once (a lamp going off hands its slot to the sun in the same frame). Adding
@@ -68,9 +71,11 @@ class LightTracker:
         self.swap_margin = swap_margin
         self.tracks: list[_Track] = []
         self._next = 0
+        self.frames = 0                 # frames seen since construction or reset()
 
     def reset(self) -> None:
-        self.tracks, self._next = [], 0
+        """Forget every track (a new source, a reconnect, another frame size)."""
+        self.tracks, self._next, self.frames = [], 0, 0
 
     # -- matching ---------------------------------------------------------------------------
     def _match(self, a: Analysis) -> dict:
@@ -178,7 +183,8 @@ class LightTracker:
                 t.hits = 0
         while len(chosen) < K:
             e_now = err_of(chosen)
-            ready = [t for t in others if not t.active and t.hits >= self.add_frames]
+            need = 1 if self.frames == 0 else self.add_frames
+            ready = [t for t in others if not t.active and t.hits >= need]
             scored = [best_level(t, chosen) + (t.key, t) for t in ready]
             scored = [x for x in scored if a.accepts(e_now, x[0])]
             if not scored:
@@ -207,4 +213,5 @@ class LightTracker:
                 weakest.active = False
                 best.active, best.weak, best.swap_hits = True, 0, 0
         final = sorted((t for t in self.tracks if t.active), key=lambda t: t.key)
+        self.frames += 1
         return a.result([match[t.key] for t in final], keys=[t.key for t in final])
