@@ -123,7 +123,7 @@ class LightsEvaluator(IrradianceEvaluator):
         return self.evaluate(matrices, normals)
 
 
-# -- cases and comparisons ---------------------------------------------------------------------------
+# -- cases and comparisons ------------------------------------------------------------------------
 
 @dataclass
 class LightCase:
@@ -148,7 +148,8 @@ def cpu_irradiance(case: LightCase, normals) -> tuple[np.ndarray, np.ndarray]:
     irr = np.asarray(case.irradiance, np.float64).reshape(-1, 3)[:k]
     M = np.asarray(case.matrices, np.float64)
     E = sh.irradiance_from_matrices(M, n) + np.maximum(n @ d.T, 0.0) @ irr
-    scale = sh.irradiance_from_matrices(np.abs(M), np.abs(n)) + (np.abs(n) @ np.abs(d).T) @ np.abs(irr)
+    scale = (sh.irradiance_from_matrices(np.abs(M), np.abs(n))
+             + (np.abs(n) @ np.abs(d).T) @ np.abs(irr))
     return E, scale
 
 
@@ -240,7 +241,7 @@ def run_light_cases(evaluator: LightsEvaluator, cases, normals,
     return out
 
 
-# -- the demo program with lights (shaders/lit_diffuse_lights.frag) and the picture --------------------
+# -- the demo program with lights (shaders/lit_diffuse_lights.frag) and the picture ---------------
 
 class LightsObjectRenderer(ObjectRenderer):
     """:class:`~provider.verify.pictures.ObjectRenderer` with shaders/lit_diffuse_lights.frag."""
@@ -359,7 +360,7 @@ def write_lights_picture(ctx, panoramas, out_dir: Path, size: int = 256) -> dict
     return {"file": str(file), "panorama": str(path), **stats}
 
 
-# -- the harness extension (provider.verify.harness.run) ----------------------------------------------
+# -- the harness extension (provider.verify.harness.run) ------------------------------------------
 
 def compare(ctx, path: str, normals, panoramas, vectors, tolerance) -> list[Comparison]:
     """Every lights case through one shader path ("glsl" or "hlsl")."""
