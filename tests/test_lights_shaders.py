@@ -60,7 +60,7 @@ def test_every_lights_case_matches_the_cpu_to_float32_rounding(evaluator):
     results = lights.run_light_cases(evaluator, cases, NORMALS)
     names = {r.case for r in results}
     assert {"lights:one_sided", "lights:none", "lights:count_2_of_4",
-            "lights:panorama:sky", "vectors-unity:lights_one_sided"} <= names
+            "lights:panorama:sky", "lights-vectors-unity:lights_one_sided"} <= names
     failed = [r.line() for r in results if not r.passed]
     assert not failed, "\n".join(failed)
     worst = max(r.max_rel for r in results)
@@ -153,7 +153,8 @@ def test_cli_validates_the_lights_functions_on_both_paths(ctx, tmp_path):
                        cwd=ROOT)
     assert r.returncode == 0, r.stdout + r.stderr
     for path in ("glsl", "hlsl"):
-        for case in ("lights:one_sided", "lights:panorama:sky", "vectors-unity:lights_panorama_lab"):
+        for case in ("lights:one_sided", "lights:panorama:sky",
+                     "lights-vectors-unity:lights_panorama_lab"):
             assert f"PASS  {path}  {case}" in r.stdout, (path, case)
     assert "PASS  demo  lights_one_sided_reinhard" in r.stdout
     report = json.loads((tmp_path / "report.json").read_text())

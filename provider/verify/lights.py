@@ -221,7 +221,7 @@ def vector_light_cases(vectors: dict) -> list[LightCase]:
     for c in vectors["cases"]:
         if "lights" not in c:
             continue
-        for frame, prefix in (("", "vectors"), ("unity_", "vectors-unity")):
+        for frame, prefix in (("", "lights-vectors"), ("unity_", "lights-vectors-unity")):
             cases.append(LightCase(
                 f"{prefix}:{c['name']}", c[f"{frame}ambient_matrices"],
                 c[f"{frame}light_directions"], c["light_irradiance"],
