@@ -35,8 +35,8 @@ Per frame:
 6. **Refine** (:meth:`LightExtractor.refine`): a compact light's direction is sharpened on the
    full-resolution pixels under it (a 0.5° sun: from 0.2-0.4° off to 0.02-0.05°).
 
-Measured on the nine shared panoramas (notes/lights/RESULTS.md, `shlight bench --sections
-scenes`): never worse than SH9, sky (the sun) 6.1 % → 0.3 % RMS irradiance error.
+Measured on the nine shared panoramas (`shlight bench --sections scenes`, lights.md): never
+worse than SH9; sky (the sun) 6.1 % → 0.3 % RMS irradiance error.
 
 Usage (one extractor per projection and size; the engine builds it for ``lights="auto"``)::
 

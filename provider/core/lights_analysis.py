@@ -202,7 +202,7 @@ class Analysis:
     def irradiances(self, indices) -> np.ndarray:
         """(k, 3) RGB irradiance of each light of the set: each candidate's first moment
         ``Σ excess ω (d_i·d)`` (physical, no fit; within 0.1 points of a least-squares fit
-        on the real panoramas, notes/lights/RESULTS.md)."""
+        on the real panoramas, measured when this module was designed)."""
         idx = list(indices)
         return np.array([self.candidates[i].moment for i in idx]).reshape(len(idx), 3)
 
