@@ -283,7 +283,7 @@ def test_the_wire_message_says_what_it_is():
 
 
 def test_lights_from_a_message_or_from_stats():
-    """DESIGN.md §10 fields, from a wire message (lists) or SH9Result.stats (arrays); with
+    """DESIGN.md §10 fields, from a wire message (lists) or arrays; with
     ambient_coefficients given, that ambient is used as is."""
     d, e = OBLIQUE_LIGHT
     amb = hemisphere_sh(AXES["-z"])
@@ -300,19 +300,22 @@ def test_lights_from_a_message_or_from_stats():
     b = cv.export(total, "webxr", lights=lights, ambient=ambient)
     np.testing.assert_allclose(a["sphericalHarmonicsCoefficients"],
                                b["sphericalHarmonicsCoefficients"], atol=1e-12)
-    # the wire path: export_message takes them from the message, or from the engine's stats
+    # the wire path: export_message takes them from the message (a message without lights has
+    # lights 0 and the ambient equal to the full SH9)
     msg = coefficient_message(type("R", (), {"coefficients": total, "matrices": np.zeros((3, 4, 4)),
                                              "stats": {}})())
-    stats = {"lights": 1, "light_directions": d[None], "light_irradiance": e[None],
-             "ambient_coefficients": amb}
-    for ex in (export_message(dict(msg, lights=1, light_directions=d.tolist(),
+    assert msg["lights"] == 0 and np.allclose(msg["ambient_coefficients"], total.reshape(-1))
+    without_ambient = {k: v for k, v in msg.items() if not k.startswith("ambient_")}
+    for ex in (export_message(dict(without_ambient, lights=1, light_directions=d.tolist(),
                                    light_irradiance=e.tolist()), "arcore"),
-               export_message(msg, "arcore", lights_from=stats)):
+               export_message(dict(msg, lights=1, light_directions=d.tolist(),
+                                   light_irradiance=e.tolist(),
+                                   ambient_coefficients=amb.reshape(-1).tolist()), "arcore")):
         assert ex["lights"] == 1
         np.testing.assert_allclose(ex["mainLightDirection"], d)
         np.testing.assert_allclose(np.reshape(ex["sphericalHarmonics"], (9, 3)),
                                    cv.CONDON_SHORTLEY[:, None] * amb, atol=1e-12)
-    assert export_message(msg, "arcore", lights_from={})["lights"] == 0
+    assert export_message(msg, "arcore")["lights"] == 0
     assert cv.lights_from_fields({"coefficients": [0] * 27}) == ([], None)
     assert cv.lights_from_fields({"lights": 0}) == ([], None)
 

@@ -832,7 +832,7 @@ def test_live_client_drives_the_directional_light(live_exe, tmp_path):
     import cv2
     image = tmp_path / "sun.png"
     img = np.full((64, 128, 3), 20, np.uint8)
-    img[14:16, 95:97] = 255                      # a sun at u = 0.75 (wire +X), a little above the horizon
+    img[14:16, 95:97] = 255                      # a sun at u = 0.75 (wire +X), 48° above the horizon
     assert cv2.imwrite(str(image), img)
     with ServeProcess("--source", str(image), "--lights", "auto", "--max-lights", "1",
                       "--keepalive", "0.25") as server:
@@ -846,7 +846,10 @@ def test_live_client_drives_the_directional_light(live_exe, tmp_path):
             client.kill()
     d = np.array(ev["wire_light_directions"][:3])
     e = np.array(ev["wire_light_irradiance"][:3])
-    assert d[0] > 0.8, f"the light should come from +X (u = 0.75): {d}"
+    # The patch's centre (u = 96/128, v = 15/64): θ = 15π/64 from the zenith, toward +X.
+    theta = math.pi * 15 / 64
+    toward = np.array([math.sin(theta), math.cos(theta), 0.0])
+    assert d @ toward > math.cos(math.radians(3)), f"the light should come from {toward}: {d}"
     lt = ev["light"]
     assert ev["light_active"] and lt["enabled"] and ev["main_light_scale"] == 1 and not lt["use_color_temperature"]
     # forward: where the light travels, in Unity's frame (x, y, -z)

@@ -18,6 +18,10 @@ Sections (all written to ``--out``, default ./bench-results):
 * ``scenes.md``: per real panorama, what SH9 itself misses (truncation error against
   brute-force irradiance), whether order 2 rings negative, what ``--dering auto`` costs,
   and which order ``--order auto`` keeps.
+* ``lights.md`` (with ``scenes``): per real panorama, SH9 alone against ambient +
+  directional lights (``--lights auto``), RMS and max error, the lights kept, and the
+  per-frame cost of the lights as a ratio to the plain exact path (see
+  :mod:`provider.bench.lights`).
 * ``server.md`` / ``server.json`` (only with ``--sections server``, see
   :mod:`provider.bench.server`): frame-to-client latency p50/p99 of a real ``shlight serve``
   and the number of clients one core keeps at 30 Hz; then ``server_idle.md`` /
@@ -85,7 +89,7 @@ SECTION_WHAT = {
     "speed": "time per frame against irradiance error, per path and frame size",
     "edge": "a 640×480 fisheye frame against a 1 GHz core",
     "fill": "fisheye fill models on the real panoramas",
-    "scenes": "what SH9 misses on each real panorama",
+    "scenes": "what SH9 misses on each real panorama; SH9 against ambient + lights",
     "server": "latency and clients per core of a real shlight serve, then its idle CPU",
 }
 SECTION_COST_S = {"speed": (5, 80), "edge": (2, 5), "fill": (2, 10), "scenes": (10, 10),
@@ -121,8 +125,10 @@ def _fill(hdri, out, args):
 
 
 def _scenes(hdri, out, args):
+    from .lights import bench_lights
     from .scenes import bench_scenes
     bench_scenes(hdri, out, args)
+    bench_lights(hdri, out, args)
 
 
 def _server(hdri, out, args):

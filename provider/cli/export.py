@@ -47,6 +47,6 @@ def run(args) -> int:
                          **engine_options(args))
     msg = coefficient_message(result, probe=args.probe, seq=0,
                               time=os.path.getmtime(args.image))
-    out = export_message(msg, args.to, lights_from=result.stats, **options)
+    out = export_message(msg, args.to, **options)
     print(dumps(out) if not args.pretty else json.dumps(out, indent=2, allow_nan=False))
     return 0

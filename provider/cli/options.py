@@ -50,6 +50,11 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                    help="irradiance error budget for --order auto (default 0.02 = 2%%)")
     g.add_argument("--dering", default="off", choices=["off", "auto"],
                    help="auto: window the SH just enough that irradiance is never negative")
+    g.add_argument("--lights", default="off", choices=["off", "auto"],
+                   help="auto: directional lights for compact bright sources (a sun, a lamp) "
+                        "plus ambient SH9, kept only where they lower the measured error")
+    g.add_argument("--max-lights", type=int, default=3, metavar="K",
+                   help="at most K lights per frame with --lights auto (1-4, default 3)")
     g.add_argument("--rotate", metavar="YAW,PITCH,ROLL", default=None,
                    type=lambda t: _floats(t, 3, "--rotate"),
                    help="sensor rotation in degrees (about +Y, +X, -Z), applied to coefficients")
@@ -74,6 +79,11 @@ def engine_options(args) -> dict:
     opts = dict(encoding=args.encoding, exposure=args.exposure, downsample=args.downsample,
                 order=args.order if args.order == "auto" else int(args.order),
                 order_budget=args.order_budget, dering=args.dering)
+    if args.lights != "off":
+        from ..core.engine import MAX_LIGHTS
+        if not 1 <= args.max_lights <= MAX_LIGHTS:
+            raise InputError(f"--max-lights {args.max_lights}: out of range (1-{MAX_LIGHTS})")
+        opts.update(lights=args.lights, max_lights=args.max_lights)
     if args.rotate:
         opts["rotation"] = rotation_from_euler(*args.rotate)
     check_options(**opts)

@@ -28,5 +28,6 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
+    from ..verify import lights
     from ..verify.harness import run as run_validation
-    return run_validation(args)
+    return run_validation(args, extensions=(lights,))

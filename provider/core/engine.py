@@ -27,6 +27,8 @@ import numpy as np
 
 from . import sh
 from .errors import InputError
+from .lights import LightExtractor, LinearView
+from .lights_analysis import model_irradiance
 from .projections import Equirect, Projection, ProjectionError, make_projection
 
 
@@ -49,19 +51,46 @@ class SH9Result:
         Irradiance matrices M_r, M_g, M_b: E(n) = ñᵀ M ñ.
     stats : dict
         Per-frame statistics (see :meth:`SH9Projector.project`).
+    lights : list of :class:`~provider.core.lights_analysis.Light`
+        Directional lights (``lights="auto"``; empty otherwise): ``.direction`` unit vector
+        toward the light (world frame), ``.irradiance`` RGB on a surface facing it.
+    ambient_coefficients : (9, 3) float64 or None
+        SH9 of everything the lights did not take (``lights="auto"``); None when lights are
+        off. ``coefficients`` stay the full SH9 of everything (DESIGN.md §10).
     """
 
     coefficients: np.ndarray
     matrices: np.ndarray
     stats: dict = field(default_factory=dict)
+    lights: list = field(default_factory=list)
+    ambient_coefficients: np.ndarray | None = None
 
     def irradiance(self, normals):
         """E(n) (not clamped) at unit normals (..., 3) -> (..., 3)."""
         return sh.irradiance(self.coefficients, normals)
 
+    @property
+    def ambient(self) -> np.ndarray:
+        """The ambient SH9 (9, 3): ``ambient_coefficients``, or the full SH9 without lights."""
+        return self.coefficients if self.ambient_coefficients is None else self.ambient_coefficients
+
+    @property
+    def ambient_matrices(self) -> np.ndarray:
+        """(3, 4, 4) irradiance matrices of :attr:`ambient`."""
+        if self.ambient_coefficients is None:
+            return self.matrices
+        return sh.irradiance_matrices(self.ambient_coefficients)
+
+    def irradiance_with_lights(self, normals):
+        """E(n) = ñᵀAñ + Σ_k I_k max(0, n·d_k) (not clamped) at unit normals (..., 3)."""
+        return model_irradiance(self.ambient, self.lights, normals)
+
 
 ORDERS = (0, 1, 2, "auto")
 DERING = ("off", "auto")
+LIGHTS = ("off", "auto")
+#: Most directional lights per frame (the shaders' SH_MAX_LIGHTS).
+MAX_LIGHTS = 4
 
 
 class SH9Projector:
@@ -97,15 +126,23 @@ class SH9Projector:
         Called with the fraction done while the per-pixel weights of a fisheye, dual-fisheye
         or cube map frame are integrated (seconds to minutes for very large frames: see
         :func:`precompute_note`).
+    lights : "off" | "auto"
+        "auto": model compact bright sources as directional lights plus an ambient SH9,
+        keeping a light only where it lowers the measured irradiance error
+        (:mod:`provider.core.lights`; DESIGN.md §10). "off": the exact path, unchanged.
+    max_lights : int
+        At most this many lights per frame, 1 to :data:`MAX_LIGHTS` (default 3).
     **projection_options
         Passed to the projection (fov_deg, center, radius, K, D, fill, albedo, ...).
     """
 
     def __init__(self, width: int, height: int, projection="equirect", *, encoding="auto",
                  exposure=1.0, downsample=1, rotation=None, order=2, dering="off",
-                 order_budget=0.02, error_estimate=False, progress=None, **projection_options):
+                 order_budget=0.02, error_estimate=False, progress=None, lights="off",
+                 max_lights=3, **projection_options):
         check_options(encoding=encoding, exposure=exposure, downsample=downsample,
-                      rotation=rotation, order=order, dering=dering, order_budget=order_budget)
+                      rotation=rotation, order=order, dering=dering, order_budget=order_budget,
+                      lights=lights, max_lights=max_lights)
         downsample = int(downsample)
         if width // downsample < 1 or height // downsample < 1:
             raise InputError(f"--downsample {downsample} is larger than the {width}×{height} frame")
@@ -125,6 +162,13 @@ class SH9Projector:
         self.rotation = None if rotation is None else np.asarray(rotation, np.float64)
         self._sh_rotation = None if rotation is None else sh.sh_rotation(self.rotation)
         self.error_estimate = bool(error_estimate)
+        self.lights, self.max_lights = lights, int(max_lights)
+        # Lights (pixel-independent precomputation once, like the SH weights): integer
+        # frames on the exact path build the detection copy band by band while linearising.
+        self._extractor = (LightExtractor(full, max_lights=self.max_lights)
+                           if lights == "auto" else None)
+        self._fuse_lights = (self._extractor is not None and downsample == 1
+                             and self._extractor.fusable(self.BAND_ROWS))
 
         # Pixel-independent precomputation.
         p = self.projection
@@ -223,8 +267,10 @@ class SH9Projector:
             out[k] += const * partial[ri, ci]
         return out
 
-    def _project_frame(self, frame: np.ndarray, stats: dict) -> np.ndarray:
-        """Linearise (counting bad samples) and project; returns (9, 3) float64."""
+    def _project_frame(self, frame: np.ndarray, stats: dict):
+        """Linearise (counting bad samples) and project; returns the (9, 3) float64
+        coefficients, the fast path's small frame (or None) and the linear frame the lights
+        read (the full linear frame, the fused detection copy, or None)."""
         acc = self._new_accumulator()
         integer = frame.dtype in (np.uint8, np.uint16)
         scale = 1.0 if integer else self.exposure  # integer frames: folded into the LUT
@@ -235,18 +281,23 @@ class SH9Projector:
             stats["clipped_fraction"] = 0.0
         if self.downsample == 1:
             if integer:
+                mid = self._extractor.new_mid() if self._fuse_lights else None
                 for r0 in range(0, frame.shape[0], self.BAND_ROWS):
-                    self._accumulate(self._linearise(frame[r0:r0 + self.BAND_ROWS]), r0, acc)
-            else:
-                self._accumulate(self._clean_float(frame, stats), 0, acc)
-            return self._coefficients(acc) * scale, None
+                    lin = self._linearise(frame[r0:r0 + self.BAND_ROWS])
+                    self._accumulate(lin, r0, acc)
+                    if mid is not None:
+                        self._extractor.reduce_band(lin, r0, mid)
+                return self._coefficients(acc) * scale, None, mid
+            lin = self._clean_float(frame, stats)
+            self._accumulate(lin, 0, acc)
+            return self._coefficients(acc) * scale, None, lin
         # Fast path: area-average the *linear* frame, then project the small one.
         lin = self._linearise(frame) if integer else self._clean_float(frame, stats)
         bw, bh = self._block
         small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
                            interpolation=cv2.INTER_AREA)
         self._accumulate(small, 0, acc)
-        return self._coefficients(acc) * scale, small
+        return self._coefficients(acc) * scale, small, lin
 
     def _prepare(self, frame) -> np.ndarray:
         if not isinstance(frame, np.ndarray):
@@ -272,9 +323,15 @@ class SH9Projector:
                              f"was built for {self.width}×{self.height}")
         return np.ascontiguousarray(frame)
 
-    def project(self, frame: np.ndarray, error_estimate: bool | None = None) -> SH9Result:
+    def project(self, frame: np.ndarray, error_estimate: bool | None = None,
+                tracker=None) -> SH9Result:
         """Coefficients, matrices and statistics of one frame (``error_estimate``: whether
         to estimate SH9's error on this frame; None: as the projector was built).
+
+        With ``lights="auto"`` the result also holds ``lights`` and ``ambient_coefficients``;
+        ``tracker`` (a :class:`~provider.core.lights_tracking.LightTracker`, owned by the
+        caller, one per stream) chooses them with hysteresis across frames instead of the
+        per-frame greedy choice.
 
         ``stats`` keys: ``compute_ms``, ``clipped_fraction`` (fraction of channel samples at
         the top code value of an integer frame), ``negative_pixels`` and
@@ -283,15 +340,21 @@ class SH9Projector:
         negative), ``window_cutoff`` (sinc⁴ cutoff applied, or None), ``order`` (kept),
         ``order_error`` (irradiance error caused by a lower order or by windowing, relative
         to the exact order-2 result), ``error_estimate`` (when enabled: relative RMS SH9
-        irradiance error against brute force), ``coverage_sr`` (solid angle seen).
+        irradiance error against brute force), ``coverage_sr`` (solid angle seen); with
+        lights: ``light_error`` (relative RMS irradiance error of ambient + lights against
+        brute force on a coarse copy, bright regions at mid resolution), ``sh9_error`` (the
+        full SH9 alone on the same copy), ``light_candidates`` (bright regions considered).
         """
         t0 = time.perf_counter()
         stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
         frame = self._prepare(frame)
-        coeffs, small = self._project_frame(frame, stats)
+        coeffs, small, light_input = self._project_frame(frame, stats)
+        exact = coeffs
         if self._sh_rotation is not None:
             coeffs = self._sh_rotation @ coeffs
         result = self._finish(coeffs, stats)
+        if self._extractor is not None:
+            self._add_lights(result, frame, exact, light_input, tracker)
         if self.error_estimate if error_estimate is None else error_estimate:
             if small is None:
                 small = (self._linearise(frame) if frame.dtype in (np.uint8, np.uint16)
@@ -325,6 +388,26 @@ class SH9Projector:
         stats["min_irradiance"] = [float(v) for v in E.min(axis=0)]
         stats["coverage_sr"] = self._coverage
         return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats)
+
+    def _add_lights(self, result, frame, exact, light_input, tracker) -> None:
+        """Directional lights + ambient of one frame (provider.core.lights), in the units
+        and frame of the coefficients: exposure scales them like the coefficients, the
+        sensor rotation turns light directions and the ambient like the coefficients, and
+        the ambient gets the same deringing and order as the coefficients."""
+        integer = frame.dtype in (np.uint8, np.uint16)
+        scale = 1.0 if integer else self.exposure  # integer frames: folded into the LUT
+        if light_input is None:                     # an integer frame that was not fused
+            light_input = self._linearise(frame)
+        full = light_input if light_input.shape[:2] == frame.shape[:2] else \
+            LinearView(frame, self._linearise)
+        order = result.stats["order"]
+        found = self._extractor.extract(
+            light_input, exact / scale, tracker=tracker, full=full,
+            process=lambda ambient: self._same_processing(ambient, order))
+        found = found.transformed(scale, self.rotation, self._sh_rotation)
+        result.lights, result.ambient_coefficients = found.lights, found.ambient
+        result.stats.update(light_error=found.light_error, sh9_error=found.sh9_error,
+                            light_candidates=len(found.candidates))
 
     # -- error estimate ---------------------------------------------------------------------
     def _estimate_error(self, lin: np.ndarray, order: int) -> float:
@@ -362,13 +445,19 @@ class SH9Projector:
 
 
 def check_options(*, encoding="auto", exposure=1.0, downsample=1, rotation=None, order=2,
-                  dering="off", order_budget=0.02) -> None:
+                  dering="off", order_budget=0.02, lights="off", max_lights=3) -> None:
     """Raise :class:`InputError` for engine options that no frame can make valid (so that
     ``shlight serve`` refuses them at start, in one line, rather than per frame)."""
     if order not in ORDERS:
         raise InputError(f"order must be one of 0, 1, 2, auto; got {order!r}")
     if dering not in DERING:
         raise InputError(f"dering must be 'off' or 'auto'; got {dering!r}")
+    if lights not in LIGHTS:
+        raise InputError(f"lights must be 'off' or 'auto'; got {lights!r}")
+    if (isinstance(max_lights, bool) or not isinstance(max_lights, (int, np.integer))
+            or not 1 <= max_lights <= MAX_LIGHTS):
+        raise InputError(f"max_lights must be an integer from 1 to {MAX_LIGHTS}; "
+                         f"got {max_lights!r}")
     if encoding not in ("auto", "srgb", "linear"):
         raise InputError(f"encoding must be auto, srgb or linear; got {encoding!r}")
     if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):

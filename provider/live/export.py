@@ -36,16 +36,14 @@ def check_format(fmt) -> str | None:
                      f"(or {NATIVE}: the provider's own message)")
 
 
-def export_message(message: dict, fmt: str, *, lights_from=None, **options) -> dict:
+def export_message(message: dict, fmt: str, **options) -> dict:
     """The ``export`` message of an ``sh9`` message in format ``fmt`` (one of FORMATS).
 
-    The lights (DESIGN.md §10 fields) are the message's own, or those of ``lights_from``
-    (e.g. an ``SH9Result.stats``) when the message has none. ``options``:
-    ``babylon_handedness`` (gltf), ``condon_shortley`` (arcore, openxr-android); see
-    :func:`provider.core.conventions.export`.
+    The lights are the message's own DESIGN.md §10 fields (every ``sh9`` message carries
+    them). ``options``: ``babylon_handedness`` (gltf), ``condon_shortley`` (arcore,
+    openxr-android); see :func:`provider.core.conventions.export`.
     """
-    fields = message if message.get("lights") or lights_from is None else lights_from
-    lights, ambient = lights_from_fields(fields)
+    lights, ambient = lights_from_fields(message)
     out = {"type": "export", "version": SCHEMA_VERSION}
     out.update((k, message[k]) for k in _ENVELOPE if k in message)
     out.update(export(message["coefficients"], fmt, lights=lights, ambient=ambient, **options))

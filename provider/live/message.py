@@ -12,6 +12,14 @@ Condon-Shortley phase), ``coefficients_mode`` / ``matrices_mode`` (the quantity)
 ``units`` (``input-linear``: linear in the input's units). Other engines' layouts:
 :mod:`provider.live.export`.
 
+Lights (DESIGN.md §10) are in every message: ``lights`` (k), ``light_directions`` (3k: unit
+vectors toward each light), ``light_irradiance`` (3k: RGB irradiance on a surface facing
+it), ``ambient_coefficients`` (27) and ``ambient_matrices`` (48), so that
+E(n) = ñᵀAñ + Σ_k I_k max(0, n·d_k). With lights off, or when a scene needs none: k = 0,
+empty light arrays and the ambient equal to the full SH9, so that formula holds for every
+message and a client needs no special case. ``coefficients`` and ``matrices`` are always
+the full SH9 of everything (clients that ignore lights are unaffected).
+
 The JSON Schema ships as ``provider/live/sh9_message.schema.json`` (:func:`load_schema`).
 """
 from __future__ import annotations
@@ -23,14 +31,16 @@ from importlib import resources
 
 import numpy as np
 
+from ..core.sh import irradiance_matrices
+
 SCHEMA_VERSION = 1
 FRAME = "rh-y-up"
 BASIS = "sh9-real"
 UNITS = "input-linear"
 
 _STAT_NUMBERS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
-                 "coverage_sr", "negative_energy_fraction")
-_STAT_INTS = ("negative_pixels", "nonfinite_pixels", "order")
+                 "coverage_sr", "negative_energy_fraction", "light_error", "sh9_error")
+_STAT_INTS = ("negative_pixels", "nonfinite_pixels", "order", "light_candidates")
 
 
 def _finite(x: float) -> float:
@@ -68,6 +78,7 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
         "units": UNITS,
         "coefficients": [float(v) for v in coeffs.reshape(-1)],   # L00.r, L00.g, L00.b, ...
         "matrices": [float(v) for v in mats.reshape(-1)],          # M_r, M_g, M_b row-major
+        **light_fields(result),
     }
     stats = getattr(result, "stats", {}) or {}
     for k in _STAT_NUMBERS:
@@ -85,6 +96,28 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
     for k, v in extra.items():
         msg[k] = v
     return msg
+
+
+def light_fields(result) -> dict:
+    """The five DESIGN.md §10 fields of a result (flat number lists; see the module
+    docstring): its ``lights`` and ``ambient_coefficients``, or none and the full SH9."""
+    lights = list(getattr(result, "lights", None) or [])
+    ambient = getattr(result, "ambient_coefficients", None)
+    if ambient is None:
+        ambient, ambient_m = result.coefficients, result.matrices
+    else:
+        ambient_m = irradiance_matrices(ambient)
+    directions = np.asarray([light.direction for light in lights], np.float64).reshape(-1)
+    irradiance = np.asarray([light.irradiance for light in lights], np.float64).reshape(-1)
+    arrays = [np.asarray(a, np.float64).reshape(-1)
+              for a in (directions, irradiance, ambient, ambient_m)]
+    if not all(np.all(np.isfinite(a)) for a in arrays):
+        raise ValueError("non-finite lights cannot be sent")
+    return {"lights": len(lights),
+            "light_directions": [float(v) for v in arrays[0]],
+            "light_irradiance": [float(v) for v in arrays[1]],
+            "ambient_coefficients": [float(v) for v in arrays[2]],
+            "ambient_matrices": [float(v) for v in arrays[3]]}
 
 
 def dumps(message: dict) -> str:

@@ -9,6 +9,10 @@ keep-alive is due, or when the probe goes stale or fresh again.
 
 States: ``starting`` (no lighting yet), ``live``, ``stale`` (the source is lost or silent:
 the last lighting is resent with ``"stale": true`` and its ``age_s``).
+
+With ``lights="auto"`` the probe owns a
+:class:`~provider.core.lights_tracking.LightTracker` per frame size (hysteresis across
+frames: no flicker, no jumping between two lamps), reset when the source reconnects.
 """
 from __future__ import annotations
 
@@ -21,10 +25,11 @@ import numpy as np
 
 from ..core.engine import SH9Projector, SH9Result, precompute_note
 from ..core.errors import InputError
+from ..core.lights_tracking import LightTracker
 from .capture import Capture
 from .message import coefficient_message, dumps
 from .sources import Frame, SourceSpec
-from .temporal import ChangeGate, LightingFilter
+from .temporal import ChangeGate, LightingFilter, light_model
 
 log = logging.getLogger("shlight.probe")
 
@@ -75,6 +80,8 @@ class Probe:
         self._projectors: dict = {}
         self._estimated_at = -1e9       # monotonic time of the last error estimate
         self._error_estimate: float | None = None
+        self._trackers: dict = {}       # frame size -> LightTracker (lights="auto")
+        self._tracked_reconnects = 0
         self._lighting: SH9Result | None = None
         self._frame_time = 0.0          # unix time of the newest frame (the source's clock)
         self._arrival = 0.0             # when it was processed here (our clock)
@@ -134,8 +141,7 @@ class Probe:
         if not (np.all(np.isfinite(result.coefficients)) and np.all(np.isfinite(result.matrices))):
             self._rejected("non-finite coefficients")
             return
-        coeffs, mats, _ = self.filter.update(result.coefficients, result.matrices, frame.time)
-        self._lighting = SH9Result(coeffs, mats, result.stats)
+        self._lighting, _ = self.filter.update_result(result, frame.time)
         self._frame_time, self._arrival = frame.time, time.time()
         self._fresh = True
         self.frames_processed += 1
@@ -154,13 +160,20 @@ class Probe:
         if projector is None:
             if len(self._projectors) >= 4:   # a source that keeps changing size
                 self._projectors.clear()
+                self._trackers.clear()
             projector = self._projectors[key] = self._build_projector(*key)
             self._estimated_at = -1e9
         if isinstance(projector, InputError):
             raise _AlreadySaid(str(projector))
+        tracker = None
+        if projector.lights != "off":
+            if self.capture.reconnects != self._tracked_reconnects:   # a new stream
+                self._tracked_reconnects = self.capture.reconnects
+                self._trackers.clear()
+            tracker = self._trackers.setdefault(key, LightTracker())
         now = time.monotonic()
         estimate = now - self._estimated_at >= ERROR_ESTIMATE_INTERVAL_S
-        result = projector.project(image, error_estimate=estimate)
+        result = projector.project(image, error_estimate=estimate, tracker=tracker)
         if estimate:
             self._estimated_at, self._error_estimate = now, result.stats.get("error_estimate")
         elif self._error_estimate is not None:
@@ -228,7 +241,8 @@ class Probe:
         elif stale:
             if self.gate.due(now):
                 self._send(now, stale=True, changed=False)
-        elif self._fresh and self.gate.changed(self._lighting.coefficients):
+        elif self._fresh and self.gate.changed(self._lighting.coefficients,
+                                               light_model(self._lighting)):
             self._send(now, stale=False, changed=True)
         elif self.gate.due(now):
             self._send(now, stale=False, changed=False)
@@ -245,7 +259,7 @@ class Probe:
         text = dumps(msg).encode()
         self.seq += 1
         self._fresh = False
-        self.gate.mark_sent(lighting.coefficients, now)
+        self.gate.mark_sent(lighting.coefficients, now, light_model(lighting))
         self.latest_message, self.latest_text = msg, text
         self.publish(self.name, text)
 

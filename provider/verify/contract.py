@@ -13,9 +13,18 @@ any small parser read it)::
                 "unity_matrices" (48: S M S, S = diag(1, 1, -1, 1)),
                 "unity_normals" (3N: (x, y, -z)),
                 and in rotation cases "rotation" (9, row-major, right-handed),
-                "rotated_matrices" (48: R̃ M R̃ᵀ), "unity_rotated_matrices" (48)}],
+                "rotated_matrices" (48: R̃ M R̃ᵀ), "unity_rotated_matrices" (48),
+                and in lights cases (DESIGN.md §10) the wire fields "lights" (k),
+                "light_directions" (3k), "light_irradiance" (3k), "ambient_coefficients"
+                (27), "ambient_matrices" (48), then "irradiance_with_lights" (3N: ñᵀAñ +
+                Σ_k I_k max(0, n·d_k), not clamped), "unity_ambient_matrices" (48: S A S),
+                "unity_light_directions" (3k: (x, y, -z))}],
      "exports_description": "...", "exports": [golden vectors of every `shlight export`
      format: see provider/verify/export_vectors.py]}
+
+In a lights case "coefficients"/"matrices" are the full SH9 (ambient + the lights' SH9
+projection I_k·Y(d_k)) and "irradiance" is still ñᵀMñ of those: the SH9-only checks hold for
+every case, and a reader that ignores lights keys loses nothing.
 
 "irradiance" is ñᵀMñ evaluated in float64 from "matrices" (what every shader computes); it
 differs from Σ Â_l L_lm Y_lm(n) by the 6-digit constants of DESIGN.md §2 (< 1e-6 of the scale).
@@ -97,6 +106,38 @@ def case_normals(coefficients: np.ndarray, count: int = 64) -> np.ndarray:
     return np.vstack([np.eye(3), -np.eye(3), sh.fibonacci_sphere(count - 7), darkest])
 
 
+def lights_vector_case(name: str, ambient, directions, irradiance) -> dict:
+    """A lights case: the full SH9 (ambient + Σ I_k Y(d_k)) as an ordinary case, plus the
+    DESIGN.md §10 fields and E of ambient + lights at its normals (which include ±d_k)."""
+    A = np.asarray(ambient, np.float64)
+    d = np.asarray(directions, np.float64).reshape(-1, 3)
+    irr = np.asarray(irradiance, np.float64).reshape(-1, 3)
+    full = A + sum((np.outer(sh.sh_basis(dk), Ik) for dk, Ik in zip(d, irr)), np.zeros((9, 3)))
+    n = np.vstack([case_normals(full), d, -d])
+    case = vector_case(name, full, normals=n)
+    MA = sh.irradiance_matrices(A)
+    E = sh.irradiance_from_matrices(MA, n) + np.maximum(n @ d.T, 0.0) @ irr
+    case.update(lights=len(d), light_directions=_numbers(d), light_irradiance=_numbers(irr),
+                ambient_coefficients=_numbers(A), ambient_matrices=_numbers(MA),
+                irradiance_with_lights=_numbers(E), unity_ambient_matrices=_numbers(S4 @ MA @ S4),
+                unity_light_directions=_numbers(d @ S3))
+    return case
+
+
+def panorama_lights(name: str, hdri_dir: Path = HDRI_DIR):
+    """(ambient (9, 3), directions (k, 3), irradiance (k, 3)) of a bundled panorama from the
+    engine with ``lights="auto"``."""
+    from ..core.engine import compute_sh9
+    r = compute_sh9(Path(hdri_dir) / f"{name}.exr", error_estimate=False, lights="auto")
+    return (r.ambient, np.array([light.direction for light in r.lights]).reshape(-1, 3),
+            np.array([light.irradiance for light in r.lights]).reshape(-1, 3))
+
+
+#: The one-sided light of the lights cases: from (2, 1, -2)/3 (every axis, so a sign slip on
+#: any of them shows), irradiance π·ONE_SIDED_COLOUR, over a uniform ambient of radiance 0.1.
+ONE_SIDED_LIGHT = (np.array([2.0, 1.0, -2.0]) / 3.0, math.pi * ONE_SIDED_COLOUR)
+
+
 def vector_case(name: str, coefficients, rotation=None, normals=None) -> dict:
     """One case of the vectors file (see the module docstring)."""
     L = np.asarray(coefficients, np.float64)
@@ -128,7 +169,11 @@ DESCRIPTION = (
     "0 at -X); random (seeded Gaussian); panorama_sky and panorama_lab (CC0 Poly Haven "
     "panoramas via @pmndrs/assets, tests/data/hdri; lab rings: E < 0 (blue) at its last normal, "
     "which a shader clamps to 0); rotation cases one_sided_+x_yaw90 (the light moves to -Z) "
-    "and panorama_sky_rotated (yaw 30, pitch -20, roll 10).")
+    "and panorama_sky_rotated (yaw 30, pitch -20, roll 10); lights cases (DESIGN.md section 10: "
+    "E(n) = n~^T A n~ + sum_k I_k max(0, n.d_k) with the ambient matrices A) lights_one_sided "
+    "(uniform ambient 0.1 plus one light from (2, 1, -2)/3 of irradiance pi*(1, 0.5, 0.25): "
+    "E = 0.1 pi at -d, 0.1 pi + I at d), lights_panorama_sky (the sun), lights_panorama_lab "
+    "(two windows) and lights_none_city (no light: ambient = the full SH9).")
 
 
 def contract_vectors(hdri_dir: Path = HDRI_DIR) -> dict:
@@ -141,7 +186,11 @@ def contract_vectors(hdri_dir: Path = HDRI_DIR) -> dict:
              vector_case("panorama_sky", sky),
              vector_case("panorama_lab_ringing", panorama_coefficients("lab", hdri_dir)),
              vector_case("one_sided_+x_yaw90", one_sided, rotation=sh.rotation_from_euler(90, 0, 0)),
-             vector_case("panorama_sky_rotated", sky, rotation=sh.rotation_from_euler(30, -20, 10))]
+             vector_case("panorama_sky_rotated", sky, rotation=sh.rotation_from_euler(30, -20, 10)),
+             lights_vector_case("lights_one_sided", furnace_coefficients(0.1), *ONE_SIDED_LIGHT),
+             lights_vector_case("lights_panorama_sky", *panorama_lights("sky", hdri_dir)),
+             lights_vector_case("lights_panorama_lab", *panorama_lights("lab", hdri_dir)),
+             lights_vector_case("lights_none_city", *panorama_lights("city", hdri_dir))]
     return {"version": 1, "frame": "rh-y-up",
             "unity_frame": "unity-lh-y-up: (x, y, z) -> (x, y, -z)",
             "description": DESCRIPTION, "cases": cases,
@@ -170,7 +219,7 @@ def dumps(vectors: dict) -> str:
 def write_contract_vectors(path: Path = VECTORS_PATH, hdri_dir: Path = HDRI_DIR) -> Path:
     """Write the vectors file; returns its path."""
     from ..core.errors import InputError
-    missing = [n for n in ("sky", "lab") if not (Path(hdri_dir) / f"{n}.exr").exists()]
+    missing = [n for n in ("sky", "lab", "city") if not (Path(hdri_dir) / f"{n}.exr").exists()]
     if missing:
         raise InputError(f"the contract vectors need {', '.join(m + '.exr' for m in missing)} "
                          f"in {hdri_dir}")
@@ -186,7 +235,10 @@ def load_contract_vectors(path: Path = VECTORS_PATH) -> dict:
     shapes = {"coefficients": (9, 3), "matrices": (3, 4, 4), "unity_matrices": (3, 4, 4),
               "rotation": (3, 3), "rotated_matrices": (3, 4, 4),
               "unity_rotated_matrices": (3, 4, 4), "normals": (-1, 3), "irradiance": (-1, 3),
-              "unity_normals": (-1, 3)}
+              "unity_normals": (-1, 3), "ambient_coefficients": (9, 3),
+              "ambient_matrices": (3, 4, 4), "unity_ambient_matrices": (3, 4, 4),
+              "light_directions": (-1, 3), "unity_light_directions": (-1, 3),
+              "light_irradiance": (-1, 3), "irradiance_with_lights": (-1, 3)}
     for case in doc["cases"]:
         for k, shape in shapes.items():
             if k in case:

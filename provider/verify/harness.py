@@ -397,8 +397,14 @@ def default_panoramas() -> list[Path]:
     return sorted(contract.HDRI_DIR.glob("*.exr"))
 
 
-def run(args) -> int:
-    """``shlight validate-shaders`` (arguments: :mod:`provider.cli.validate`)."""
+def run(args, extensions=()) -> int:
+    """``shlight validate-shaders`` (arguments: :mod:`provider.cli.validate`).
+
+    ``extensions``: modules that validate more shader functions the same way (e.g.
+    :mod:`provider.verify.lights`), each with ``compare(ctx, path, normals, panoramas,
+    vectors, tolerance)`` → comparisons, ``demo_checks(ctx)`` and ``pictures(ctx,
+    panoramas, out_dir)`` → picture statistics (printed by the extension).
+    """
     out_dir = Path(args.out)
     if args.normals < 1:
         raise InputError("--normals must be positive")
@@ -427,8 +433,10 @@ def run(args) -> int:
     t0 = time.perf_counter()
     normals = dense_normals(args.normals)
     cases = synthetic_cases(normals) + panorama_cases(panoramas, normals)
+    vectors = None
     if vectors_path.is_file():
-        cases += vector_cases(contract.load_contract_vectors(vectors_path))
+        vectors = contract.load_contract_vectors(vectors_path)
+        cases += vector_cases(vectors)
     else:
         print(f"no contract vectors at {vectors_path} (write them with --write-vectors)")
 
@@ -449,9 +457,19 @@ def run(args) -> int:
         for r in run_cases(evaluator, cases, normals, args.tolerance):
             print(r.line())
             results.append(r)
+        for ext in extensions:
+            try:
+                more = ext.compare(ctx, path, normals, panoramas, vectors, args.tolerance)
+            except Exception as exc:  # a compile error: reported, never passed
+                print(f"FAIL  {path}: {ext.__name__} does not build: {exc}")
+                results.append(None)
+                continue
+            for r in more:
+                print(r.line())
+                results.append(r)
     compared = [r for r in results if r is not None]
     failed = len(results) - sum(r.passed for r in compared)
-    demo = lit_diffuse_checks(ctx)
+    demo = lit_diffuse_checks(ctx) + [d for ext in extensions for d in ext.demo_checks(ctx)]
     for d in demo:
         print(d.line())
     failed += sum(not d.passed for d in demo)
@@ -464,6 +482,8 @@ def run(args) -> int:
             print(f"picture {pic['file']}: SH9 shader vs brute-force irradiance, relative RMS "
                   f"sphere {pic['sphere_rms_rel']:.1%}, torus {pic['torus_rms_rel']:.1%} "
                   f"(all normals {pic['all_normals_rms_rel']:.1%})")
+        for ext in extensions:
+            pictures += ext.pictures(ctx, panoramas, out_dir)
 
     worst = {p: max((r.max_rel for r in compared if r.path == p), default=None) for p in paths}
     rms = {p: max((r.rms_rel for r in compared if r.path == p), default=None) for p in paths}

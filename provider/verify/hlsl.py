@@ -35,21 +35,27 @@ class CrossCompiled:
 
     ``glsl`` is the fragment shader text. ``block`` is the name of the uniform block that
     holds the HLSL globals (None if spirv-cross emitted plain uniforms); ``members`` lists
-    its members in declaration order as (name, GLSL type, row_major).
+    its members in declaration order as (name, GLSL type, row_major); an array's type
+    carries its length, e.g. ``vec4[4]``.
     """
     glsl: str
     block: str | None = None
     members: list = field(default_factory=list)
 
     def member_offsets(self) -> dict:
-        """std140 byte offset of each block member (mat4: 64 bytes, vec4: 16)."""
-        sizes = {"mat4": 64, "vec4": 16}
+        """std140 byte offset of each block member (mat4: 64 bytes, vec4: 16, int and
+        float: 4; arrays of vec4: 16 per element, 16-byte aligned)."""
+        sizes = {"mat4": 64, "vec4": 16, "int": 4, "float": 4}
         offsets, offset = {}, 0
         for name, gltype, _ in self.members:
-            if gltype not in sizes:
+            base, _, count = gltype.partition("[")
+            if base not in sizes or (count and base != "vec4"):
                 raise HlslCompileError(f"unexpected uniform block member {gltype} {name}")
+            size = sizes[base] * (int(count.rstrip("]")) if count else 1)
+            align = 16 if (count or sizes[base] >= 16) else 4
+            offset = -(-offset // align) * align
             offsets[name] = offset
-            offset += sizes[gltype]
+            offset += size
         return offsets
 
 
@@ -92,7 +98,7 @@ def _run(cmd, tool) -> str:
 
 
 _BLOCK = re.compile(r"uniform\s+(\w+)\s*\{(.*?)\}\s*\w*\s*;", re.S)
-_MEMBER = re.compile(r"(layout\(([^)]*)\)\s*)?(\w+)\s+(\w+)\s*;")
+_MEMBER = re.compile(r"(layout\(([^)]*)\)\s*)?(\w+)\s+(\w+)\s*(\[\d+\])?\s*;")
 
 
 def _describe(glsl: str) -> CrossCompiled:
@@ -100,6 +106,6 @@ def _describe(glsl: str) -> CrossCompiled:
     m = _BLOCK.search(glsl)
     if not m:
         return CrossCompiled(glsl)
-    members = [(name, gltype, "row_major" in (layout or ""))
-               for _, layout, gltype, name in _MEMBER.findall(m.group(2))]
+    members = [(name, gltype + array, "row_major" in (layout or ""))
+               for _, layout, gltype, name, array in _MEMBER.findall(m.group(2))]
     return CrossCompiled(glsl, m.group(1), members)

@@ -7,11 +7,26 @@ import urllib.parse
 import numpy as np
 
 from ...core.engine import SH9Result
+from ...core.lights_analysis import Light
 from .base import USER_AGENT, Frame, Interrupted, Source, SourceError, SourceOptions, redact
 
 _RELAY_STATS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
                 "coverage_sr", "negative_energy_fraction", "negative_pixels",
-                "nonfinite_pixels", "order", "min_irradiance", "ringing", "window_cutoff")
+                "nonfinite_pixels", "order", "min_irradiance", "ringing", "window_cutoff",
+                "light_error", "sh9_error", "light_candidates")
+
+
+def relayed_lights(msg: dict):
+    """(lights, ambient coefficients (9, 3) or None) of an upstream message (DESIGN.md §10);
+    each light's key is its slot (upstream sends its lights in a stable order)."""
+    if "ambient_coefficients" not in msg:
+        return [], None             # an upstream from before lights
+    k = int(msg.get("lights", 0))
+    dirs = np.asarray(msg.get("light_directions", []), np.float64).reshape(k, 3)
+    irr = np.asarray(msg.get("light_irradiance", []), np.float64).reshape(k, 3)
+    lights = [Light(d, i, i.copy(), 0.0, 0.0, key=slot)
+              for slot, (d, i) in enumerate(zip(dirs, irr))]
+    return lights, np.asarray(msg["ambient_coefficients"], np.float64).reshape(9, 3)
 
 
 class RelaySource(Source):
@@ -75,10 +90,11 @@ class RelaySource(Source):
                 coeffs = np.asarray(msg["coefficients"], np.float64).reshape(9, 3)
                 mats = np.asarray(msg["matrices"], np.float64).reshape(3, 4, 4)
                 t = float(msg["time"])
+                lights, ambient = relayed_lights(msg)
             except (KeyError, TypeError, ValueError):
                 raise SourceError("upstream sent a malformed sh9 message") from None
             stats = {k: msg[k] for k in _RELAY_STATS if k in msg}
-            return Frame(None, t, lighting=SH9Result(coeffs, mats, stats),
+            return Frame(None, t, lighting=SH9Result(coeffs, mats, stats, lights, ambient),
                          info={"upstream_seq": msg.get("seq")})
 
     def close(self) -> None:

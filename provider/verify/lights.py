@@ -1,0 +1,385 @@
+"""`shlight validate-shaders`, lights: the shipped ambient + directional-lights functions
+(shaders/sh9_lights.glsl and .hlsl, DESIGN.md §10) against the CPU, and a picture of what
+lights change.
+
+The GLSL and HLSL paths are those of :mod:`provider.verify.harness` (the HLSL through
+glslang → SPIR-V → spirv-cross): every case renders E(n) = ñᵀAñ + Σ_k I_k max(0, n·d_k)
+(``shIrradianceWithLights`` / ``SHIrradianceWithLights``, and the unclamped function) for
+dense normals into float32 targets and compares with the float64 CPU value. The error
+measure is the harness's, with the magnitude sum of the light terms added to the scale:
+``|E_gpu − E_cpu| / (|ñ|ᵀ|A||ñ| + Σ_k |I_k| (|n|·|d_k|))`` ≤ 32 float32 round-offs.
+
+Cases: one light from (2, 1, -2)/3 only (independent answer: E = I·max(0, n·d)); no light
+(must equal SH9 alone); four random lights; more slots uploaded than ``count`` (the unused
+slots must not light anything); the engine's lights for each panorama (``lights="auto"``);
+and the lights cases of the contract vectors, in both frames.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..core import sh
+from ..core.engine import compute_sh9
+from ..core.images import read_image
+from . import contract
+from .harness import (FLOAT32_TOLERANCE, HLSL_GLOBALS, INDEPENDENT_TOLERANCE, Comparison,
+                      DemoCheck, DISPLAY_TOLERANCE, IrradianceEvaluator)
+from .pictures import (ObjectRenderer, _colour_bar, _display, _heat, _label,
+                       brute_force_irradiance, panorama_flux)
+from .render import load_program, set_uniform, shader_source, srgb_encode, tone_map
+
+#: Light slots in the shaders (SH_MAX_LIGHTS; provider.core.engine.MAX_LIGHTS).
+MAX_LIGHTS = 4
+
+GLSL_EVALUATOR = """
+uniform sampler2D normals;   // one unit normal per pixel (RGB32F)
+layout(location = 0) out vec4 clampedOut;
+layout(location = 1) out vec4 unclampedOut;
+void main() {
+    vec3 n = texelFetch(normals, ivec2(gl_FragCoord.xy), 0).xyz;
+    clampedOut = vec4(shIrradianceWithLights(n), 1.0);
+    unclampedOut = vec4(shIrradianceWithLightsUnclamped(n), 1.0);
+}
+"""
+
+HLSL_EVALUATOR = """#include "sh9_lights.hlsl"
+Texture2D<float4> _Normals;   // one unit normal per pixel
+struct Targets
+{
+    float4 clamped : SV_Target0;
+    float4 unclamped : SV_Target1;
+};
+Targets main(float4 position : SV_Position)
+{
+    float3 n = _Normals.Load(int3(position.xy, 0)).xyz;
+    Targets t;
+    t.clamped = float4(SHIrradianceWithLights(n), 1.0);
+    t.unclamped = float4(SHIrradianceWithLightsUnclamped(n), 1.0);
+    return t;
+}
+"""
+
+
+def _slots(directions, irradiance) -> np.ndarray:
+    """(2, MAX_LIGHTS, 4) float32: direction and irradiance vec4 per slot (w = 0)."""
+    d = np.asarray(directions, np.float64).reshape(-1, 3)
+    irr = np.asarray(irradiance, np.float64).reshape(-1, 3)
+    if len(d) > MAX_LIGHTS or len(irr) != len(d):
+        raise ValueError(f"at most {MAX_LIGHTS} lights, one irradiance per direction")
+    out = np.zeros((2, MAX_LIGHTS, 4), np.float32)
+    out[0, :len(d), :3], out[1, :len(d), :3] = d, irr
+    return out
+
+
+def upload_lights(program, directions, irradiance, count=None) -> None:
+    """Set ``shLightDirection``, ``shLightIrradiance`` and ``shLightCount`` of a GLSL program
+    (``count`` defaults to the number of lights; slots beyond them are zero)."""
+    slots = _slots(directions, irradiance)
+    n = len(np.asarray(directions).reshape(-1, 3)) if count is None else int(count)
+    for name, data in (("shLightDirection", slots[0]), ("shLightIrradiance", slots[1])):
+        if name in program:
+            program[name].write(data.tobytes())
+    set_uniform(program, "shLightCount", n)
+
+
+class LightsEvaluator(IrradianceEvaluator):
+    """Renders ambient + lights E(n) through one shader path ("glsl" or "hlsl")."""
+
+    def __init__(self, ctx, path: str = "glsl"):
+        source = (shader_source("sh9_lights.glsl") + GLSL_EVALUATOR if path == "glsl"
+                  else HLSL_EVALUATOR)
+        super().__init__(ctx, path, source)
+        self._lights = (_slots([], []), 0)
+
+    def set_lights(self, directions, irradiance, count=None) -> None:
+        n = len(np.asarray(directions).reshape(-1, 3)) if count is None else int(count)
+        self._lights = (_slots(directions, irradiance), n)
+
+    def set_matrices(self, matrices) -> None:
+        slots, count = self._lights
+        if self._block is None:
+            super().set_matrices(matrices)
+            upload_lights(self.program, slots[0, :, :3], slots[1, :, :3], count)
+            return
+        _, offsets, row_major = self._block
+        data = bytearray(self._ubo.size)
+        for name, mc in zip(HLSL_GLOBALS, np.asarray(matrices, np.float64).reshape(3, 4, 4)):
+            mem = mc.T if row_major[name] else mc      # see IrradianceEvaluator.set_matrices
+            data[offsets[name]:offsets[name] + 64] = np.ascontiguousarray(mem, np.float32).tobytes()
+        for name, values in (("_SHLightDirection", slots[0]), ("_SHLightIrradiance", slots[1])):
+            data[offsets[name]:offsets[name] + values.nbytes] = values.tobytes()
+        o = offsets["_SHLightCount"]
+        data[o:o + 4] = np.int32(count).tobytes()
+        self._ubo.write(bytes(data))
+
+    def evaluate_lights(self, matrices, directions, irradiance, normals, count=None):
+        """(clamped, unclamped) E at ``normals`` (N, 3) for these ambient matrices and lights."""
+        self.set_lights(directions, irradiance, count)
+        return self.evaluate(matrices, normals)
+
+
+# -- cases and comparisons ------------------------------------------------------------------------
+
+@dataclass
+class LightCase:
+    """Ambient matrices and lights to upload; ``count`` < len(directions) leaves slots unused."""
+    name: str
+    matrices: np.ndarray                       # (3, 4, 4) ambient
+    directions: np.ndarray                     # (k, 3) unit, toward each light
+    irradiance: np.ndarray                     # (k, 3)
+    count: int | None = None
+    normals: np.ndarray | None = None
+    independent: np.ndarray | None = None
+    independent_kind: str = ""
+    note: str = ""
+
+
+def cpu_irradiance(case: LightCase, normals) -> tuple[np.ndarray, np.ndarray]:
+    """(E, scale) in float64 at ``normals``: E = ñᵀAñ + Σ_k I_k max(0, n·d_k) over the first
+    ``count`` lights; scale = |ñ|ᵀ|A||ñ| + Σ_k |I_k| (|n|·|d_k|), the error measure's."""
+    n = np.asarray(normals, np.float64)
+    k = len(case.directions) if case.count is None else case.count
+    d = np.asarray(case.directions, np.float64).reshape(-1, 3)[:k]
+    irr = np.asarray(case.irradiance, np.float64).reshape(-1, 3)[:k]
+    M = np.asarray(case.matrices, np.float64)
+    E = sh.irradiance_from_matrices(M, n) + np.maximum(n @ d.T, 0.0) @ irr
+    scale = (sh.irradiance_from_matrices(np.abs(M), np.abs(n))
+             + (np.abs(n) @ np.abs(d).T) @ np.abs(irr))
+    return E, scale
+
+
+def compare_lights(case: LightCase, path: str, clamped, unclamped, normals,
+                   tolerance: float = FLOAT32_TOLERANCE) -> Comparison:
+    """Rendered E against the float64 CPU value (and the case's independent answer)."""
+    n = np.asarray(normals, np.float32).astype(np.float64)   # what the shader saw
+    exact, scale = cpu_irradiance(case, n)
+    safe = np.where(scale > 0, scale, 1.0)
+    err = np.abs(unclamped - exact) / safe
+    clamp_err = np.abs(clamped - np.maximum(exact, 0.0)) / safe
+    ind_err = ind_tol = None
+    if case.independent is not None:
+        ind_tol = INDEPENDENT_TOLERANCE[case.independent_kind]
+        ind_err = float(np.max(np.abs(unclamped - case.independent) / safe))
+    result = Comparison(
+        case=case.name, path=path, normals=len(n), max_rel=float(err.max()),
+        rms_rel=sh.relative_rms(unclamped, exact), clamp_max_rel=float(clamp_err.max()),
+        negative_outputs=int(np.count_nonzero(clamped < 0)),
+        ringing_normals=int(np.count_nonzero(exact < -tolerance * scale)),
+        independent_max_rel=ind_err, independent_tolerance=ind_tol, tolerance=tolerance,
+        note=case.note)
+    result.passed = bool(result.max_rel <= tolerance and result.clamp_max_rel <= tolerance
+                         and result.negative_outputs == 0
+                         and (ind_err is None or ind_err <= ind_tol)
+                         and np.all(np.isfinite(unclamped)))
+    return result
+
+
+def synthetic_light_cases(normals: np.ndarray) -> list[LightCase]:
+    """One light from one side only, no light, four random lights, unused slots."""
+    d, irr = contract.ONE_SIDED_LIGHT
+    zero = np.zeros((3, 4, 4))
+    random_m = sh.irradiance_matrices(contract.random_coefficients())
+    rng = np.random.default_rng(contract.RANDOM_SEED)
+    dirs = rng.normal(size=(MAX_LIGHTS, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    powers = rng.uniform(0.5, 20.0, size=(MAX_LIGHTS, 3))
+    n32 = normals.astype(np.float32).astype(np.float64)
+    return [
+        LightCase("lights:one_sided", zero, d[None], irr[None],
+                  independent=np.maximum(n32 @ d, 0.0)[:, None] * irr, independent_kind="analytic",
+                  note="one light from (2,1,-2)/3, no ambient: E = I max(0, n.d)"),
+        LightCase("lights:none", random_m, np.zeros((0, 3)), np.zeros((0, 3)),
+                  independent=sh.irradiance_from_matrices(random_m, n32),
+                  independent_kind="vectors", note="no light: exactly SH9"),
+        LightCase(f"lights:{MAX_LIGHTS}_random", random_m, dirs, powers,
+                  note="every slot in use"),
+        LightCase("lights:count_2_of_4", random_m, dirs, powers, count=2,
+                  note="slots beyond shLightCount must not light anything"),
+    ]
+
+
+def panorama_light_cases(paths) -> list[LightCase]:
+    """The engine's ambient + lights (``lights="auto"``) of each panorama."""
+    cases = []
+    for path in paths:
+        r = compute_sh9(read_image(path), error_estimate=False, lights="auto")
+        d = np.array([light.direction for light in r.lights]).reshape(-1, 3)
+        irr = np.array([light.irradiance for light in r.lights]).reshape(-1, 3)
+        cases.append(LightCase(f"lights:panorama:{Path(path).stem}", r.ambient_matrices, d, irr,
+                               note=f"{len(d)} light(s) from the engine"))
+    return cases
+
+
+def vector_light_cases(vectors: dict) -> list[LightCase]:
+    """Each lights case of the contract vectors, right-handed and in Unity's frame."""
+    cases = []
+    for c in vectors["cases"]:
+        if "lights" not in c:
+            continue
+        for frame, prefix in (("", "lights-vectors"), ("unity_", "lights-vectors-unity")):
+            cases.append(LightCase(
+                f"{prefix}:{c['name']}", c[f"{frame}ambient_matrices"],
+                c[f"{frame}light_directions"], c["light_irradiance"],
+                normals=c[f"{frame}normals"], independent=c["irradiance_with_lights"],
+                independent_kind="vectors", note="contract vectors, lights"))
+    return cases
+
+
+def run_light_cases(evaluator: LightsEvaluator, cases, normals,
+                    tolerance: float = FLOAT32_TOLERANCE) -> list[Comparison]:
+    out = []
+    for case in cases:
+        n = normals if case.normals is None else np.asarray(case.normals, np.float64)
+        clamped, unclamped = evaluator.evaluate_lights(case.matrices, case.directions,
+                                                       case.irradiance, n, case.count)
+        out.append(compare_lights(case, evaluator.path, clamped, unclamped, n, tolerance))
+    return out
+
+
+# -- the demo program with lights (shaders/lit_diffuse_lights.frag) and the picture ---------------
+
+class LightsObjectRenderer(ObjectRenderer):
+    """:class:`~provider.verify.pictures.ObjectRenderer` with shaders/lit_diffuse_lights.frag."""
+
+    def __init__(self, ctx, size: int = 256):
+        super().__init__(ctx, size)
+        self.lit = load_program(ctx, "lit_diffuse.vert", "lit_diffuse_lights.frag")
+
+    def set_lights(self, ambient_matrices, directions, irradiance) -> None:
+        self.set_lighting(ambient_matrices)
+        upload_lights(self.lit, directions, irradiance)
+
+
+def lit_diffuse_lights_check(ctx, size: int = 96) -> DemoCheck:
+    """lit_diffuse_lights.frag against its numpy twin (ρ·max(E, 0)/π, Reinhard, sRGB) on a
+    torus lit by a uniform ambient and the one-sided light."""
+    renderer = LightsObjectRenderer(ctx, size)
+    ambient = sh.irradiance_matrices(contract.furnace_coefficients(0.1))
+    d, irr = contract.ONE_SIDED_LIGHT
+    renderer.set_lights(ambient, d[None], irr[None])
+    albedo, exposure = (0.8, 0.6, 0.4), 0.7
+    for name, value in (("albedo", albedo), ("exposure", exposure), ("toneMap", 1),
+                        ("srgbOutput", True)):
+        set_uniform(renderer.lit, name, value)
+    shown, normals, mask = renderer.render("torus")
+    n = normals[mask].astype(np.float64)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    E = sh.irradiance_from_matrices(ambient, n) + np.maximum(n @ d, 0.0)[:, None] * irr
+    want = srgb_encode(tone_map(np.asarray(albedo) * np.maximum(E, 0) / math.pi * exposure,
+                                "reinhard"))
+    err = float(np.abs(shown[mask] - want).max())
+    return DemoCheck("lights_one_sided_reinhard", err, DISPLAY_TOLERANCE, int(mask.sum()),
+                     bool(err <= DISPLAY_TOLERANCE and mask.sum() > 0))
+
+
+def lights_picture(ctx, image: np.ndarray, title: str, size: int = 256):
+    """(RGB uint8 picture, statistics): SH9 alone vs ambient + lights vs brute force.
+
+    The panorama (lights marked), then per object (sphere, torus) the SH9 shader, the
+    ambient + lights shader and the brute-force reference, and under them the two error
+    heat maps (same scale as the SH9 pictures).
+    """
+    result = compute_sh9(image, error_estimate=False, lights="auto")
+    d = np.array([light.direction for light in result.lights]).reshape(-1, 3)
+    irr = np.array([light.irradiance for light in result.lights]).reshape(-1, 3)
+    dirs, flux = panorama_flux(image)
+    plain, lit = ObjectRenderer(ctx, size), LightsObjectRenderer(ctx, size)
+    plain.set_lighting(result.matrices)
+    lit.set_lights(result.ambient_matrices, d, irr)
+    renders = {}
+    for name in ("sphere", "torus"):
+        sh9, normals, mask = plain.render(name)
+        both, _, _ = lit.render(name)
+        ref = np.zeros_like(sh9, dtype=np.float64)
+        ref[mask] = brute_force_irradiance(dirs, flux, normals[mask]) / math.pi
+        renders[name] = (sh9.astype(np.float64), both.astype(np.float64), ref, mask)
+    mean_ref = np.mean(np.concatenate([r[2][r[3]] for r in renders.values()]))
+    exposure = 0.5 / max(mean_ref, 1e-12)
+    rows, stats = [], {"lights": len(d)}
+    for name, (sh9, both, ref, mask) in renders.items():
+        panels, heat = [], []
+
+        def panel(radiance, text):
+            img = _display(radiance, exposure)
+            img[~mask] = 40
+            return _label(img, text)
+        for key, label, shown in (("sh9", "SH9 alone", sh9),
+                                  ("lights", f"ambient + {len(d)} light(s)", both)):
+            rel = np.abs(shown - ref).mean(axis=-1) / max(ref[mask].mean(), 1e-12)
+            rms = sh.relative_rms(shown[mask], ref[mask])
+            stats[f"{name}_{key}_rms_rel"] = rms
+            panels.append(panel(shown, f"{name}: {label}"))
+            heat.append(_label(_heat(rel, mask), f"|{label} - reference|: RMS {rms:.1%}"))
+        panels.append(panel(ref, "brute-force reference"))
+        note = np.full_like(heat[0], 40)
+        _label(note, "heat: |shader - reference| / mean", 0.4)
+        rows += [np.hstack(panels), np.hstack(heat + [note])]
+    # Over the whole sphere of normals (DESIGN.md §5's measure).
+    truth = brute_force_irradiance(dirs, flux, sh.SPHERE_NORMALS)
+    stats["all_normals_sh9_rms_rel"] = sh.relative_rms(
+        np.maximum(result.irradiance(sh.SPHERE_NORMALS), 0.0), truth)
+    stats["all_normals_lights_rms_rel"] = sh.relative_rms(
+        np.maximum(result.irradiance_with_lights(sh.SPHERE_NORMALS), 0.0), truth)
+    s = size
+    pano = cv2.resize(np.asarray(image, np.float32), (3 * s, 3 * s // 2),
+                      interpolation=cv2.INTER_AREA)
+    pano = _display(np.maximum(pano, 0), exposure)
+    for dk in d:      # mark each light: u = φ/2π + 0.5, v = θ/π (DESIGN.md §1)
+        u = math.atan2(dk[0], -dk[2]) / (2 * math.pi) + 0.5
+        v = math.acos(max(-1.0, min(1.0, float(dk[1])))) / math.pi
+        cv2.drawMarker(pano, (int(u * 3 * s), int(v * 3 * s // 2)), (0, 255, 255),
+                       cv2.MARKER_CROSS, 28, 2)
+    _label(pano, f"{title}: + = light found; sphere of normals: SH9 "
+                 f"{stats['all_normals_sh9_rms_rel']:.1%}, ambient + lights "
+                 f"{stats['all_normals_lights_rms_rel']:.1%} RMS")
+    return np.vstack([pano, *rows, _colour_bar(3 * s)]), stats
+
+
+def write_lights_picture(ctx, panoramas, out_dir: Path, size: int = 256) -> dict | None:
+    """The picture of the panorama where lights help most (largest SH9 → ambient + lights
+    error drop: the sun of sky.exr among the bundled ones), as ``lights_NAME.png``."""
+    best = None
+    for path in panoramas:
+        r = compute_sh9(read_image(path), lights="auto")
+        gain = r.stats["sh9_error"] - r.stats["light_error"]
+        if r.lights and (best is None or gain > best[0]):
+            best = (gain, Path(path))
+    if best is None:
+        return None
+    path = best[1]
+    picture, stats = lights_picture(ctx, read_image(path), path.stem, size)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    file = out_dir / f"lights_{path.stem}.png"
+    cv2.imwrite(str(file), picture[..., ::-1])
+    return {"file": str(file), "panorama": str(path), **stats}
+
+
+# -- the harness extension (provider.verify.harness.run) ------------------------------------------
+
+def compare(ctx, path: str, normals, panoramas, vectors, tolerance) -> list[Comparison]:
+    """Every lights case through one shader path ("glsl" or "hlsl")."""
+    evaluator = LightsEvaluator(ctx, path)
+    cases = synthetic_light_cases(normals) + panorama_light_cases(panoramas)
+    if vectors is not None:
+        cases += vector_light_cases(vectors)
+    return run_light_cases(evaluator, cases, normals, tolerance)
+
+
+def demo_checks(ctx) -> list[DemoCheck]:
+    return [lit_diffuse_lights_check(ctx)]
+
+
+def pictures(ctx, panoramas, out_dir) -> list[dict]:
+    pic = write_lights_picture(ctx, panoramas, out_dir)
+    if pic is None:
+        return []
+    print(f"picture {pic['file']}: SH9 vs ambient + {pic['lights']} light(s) vs brute force, "
+          f"relative RMS over the sphere {pic['all_normals_sh9_rms_rel']:.1%} -> "
+          f"{pic['all_normals_lights_rms_rel']:.1%}")
+    return [pic]

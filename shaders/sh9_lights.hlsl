@@ -1,0 +1,55 @@
+// SH9 ambient plus directional lights (DESIGN.md §10):
+//     E(n) = ñᵀ A ñ + Σ_k I_k · max(0, n · d_k)
+// Include into any HLSL program (Unity built-in, URP, or plain D3D); it includes
+// sh9_irradiance.hlsl (same folder) for _SHIrradianceR/G/B and SHIrradianceUnclamped.
+//
+// Globals, from the wire message:
+//   _SHIrradianceR/G/B     the "ambient_matrices" (A), not "matrices"
+//   _SHLightCount          "lights" (k, at most SH_MAX_LIGHTS)
+//   _SHLightDirection[i]   (light_directions[3i..3i+2], 0): unit vector toward light i
+//   _SHLightIrradiance[i]  (light_irradiance[3i..3i+2], 0): RGB irradiance on a surface
+//                          facing light i (the units of E)
+// Everything must be in the frame of the normals: a Unity client converts the wire frame
+// (right-handed, +Y up) to Unity's left-handed one (z -> -z on the matrices and on each
+// direction) and applies the probe's orientation to both. With "lights": 0 the message's
+// ambient is the full SH9, so this equals SHIrradiance(n). A Lambertian surface of albedo ρ
+// shows radiance ρ·E/π.
+#ifndef SH9_LIGHTS_INCLUDED
+#define SH9_LIGHTS_INCLUDED
+
+#include "sh9_irradiance.hlsl"
+
+#ifndef SH_MAX_LIGHTS
+#define SH_MAX_LIGHTS 4
+#endif
+
+float4 _SHLightDirection[SH_MAX_LIGHTS];
+float4 _SHLightIrradiance[SH_MAX_LIGHTS];
+int _SHLightCount;
+
+// Σ_k I_k · max(0, n · d_k): what the directional lights add at unit normal n.
+float3 SHLightsIrradiance(float3 n)
+{
+    float3 e = 0.0;
+    [unroll]
+    for (int i = 0; i < SH_MAX_LIGHTS; ++i)
+    {
+        if (i < _SHLightCount)
+            e += _SHLightIrradiance[i].rgb * max(dot(n, _SHLightDirection[i].xyz), 0.0);
+    }
+    return e;
+}
+
+// Ambient + lights before clamping (the ambient alone can ring below zero).
+float3 SHIrradianceWithLightsUnclamped(float3 n)
+{
+    return SHIrradianceUnclamped(n) + SHLightsIrradiance(n);
+}
+
+// Irradiance at unit normal n from the ambient and the lights, clamped at zero.
+float3 SHIrradianceWithLights(float3 n)
+{
+    return max(SHIrradianceWithLightsUnclamped(n), 0.0);
+}
+
+#endif // SH9_LIGHTS_INCLUDED
