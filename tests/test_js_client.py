@@ -181,7 +181,7 @@ def test_three_light_probe_one_sided_light(browser, tmp_path):
 
 def test_fixture_three_version_matches_the_example_page():
     """The page loads three.js r187 from a CDN; the test fixture pins the same version."""
-    page = (ROOT / "provider" / "live" / "static" / "xr.js").read_text()
+    page = (ROOT / "provider" / "live" / "static" / "xr.html").read_text()
     pinned = json.loads((ROOT / "tests" / "node" / "package.json").read_text())
     assert f'THREE_VERSION = "{pinned["dependencies"]["three"]}"' in page
     assert three_version() == pinned["dependencies"]["three"]
