@@ -426,8 +426,9 @@ def test_estimate_of_a_primary_light_turned_into_the_reference_space(browser, tm
               const m = await import("/xr-lighting-polyfill.js");
               const p = (q) => [q.x, q.y, q.z, q.w];
               const out = {};
-              for (const [name, rot] of [["plain", null], ["turned", R]]) {
-                const e = m.lightEstimate(m.decodeEstimate(msg), rot);
+              for (const [name, opts] of [["plain", undefined], ["turned", { rotation: R }],
+                                          ["aframe", { rotation: R, shScale: 1 / Math.PI }]]) {
+                const e = m.lightEstimate(m.decodeEstimate(msg), opts);
                 out[name] = { sh: Array.from(e.sphericalHarmonicsCoefficients),
                               direction: p(e.primaryLightDirection), intensity: p(e.primaryLightIntensity),
                               shlight: e.shlight };
@@ -446,4 +447,9 @@ def test_estimate_of_a_primary_light_turned_into_the_reference_space(browser, tm
                                sh.rotate_coefficients(ambient, R), rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(got["turned"]["direction"], [*(R @ d), 0], atol=1e-6)
     assert got["turned"]["intensity"] == [4, 2, 1, 1]
+    # shScale (1/π for A-Frame's reflection component) scales the SH only
+    np.testing.assert_allclose(np.reshape(got["aframe"]["sh"], (9, 3)),
+                               sh.rotate_coefficients(ambient, R) / np.pi, rtol=1e-5, atol=1e-5)
+    assert got["aframe"]["direction"] == got["turned"]["direction"]
+    assert got["aframe"]["intensity"] == [4, 2, 1, 1]
     assert got["sh9"] is None and got["bad"] is None

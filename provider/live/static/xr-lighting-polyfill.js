@@ -97,15 +97,26 @@ function checkRotation(R) {
   return m;
 }
 
-/** The lighting turned into the reference space (`rotation` null: as it is). */
-function turned(lighting, R) {
-  if (!R) return lighting;
-  const d = lighting.direction;
-  const direction = Float32Array.of(
-    R[0] * d[0] + R[1] * d[1] + R[2] * d[2],
-    R[3] * d[0] + R[4] * d[1] + R[5] * d[2],
-    R[6] * d[0] + R[7] * d[1] + R[8] * d[2]);
-  return { ...lighting, coefficients: rotateCoefficients(lighting.coefficients, R), direction };
+/** The lighting turned into the reference space (`R` null: as it is), its SH × shScale. */
+function turned(lighting, R, shScale) {
+  let { coefficients, direction } = lighting;
+  if (R) {
+    const d = direction;
+    direction = Float32Array.of(
+      R[0] * d[0] + R[1] * d[1] + R[2] * d[2],
+      R[3] * d[0] + R[4] * d[1] + R[5] * d[2],
+      R[6] * d[0] + R[7] * d[1] + R[8] * d[2]);
+    coefficients = rotateCoefficients(coefficients, R);
+  }
+  if (shScale !== 1) coefficients = coefficients.map((c) => c * shScale);
+  return { ...lighting, coefficients, direction };
+}
+
+function checkScale(shScale) {
+  if (!(Number.isFinite(shScale) && shScale >= 0)) {
+    throw new RangeError("shlight polyfill: shScale must be a finite number >= 0");
+  }
+  return shScale;
 }
 
 function point(x, y, z, w) {
@@ -115,11 +126,12 @@ function point(x, y, z, w) {
 
 /**
  * The XRLightEstimate of a webxr Lighting (decodeEstimate) turned by `rotation` (row-major
- * 3×3, the provider's frame → the reference space; null: as it is): what getLightEstimate
- * hands out.
+ * 3×3, the provider's frame → the reference space; null: as it is), its SH × `shScale`:
+ * what getLightEstimate hands out.
  */
-export function lightEstimate(lighting, rotation = null) {
-  return new ShlightLightEstimate(turned(lighting, checkRotation(rotation)), lighting.stale);
+export function lightEstimate(lighting, { rotation = null, shScale = 1 } = {}) {
+  return new ShlightLightEstimate(turned(lighting, checkRotation(rotation), checkScale(shScale)),
+                                  lighting.stale);
 }
 
 /** What XRFrame.getLightEstimate returns for a probe of ours (XRLightEstimate's members). */
@@ -141,6 +153,8 @@ class ShlightLightEstimate {
  *   yaw      degrees about +Y from the provider's frame to the XR reference space (above);
  *   rotation 9 numbers, row-major: the same as any rotation (instead of yaw)
  *   force    answer from the provider even where the browser has light estimation
+ *   shScale  multiplies the SH (default 1: as three's XREstimatedLight reads them; 1/π for
+ *            A-Frame 1.8's reflection component, which sets its probe's intensity to 3.14)
  *   maxHz    cap on lighting messages per second (0: none); onState(state, detail),
  *            onLighting(lighting): as client.js's connect()
  *   XRSession, XRFrame, XRWebGLBinding, xr, WebSocket: what to patch / use (default: the
@@ -151,7 +165,7 @@ class ShlightLightEstimate {
  */
 export function installLightEstimationPolyfill(options = {}) {
   const opts = { url: null, probe: null, token: null, yaw: 0, rotation: null, force: false,
-                 maxHz: 0, onState: null, onLighting: null, ...options };
+                 shScale: 1, maxHz: 0, onState: null, onLighting: null, ...options };
   const g = globalThis;
   const SessionClass = "XRSession" in options ? options.XRSession : g.XRSession;
   const FrameClass = "XRFrame" in options ? options.XRFrame : g.XRFrame;
@@ -161,6 +175,7 @@ export function installLightEstimationPolyfill(options = {}) {
   if (!Number.isFinite(+opts.yaw)) throw new TypeError("shlight polyfill: yaw must be a number (degrees)");
   let rotation = opts.rotation ? checkRotation(opts.rotation)
     : +opts.yaw ? checkRotation(yawRotation(+opts.yaw)) : null;
+  const shScale = checkScale(+opts.shScale);
 
   let conn = null, chosenProbe = opts.probe, view = null, warned = false;
   const probes = new Set();                 // our live probes, to tell of new lighting
@@ -217,7 +232,7 @@ export function installLightEstimationPolyfill(options = {}) {
   function current() {
     const l = conn && conn.latest;
     if (!l) return null;
-    if (!view || view.source !== l) view = { ...turned(l, rotation), source: l };
+    if (!view || view.source !== l) view = { ...turned(l, rotation, shScale), source: l };
     return view;
   }
 
