@@ -22,7 +22,7 @@ from provider.core import conventions as cv, sh
 
 from browsertools import (NEEDS_BROWSER, REFUSED, PageHost, browser, canvas_rgba, f32,  # noqa: F401
                           page_of, sphere_row, srgb8, three_version, write_hemisphere)
-from servertools import ServeProcess, http_get
+from servertools import ServeProcess, http_get, poll
 
 pytestmark = NEEDS_BROWSER
 
@@ -33,7 +33,9 @@ YAW90 = np.array([[0, 0, 1], [0, 1, 0], [-1, 0, 0]], float)      # yawRotation(9
 
 
 def webxr_latest(base: str, token: str | None = None) -> dict:
-    status, _, body = http_get(base + "/latest.json?to=webxr" + (f"&token={token}" if token else ""))
+    """The server's latest message in the webxr layout (waiting for its first)."""
+    url = base + "/latest.json?to=webxr" + (f"&token={token}" if token else "")
+    status, _, body = poll(lambda: (r := http_get(url))[0] != 503 and r, what="first lighting")
     assert status == 200, body
     out = json.loads(body)
     assert out["format"] == "webxr"
@@ -188,10 +190,11 @@ def test_example_page_lights_the_scene_through_xr_estimated_light(browser, tmp_p
             assert down["shlight"]["stale"] is True and down["sh"] == now["sh"]
             # ... and comes back on the same port: reconnected, fresh again.
             with ServeProcess("--source", str(pano), "--port", str(port), "--keepalive", "60") as again:
-                page.wait_for_function(f"{polyfill}.state === 'live'", timeout=30000)
+                latest = webxr_latest(again.http)      # the new server's lighting (a new time)
+                page.wait_for_function(f"{polyfill}.state === 'live' && "
+                                       f"{polyfill}.latest.time === {latest['time']!r}", timeout=30000)
                 back = page.evaluate(ESTIMATE)
                 assert back["shlight"]["stale"] is False
-                latest = webxr_latest(again.http)
                 assert back["shlight"]["seq"] == latest["seq"]
                 np.testing.assert_array_equal(back["sh"], f32(latest["sphericalHarmonicsCoefficients"]))
 
@@ -421,6 +424,7 @@ def test_estimate_of_a_primary_light_turned_into_the_reference_space(browser, tm
     export = json.loads(json.dumps(export_message(message, "webxr")))
     R = sh.rotation_from_euler(yaw_deg=50, pitch_deg=-20, roll_deg=10)
     with ServeProcess("--source", str(pano)) as proc:
+        # any page of the provider's origin will do: the module is imported by its path
         with page_of(browser, proc.http + "/healthz") as page:
             got = page.evaluate("""async ([msg, R]) => {
               const m = await import("/xr-lighting-polyfill.js");
