@@ -356,9 +356,17 @@ def test_native_light_estimation_is_left_alone_unless_forced(browser, tmp_path):
                   const binding = new s.Binding(a, null);
                   out.cubeMap = binding.getReflectionCubeMap(probe);
                   out.nativeCubeMap = binding.getReflectionCubeMap(new s.NativeProbe());
+                  // a session that ended: its probes are told nothing more (and let go)
+                  const ending = new s.Session([], false), q = await ending.requestLightProbe();
+                  out.told = 0;
+                  q.onreflectionchange = () => { out.told++; };
+                  window.polyfill.setYaw(5);
+                  ending.dispatchEvent(new Event("end"));
+                  window.polyfill.setYaw(0);
                   return out; }""")
                 assert errors == {"otherSession": "InvalidStateError", "format": "NotSupportedError",
-                                  "notAProbe": "TypeError", "cubeMap": None, "nativeCubeMap": None}
+                                  "notAProbe": "TypeError", "cubeMap": None, "nativeCubeMap": None,
+                                  "told": 1}
 
                 # XREstimatedLight(renderer, true) asks the binding for a cube map at each
                 # 'reflectionchange' (XREstimatedLight.js:44-50, 66): none for our probes,

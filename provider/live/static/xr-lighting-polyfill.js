@@ -40,7 +40,7 @@
 // `rotation`. A "local"/"local-floor" space faces where the headset looked when the session
 // began; yaw = how far to the right (clockwise seen from above) of the camera's forward
 // direction (the centre of its panorama, −Z) that was. probeSpace is the session's "local"
-// space (null where it has none), as Chromium does for ARCore (xr_light_probe.cc).
+// space (null where it has none), as Chromium does for ARCore (xr_light_probe.cc:50-56).
 //
 // Stale lighting: while the provider's source is lost, or the provider is unreachable, the
 // last lighting stays (estimate.shlight.stale is true); one console warning per outage.
@@ -49,7 +49,6 @@ import { connect, rotateCoefficients } from "./client.js";
 export const FEATURE = "light-estimation";
 /** The `convention` of the estimates: the webxr export's (three.js's reading). */
 export const CONVENTION = "webxr-threejs";
-const REFLECTION_FORMATS = ["srgba8", "rgba16f"];   // lighting-estimation index.bs:143-146
 
 /**
  * The webxr-format Lighting of an "export" message with format "webxr" (null for anything
