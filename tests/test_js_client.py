@@ -105,7 +105,7 @@ def test_client_module_from_another_origin(browser, tmp_path):
                           "--allow-origin", host.origin) as proc:
             url = f"{host.origin}/?provider={proc.http}&token=s3cret"
             with page_of(browser, url, tolerate=refused) as page:
-                page.wait_for_function("window.conn.state === 'live'", timeout=20000)
+                page.wait_for_function("window.conn && window.conn.state === 'live'", timeout=20000)
                 proc.stop()
                 page.wait_for_function("window.conn.state === 'down'", timeout=15000)
                 assert "retrying in" in page.evaluate("window.conn.detail")

@@ -38,8 +38,8 @@
 // default, WebXRManager.js:44), so the polyfill hands out lighting already turned into that
 // space: the provider's frame (the camera's) turned by `yaw` degrees about +Y, or by
 // `rotation`. A "local"/"local-floor" space faces where the headset looked when the session
-// began; yaw = how far to the right (clockwise seen from above) of the camera's forward
-// direction (the centre of its panorama, −Z) that was. probeSpace is the session's "local"
+// began; yaw = how far the headset then faced to the right (clockwise seen from above) of
+// the camera's forward direction (the centre of its panorama, −Z). probeSpace is the session's "local"
 // space (null where it has none), as Chromium does for ARCore (xr_light_probe.cc:50-56).
 //
 // Stale lighting: while the provider's source is lost, or the provider is unreachable, the
