@@ -159,7 +159,7 @@ def three_shown(sh27, normals) -> np.ndarray:
 
 def three_xr_shown(webxr_export, normals):
     """three's XREstimatedLight fed the export as an XRLightEstimate (through a stand-in
-    XRSession/XRFrame: the interface the polyfill will provide); what it built, evaluated:
+    XRSession/XRFrame: the interface the polyfill provides); what it built, evaluated:
     LightProbe (getIrradianceAt / π) + DirectionalLight (WebGLLights.js:575-582 direction,
     lights_lambert_pars_fragment.glsl.js:11-18). Returns (shown, node's report)."""
     normals = np.asarray(normals, float)

@@ -2,7 +2,7 @@
 
 tests/node/threejs_eval.mjs runs SphericalHarmonics3.fromArray(sh).getIrradianceAt and
 three's XREstimatedLight (fed through a stand-in XRSession/XRFrame: the interface the WebXR
-polyfill will provide). scripts/test.sh installs three (npm ci --prefix tests/node); without
+polyfill provides). scripts/test.sh installs three (npm ci --prefix tests/node); without
 node or three these tests are skipped with what is missing.
 """
 from __future__ import annotations

@@ -10,91 +10,23 @@ adapter, light a surface from the side the light is on, with the magnitude ρE/�
 """
 from __future__ import annotations
 
-import base64
 import json
 import os
-import re
-import threading
-from contextlib import contextmanager
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-from pathlib import Path
 
 import cv2
 import numpy as np
-import pytest
 
 import provider
 from provider.core import sh
 
+from browsertools import (NEEDS_BROWSER, REFUSED, ROOT, PageHost, browser, canvas_rgba, f32,  # noqa: F401
+                          page_of, sphere_row, srgb8, three_version, write_hemisphere)
 from servertools import ServeProcess, http_get
 
-ROOT = Path(__file__).resolve().parent.parent
-THREE_DIR = ROOT / "tests" / "node" / "node_modules" / "three"
-CHROMIUM = "/usr/bin/chromium"
-BRIDGE = str(ROOT / "tests" / "data" / "hdri" / "bridge.exr")
+pytestmark = NEEDS_BROWSER
 
-try:
-    from playwright.sync_api import sync_playwright
-except ImportError:  # pragma: no cover
-    sync_playwright = None
-
-pytestmark = [
-    pytest.mark.skipif(sync_playwright is None, reason="playwright is not installed"),
-    pytest.mark.skipif(not os.path.exists(CHROMIUM), reason=f"no {CHROMIUM}"),
-    pytest.mark.skipif(not (THREE_DIR / "build" / "three.module.js").exists(),
-                       reason="three.js not installed: npm ci --prefix tests/node"),
-]
-
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run", "--disable-quic"]
-
-
-def three_version() -> str:
-    return json.loads((THREE_DIR / "package.json").read_text())["version"]
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        try:
-            yield b
-        finally:
-            b.close()
-
-
-@contextmanager
-def page_of(browser, url: str, tolerate: str | None = None):
-    """A page on ``url`` whose CDN requests for three.js are answered from tests/node; on
-    exit, asserts it logged no errors (but those matching ``tolerate``)."""
-    page = browser.new_page(viewport={"width": 400, "height": 400})
-    problems: list[str] = []
-    page.on("console", lambda m: m.type == "error" and not (
-        tolerate and re.search(tolerate, m.text)) and problems.append(m.text))
-    page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
-
-    def three(route):
-        name = route.request.url.rsplit("/", 1)[1]
-        path = THREE_DIR / "build" / name
-        if path.is_file():
-            route.fulfill(path=str(path), content_type="text/javascript",
-                          headers={"Access-Control-Allow-Origin": "*"})
-        else:
-            route.fulfill(status=404, body="not in the test fixture")
-    page.route(re.compile(r"https://cdn\.jsdelivr\.net/npm/three@.*"), three)
-    try:
-        page.goto(url)
-        yield page
-        assert problems == [], "\n".join(problems)
-    finally:
-        page.close()
-
-
-class PageHost:
-    """A plain web page on another origin (another port) that imports the provider's
-    client: the cross-origin case of an app hosted elsewhere."""
-
-    PAGE = """<!doctype html><meta charset="utf-8"><title>host</title>
+#: A page on another origin that imports the provider's client (browsertools.PageHost).
+CLIENT_PAGE = """<!doctype html><meta charset="utf-8"><title>host</title>
 <script type="module">
 const q = new URLSearchParams(location.search);
 const m = await import(q.get("provider") + "/client.js");
@@ -107,49 +39,11 @@ window.conn = m.connect(q.get("provider") + "/", {
   onLighting: () => { window.count++; } });
 </script>"""
 
-    def __init__(self):
-        body = self.PAGE.encode()
-
-        class Handler(BaseHTTPRequestHandler):
-            def log_message(self, *a):
-                pass
-
-            def do_GET(self):
-                self.send_response(200)
-                self.send_header("Content-Type", "text/html; charset=utf-8")
-                self.send_header("Content-Length", str(len(body)))
-                self.end_headers()
-                self.wfile.write(body)
-        self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-        self.origin = f"http://127.0.0.1:{self.httpd.server_address[1]}"
-        threading.Thread(target=self.httpd.serve_forever, daemon=True).start()
-
-    def close(self):
-        self.httpd.shutdown()
-        self.httpd.server_close()
-
-
-def f32(values) -> np.ndarray:
-    return np.asarray(values, np.float32).astype(np.float64)
-
-
-def write_hemisphere(path: Path, side: str) -> None:
-    """A 64×32 float panorama: radiance 1 on the +X (``right``) or −X hemisphere, 0
-    elsewhere (u = 0.75 looks along +X, DESIGN.md §1)."""
-    img = np.zeros((32, 64, 3), np.float32)
-    if side == "right":
-        img[:, 32:] = 1.0
-    else:
-        img[:, :32] = 1.0
-    tmp = path.with_name("next-" + path.name)
-    assert cv2.imwrite(str(tmp), img)
-    os.replace(tmp, path)
-
 
 def test_client_module_from_another_origin(browser, tmp_path):
     pano = tmp_path / "room.hdr"
     write_hemisphere(pano, "right")
-    host = PageHost()
+    host = PageHost(CLIENT_PAGE)
     try:
         with ServeProcess("--source", str(pano), "--keepalive", "60", "--stale-after", "0.5",
                           "--reconnect-max", "0.5", "--token", "s3cret",
@@ -158,7 +52,7 @@ def test_client_module_from_another_origin(browser, tmp_path):
             status, headers, _ = http_get(provider_url + "/client.js")
             assert status == 200 and headers["Access-Control-Allow-Origin"] == "*"
             assert headers["Content-Type"].startswith("text/javascript")
-            refused = r"WebSocket connection to .* failed"
+            refused = REFUSED
             url = f"{host.origin}/?provider={provider_url}&probe=default&token=s3cret"
             with page_of(browser, url, tolerate=refused) as page:
                 page.wait_for_function("window.conn && window.conn.state === 'live' "
@@ -211,7 +105,7 @@ def test_client_module_from_another_origin(browser, tmp_path):
                           "--allow-origin", host.origin) as proc:
             url = f"{host.origin}/?provider={proc.http}&token=s3cret"
             with page_of(browser, url, tolerate=refused) as page:
-                page.wait_for_function("window.conn.state === 'live'", timeout=20000)
+                page.wait_for_function("window.conn && window.conn.state === 'live'", timeout=20000)
                 proc.stop()
                 page.wait_for_function("window.conn.state === 'down'", timeout=15000)
                 assert "retrying in" in page.evaluate("window.conn.detail")
@@ -225,19 +119,6 @@ def test_client_module_from_another_origin(browser, tmp_path):
                 assert page.evaluate("window.conn.state") == "closed"
     finally:
         host.close()
-
-
-def canvas_rgba(page) -> np.ndarray:
-    png = base64.b64decode(page.evaluate("""() => { const s = window.shlight;
-        s.renderer.render(s.scene, s.camera);
-        return s.renderer.domElement.toDataURL('image/png'); }""").split(",", 1)[1])
-    bgra = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)
-    return cv2.cvtColor(bgra, cv2.COLOR_BGRA2RGBA)
-
-
-def srgb8(linear: float) -> float:
-    v = min(max(linear, 0.0), 1.0)
-    return 255 * (12.92 * v if v <= 0.0031308 else 1.055 * v ** (1 / 2.4) - 0.055)
 
 
 def test_three_light_probe_one_sided_light(browser, tmp_path):
@@ -277,15 +158,8 @@ def test_three_light_probe_one_sided_light(browser, tmp_path):
             # The shader: a white Lambertian sphere seen from +Z.
             page.evaluate("window.shlight.conn.close()")     # keep this lighting still
             rgba = canvas_rgba(page)
-            h, w = rgba.shape[:2]
-            row = rgba[h // 2]
-            cols = np.flatnonzero(row[:, 3] > 0)                # the sphere on the middle row
-            assert cols.size > w // 2
-            edge = max(3, cols.size // 20)
-            left = row[cols[:edge], :3].astype(float).mean()     # normals near −X
-            right = row[cols[-edge:], :3].astype(float).mean()   # normals near +X
+            left, right, centre = sphere_row(rgba)              # normals near −X, +X, +Z
             assert right > 200 and left < 0.4 * right, (left, right)
-            centre = rgba[h // 2 - 2: h // 2 + 3, w // 2 - 2: w // 2 + 3, :3].astype(float).mean()
             e_front = float(sh.irradiance_from_matrices(ours.matrices, np.array([[0, 0, 1.0]]))
                             .mean())
             assert abs(centre - srgb8(e_front / np.pi)) < 4, (centre, srgb8(e_front / np.pi))
@@ -307,7 +181,7 @@ def test_three_light_probe_one_sided_light(browser, tmp_path):
 
 def test_fixture_three_version_matches_the_example_page():
     """The page loads three.js r187 from a CDN; the test fixture pins the same version."""
-    page = (ROOT / "provider" / "live" / "static" / "xr.js").read_text()
+    page = (ROOT / "provider" / "live" / "static" / "xr.html").read_text()
     pinned = json.loads((ROOT / "tests" / "node" / "package.json").read_text())
     assert f'THREE_VERSION = "{pinned["dependencies"]["three"]}"' in page
     assert three_version() == pinned["dependencies"]["three"]

@@ -20,9 +20,10 @@
 //
 // Extension points (for format conversions and polyfills built on top):
 //   options.subscribe: extra fields merged into the subscribe message sent after each
-//                      hello (e.g. a future {to: "..."} format request);
-//   options.decode(msg): turn an "sh9" message into the Lighting handed out (default
-//                      decodeLighting); options.onMessage(msg): every message, raw;
+//                      hello (e.g. {to: "webxr"}: another engine's layout);
+//   options.decode(msg): turn an "sh9" or "export" message into the Lighting handed out,
+//                      or null to skip it (default decodeLighting: "sh9" only; it needs
+//                      probe, stale and receivedAt); options.onMessage(msg): every message, raw;
 //   options.WebSocket: the WebSocket class (default: the browser's).
 
 export const FRAME = "rh-y-up";
@@ -233,7 +234,9 @@ export function connect(url, options = {}) {
       retry = opts.retryMin;
       if (opts.subscribe) conn.subscribe();
       setState(conn.latest && conn.latest.stale ? "stale" : "live", "");
-    } else if (msg.type === "sh9") {
+    } else if (msg.type === "sh9" || msg.type === "export") {
+      // "export": another engine's layout (subscribe {to: FORMAT}); the default decode
+      // takes "sh9" only, a decode for the format (e.g. the WebXR polyfill's) the exports
       const lighting = opts.decode(msg);
       if (!lighting) return;
       conn.probes.set(lighting.probe, lighting);

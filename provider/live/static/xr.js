@@ -1,31 +1,32 @@
 // shlight WebXR example (served at /xr.html): a white sphere and a torus knot lit by the
-// provider's live SH9 lighting through a THREE.LightProbe, in an immersive-ar session
-// where the browser has one (HoloLens 2 Edge, Quest Browser, Chrome on ARCore; WebXR
-// needs https://, so serve with --tls-cert/--tls-key, or use localhost), else as a
-// preview on the page.
+// provider's live SH9 lighting, in an immersive-ar session where the browser has one
+// (HoloLens 2 Edge, Quest Browser, Chrome on ARCore; WebXR needs https://, so serve with
+// --tls-cert/--tls-key, or use localhost), else as a preview on the page.
+//
+// In a session the scene is lit by three.js's own XREstimatedLight, which asks the session
+// for light estimation; the page installs the provider's polyfill
+// (/xr-lighting-polyfill.js), so where the session has no light estimation (the page does
+// not ask for the browser's own unless ?native=1) the provider answers. The preview (no
+// session) sets a THREE.LightProbe from the provider's messages (client-three.js).
 //
 // Query parameters: probe=NAME, token=T, ws=wss://HOST:8765/ (default: this server),
 // yaw=DEGREES (turn the room's lighting into the XR space: the provider's -Z direction
-// appears at this yaw), three=URL (where to load three.js from; default a CDN).
+// appears at this yaw, counterclockwise seen from above), native=1 (the browser's own light
+// estimation where it has one), three=URL (where to load three.js from, read by xr.html's
+// import map; default a CDN).
 import { connectLightProbe } from "./client-three.js";
+import { installLightEstimationPolyfill, yawRotation } from "./xr-lighting-polyfill.js";
 
-const THREE_VERSION = "0.187.0";
 const params = new URLSearchParams(location.search);
-const threeUrl = params.get("three") ||
-  `https://cdn.jsdelivr.net/npm/three@${THREE_VERSION}/build/three.module.js`;
 const $ = (id) => document.getElementById(id);
 
-function yawRotation(degrees) {                     // about +Y, row-major 3×3
-  const a = (degrees * Math.PI) / 180, c = Math.cos(a), s = Math.sin(a);
-  return [c, 0, s, 0, 1, 0, -s, 0, c];
-}
-
 async function main() {
-  let THREE;
+  let THREE, XREstimatedLight;
   try {
-    THREE = await import(threeUrl);
+    THREE = await import("three");                 // xr.html's import map says where from
+    ({ XREstimatedLight } = await import("three/addons/webxr/XREstimatedLight.js"));
   } catch (err) {
-    $("note").textContent = `cannot load three.js from ${threeUrl} (?three=URL to use another copy)`;
+    $("note").textContent = "cannot load three.js (?three=URL of build/three.module.js to use another copy)";
     throw err;
   }
   const canvas = $("scene");
@@ -45,13 +46,16 @@ async function main() {
   group.add(sphere, knot);
   scene.add(group);
 
+  const provider = params.get("ws") || location.origin + "/";
+  const probe = params.get("probe") || undefined;
+  const token = params.get("token");
+  const yaw = parseFloat(params.get("yaw") || "0") || 0;
+
+  // The preview: the whole lighting (sh9 messages) in a LightProbe.
   const lightProbe = new THREE.LightProbe();
   scene.add(lightProbe);
-  const yaw = parseFloat(params.get("yaw") || "0");
-  const conn = connectLightProbe(params.get("ws") || location.origin + "/", lightProbe, {
-    probe: params.get("probe") || "*",
-    token: params.get("token"),
-    maxHz: 60,
+  const conn = connectLightProbe(provider, lightProbe, {
+    probe: probe || "*", token, maxHz: 60,
     rotation: yaw ? yawRotation(yaw) : null,
     onState: (state, detail) => {
       const el = $("status");
@@ -59,6 +63,19 @@ async function main() {
       el.textContent = detail ? `${state} · ${detail}` : state;
     },
   });
+
+  // In a session: XREstimatedLight, answered by the polyfill where the session has no light
+  // estimation. false: no environment cube map (the provider has SH9 only).
+  const polyfill = installLightEstimationPolyfill({ url: provider, probe, token, yaw });
+  const xrLight = new XREstimatedLight(renderer, false);
+  // At the origin, unscaled: its DirectionalLight shines from its position toward the
+  // world origin (XREstimatedLight.js:112), and LightProbes ignore transforms
+  // (WebGLLights.js:279-287).
+  scene.add(xrLight);
+  // While it estimates, it alone lights the scene (a hidden light is not rendered:
+  // WebGLRenderer.js:1875).
+  xrLight.addEventListener("estimationstart", () => { lightProbe.visible = false; });
+  xrLight.addEventListener("estimationend", () => { lightProbe.visible = true; });
 
   function resize() {
     if (renderer.xr.isPresenting) return;
@@ -76,8 +93,11 @@ async function main() {
   if (navigator.xr && await navigator.xr.isSessionSupported("immersive-ar").catch(() => false)) {
     button.hidden = false;
     button.addEventListener("click", async () => {
+      const optionalFeatures = ["local-floor", "dom-overlay"];
+      if (params.get("native") === "1") optionalFeatures.push("light-estimation");
+      polyfill.connect();                          // lighting on its way while the session starts
       const session = await navigator.xr.requestSession("immersive-ar", {
-        optionalFeatures: ["local-floor", "dom-overlay"], domOverlay: { root: $("overlay") } });
+        optionalFeatures, domOverlay: { root: $("overlay") } });
       renderer.xr.setReferenceSpaceType("local-floor");
       await renderer.xr.setSession(session);
       group.position.set(0, 1.3, -1.2);            // in front of the user at chest height
@@ -91,7 +111,8 @@ async function main() {
     $("note").textContent = "no immersive-ar here: preview";
   }
   // For scripts and tests: what the page holds.
-  window.shlight = { THREE, conn, lightProbe, renderer, scene, camera, sphere, yawRotation };
+  window.shlight = { THREE, conn, lightProbe, renderer, scene, camera, sphere, yawRotation,
+                     polyfill, xrLight, XREstimatedLight };
 }
 
 main();
