@@ -14,7 +14,11 @@ Frame contract (like OpenCV's, but RGB channel order): an ``ndarray`` of shape (
 * ``float16/32/64``: linear radiance (HDR, .exr/.hdr), used as is.
 
 Coefficients are in the units of the linear input times ``exposure`` (scene-referred for
-HDR; 0..1 relative to full scale for integer frames).
+HDR; 0..1 relative to full scale for integer frames). With a camera ``response``
+(:class:`~provider.core.response.CameraResponse`) integer frames are decoded by the
+camera's own curve instead of sRGB, and a frame's ``exposure_s`` and ``gain`` given to
+:meth:`SH9Projector.project` divide the coefficients: radiance per second of exposure, so
+that exposure changes never rebuild a table (DESIGN.md §9). Brackets: :mod:`.bracket`.
 """
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ import numpy as np
 from . import sh
 from .errors import InputError
 from .projections import Equirect, Projection, ProjectionError, make_projection
+from .response import CameraResponse, apply_lut, check_time
 
 
 def srgb_to_linear(v: np.ndarray) -> np.ndarray:
@@ -93,13 +98,17 @@ class SH9Projector:
     error_estimate : bool
         Estimate SH9's truncation error per frame against brute-force irradiance from a
         64×32-ish copy of the frame (costs one extra small resize).
+    response : CameraResponse or None
+        The camera's inverse response: integer frames are decoded with it (a table at
+        t = 1, like the sRGB one) instead of sRGB. None (default): sRGB, as ``encoding``.
     **projection_options
         Passed to the projection (fov_deg, center, radius, K, D, fill, albedo, ...).
     """
 
     def __init__(self, width: int, height: int, projection="equirect", *, encoding="auto",
                  exposure=1.0, downsample=1, rotation=None, order=2, dering="off",
-                 order_budget=0.02, error_estimate=False, **projection_options):
+                 order_budget=0.02, error_estimate=False, response=None,
+                 **projection_options):
         if order not in ORDERS:
             raise InputError(f"order must be one of 0, 1, 2, auto; got {order!r}")
         if dering not in DERING:
@@ -108,6 +117,11 @@ class SH9Projector:
             raise InputError(f"encoding must be auto, srgb or linear; got {encoding!r}")
         if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):
             raise InputError(f"exposure must be a positive finite number; got {exposure!r}")
+        if response is not None and not isinstance(response, CameraResponse):
+            raise InputError(f"response must be a CameraResponse, got {type(response).__name__}")
+        if response is not None and encoding != "auto":
+            raise InputError(f"encoding {encoding!r} and a camera response both say how to "
+                             "decode integer frames: give one")
         downsample = int(downsample)
         if downsample < 1 or width // downsample < 1 or height // downsample < 1:
             raise InputError("downsample must be a positive integer below the frame size")
@@ -125,6 +139,7 @@ class SH9Projector:
         self.rotation = None if rotation is None else np.asarray(rotation, np.float64)
         self._sh_rotation = None if rotation is None else sh.sh_rotation(self.rotation)
         self.error_estimate = bool(error_estimate)
+        self.response = response
 
         # Pixel-independent precomputation.
         p = self.projection
@@ -137,6 +152,7 @@ class SH9Projector:
         else:
             self._weights = p.sh_weights.astype(np.float32)  # (H·W, 9)
         self._luts = {}
+        self._l00_rows = None
         self._estimator = None
         self._coverage = 4 * math.pi if isinstance(p, Equirect) else p.coverage
 
@@ -144,16 +160,32 @@ class SH9Projector:
     def _lut(self, dtype) -> np.ndarray:
         if dtype not in self._luts:
             full = 255 if dtype == np.uint8 else 65535
+            if self.response is not None:   # the camera's curve at t = 1 (16-bit: resampled)
+                r = self.response.to_bits(8 if dtype == np.uint8 else 16)
+                self._luts[dtype] = (r.lut(1.0) * np.float32(self.exposure)).astype(np.float32)
+                return self._luts[dtype]
             v = np.arange(full + 1) / full
             lin = v if self.encoding == "linear" else srgb_to_linear(v)
             self._luts[dtype] = (lin * self.exposure).astype(np.float32)
         return self._luts[dtype]
 
-    def _linearise(self, frame: np.ndarray) -> np.ndarray:
-        """Linear float32 radiance of an integer frame (or a band of one)."""
+    def _linearise(self, frame: np.ndarray, lut: np.ndarray | None = None) -> np.ndarray:
+        """Linear float32 radiance of an integer frame (or a band of one); ``lut``: another
+        table than the projector's own (a bracket slot's)."""
+        if lut is not None:
+            return apply_lut(frame, lut)
         if frame.dtype == np.uint8:
             return cv2.LUT(frame, self._lut(np.uint8))
-        return self._lut(np.uint16)[frame]
+        lut = self._lut(np.uint16)
+        return lut[frame] if lut.ndim == 1 else apply_lut(frame, lut)
+
+    @property
+    def radiometry(self) -> str:
+        """What integer frames' numbers are: "srgb-assumed", "calibrated" (the camera's
+        curve) or "linear" (``encoding="linear"``)."""
+        if self.response is not None:
+            return "srgb-assumed" if self.response.method == "srgb" else "calibrated"
+        return "linear" if self.encoding == "linear" else "srgb-assumed"
 
     def _clean_float(self, frame: np.ndarray, stats: dict) -> np.ndarray:
         """Float32 linear radiance with non-finite and negative samples set to 0 (counted).
@@ -212,30 +244,61 @@ class SH9Projector:
             out[k] += const * partial[ri, ci]
         return out
 
-    def _project_frame(self, frame: np.ndarray, stats: dict) -> np.ndarray:
-        """Linearise (counting bad samples) and project; returns (9, 3) float64."""
+    def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None):
+        """Linearise (counting bad samples) and project; returns the (9, 3) float64
+        coefficients, the small frame of the fast path (or None) and the L00 of the clipped
+        samples per channel (3,). ``lut``: a table other than the projector's own."""
         acc = self._new_accumulator()
         integer = frame.dtype in (np.uint8, np.uint16)
         scale = 1.0 if integer else self.exposure  # integer frames: folded into the LUT
         if integer:
-            top = 255 if frame.dtype == np.uint8 else 65535
-            stats["clipped_fraction"] = float(np.count_nonzero(frame == top)) / frame.size
+            clipped = self.clipping(frame, self._lut(frame.dtype) if lut is None else lut,
+                                     stats)
         else:
             stats["clipped_fraction"] = 0.0
+            clipped = np.zeros(3)
         if self.downsample == 1:
             if integer:
                 for r0 in range(0, frame.shape[0], self.BAND_ROWS):
-                    self._accumulate(self._linearise(frame[r0:r0 + self.BAND_ROWS]), r0, acc)
+                    self._accumulate(self._linearise(frame[r0:r0 + self.BAND_ROWS], lut), r0, acc)
             else:
                 self._accumulate(self._clean_float(frame, stats), 0, acc)
-            return self._coefficients(acc) * scale, None
+            return self._coefficients(acc) * scale, None, clipped
         # Fast path: area-average the *linear* frame, then project the small one.
-        lin = self._linearise(frame) if integer else self._clean_float(frame, stats)
+        lin = self._linearise(frame, lut) if integer else self._clean_float(frame, stats)
         bw, bh = self._block
         small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
                            interpolation=cv2.INTER_AREA)
         self._accumulate(small, 0, acc)
-        return self._coefficients(acc) * scale, small
+        return self._coefficients(acc) * scale, small, clipped
+
+    def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> np.ndarray:
+        """Sets ``stats["clipped_fraction"]`` (channel samples at the top code) and returns
+        the L00 those samples put into the projection through ``lut``, per channel: light
+        that is only a lower bound (the sun). Costs one SIMD compare when nothing clips."""
+        h, w = frame.shape[:2]
+        top = 255 if frame.dtype == np.uint8 else 65535
+        mask = cv2.compare(frame.reshape(h, w * 3), top, cv2.CMP_EQ)   # 255 where clipped
+        n = cv2.countNonZero(mask)
+        stats["clipped_fraction"] = float(n) / frame.size
+        if n == 0:
+            return np.zeros(3)
+        value = (lut[top].reshape(-1) if lut.ndim == 1 else lut.reshape(top + 1, 3)[top])
+        if self._weights is None:              # equirect: per-row counts × row weights
+            if self._l00_rows is None or len(self._l00_rows) != h:
+                full = Equirect(w, h)
+                self._l00_rows = sh.C0 * full.row_integrals()[0] * full.col_integrals()[0].mean()
+            counts = cv2.reduce(mask.reshape(h, w, 3), 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S)
+            weight = self._l00_rows @ counts.reshape(h, 3).astype(np.float64) / 255.0
+        else:
+            m = mask.reshape(h, w, 3)
+            if self.downsample > 1:
+                bw, bh = self._block
+                m = cv2.resize(m[:bh, :bw].astype(np.float32),
+                               (self.projection.width, self.projection.height),
+                               interpolation=cv2.INTER_AREA)
+            weight = self._weights[:, 0] @ m.reshape(-1, 3).astype(np.float32) / 255.0
+        return np.asarray(value, np.float64) * np.asarray(weight, np.float64)
 
     def _prepare(self, frame) -> np.ndarray:
         if not isinstance(frame, np.ndarray):
@@ -261,11 +324,20 @@ class SH9Projector:
                              f"was built for {self.width}×{self.height}")
         return np.ascontiguousarray(frame)
 
-    def project(self, frame: np.ndarray) -> SH9Result:
+    def project(self, frame: np.ndarray, *, exposure_s: float | None = None,
+                gain: float = 1.0) -> SH9Result:
         """Coefficients, matrices and statistics of one frame.
 
+        ``exposure_s`` and ``gain`` (when the source reports them): the coefficients are
+        divided by ``exposure_s · gain``, radiance per second of exposure (DESIGN.md §9),
+        so that auto exposure does not make the lighting jump; the table is not rebuilt.
+
         ``stats`` keys: ``compute_ms``, ``clipped_fraction`` (fraction of channel samples at
-        the top code value of an integer frame), ``negative_pixels`` and
+        the top code value of an integer frame), ``clipped_light_fraction`` (the share of
+        L00, the mean light, that comes from those samples: a lower bound, never measured),
+        ``radiometry`` ("srgb-assumed", "calibrated" or "linear"), ``response`` (the camera
+        curve's method, with a response), ``exposure_s`` and ``gain`` (when given),
+        ``negative_pixels`` and
         ``nonfinite_pixels`` (set to 0 and counted), ``min_irradiance`` (per channel, over
         the sphere, after windowing), ``ringing`` (the un-windowed SH irradiance went
         negative), ``window_cutoff`` (sinc⁴ cutoff applied, or None), ``order`` (kept),
@@ -276,10 +348,13 @@ class SH9Projector:
         t0 = time.perf_counter()
         stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
         frame = self._prepare(frame)
-        coeffs, small = self._project_frame(frame, stats)
-        if self._sh_rotation is not None:
-            coeffs = self._sh_rotation @ coeffs
-        result = self._finish(coeffs, stats)
+        k = exposure_scale(exposure_s, gain, stats)
+        coeffs, small, clipped = self._project_frame(frame, stats)
+        if k is not None:
+            coeffs, clipped = coeffs * k, clipped * k
+        integer = frame.dtype in (np.uint8, np.uint16)
+        self.radiometry_stats(stats, coeffs, clipped, self.radiometry if integer else "linear")
+        result = self.result(coeffs, stats)
         if self.error_estimate:
             if small is None:
                 small = (self._linearise(frame) if frame.dtype in (np.uint8, np.uint16)
@@ -287,6 +362,36 @@ class SH9Projector:
             result.stats["error_estimate"] = self._estimate_error(small, result.stats["order"])
         result.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
         return result
+
+    # -- building blocks of brackets (provider.core.bracket) ----------------------------------
+    def project_part(self, frame: np.ndarray, table: np.ndarray):
+        """The projection of ``table(frame)`` for an 8/16-bit frame: ``(coefficients (9, 3),
+        clipped L00 (3,), stats)``, not rotated and not scaled by any exposure (one slot of
+        a bracket; the sum of slots goes to :meth:`result`)."""
+        stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
+        frame = self._prepare(frame)
+        if frame.dtype not in (np.uint8, np.uint16):
+            raise InputError(f"a bracket needs 8- or 16-bit frames, got {frame.dtype}")
+        coeffs, _, clipped = self._project_frame(frame, stats, lut=table)
+        return coeffs * self.exposure, clipped * self.exposure, stats
+
+    def result(self, coefficients: np.ndarray, stats: dict) -> SH9Result:
+        """An :class:`SH9Result` from exact (un-rotated) coefficients: the sensor rotation,
+        windowing, order choice, matrices and their statistics."""
+        if self._sh_rotation is not None:
+            coefficients = self._sh_rotation @ coefficients
+        return self._finish(coefficients, stats)
+
+    def radiometry_stats(self, stats: dict, coefficients: np.ndarray, clipped_l00: np.ndarray,
+                         radiometry: str) -> None:
+        """``radiometry``, ``response`` and ``clipped_light_fraction`` (clipped L00 over all
+        L00, summed over the channels; exact coefficients, before rotation) into stats."""
+        stats["radiometry"] = radiometry
+        if self.response is not None and radiometry != "linear":
+            stats["response"] = self.response.method
+        total = float(np.sum(coefficients[0]))
+        part = float(np.sum(clipped_l00))
+        stats["clipped_light_fraction"] = min(max(part / total, 0.0), 1.0) if total > 0 else 0.0
 
     def _finish(self, exact: np.ndarray, stats: dict) -> SH9Result:
         coeffs = exact
@@ -347,6 +452,20 @@ class SH9Projector:
         if self.dering == "auto":
             out, _ = sh.dering(out)
         return sh.truncate_order(out, order)
+
+
+def exposure_scale(exposure_s, gain, stats: dict) -> float | None:
+    """1 / (exposure_s · gain), recorded in ``stats``; None when no exposure is known."""
+    if exposure_s is None:
+        if gain != 1.0:
+            raise InputError("a gain needs an exposure time too")
+        return None
+    t = check_time(exposure_s, "exposure_s")
+    g = check_time(gain, "gain")
+    stats["exposure_s"] = t
+    if g != 1.0:
+        stats["gain"] = g
+    return 1.0 / (t * g)
 
 
 def _count_pixels(mask: np.ndarray) -> int:
