@@ -1,8 +1,9 @@
-"""`shlight` command line: compute | serve | validate-shaders | bench.
+"""`shlight` command line: compute | serve | validate-shaders | bench | calibrate-response.
 
 User errors (bad files, bad options) print one clear line to stderr and exit with status
 2; they never show a traceback. Each command's options live in a module of this package
-(:mod:`.compute`, :mod:`.serve`, :mod:`.validate`, :mod:`.bench`, the engine options shared
+(:mod:`.compute`, :mod:`.serve`, :mod:`.validate`, :mod:`.bench`, :mod:`.calibrate`; the
+frame@time syntax in :mod:`.frames`; the engine options shared
 by several in :mod:`.options`); what the command does lives in its layer and is imported
 only when the command runs.
 """
@@ -21,6 +22,8 @@ COMMANDS = (
     ("serve", "serve", "serve live coefficients over WebSocket (default: demo source)"),
     ("validate-shaders", "validate", "prove the GLSL/HLSL compute what the CPU computes"),
     ("bench", "bench", "speed against error: Markdown table and PNG plot"),
+    ("calibrate-response", "calibrate",
+     "a camera's response curve from FRAME@SECONDS brackets -> camera.json"),
 )
 
 

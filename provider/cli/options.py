@@ -52,6 +52,9 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                    help="fisheye: model of the unseen hemisphere (default ground)")
     g.add_argument("--albedo", type=float, default=0.1,
                    help="fisheye fill albedo (default 0.1, measured best on real scenes)")
+    g.add_argument("--camera", default=None, metavar="CAMERA.json",
+                   help="the camera's response (shlight calibrate-response): 8/16-bit frames "
+                        "are decoded with its curve instead of sRGB")
 
 
 def engine_options(args) -> dict:
@@ -62,6 +65,9 @@ def engine_options(args) -> dict:
                 order_budget=args.order_budget, dering=args.dering)
     if args.rotate:
         opts["rotation"] = rotation_from_euler(*args.rotate)
+    if getattr(args, "camera", None):
+        from ..live.camerafile import load_camera
+        opts["response"] = load_camera(args.camera)
     if args.projection == "fisheye":
         opts.update(fill=args.fill, albedo=args.albedo)
         if args.fov is not None:
