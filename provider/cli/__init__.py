@@ -28,8 +28,8 @@ COMMANDS = (
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="shlight", description="Live SH9 ambient lighting for AR headsets.")
+    from .options import Parser
+    parser = Parser(prog="shlight", description="Live SH9 ambient lighting for AR headsets.")
     parser.add_argument("--version", action="version", version=f"shlight {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, module, helptext in COMMANDS:

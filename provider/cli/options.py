@@ -3,10 +3,36 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 
 import numpy as np
 
 from ..core.errors import InputError
+
+
+#: Options whose value may start with '-' ("--bracket -4,-2,0,2,4"): argparse would take such
+#: a value for an unknown option, so it is glued to its option ("--bracket=-4,...") first.
+NEGATIVE_VALUE_OPTIONS = ("--bracket",)
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse, reading ``--bracket -4,-2,0`` as a value (see NEGATIVE_VALUE_OPTIONS)."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        import sys
+        args = list(sys.argv[1:] if args is None else args)
+        out = []
+        i = 0
+        while i < len(args):
+            a = args[i]
+            if (a in NEGATIVE_VALUE_OPTIONS and i + 1 < len(args)
+                    and re.match(r"[-+\u2212]?\d", args[i + 1])):
+                out.append(f"{a}={args[i + 1]}")
+                i += 2
+                continue
+            out.append(a)
+            i += 1
+        return super().parse_known_args(out, namespace)
 
 
 def _floats(text: str, n: int, what: str):

@@ -346,7 +346,7 @@ class BracketProjector:
                 self.restarts += 1
         self.parts[slot], self._clipped[slot] = coeffs, clipped
         self._fraction[slot] = stats["clipped_fraction"]
-        self.exposures[slot] = float(exposure_s)
+        self.exposures[slot] = float(exposure_s) * float(gain)
         if not self.complete:
             result = self.projector.project(frame, exposure_s=exposure_s, gain=gain)
             result.stats["bracket_slots"] = sum(p is not None for p in self.parts)

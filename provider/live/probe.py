@@ -9,6 +9,11 @@ keep-alive is due, or when the probe goes stale or fresh again.
 
 States: ``starting`` (no lighting yet), ``live``, ``stale`` (the source is lost or silent:
 the last lighting is resent with ``"stale": true`` and its ``age_s``).
+
+Radiometry (DESIGN.md §9): a frame whose source reports its exposure (``Frame.info``
+``exposure_s``, ``gain``) is divided by it; a frame of a bracket (``slot``, ``bracket``) goes
+to the probe's :class:`~provider.core.bracket.BracketProjector`, which keeps one (9, 3) part
+per slot and returns merged lighting for every frame.
 """
 from __future__ import annotations
 
@@ -19,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.bracket import BracketProjector
 from ..core.engine import SH9Projector, SH9Result
 from ..core.errors import InputError
 from .capture import Capture
@@ -68,6 +74,7 @@ class Probe:
         self.compute_ms = 0.0
         self.latency_s = 0.0            # capture → message of the newest frame
         self._projectors: dict = {}
+        self._brackets: dict = {}       # (size, slot exposures) -> BracketProjector
         self._lighting: SH9Result | None = None
         self._frame_time = 0.0          # unix time of the newest frame (the source's clock)
         self._arrival = 0.0             # when it was processed here (our clock)
@@ -103,8 +110,10 @@ class Probe:
                     timer.cancel()
                 self._wake.clear()
                 frame = self.capture.take()
-                if frame is not None:
+                while frame is not None:   # a bracket's slots may be waiting side by side
                     await self._process(frame)
+                    self._maybe_publish(time.time())
+                    frame = self.capture.take()
                 self._maybe_publish(time.time())
         finally:
             await asyncio.to_thread(self.capture.stop)
@@ -153,7 +162,16 @@ class Probe:
             self._projectors[key] = projector
         if isinstance(projector, InputError):
             raise projector
-        return projector.project(image)
+        info = frame.info or {}
+        if info.get("slot") is not None and info.get("bracket") and info.get("exposure_s"):
+            bkey = (key, tuple(info["bracket"]))
+            bracket = self._brackets.get(bkey)
+            if bracket is None:
+                self._brackets.clear()       # a new bracket (or size) replaces the old one
+                bracket = self._brackets[bkey] = BracketProjector(projector, info["bracket"])
+            return bracket.push(info["slot"], image, info["exposure_s"], info.get("gain", 1.0))
+        return projector.project(image, exposure_s=info.get("exposure_s"),
+                                 gain=info.get("gain", 1.0))
 
     def _rejected(self, reason: str) -> None:
         self.frames_rejected += 1

@@ -11,7 +11,9 @@ from .base import USER_AGENT, Frame, Interrupted, Source, SourceError, SourceOpt
 
 _RELAY_STATS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
                 "coverage_sr", "negative_energy_fraction", "negative_pixels",
-                "nonfinite_pixels", "order", "min_irradiance", "ringing", "window_cutoff")
+                "nonfinite_pixels", "order", "min_irradiance", "ringing", "window_cutoff",
+                "radiometry", "response", "exposure_s", "gain", "exposures_s",
+                "clipped_light_fraction")
 
 
 class RelaySource(Source):
