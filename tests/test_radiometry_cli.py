@@ -178,3 +178,13 @@ def test_bad_input_is_one_clear_line(tmp_path, case, needle):
     assert "Traceback" not in p.stderr and p.stdout == ""
     assert len(p.stderr.strip().splitlines()) == 1 or case in ("two_to_calibrate",
                                                                 "calibrate_16bit")
+
+
+def test_bench_radiometry_writes_a_table_and_a_plot(tmp_path):
+    p = shlight("bench", "--quick", "--sections", "radiometry", "--out", tmp_path, timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    table = (tmp_path / "radiometry.md").read_text()
+    for needle in ("1 sRGB-assumed", "1 calibrated", "7 merged", "Choosing the live default",
+                   "× single-frame exact", "| sky |"):
+        assert needle in table
+    assert (tmp_path / "radiometry.png").stat().st_size > 10_000

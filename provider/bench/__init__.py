@@ -17,6 +17,10 @@ Sections (all written to ``--out``, default ./bench-results):
 * ``scenes.md``: per real panorama, what SH9 itself misses (truncation error against
   brute-force irradiance), whether order 2 rings negative, what ``--dering auto`` costs,
   and which order ``--order auto`` keeps.
+* ``radiometry.md`` / ``.png`` (only with ``--sections radiometry``, see
+  :mod:`provider.bench.radiometry`): a simulated 8-bit camera on the real panoramas, one
+  frame (sRGB-assumed, true curve, calibrated) and brackets against the HDR truth, and the
+  per-frame cost of the live merged path.
 * ``server.md`` / ``server.json`` (only with ``--sections server``, see
   :mod:`provider.bench.server`): frame-to-client latency p50/p99 of a real ``shlight serve``
   and the number of clients one core keeps at 30 Hz.
@@ -52,7 +56,7 @@ def run(args) -> int:
     if not hdri:
         raise InputError(f"no .exr/.hdr panoramas in {args.hdri}")
     sections = {s.strip() for s in args.sections.split(",") if s.strip()}
-    unknown = sections - {"speed", "edge", "fill", "scenes", "server"}
+    unknown = sections - {"speed", "edge", "fill", "scenes", "server", "radiometry"}
     if unknown:
         raise InputError(f"unknown bench sections: {', '.join(sorted(unknown))}")
     if "speed" in sections:
@@ -67,6 +71,9 @@ def run(args) -> int:
     if "scenes" in sections:
         from .scenes import bench_scenes
         bench_scenes(hdri, out, args)
+    if "radiometry" in sections:
+        from .radiometry import bench_radiometry
+        bench_radiometry(hdri, out, args)
     if "server" in sections:
         try:
             from . import server as server_bench

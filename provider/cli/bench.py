@@ -18,7 +18,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-instructions", action="store_true",
                    help="skip the callgrind instruction count (slow: ~1 min)")
     p.add_argument("--sections", default="speed,edge,fill,scenes",
-                   help="comma list of: speed, edge, fill, scenes, server")
+                   help="comma list of: speed, edge, fill, scenes, server, radiometry")
 
 
 def run(args) -> int:
