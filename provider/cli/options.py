@@ -93,6 +93,9 @@ def engine_options(args) -> dict:
         opts["rotation"] = rotation_from_euler(*args.rotate)
     if getattr(args, "camera", None):
         from ..live.camerafile import load_camera
+        if args.encoding != "auto":
+            raise InputError(f"--encoding {args.encoding} and --camera both say how to decode "
+                             "8/16-bit frames: give one")
         opts["response"] = load_camera(args.camera)
     if args.projection == "fisheye":
         opts.update(fill=args.fill, albedo=args.albedo)

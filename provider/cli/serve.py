@@ -31,7 +31,7 @@ examples:
   shlight serve --source theta://192.168.1.1 --host 0.0.0.0 --token SECRET
   shlight serve --probe room=theta://192.168.1.1 --probe desk=0 \\
                 --probe-args "desk=--projection fisheye --fov 190"
-  shlight serve --source picamera2 --camera camera.json --bracket   # -8,-4,0,+4 EV
+  shlight serve --source picamera2 --camera camera.json --bracket   # -9,-6,-3,0,+3 EV
 
 radiometry (8-bit cameras): --camera CAMERA.json (from shlight calibrate-response) decodes
 frames with the camera's own curve; a source that reports its exposure (picamera2; a UVC
@@ -105,10 +105,10 @@ def _add_source_arguments(g) -> None:
     g.add_argument("--theta-api", choices=["auto", "2.0", "2.1"], default="auto",
                    help="Theta OSC API: 2.1 camera.getLivePreview, 2.0 _getLivePreview "
                         "(auto: try 2.1, fall back to 2.0)")
-    g.add_argument("--bracket", nargs="?", const="-8,-4,0,4", default=None, type=_offsets,
+    g.add_argument("--bracket", nargs="?", const="-9,-6,-3,0,3", default=None, type=_offsets,
                    metavar="EVS",
                    help="cycle the exposure over these EV offsets around auto exposure and "
-                        "merge the newest frame of each, e.g. -4,-2,0,2,4 (alone: -8,-4,0,4, "
+                        "merge the newest frame of each, e.g. -4,-2,0,2,4 (alone: -9,-6,-3,0,3, "
                         "measured best; picamera2, UVC cameras with --exposure-unit, theta://)")
     g.add_argument("--exposure-unit", choices=["100us", "log2s", "s"], default=None,
                    help="UVC cameras: the unit of the driver's CAP_PROP_EXPOSURE (V4L2: "
