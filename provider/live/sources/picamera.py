@@ -20,9 +20,9 @@ class Picamera2Source(Source):
     swapped here. Every frame comes with its own metadata (``capture_request``), so each
     frame reports its exposure: ExposureTime × AnalogueGain × DigitalGain.
 
-    ``options.bracket`` (EV offsets): after auto exposure settles, AE is switched off and the
-    exposure cycles ``base · 2**ev`` (ExposureTime first, AnalogueGain beyond the camera's
-    longest exposure). Controls take effect a few frames after they are set, so a frame is
+    ``options.bracket`` (EV offsets): after auto exposure settles, AE (and AWB) are switched
+    off and the exposure cycles ``base · 2**ev`` (ExposureTime first, AnalogueGain beyond the
+    camera's longest exposure). Controls take effect a few frames after they are set, so a frame is
     assigned to a slot only when *its metadata* says it has that slot's exposure; frames in
     between are dropped.
     """
@@ -65,11 +65,11 @@ class Picamera2Source(Source):
     def _capture(self):
         request = self._cam.capture_request()
         try:
-            bgr = request.make_array("main")
+            rgb = np.ascontiguousarray(request.make_array("main")[..., 2::-1])
             metadata = request.get_metadata() or {}
         finally:
             request.release()
-        return np.ascontiguousarray(bgr[..., 2::-1]), metadata
+        return rgb, metadata
 
     @staticmethod
     def _exposure(md: dict):
@@ -125,7 +125,9 @@ class Picamera2Source(Source):
         self._controls = []
         for total in self._slots:
             exp, g = settable(total)
-            self._controls.append({"AeEnable": False, "ExposureTime": int(round(exp * 1e6)),
+            # white balance frozen too: the slots of one set must share their colour gains
+            self._controls.append({"AeEnable": False, "AwbEnable": False,
+                                   "ExposureTime": int(round(exp * 1e6)),
                                    "AnalogueGain": float(g)})
         longest = max(c["ExposureTime"] for c in self._controls)
         lo = int(round(1e6 / self.options.fps)) if self.options.fps else 0
