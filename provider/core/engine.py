@@ -247,24 +247,31 @@ class SH9Projector:
     def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None):
         """Linearise (counting bad samples) and project; returns the (9, 3) float64
         coefficients, the small frame of the fast path (or None) and the L00 of the clipped
-        samples per channel (3,). ``lut``: a table other than the projector's own."""
+        samples (summed over the channels). ``lut``: a table other than the projector's own."""
         acc = self._new_accumulator()
         integer = frame.dtype in (np.uint8, np.uint16)
         scale = 1.0 if integer else self.exposure  # integer frames: folded into the LUT
-        if integer:
-            clipped = self.clipping(frame, self._lut(frame.dtype) if lut is None else lut,
-                                     stats)
-        else:
+        if not integer:
             stats["clipped_fraction"] = 0.0
-            clipped = np.zeros(3)
         if self.downsample == 1:
             if integer:
+                table = self._lut(frame.dtype) if lut is None else lut
+                clip = self._clip_state(frame, table)
                 for r0 in range(0, frame.shape[0], self.BAND_ROWS):
-                    self._accumulate(self._linearise(frame[r0:r0 + self.BAND_ROWS], lut), r0, acc)
-            else:
-                self._accumulate(self._clean_float(frame, stats), 0, acc)
-            return self._coefficients(acc) * scale, None, clipped
+                    band = frame[r0:r0 + self.BAND_ROWS]
+                    self._accumulate(self._linearise(band, lut), r0, acc)
+                    if self._weights is None:
+                        self._clip_band(band, r0, clip)  # while the band is in cache
+                if self._weights is not None:
+                    return self._coefficients(acc) * scale, None, self.clipping(frame, table,
+                                                                                stats)
+                stats["clipped_fraction"] = clip["n"] / frame.size
+                return self._coefficients(acc) * scale, None, clip["l00"]
+            self._accumulate(self._clean_float(frame, stats), 0, acc)
+            return self._coefficients(acc) * scale, None, 0.0
         # Fast path: area-average the *linear* frame, then project the small one.
+        clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
+                   if integer else 0.0)
         lin = self._linearise(frame, lut) if integer else self._clean_float(frame, stats)
         bw, bh = self._block
         small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
@@ -272,33 +279,75 @@ class SH9Projector:
         self._accumulate(small, 0, acc)
         return self._coefficients(acc) * scale, small, clipped
 
-    def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> np.ndarray:
-        """Sets ``stats["clipped_fraction"]`` (channel samples at the top code) and returns
-        the L00 those samples put into the projection through ``lut``, per channel: light
-        that is only a lower bound (the sun). Costs one SIMD compare when nothing clips."""
+    # -- clipped samples ------------------------------------------------------------------
+    def _clip_state(self, frame: np.ndarray, lut: np.ndarray) -> dict:
         h, w = frame.shape[:2]
         top = 255 if frame.dtype == np.uint8 else 65535
-        mask = cv2.compare(frame.reshape(h, w * 3), top, cv2.CMP_EQ)   # 255 where clipped
+        value = np.asarray(lut[top] if lut.ndim == 1 else lut.reshape(top + 1, 3)[top],
+                           np.float64).reshape(-1)
+        if self._weights is None and (self._l00_rows is None or len(self._l00_rows) != h):
+            # equirect: L00 weight per row (dense projections: per pixel, _dense_clipped_l00)
+            full = Equirect(w, h)    # full-resolution rows, whatever the downsampling
+            self._l00_rows = sh.C0 * full.row_integrals()[0] * full.col_integrals()[0].mean()
+        return {"top": top, "value": value, "one": bool(np.all(value == value[0])),
+                "n": 0, "l00": 0.0}
+
+    def _clip_band(self, band: np.ndarray, r0: int, clip: dict) -> None:
+        """Equirect: count a band's clipped samples and add the L00 they carry (at their
+        clip level) to ``clip``: per-row counts × row weights; one SIMD compare when
+        nothing clips."""
+        hb, w = band.shape[:2]
+        mask = cv2.compare(band.reshape(hb, w * 3), clip["top"], cv2.CMP_EQ)  # 255: clipped
         n = cv2.countNonZero(mask)
-        stats["clipped_fraction"] = float(n) / frame.size
         if n == 0:
-            return np.zeros(3)
-        value = (lut[top].reshape(-1) if lut.ndim == 1 else lut.reshape(top + 1, 3)[top])
-        if self._weights is None:              # equirect: per-row counts × row weights
-            if self._l00_rows is None or len(self._l00_rows) != h:
-                full = Equirect(w, h)
-                self._l00_rows = sh.C0 * full.row_integrals()[0] * full.col_integrals()[0].mean()
-            counts = cv2.reduce(mask.reshape(h, w, 3), 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S)
-            weight = self._l00_rows @ counts.reshape(h, 3).astype(np.float64) / 255.0
+            return
+        clip["n"] += n
+        value, rows = clip["value"], self._l00_rows[r0:r0 + hb]
+        if clip["one"]:
+            counts = cv2.reduce(mask, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).reshape(hb)
+            clip["l00"] += float(value[0] * (rows @ counts)) / 255.0
+        else:                                  # (cv2.reduce of 3 channels at once is slow)
+            planes = cv2.split(mask.reshape(hb, w, 3))
+            clip["l00"] += sum(float(value[c] * (rows @ cv2.reduce(
+                planes[c], 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).reshape(hb)))
+                for c in range(3)) / 255.0
+
+    def _dense_clipped_l00(self, mask: np.ndarray, clip: dict) -> float:
+        """L00 carried by the clipped samples (``mask`` 255, H×W×3) of a frame, dense
+        weights: the mask against a full-resolution map of L00 weights (with downsampling,
+        each block's weight shared by its pixels), on the rows that have clipped samples
+        only (a sun or a lamp clips in a few rows)."""
+        h, w = mask.shape[:2]
+        if self._l00_rows is None:            # the L00 weight of every source pixel (once)
+            ds = self.downsample
+            small = self._weights[:, 0].reshape(self.projection.height, self.projection.width)
+            full = np.zeros((h, w), np.float32)
+            bw, bh = self._block
+            full[:bh, :bw] = np.repeat(np.repeat(small, ds, 0), ds, 1) / float(ds * ds)
+            self._l00_rows = full
+        rows = np.flatnonzero(cv2.reduce(mask.reshape(h, w * 3), 1, cv2.REDUCE_SUM,
+                                         dtype=cv2.CV_32S))
+        sel = mask if len(rows) > h // 2 else mask[rows]
+        weights = self._l00_rows if len(rows) > h // 2 else self._l00_rows[rows]
+        total = weights.reshape(-1) @ sel.reshape(-1, 3).astype(np.float32)
+        return float(np.broadcast_to(clip["value"], (3,)) @ total) / 255.0
+
+    def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
+        """Sets ``stats["clipped_fraction"]`` (channel samples of an 8/16-bit frame at the top
+        code) and returns the L00 those samples put into the projection through ``lut``,
+        summed over the channels: light that is only a lower bound (the sun)."""
+        clip = self._clip_state(frame, lut)
+        if self._weights is not None:          # dense weights: the mask against the L00 column
+            h, w = frame.shape[:2]
+            mask = cv2.compare(frame.reshape(h, w * 3), clip["top"], cv2.CMP_EQ)
+            clip["n"] = cv2.countNonZero(mask)
+            if clip["n"]:
+                clip["l00"] = self._dense_clipped_l00(mask.reshape(h, w, 3), clip)
         else:
-            m = mask.reshape(h, w, 3)
-            if self.downsample > 1:
-                bw, bh = self._block
-                m = cv2.resize(m[:bh, :bw].astype(np.float32),
-                               (self.projection.width, self.projection.height),
-                               interpolation=cv2.INTER_AREA)
-            weight = self._weights[:, 0] @ m.reshape(-1, 3).astype(np.float32) / 255.0
-        return np.asarray(value, np.float64) * np.asarray(weight, np.float64)
+            for r0 in range(0, frame.shape[0], self.BAND_ROWS):
+                self._clip_band(frame[r0:r0 + self.BAND_ROWS], r0, clip)
+        stats["clipped_fraction"] = clip["n"] / frame.size
+        return clip["l00"]
 
     def _prepare(self, frame) -> np.ndarray:
         if not isinstance(frame, np.ndarray):
@@ -366,7 +415,7 @@ class SH9Projector:
     # -- building blocks of brackets (provider.core.bracket) ----------------------------------
     def project_part(self, frame: np.ndarray, table: np.ndarray):
         """The projection of ``table(frame)`` for an 8/16-bit frame: ``(coefficients (9, 3),
-        clipped L00 (3,), stats)``, not rotated and not scaled by any exposure (one slot of
+        clipped L00 (summed over the channels), stats)``, not rotated and not scaled by any exposure (one slot of
         a bracket; the sum of slots goes to :meth:`result`)."""
         stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
         frame = self._prepare(frame)
@@ -382,7 +431,7 @@ class SH9Projector:
             coefficients = self._sh_rotation @ coefficients
         return self._finish(coefficients, stats)
 
-    def radiometry_stats(self, stats: dict, coefficients: np.ndarray, clipped_l00: np.ndarray,
+    def radiometry_stats(self, stats: dict, coefficients: np.ndarray, clipped_l00: float,
                          radiometry: str) -> None:
         """``radiometry``, ``response`` and ``clipped_light_fraction`` (clipped L00 over all
         L00, summed over the channels; exact coefficients, before rotation) into stats."""
