@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 
 from . import sh
+from .clipping import ClippedLight
 from .errors import InputError
 from .projections import Equirect, Projection, ProjectionError, make_projection
 from .response import CameraResponse, apply_lut, check_time
@@ -152,7 +153,7 @@ class SH9Projector:
         else:
             self._weights = p.sh_weights.astype(np.float32)  # (H·W, 9)
         self._luts = {}
-        self._l00_rows = None
+        self._clipped = ClippedLight(self)
         self._estimator = None
         self._coverage = 4 * math.pi if isinstance(p, Equirect) else p.coverage
 
@@ -256,12 +257,12 @@ class SH9Projector:
         if self.downsample == 1:
             if integer:
                 table = self._lut(frame.dtype) if lut is None else lut
-                clip = self._clip_state(frame, table)
+                clip = self._clipped.start(frame, table)
                 for r0 in range(0, frame.shape[0], self.BAND_ROWS):
                     band = frame[r0:r0 + self.BAND_ROWS]
                     self._accumulate(self._linearise(band, lut), r0, acc)
                     if self._weights is None:
-                        self._clip_band(band, r0, clip)  # while the band is in cache
+                        self._clipped.band(band, r0, clip)  # while the band is in cache
                 if self._weights is not None:
                     return self._coefficients(acc) * scale, None, self.clipping(frame, table,
                                                                                 stats)
@@ -279,75 +280,11 @@ class SH9Projector:
         self._accumulate(small, 0, acc)
         return self._coefficients(acc) * scale, small, clipped
 
-    # -- clipped samples ------------------------------------------------------------------
-    def _clip_state(self, frame: np.ndarray, lut: np.ndarray) -> dict:
-        h, w = frame.shape[:2]
-        top = 255 if frame.dtype == np.uint8 else 65535
-        value = np.asarray(lut[top] if lut.ndim == 1 else lut.reshape(top + 1, 3)[top],
-                           np.float64).reshape(-1)
-        if self._weights is None and (self._l00_rows is None or len(self._l00_rows) != h):
-            # equirect: L00 weight per row (dense projections: per pixel, _dense_clipped_l00)
-            full = Equirect(w, h)    # full-resolution rows, whatever the downsampling
-            self._l00_rows = sh.C0 * full.row_integrals()[0] * full.col_integrals()[0].mean()
-        return {"top": top, "value": value, "one": bool(np.all(value == value[0])),
-                "n": 0, "l00": 0.0}
-
-    def _clip_band(self, band: np.ndarray, r0: int, clip: dict) -> None:
-        """Equirect: count a band's clipped samples and add the L00 they carry (at their
-        clip level) to ``clip``: per-row counts × row weights; one SIMD compare when
-        nothing clips."""
-        hb, w = band.shape[:2]
-        mask = cv2.compare(band.reshape(hb, w * 3), clip["top"], cv2.CMP_EQ)  # 255: clipped
-        n = cv2.countNonZero(mask)
-        if n == 0:
-            return
-        clip["n"] += n
-        value, rows = clip["value"], self._l00_rows[r0:r0 + hb]
-        if clip["one"]:
-            counts = cv2.reduce(mask, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).reshape(hb)
-            clip["l00"] += float(value[0] * (rows @ counts)) / 255.0
-        else:                                  # (cv2.reduce of 3 channels at once is slow)
-            planes = cv2.split(mask.reshape(hb, w, 3))
-            clip["l00"] += sum(float(value[c] * (rows @ cv2.reduce(
-                planes[c], 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).reshape(hb)))
-                for c in range(3)) / 255.0
-
-    def _dense_clipped_l00(self, mask: np.ndarray, clip: dict) -> float:
-        """L00 carried by the clipped samples (``mask`` 255, H×W×3) of a frame, dense
-        weights: the mask against a full-resolution map of L00 weights (with downsampling,
-        each block's weight shared by its pixels), on the rows that have clipped samples
-        only (a sun or a lamp clips in a few rows)."""
-        h, w = mask.shape[:2]
-        if self._l00_rows is None:            # the L00 weight of every source pixel (once)
-            ds = self.downsample
-            small = self._weights[:, 0].reshape(self.projection.height, self.projection.width)
-            full = np.zeros((h, w), np.float32)
-            bw, bh = self._block
-            full[:bh, :bw] = np.repeat(np.repeat(small, ds, 0), ds, 1) / float(ds * ds)
-            self._l00_rows = full
-        rows = np.flatnonzero(cv2.reduce(mask.reshape(h, w * 3), 1, cv2.REDUCE_SUM,
-                                         dtype=cv2.CV_32S))
-        sel = mask if len(rows) > h // 2 else mask[rows]
-        weights = self._l00_rows if len(rows) > h // 2 else self._l00_rows[rows]
-        total = weights.reshape(-1) @ sel.reshape(-1, 3).astype(np.float32)
-        return float(np.broadcast_to(clip["value"], (3,)) @ total) / 255.0
-
     def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
         """Sets ``stats["clipped_fraction"]`` (channel samples of an 8/16-bit frame at the top
         code) and returns the L00 those samples put into the projection through ``lut``,
         summed over the channels: light that is only a lower bound (the sun)."""
-        clip = self._clip_state(frame, lut)
-        if self._weights is not None:          # dense weights: the mask against the L00 column
-            h, w = frame.shape[:2]
-            mask = cv2.compare(frame.reshape(h, w * 3), clip["top"], cv2.CMP_EQ)
-            clip["n"] = cv2.countNonZero(mask)
-            if clip["n"]:
-                clip["l00"] = self._dense_clipped_l00(mask.reshape(h, w, 3), clip)
-        else:
-            for r0 in range(0, frame.shape[0], self.BAND_ROWS):
-                self._clip_band(frame[r0:r0 + self.BAND_ROWS], r0, clip)
-        stats["clipped_fraction"] = clip["n"] / frame.size
-        return clip["l00"]
+        return self._clipped.whole(frame, lut, stats)
 
     def _prepare(self, frame) -> np.ndarray:
         if not isinstance(frame, np.ndarray):
