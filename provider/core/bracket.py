@@ -14,8 +14,8 @@
   is a plain **sum** of per-slot table lookups, ``R = Σ_i a_i(z_i)·g(z_i)/(t_i·gain_i)``.
   The SH projection is linear, so the merged coefficients are the sum of per-slot
   coefficients: a new frame costs one table projection (the single-frame calibrated path
-  with another table) and an update goes out on every frame. Measured: 1.17× (512×256)
-  and 1.25× (1920×960) the single-frame sRGB path; its SH9 irradiance differs from the
+  with another table) and an update goes out on every frame. Measured: 1.18× (512×256)
+  and 1.35× (1920×960) the single-frame sRGB path; its SH9 irradiance differs from the
   exact hat merge of the same frames by 0.01-0.3 % (docs/radiometry.md).
 
 Moving scenes: the partition assumes the view is static over one cycle. A slot whose light
