@@ -79,9 +79,11 @@ def test_compute_one_frame_with_time_and_camera(calibrated):
                                rtol=1e-9)
     cal = message(shlight("compute", middle, "--camera", folder / "camera.json"))
     assert cal["radiometry"] == "calibrated" and cal["response"] == "debevec"
-    # the fraction form of the same time gives the same numbers
-    again = message(shlight("compute", middle, "--camera", folder / "camera.json"))
-    assert again["coefficients"] == cal["coefficients"]
+    # a fraction and a decimal of the same time give the same numbers
+    path = middle.rsplit("@", 1)[0]
+    quarter = message(shlight("compute", f"{path}@1/4", "--camera", folder / "camera.json"))
+    decimal = message(shlight("compute", f"{path}@0.25", "--camera", folder / "camera.json"))
+    assert quarter["exposure_s"] == 0.25 and quarter["coefficients"] == decimal["coefficients"]
 
 
 def test_compute_merges_a_bracket_within_the_target(calibrated):
