@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from provider import InputError, SH9Projector, compute_sh9
-from provider.core.engine import check_options, precompute_note
+from provider.core.engine_options import check_options, precompute_note
 from provider.core.sh import rotation_from_euler
 
 from servertools import ServeProcess, health, poll, run_cli

@@ -16,7 +16,7 @@ import pytest
 from provider.live.message import load_schema
 
 from mqtttools import MOSQUITTO, MOSQUITTO_PASSWD, Mosquitto, PausableRelay, Subscriber
-from servertools import (ServeProcess, connect, health, http_get, metric, poll, recv_json,
+from servertools import (ServeProcess, connect, health, http_get, poll, recv_json,
                          recv_until, run_cli)
 
 pytestmark = pytest.mark.skipif(not os.path.exists(MOSQUITTO),

@@ -22,6 +22,10 @@ Sections (all written to ``--out``, default ./bench-results):
   directional lights (``--lights auto``), RMS and max error, the lights kept, and the
   per-frame cost of the lights as a ratio to the plain exact path (see
   :mod:`provider.bench.lights`).
+* ``radiometry.md`` / ``.png`` (only with ``--sections radiometry``, see
+  :mod:`provider.bench.radiometry`): a simulated 8-bit camera on the real panoramas, one
+  frame (sRGB-assumed, true curve, calibrated) and brackets against the HDR truth, and the
+  per-frame cost of the live merged path.
 * ``server.md`` / ``server.json`` (only with ``--sections server``, see
   :mod:`provider.bench.server`): frame-to-client latency p50/p99 of a real ``shlight serve``
   and the number of clients one core keeps at 30 Hz; then ``server_idle.md`` /
@@ -91,9 +95,10 @@ SECTION_WHAT = {
     "fill": "fisheye fill models on the real panoramas",
     "scenes": "what SH9 misses on each real panorama; SH9 against ambient + lights",
     "server": "latency and clients per core of a real shlight serve, then its idle CPU",
+    "radiometry": "a simulated 8-bit camera: one frame, calibrated, brackets, against HDR",
 }
 SECTION_COST_S = {"speed": (5, 80), "edge": (2, 5), "fill": (2, 10), "scenes": (10, 10),
-                  "server": (20, 75)}
+                  "server": (20, 75), "radiometry": (60, 240)}
 INSTRUCTIONS_COST_S = (150, 130)    # valgrind runs Python and numpy under emulation
 
 
@@ -142,4 +147,10 @@ def _server(hdri, out, args):
     bench_idle(out, args.quick, _progress)
 
 
-_SECTIONS = {"speed": _speed, "edge": _edge, "fill": _fill, "scenes": _scenes, "server": _server}
+def _radiometry(hdri, out, args):
+    from .radiometry import bench_radiometry
+    bench_radiometry(hdri, out, args)
+
+
+_SECTIONS = {"speed": _speed, "edge": _edge, "fill": _fill, "scenes": _scenes, "server": _server,
+             "radiometry": _radiometry}

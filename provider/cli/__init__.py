@@ -1,8 +1,10 @@
-"""`shlight` command line: compute | export | serve | validate-shaders | bench.
+"""`shlight` command line: compute | export | serve | validate-shaders | bench |
+calibrate-response.
 
 User errors (bad files, bad options) print one clear line to stderr and exit with status
 2; they never show a traceback. Each command's options live in a module of this package
-(:mod:`.compute`, :mod:`.export`, :mod:`.serve`, :mod:`.validate`, :mod:`.bench`, the engine options shared
+(:mod:`.compute`, :mod:`.export`, :mod:`.serve`, :mod:`.validate`, :mod:`.bench`,
+:mod:`.calibrate`; the frame@time syntax in :mod:`.frames`; the engine options shared
 by several in :mod:`.options`); what the command does lives in its layer and is imported
 only when the command runs.
 """
@@ -18,6 +20,7 @@ import sys  # noqa: E402
 
 from .. import __version__  # noqa: E402
 from ..core.errors import InputError  # noqa: E402
+from .options import Parser  # noqa: E402
 
 #: (command, module of this package, help)
 COMMANDS = (
@@ -26,21 +29,15 @@ COMMANDS = (
     ("serve", "serve", "serve live coefficients over WebSocket (default: demo source)"),
     ("validate-shaders", "validate", "prove the GLSL/HLSL compute what the CPU computes"),
     ("bench", "bench", "speed against error: Markdown table and PNG plot"),
+    ("calibrate-response", "calibrate",
+     "a camera's response curve from FRAME@SECONDS brackets -> camera.json"),
 )
-
-
-class _Parser(argparse.ArgumentParser):
-    """A usage error is one line (and where to read more), not the whole usage block."""
-
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
 
 
 def build_parser(argv=None) -> argparse.ArgumentParser:
     """The parser; only the command named in ``argv`` gets its options (and imports), so
     that ``shlight --help`` and each command load only what they need (None: all)."""
-    parser = _Parser(
-        prog="shlight", description="Live SH9 ambient lighting for AR headsets.")
+    parser = Parser(prog="shlight", description="Live SH9 ambient lighting for AR headsets.")
     parser.add_argument("--version", action="version", version=f"shlight {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     wanted = None if argv is None else next((a for a in argv if not a.startswith("-")), "")

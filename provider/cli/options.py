@@ -4,8 +4,38 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 
 from ..core.errors import InputError
+
+
+#: Options whose value may start with '-' ("--bracket -4,-2,0,2,4"): argparse would take such
+#: a value for an unknown option, so it is glued to its option ("--bracket=-4,...") first.
+NEGATIVE_VALUE_OPTIONS = ("--bracket",)
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse, reading ``--bracket -4,-2,0`` as a value (see NEGATIVE_VALUE_OPTIONS), and
+    saying a usage error in one line (and where to read more), not the whole usage block."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
+
+    def parse_known_args(self, args=None, namespace=None):
+        import sys
+        args = list(sys.argv[1:] if args is None else args)
+        out = []
+        i = 0
+        while i < len(args):
+            a = args[i]
+            if (a in NEGATIVE_VALUE_OPTIONS and i + 1 < len(args)
+                    and re.match(r"[-+\u2212]?\d", args[i + 1])):
+                out.append(f"{a}={args[i + 1]}")
+                i += 2
+                continue
+            out.append(a)
+            i += 1
+        return super().parse_known_args(out, namespace)
 
 
 def _floats(text: str, n: int, what: str):
@@ -70,17 +100,20 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                    help="fisheye: model of the unseen hemisphere (default ground)")
     g.add_argument("--albedo", type=finite_float, default=0.1,
                    help="fisheye fill albedo (default 0.1, measured best on real scenes)")
+    g.add_argument("--camera", default=None, metavar="CAMERA.json",
+                   help="the camera's response (shlight calibrate-response): 8/16-bit frames "
+                        "are decoded with its curve instead of sRGB")
 
 
 def engine_options(args) -> dict:
     """Translate parsed arguments into :class:`~provider.core.engine.SH9Projector` options."""
-    from ..core.engine import check_options
+    from ..core.engine_options import check_options
     from ..core.sh import rotation_from_euler
     opts = dict(encoding=args.encoding, exposure=args.exposure, downsample=args.downsample,
                 order=args.order if args.order == "auto" else int(args.order),
                 order_budget=args.order_budget, dering=args.dering)
     if args.lights != "off":
-        from ..core.engine import MAX_LIGHTS
+        from ..core.engine_options import MAX_LIGHTS
         if not 1 <= args.max_lights <= MAX_LIGHTS:
             raise InputError(f"--max-lights {args.max_lights}: out of range (1-{MAX_LIGHTS})")
         opts.update(lights=args.lights, max_lights=args.max_lights)
@@ -94,6 +127,12 @@ def engine_options(args) -> dict:
         raise InputError(f"--radius {args.radius:g}: must be positive")
     if not 0 <= args.albedo <= 1:
         raise InputError(f"--albedo {args.albedo:g}: must be in [0, 1]")
+    if getattr(args, "camera", None):
+        from ..live.camerafile import load_camera
+        if args.encoding != "auto":
+            raise InputError(f"--encoding {args.encoding} and --camera both say how to decode "
+                             "8/16-bit frames: give one")
+        opts["response"] = load_camera(args.camera)
     if args.projection == "fisheye":
         opts.update(fill=args.fill, albedo=args.albedo)
         if args.fov is not None:

@@ -10,7 +10,7 @@ import re
 import shlex
 
 from ..core.errors import InputError
-from .options import add_engine_arguments, engine_options
+from .options import Parser, add_engine_arguments, engine_options
 
 EPILOG = """\
 sources (--source SPEC, or --probe NAME=SPEC, repeatable):
@@ -31,10 +31,17 @@ examples:
   shlight serve --source theta://192.168.1.1 --host 0.0.0.0 --token SECRET
   shlight serve --probe room=theta://192.168.1.1 --probe desk=0 \\
                 --probe-args "desk=--projection fisheye --fov 190"
+  shlight serve --source picamera2 --camera camera.json --bracket   # -9,-6,-3,0,+3 EV
+
+radiometry (8-bit cameras): --camera CAMERA.json (from shlight calibrate-response) decodes
+frames with the camera's own curve; a source that reports its exposure (picamera2; a UVC
+camera with --exposure-unit; a Theta in manual mode) is divided by it, so auto exposure does
+not make the lighting jump; --bracket cycles the exposure (picamera2, UVC, theta://) and
+merges the newest frame of every exposure, sending an update every frame.
 """
 
 
-class _ProbeArgsParser(argparse.ArgumentParser):
+class _ProbeArgsParser(Parser):
     def error(self, message):
         raise InputError(f"--probe-args: {message}")
 
@@ -108,6 +115,15 @@ def _add_source_arguments(g) -> None:
     g.add_argument("--theta-api", choices=["auto", "2.0", "2.1"], default="auto",
                    help="Theta OSC API: 2.1 camera.getLivePreview, 2.0 _getLivePreview "
                         "(auto: try 2.1, fall back to 2.0)")
+    g.add_argument("--bracket", nargs="?", const="-9,-6,-3,0,3", default=None, type=_offsets,
+                   metavar="EVS",
+                   help="cycle the exposure over these EV offsets around auto exposure and "
+                        "merge the newest frame of each, e.g. -4,-2,0,2,4 (alone: -9,-6,-3,0,3, "
+                        "measured best; picamera2, UVC cameras with --exposure-unit, theta://)")
+    g.add_argument("--exposure-unit", choices=["100us", "log2s", "s"], default=None,
+                   help="UVC cameras: the unit of the driver's CAP_PROP_EXPOSURE (V4L2: "
+                        "100us; DirectShow/MSMF: log2s). Without it the exposure OpenCV "
+                        "reports is not used (its unit differs by back end)")
 
 
 def _add_temporal_arguments(g) -> None:
@@ -123,6 +139,14 @@ def _add_temporal_arguments(g) -> None:
                    help="resend unchanged or stale lighting this often (default 1 s)")
     g.add_argument("--stale-after", type=float, default=2.0, metavar="SECONDS",
                    help="mark lighting stale after this long without a frame (default 2 s)")
+
+
+def _offsets(text: str) -> tuple[float, ...]:
+    from ..core.bracket import check_offsets
+    try:
+        return check_offsets(float(v) for v in text.replace("\u2212", "-").split(","))
+    except (InputError, ValueError) as exc:
+        raise argparse.ArgumentTypeError(f"EV offsets such as -4,-2,0,2,4: {exc}")
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -209,8 +233,10 @@ def build_server(args):
         _check_numbers(ns, f"probe {name}: " if name in overrides else "")
         options = SourceOptions(fps=ns.fps, loop=not ns.no_loop, timeout=ns.source_timeout,
                                 capture_size=ns.capture_size, fourcc=ns.capture_fourcc,
-                                theta_api=ns.theta_api)
+                                theta_api=ns.theta_api, bracket=ns.bracket,
+                                exposure_unit=ns.exposure_unit, query_exposure=bool(ns.camera))
         spec = parse_source(text, options)
+        _check_radiometry(name, spec, ns)
         temporal = TemporalSettings(smoothing=ns.smoothing, snap=ns.snap,
                                     change_threshold=ns.change_threshold,
                                     keepalive=ns.keepalive, stale_after=ns.stale_after)
@@ -225,6 +251,19 @@ def build_server(args):
     elif args.mqtt_ca:
         raise InputError("--mqtt-ca needs --mqtt mqtts://...")
     return ProviderServer(probes, s, publishers)
+
+
+def _check_radiometry(name: str, spec, ns) -> None:
+    """--bracket on a source that cannot set its exposure: refused at start, one line."""
+    from ..live.sources.exposure import check_bracket_support
+    check_bracket_support(spec.kind, spec.description, ns.bracket, ns.exposure_unit)
+    if ns.exposure_unit and spec.kind != "camera":
+        raise InputError(f"probe {name}: --exposure-unit is for UVC cameras, not "
+                         f"{spec.description}")
+    if ns.bracket and not ns.camera:
+        logging.getLogger("shlight").warning(
+            "probe %s: --bracket without --camera merges with the sRGB curve; calibrate the "
+            "camera (shlight calibrate-response) for scene-referred light", name)
 
 
 def run(args) -> int:

@@ -14,7 +14,11 @@ Frame contract (like OpenCV's, but RGB channel order): an ``ndarray`` of shape (
 * ``float16/32/64``: linear radiance (HDR, .exr/.hdr), used as is.
 
 Coefficients are in the units of the linear input times ``exposure`` (scene-referred for
-HDR; 0..1 relative to full scale for integer frames).
+HDR; 0..1 relative to full scale for integer frames). With a camera ``response``
+(:class:`~provider.core.response.CameraResponse`) integer frames are decoded by the
+camera's own curve instead of sRGB, and a frame's ``exposure_s`` and ``gain`` given to
+:meth:`SH9Projector.project` divide the coefficients: radiance per second of exposure, so
+that exposure changes never rebuild a table (DESIGN.md §9). Brackets: :mod:`.bracket`.
 """
 from __future__ import annotations
 
@@ -26,10 +30,13 @@ import cv2
 import numpy as np
 
 from . import sh
+from .clipping import ClippedLight
 from .errors import InputError
 from .lights import LightExtractor, LinearView
 from .lights_analysis import model_irradiance
 from .projections import Equirect, Projection, ProjectionError, make_projection
+from .engine_options import check_options, exposure_scale
+from .response import CameraResponse, apply_lut
 
 
 def srgb_to_linear(v: np.ndarray) -> np.ndarray:
@@ -86,13 +93,6 @@ class SH9Result:
         return model_irradiance(self.ambient, self.lights, normals)
 
 
-ORDERS = (0, 1, 2, "auto")
-DERING = ("off", "auto")
-LIGHTS = ("off", "auto")
-#: Most directional lights per frame (the shaders' SH_MAX_LIGHTS).
-MAX_LIGHTS = 4
-
-
 class SH9Projector:
     """Projects frames of one size and projection onto SH9.
 
@@ -131,7 +131,10 @@ class SH9Projector:
         keeping a light only where it lowers the measured irradiance error
         (:mod:`provider.core.lights`; DESIGN.md §10). "off": the exact path, unchanged.
     max_lights : int
-        At most this many lights per frame, 1 to :data:`MAX_LIGHTS` (default 3).
+        At most this many lights per frame, 1 to :data:`~provider.core.engine_options.MAX_LIGHTS` (default 3).
+    response : CameraResponse or None
+        The camera's inverse response: integer frames are decoded with it (a table at
+        t = 1, like the sRGB one) instead of sRGB. None (default): sRGB, as ``encoding``.
     **projection_options
         Passed to the projection (fov_deg, center, radius, K, D, fill, albedo, ...).
     """
@@ -139,10 +142,15 @@ class SH9Projector:
     def __init__(self, width: int, height: int, projection="equirect", *, encoding="auto",
                  exposure=1.0, downsample=1, rotation=None, order=2, dering="off",
                  order_budget=0.02, error_estimate=False, progress=None, lights="off",
-                 max_lights=3, **projection_options):
+                 max_lights=3, response=None, **projection_options):
         check_options(encoding=encoding, exposure=exposure, downsample=downsample,
                       rotation=rotation, order=order, dering=dering, order_budget=order_budget,
                       lights=lights, max_lights=max_lights)
+        if response is not None and not isinstance(response, CameraResponse):
+            raise InputError(f"response must be a CameraResponse, got {type(response).__name__}")
+        if response is not None and encoding != "auto":
+            raise InputError(f"encoding {encoding!r} and a camera response both say how to "
+                             "decode integer frames: give one")
         downsample = int(downsample)
         if width // downsample < 1 or height // downsample < 1:
             raise InputError(f"--downsample {downsample} is larger than the {width}×{height} frame")
@@ -162,6 +170,7 @@ class SH9Projector:
         self.rotation = None if rotation is None else np.asarray(rotation, np.float64)
         self._sh_rotation = None if rotation is None else sh.sh_rotation(self.rotation)
         self.error_estimate = bool(error_estimate)
+        self.response = response
         self.lights, self.max_lights = lights, int(max_lights)
         # Lights (pixel-independent precomputation once, like the SH weights): integer
         # frames on the exact path build the detection copy band by band while linearising.
@@ -185,6 +194,7 @@ class SH9Projector:
             finally:
                 p.progress = None
         self._luts = {}
+        self._clipped = ClippedLight(self)
         self._estimator = None
         self._coverage = 4 * math.pi if isinstance(p, Equirect) else p.coverage
         if not self._coverage > 0:
@@ -199,16 +209,32 @@ class SH9Projector:
     def _lut(self, dtype) -> np.ndarray:
         if dtype not in self._luts:
             full = 255 if dtype == np.uint8 else 65535
+            if self.response is not None:   # the camera's curve at t = 1 (16-bit: resampled)
+                r = self.response.to_bits(8 if dtype == np.uint8 else 16)
+                self._luts[dtype] = (r.lut(1.0) * np.float32(self.exposure)).astype(np.float32)
+                return self._luts[dtype]
             v = np.arange(full + 1) / full
             lin = v if self.encoding == "linear" else srgb_to_linear(v)
             self._luts[dtype] = (lin * self.exposure).astype(np.float32)
         return self._luts[dtype]
 
-    def _linearise(self, frame: np.ndarray) -> np.ndarray:
-        """Linear float32 radiance of an integer frame (or a band of one)."""
+    def _linearise(self, frame: np.ndarray, lut: np.ndarray | None = None) -> np.ndarray:
+        """Linear float32 radiance of an integer frame (or a band of one); ``lut``: another
+        table than the projector's own (a bracket slot's)."""
+        if lut is not None:
+            return apply_lut(frame, lut)
         if frame.dtype == np.uint8:
             return cv2.LUT(frame, self._lut(np.uint8))
-        return self._lut(np.uint16)[frame]
+        lut = self._lut(np.uint16)
+        return lut[frame] if lut.ndim == 1 else apply_lut(frame, lut)
+
+    @property
+    def radiometry(self) -> str:
+        """What integer frames' numbers are: "srgb-assumed", "calibrated" (the camera's
+        curve) or "linear" (``encoding="linear"``)."""
+        if self.response is not None:
+            return "srgb-assumed" if self.response.method == "srgb" else "calibrated"
+        return "linear" if self.encoding == "linear" else "srgb-assumed"
 
     def _clean_float(self, frame: np.ndarray, stats: dict) -> np.ndarray:
         """Float32 linear radiance with non-finite and negative samples set to 0 (counted).
@@ -267,37 +293,53 @@ class SH9Projector:
             out[k] += const * partial[ri, ci]
         return out
 
-    def _project_frame(self, frame: np.ndarray, stats: dict):
+    def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None):
         """Linearise (counting bad samples) and project; returns the (9, 3) float64
-        coefficients, the fast path's small frame (or None) and the linear frame the lights
-        read (the full linear frame, the fused detection copy, or None)."""
+        coefficients, the fast path's small frame (or None), the linear frame the lights read
+        (the full linear frame, the fused detection copy, or None) and the L00 of the clipped
+        samples (summed over the channels). ``lut``: a table other than the projector's own."""
         acc = self._new_accumulator()
         integer = frame.dtype in (np.uint8, np.uint16)
         scale = 1.0 if integer else self.exposure  # integer frames: folded into the LUT
-        if integer:
-            top = 255 if frame.dtype == np.uint8 else 65535
-            stats["clipped_fraction"] = float(np.count_nonzero(frame == top)) / frame.size
-        else:
+        if not integer:
             stats["clipped_fraction"] = 0.0
         if self.downsample == 1:
             if integer:
+                table = self._lut(frame.dtype) if lut is None else lut
+                clip = self._clipped.start(frame, table)
                 mid = self._extractor.new_mid() if self._fuse_lights else None
                 for r0 in range(0, frame.shape[0], self.BAND_ROWS):
-                    lin = self._linearise(frame[r0:r0 + self.BAND_ROWS])
+                    band = frame[r0:r0 + self.BAND_ROWS]
+                    lin = self._linearise(band, lut)
                     self._accumulate(lin, r0, acc)
                     if mid is not None:
                         self._extractor.reduce_band(lin, r0, mid)
-                return self._coefficients(acc) * scale, None, mid
+                    if self._weights is None:
+                        self._clipped.band(band, r0, clip)  # while the band is in cache
+                if self._weights is not None:
+                    clipped = self.clipping(frame, table, stats)
+                else:
+                    stats["clipped_fraction"] = clip["n"] / frame.size
+                    clipped = clip["l00"]
+                return self._coefficients(acc) * scale, None, mid, clipped
             lin = self._clean_float(frame, stats)
             self._accumulate(lin, 0, acc)
-            return self._coefficients(acc) * scale, None, lin
+            return self._coefficients(acc) * scale, None, lin, 0.0
         # Fast path: area-average the *linear* frame, then project the small one.
-        lin = self._linearise(frame) if integer else self._clean_float(frame, stats)
+        clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
+                   if integer else 0.0)
+        lin = self._linearise(frame, lut) if integer else self._clean_float(frame, stats)
         bw, bh = self._block
         small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
                            interpolation=cv2.INTER_AREA)
         self._accumulate(small, 0, acc)
-        return self._coefficients(acc) * scale, small, lin
+        return self._coefficients(acc) * scale, small, lin, clipped
+
+    def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
+        """Sets ``stats["clipped_fraction"]`` (channel samples of an 8/16-bit frame at the top
+        code) and returns the L00 those samples put into the projection through ``lut``,
+        summed over the channels: light that is only a lower bound (the sun)."""
+        return self._clipped.whole(frame, lut, stats)
 
     def _prepare(self, frame) -> np.ndarray:
         if not isinstance(frame, np.ndarray):
@@ -324,7 +366,8 @@ class SH9Projector:
         return np.ascontiguousarray(frame)
 
     def project(self, frame: np.ndarray, error_estimate: bool | None = None,
-                tracker=None) -> SH9Result:
+                tracker=None, *, exposure_s: float | None = None,
+                gain: float = 1.0) -> SH9Result:
         """Coefficients, matrices and statistics of one frame (``error_estimate``: whether
         to estimate SH9's error on this frame; None: as the projector was built).
 
@@ -333,8 +376,16 @@ class SH9Projector:
         caller, one per stream) chooses them with hysteresis across frames instead of the
         per-frame greedy choice.
 
+        ``exposure_s`` and ``gain`` (when the source reports them): the coefficients are
+        divided by ``exposure_s · gain``, radiance per second of exposure (DESIGN.md §9),
+        so that auto exposure does not make the lighting jump; the table is not rebuilt.
+
         ``stats`` keys: ``compute_ms``, ``clipped_fraction`` (fraction of channel samples at
-        the top code value of an integer frame), ``negative_pixels`` and
+        the top code value of an integer frame), ``clipped_light_fraction`` (the share of
+        L00, the mean light, that comes from those samples: a lower bound, never measured),
+        ``radiometry`` ("srgb-assumed", "calibrated" or "linear"), ``response`` (the camera
+        curve's method, with a response), ``exposure_s`` and ``gain`` (when given),
+        ``negative_pixels`` and
         ``nonfinite_pixels`` (set to 0 and counted), ``min_irradiance`` (per channel, over
         the sphere, after windowing), ``ringing`` (the un-windowed SH irradiance went
         negative), ``window_cutoff`` (sinc⁴ cutoff applied, or None), ``order`` (kept),
@@ -348,13 +399,15 @@ class SH9Projector:
         t0 = time.perf_counter()
         stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
         frame = self._prepare(frame)
-        coeffs, small, light_input = self._project_frame(frame, stats)
-        exact = coeffs
-        if self._sh_rotation is not None:
-            coeffs = self._sh_rotation @ coeffs
-        result = self._finish(coeffs, stats)
+        k = exposure_scale(exposure_s, gain, stats)
+        coeffs, small, light_input, clipped = self._project_frame(frame, stats)
+        if k is not None:
+            coeffs, clipped = coeffs * k, clipped * k
+        integer = frame.dtype in (np.uint8, np.uint16)
+        self.radiometry_stats(stats, coeffs, clipped, self.radiometry if integer else "linear")
+        result = self.result(coeffs, stats)
         if self._extractor is not None:
-            self._add_lights(result, frame, exact, light_input, tracker)
+            self._add_lights(result, frame, coeffs, light_input, tracker, k)
         if self.error_estimate if error_estimate is None else error_estimate:
             if small is None:
                 small = (self._linearise(frame) if frame.dtype in (np.uint8, np.uint16)
@@ -362,6 +415,36 @@ class SH9Projector:
             result.stats["error_estimate"] = self._estimate_error(small, result.stats["order"])
         result.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
         return result
+
+    # -- building blocks of brackets (provider.core.bracket) ----------------------------------
+    def project_part(self, frame: np.ndarray, table: np.ndarray):
+        """The projection of ``table(frame)`` for an 8/16-bit frame: ``(coefficients (9, 3),
+        clipped L00 (summed over the channels), stats)``, not rotated and not scaled by any exposure (one slot of
+        a bracket; the sum of slots goes to :meth:`result`)."""
+        stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
+        frame = self._prepare(frame)
+        if frame.dtype not in (np.uint8, np.uint16):
+            raise InputError(f"a bracket needs 8- or 16-bit frames, got {frame.dtype}")
+        coeffs, _, _, clipped = self._project_frame(frame, stats, lut=table)
+        return coeffs * self.exposure, clipped * self.exposure, stats
+
+    def result(self, coefficients: np.ndarray, stats: dict) -> SH9Result:
+        """An :class:`SH9Result` from exact (un-rotated) coefficients: the sensor rotation,
+        windowing, order choice, matrices and their statistics."""
+        if self._sh_rotation is not None:
+            coefficients = self._sh_rotation @ coefficients
+        return self._finish(coefficients, stats)
+
+    def radiometry_stats(self, stats: dict, coefficients: np.ndarray, clipped_l00: float,
+                         radiometry: str) -> None:
+        """``radiometry``, ``response`` and ``clipped_light_fraction`` (clipped L00 over all
+        L00, summed over the channels; exact coefficients, before rotation) into stats."""
+        stats["radiometry"] = radiometry
+        if self.response is not None and radiometry != "linear":
+            stats["response"] = self.response.method
+        total = float(np.sum(coefficients[0]))
+        part = float(np.sum(clipped_l00))
+        stats["clipped_light_fraction"] = min(max(part / total, 0.0), 1.0) if total > 0 else 0.0
 
     def _finish(self, exact: np.ndarray, stats: dict) -> SH9Result:
         coeffs = exact
@@ -389,13 +472,15 @@ class SH9Projector:
         stats["coverage_sr"] = self._coverage
         return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats)
 
-    def _add_lights(self, result, frame, exact, light_input, tracker) -> None:
+    def _add_lights(self, result, frame, exact, light_input, tracker, k=None) -> None:
         """Directional lights + ambient of one frame (provider.core.lights), in the units
         and frame of the coefficients: exposure scales them like the coefficients, the
         sensor rotation turns light directions and the ambient like the coefficients, and
         the ambient gets the same deringing and order as the coefficients."""
         integer = frame.dtype in (np.uint8, np.uint16)
         scale = 1.0 if integer else self.exposure  # integer frames: folded into the LUT
+        if k is not None:                           # per second of exposure, as the coefficients
+            scale *= k
         if light_input is None:                     # an integer frame that was not fused
             light_input = self._linearise(frame)
         full = light_input if light_input.shape[:2] == frame.shape[:2] else \
@@ -442,84 +527,6 @@ class SH9Projector:
         if self.dering == "auto":
             out, _ = sh.dering(out)
         return sh.truncate_order(out, order)
-
-
-def check_options(*, encoding="auto", exposure=1.0, downsample=1, rotation=None, order=2,
-                  dering="off", order_budget=0.02, lights="off", max_lights=3) -> None:
-    """Raise :class:`InputError` for engine options that no frame can make valid (so that
-    ``shlight serve`` refuses them at start, in one line, rather than per frame)."""
-    if order not in ORDERS:
-        raise InputError(f"order must be one of 0, 1, 2, auto; got {order!r}")
-    if dering not in DERING:
-        raise InputError(f"dering must be 'off' or 'auto'; got {dering!r}")
-    if lights not in LIGHTS:
-        raise InputError(f"lights must be 'off' or 'auto'; got {lights!r}")
-    if (isinstance(max_lights, bool) or not isinstance(max_lights, (int, np.integer))
-            or not 1 <= max_lights <= MAX_LIGHTS):
-        raise InputError(f"max_lights must be an integer from 1 to {MAX_LIGHTS}; "
-                         f"got {max_lights!r}")
-    if encoding not in ("auto", "srgb", "linear"):
-        raise InputError(f"encoding must be auto, srgb or linear; got {encoding!r}")
-    if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):
-        raise InputError(f"exposure must be a positive finite number; got {exposure!r}")
-    if not (isinstance(order_budget, (int, float)) and math.isfinite(order_budget)
-            and order_budget >= 0):
-        raise InputError(f"order budget must be a finite number >= 0; got {order_budget!r}")
-    try:
-        whole = not isinstance(downsample, bool) and float(downsample).is_integer()
-    except (TypeError, ValueError):
-        whole = False
-    if not whole or downsample < 1:
-        raise InputError(f"downsample must be a positive integer; got {downsample!r}")
-    if rotation is not None:
-        try:
-            R = np.asarray(rotation, np.float64)
-        except (TypeError, ValueError):
-            R = np.full(1, np.nan)
-        if (R.shape != (3, 3) or not np.all(np.isfinite(R))
-                or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0):
-            raise InputError("rotation must be a finite 3×3 rotation matrix (orthonormal, "
-                             "determinant +1)")
-
-
-#: Rough cost of integrating the per-pixel weights of a fisheye, dual-fisheye or cube map
-#: frame once (measured on one x86-64 core: 1 to 1.8 µs and ~130 bytes per pixel at peak; an
-#: 8192×4096 fisheye frame took 37 s and 4.4 GB).
-PRECOMPUTE_S_PER_PIXEL = 1.2e-6
-PRECOMPUTE_BYTES_PER_PIXEL = 130
-#: Frames (after --downsample) above this many pixels (about 10 s, 1 GB) get a note first.
-PRECOMPUTE_NOTE_PIXELS = 8_000_000
-
-
-def precompute_note(width: int, height: int, projection="equirect", downsample: int = 1):
-    """One line saying what building a projector for such frames costs, with the
-    ``--downsample`` that makes it cheap, when that is a lot; None otherwise. (Equirect
-    frames are separable and always quick.)"""
-    name = projection if isinstance(projection, str) else getattr(projection, "name", "")
-    try:
-        downsample = max(1, int(downsample))
-    except (TypeError, ValueError):
-        return None
-    pixels = (width // downsample) * (height // downsample)
-    if name == "equirect" or pixels <= PRECOMPUTE_NOTE_PIXELS:
-        return None
-    factor = downsample
-    while (width // factor) * (height // factor) > 1_000_000:     # about a second
-        factor *= 2
-    small = (width // factor) * (height // factor)
-    return (f"a {width}×{height} {name} frame{f' at --downsample {downsample}' if downsample > 1 else ''}"
-            f" needs its per-pixel weights integrated once: "
-            f"{_duration(pixels * PRECOMPUTE_S_PER_PIXEL)} and "
-            f"{pixels * PRECOMPUTE_BYTES_PER_PIXEL / 1e9:.1f} GB of memory before the first "
-            f"result. --downsample {factor} ({width // factor}×{height // factor}) takes "
-            f"{_duration(small * PRECOMPUTE_S_PER_PIXEL)} and changes the lighting by well "
-            "under 1 % (nine SH coefficients are very low frequency)")
-
-
-def _duration(seconds: float) -> str:
-    if seconds < 1:
-        return "under a second"
-    return f"about {seconds:.0f} s" if seconds < 90 else f"about {seconds / 60:.0f} min"
 
 
 def _count_pixels(mask: np.ndarray) -> int:

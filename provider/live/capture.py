@@ -43,7 +43,9 @@ class Capture:
     """Reads a source in background threads; keeps only the newest frame.
 
     * :meth:`take` returns the newest frame not yet taken (or None): frames that arrive
-      while the consumer is busy replace each other, so there is never a backlog.
+      while the consumer is busy replace each other, so there is never a backlog. A
+      bracketing source's frames (``info["slot"]``) replace only frames of their own slot,
+      so a slow consumer still sees every exposure of the cycle (at most one frame each).
     * ``state`` is ``"connecting"``, ``"live"``, ``"lost"`` (retrying) or ``"finished"``;
       ``reason`` says why the source was lost. ``notify`` (a thread-safe callable, no
       arguments) is called after every new frame and every state change.
@@ -69,7 +71,7 @@ class Capture:
         self.frames = 0
         self.reconnects = 0
         self.lost_since: float | None = None   # unix time the source was lost
-        self._latest: Frame | None = None
+        self._latest: dict = {}     # slot (None: not bracketing) -> newest frame, oldest first
         self._lock = threading.Lock()
         self._stopping = threading.Event()
         self._attempt: _Attempt | None = None
@@ -94,8 +96,9 @@ class Capture:
     def take(self) -> Frame | None:
         """The newest frame not yet taken, or None."""
         with self._lock:
-            frame, self._latest = self._latest, None
-        return frame
+            if not self._latest:
+                return None
+            return self._latest.pop(next(iter(self._latest)))
 
     @property
     def fps(self) -> float:
@@ -210,8 +213,10 @@ class Capture:
         now = time.monotonic()
         attempt.last_frame = now
         attempt.frames += 1
+        slot = frame.info.get("slot") if frame.info else None
         with self._lock:
-            self._latest = frame
+            self._latest.pop(slot, None)
+            self._latest[slot] = frame
             self.frames += 1
             self._arrivals.append(now)
         self.notify()

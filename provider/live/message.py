@@ -39,8 +39,13 @@ BASIS = "sh9-real"
 UNITS = "input-linear"
 
 _STAT_NUMBERS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
-                 "coverage_sr", "negative_energy_fraction", "light_error", "sh9_error")
+                 "coverage_sr", "negative_energy_fraction", "light_error", "sh9_error",
+                 "clipped_light_fraction", "exposure_s", "gain")
 _STAT_INTS = ("negative_pixels", "nonfinite_pixels", "order", "light_candidates")
+#: What the numbers are (DESIGN.md §9): "srgb-assumed", "calibrated", "merged" or "linear";
+#: the camera curve's method; the exposure times of a merged set.
+_STAT_STRINGS = ("radiometry", "response")
+_STAT_LISTS = ("exposures_s",)
 
 
 def _finite(x: float) -> float:
@@ -87,6 +92,12 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
     for k in _STAT_INTS:
         if stats.get(k) is not None:
             msg[k] = int(stats[k])
+    for k in _STAT_STRINGS:
+        if stats.get(k) is not None:
+            msg[k] = str(stats[k])
+    for k in _STAT_LISTS:
+        if stats.get(k) is not None:
+            msg[k] = [_finite(v) for v in stats[k]]
     if "min_irradiance" in stats:
         msg["min_irradiance"] = [float(v) for v in stats["min_irradiance"]]
     if "ringing" in stats:

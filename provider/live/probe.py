@@ -13,6 +13,11 @@ the last lighting is resent with ``"stale": true`` and its ``age_s``).
 With ``lights="auto"`` the probe owns a
 :class:`~provider.core.lights_tracking.LightTracker` per frame size (hysteresis across
 frames: no flicker, no jumping between two lamps), reset when the source reconnects.
+
+Radiometry (DESIGN.md §9): a frame whose source reports its exposure (``Frame.info``
+``exposure_s``, ``gain``) is divided by it; a frame of a bracket (``slot``, ``bracket``) goes
+to the probe's :class:`~provider.core.bracket.BracketProjector`, which keeps one (9, 3) part
+per slot and returns merged lighting for every frame.
 """
 from __future__ import annotations
 
@@ -23,7 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.engine import SH9Projector, SH9Result, precompute_note
+from ..core.bracket import BracketProjector
+from ..core.engine import SH9Projector, SH9Result
+from ..core.engine_options import precompute_note
 from ..core.errors import InputError
 from ..core.lights_tracking import LightTracker
 from .capture import Capture
@@ -82,6 +89,7 @@ class Probe:
         self._error_estimate: float | None = None
         self._trackers: dict = {}       # frame size -> LightTracker (lights="auto")
         self._tracked_reconnects = 0
+        self._brackets: dict = {}       # (size, slot exposures) -> BracketProjector
         self._lighting: SH9Result | None = None
         self._frame_time = 0.0          # unix time of the newest frame (the source's clock)
         self._arrival = 0.0             # when it was processed here (our clock)
@@ -117,8 +125,10 @@ class Probe:
                     timer.cancel()
                 self._wake.clear()
                 frame = self.capture.take()
-                if frame is not None:
+                while frame is not None:   # a bracket's slots may be waiting side by side
                     await self._process(frame)
+                    self._maybe_publish(time.time())
+                    frame = self.capture.take()
                 self._maybe_publish(time.time())
         finally:
             await asyncio.to_thread(self.capture.stop)
@@ -165,6 +175,15 @@ class Probe:
             self._estimated_at = -1e9
         if isinstance(projector, InputError):
             raise _AlreadySaid(str(projector))
+        info = frame.info or {}
+        if info.get("slot") is not None and info.get("bracket") and info.get("exposure_s"):
+            bkey = (key, tuple(info["bracket"]))
+            bracket = self._brackets.get(bkey)
+            if bracket is None:
+                self._brackets.clear()       # a new bracket (or size) replaces the old one
+                bracket = self._brackets[bkey] = BracketProjector(projector, info["bracket"])
+            # A bracket merges per-slot projections, never one linear frame: no lights here.
+            return bracket.push(info["slot"], image, info["exposure_s"], info.get("gain", 1.0))
         tracker = None
         if projector.lights != "off":
             if self.capture.reconnects != self._tracked_reconnects:   # a new stream
@@ -173,7 +192,8 @@ class Probe:
             tracker = self._trackers.setdefault(key, LightTracker())
         now = time.monotonic()
         estimate = now - self._estimated_at >= ERROR_ESTIMATE_INTERVAL_S
-        result = projector.project(image, error_estimate=estimate, tracker=tracker)
+        result = projector.project(image, error_estimate=estimate, tracker=tracker,
+                                   exposure_s=info.get("exposure_s"), gain=info.get("gain", 1.0))
         if estimate:
             self._estimated_at, self._error_estimate = now, result.stats.get("error_estimate")
         elif self._error_estimate is not None:

@@ -47,7 +47,9 @@ class Frame:
     contract). MJPEG sources deliver ``jpeg`` bytes instead and the consumer decodes only
     the frames it uses (:meth:`decoded`), so that frames skipped under load cost nothing.
     A relay delivers ready-made ``lighting`` (an :class:`~provider.core.engine.SH9Result`).
-    ``time`` is the unix time of capture (arrival, for network streams).
+    ``time`` is the unix time of capture (arrival, for network streams). ``info``: what
+    the source knows of the frame, e.g. ``exposure_s``, ``gain``, and for a bracket
+    ``slot`` and ``bracket`` (see :mod:`.exposure`).
     """
 
     image: np.ndarray | None
@@ -78,6 +80,10 @@ class SourceOptions:
     capture_size: tuple[int, int] | None = None   # cameras: requested (width, height)
     fourcc: str | None = None         # cameras: e.g. "MJPG"
     theta_api: str = "auto"           # "auto", "2.0" or "2.1"
+    bracket: tuple | None = None      # EV offsets to cycle (sources that set exposure)
+    exposure_unit: str | None = None  # UVC: what CAP_PROP_EXPOSURE means (100us, log2s, s)
+    query_exposure: bool = False      # ask the camera for its exposure where that costs a
+                                      # command (the Theta's getOptions); see .exposure
 
 
 class Source:

@@ -11,6 +11,7 @@ import numpy as np
 
 from .base import (Frame, Interrupted, Pacer, Source, SourceError, SourceFinished, SourceOptions,
                    SourceUnavailable, redact)
+from .uvc_exposure import UvcExposure
 
 VIDEO_EXTENSIONS = (".mp4", ".m4v", ".mov", ".avi", ".mkv", ".webm", ".mjpeg", ".mjpg",
                     ".mpg", ".mpeg", ".ts", ".wmv", ".flv", ".ogv")
@@ -87,13 +88,15 @@ class OpenCVSource(Source):
 
     Streams open with the FFmpeg back end and ``timeout`` as both open and read timeout
     (honoured only at open time and only by FFmpeg/GStreamer: DESIGN.md §8); a read that
-    hangs anyway is caught by the :class:`Capture` watchdog.
+    hangs anyway is caught by the :class:`Capture` watchdog. Cameras' exposure
+    (``--exposure-unit``, ``--bracket``): :mod:`.uvc_exposure`.
     """
 
     def __init__(self, target, options: SourceOptions):
         super().__init__()
         self.target, self.options = target, options
         self._cap = None
+        self.exposure = UvcExposure(self)
 
     def open(self) -> None:
         t, ms = self.target, int(self.options.timeout * 1000)
@@ -119,14 +122,18 @@ class OpenCVSource(Source):
                               "own messages)")
         fps = cap.get(cv2.CAP_PROP_FPS)
         self.nominal_fps = fps if fps and 0 < fps < 1000 else None
+        self.exposure.start_bracket()
 
-    def read(self) -> Frame:
+    def _grab(self) -> np.ndarray:
         if self._stop.is_set():
             raise Interrupted()
         ok, img = self._cap.read()
         if not ok or img is None:
             raise SourceError("no frame (read failed)")
-        return Frame(_bgr_to_rgb(img), time.time())
+        return _bgr_to_rgb(img)
+
+    def read(self) -> Frame:
+        return self.exposure.frame(self._grab())
 
     def close(self) -> None:
         if self._cap is not None:

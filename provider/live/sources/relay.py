@@ -13,7 +13,9 @@ from .base import USER_AGENT, Frame, Interrupted, Source, SourceError, SourceOpt
 _RELAY_STATS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
                 "coverage_sr", "negative_energy_fraction", "negative_pixels",
                 "nonfinite_pixels", "order", "min_irradiance", "ringing", "window_cutoff",
-                "light_error", "sh9_error", "light_candidates")
+                "light_error", "sh9_error", "light_candidates",
+                "radiometry", "response", "exposure_s", "gain", "exposures_s",
+                "clipped_light_fraction")
 
 
 def relayed_lights(msg: dict):

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import json
 import logging
-import time
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -11,6 +10,7 @@ import urllib.request
 from ...core.errors import InputError
 from .base import USER_AGENT, Frame, Source, SourceError, SourceOptions, split_credentials
 from .http import MultipartJpegReader, http_opener
+from .theta_exposure import ThetaExposure
 
 log = logging.getLogger("shlight.source")
 
@@ -32,7 +32,8 @@ class ThetaSource(Source):
     ``camera._getLivePreview {sessionId}``. ``api="auto"`` tries 2.1 and falls back to
     2.0 when the camera rejects the command. The reply is an endless MJPEG multipart body
     of equirect frames (S/SC: 640×320 at 10 fps). In client mode the camera asks for
-    HTTP Digest auth: give ``theta://USER:PASSWORD@HOST``.
+    HTTP Digest auth: give ``theta://USER:PASSWORD@HOST``. Exposure (reported in manual
+    mode, brackets through ``camera.setOptions``): :mod:`.theta_exposure`.
     """
 
     EXECUTE = "/osc/commands/execute"
@@ -51,6 +52,7 @@ class ThetaSource(Source):
         self._open = http_opener(self.base, user, password).open
         self._resp, self._reader, self._session = None, None, None
         self.api_used = None
+        self.exposure = ThetaExposure(self)
 
     def _execute(self, name: str, parameters: dict, *, stream: bool = False,
                  timeout: float | None = None):
@@ -94,6 +96,10 @@ class ThetaSource(Source):
         self._resp, self._reader = resp, MultipartJpegReader(resp)
 
     def open(self) -> None:
+        self._open_preview()
+        self.exposure.setup()
+
+    def _open_preview(self) -> None:
         if self.api in ("auto", "2.1"):
             try:
                 self._preview(self._execute("camera.getLivePreview", {}, stream=True))
@@ -112,9 +118,10 @@ class ThetaSource(Source):
         self.api_used = "2.0"
 
     def read(self) -> Frame:
-        return Frame(None, time.time(), jpeg=self._reader.next_jpeg())
+        return self.exposure.read()
 
     def close(self) -> None:
+        self.exposure.close()
         if self._resp is not None:
             self._resp.close()
         if self._session:

@@ -1,0 +1,47 @@
+"""``FRAME@SECONDS`` arguments (DESIGN.md §9): an image file and its exposure time.
+
+SECONDS is a decimal (``0.004``) or a fraction (``1/250``). Only a trailing ``@`` followed
+by something made of digits, dots, signs and one slash is read as a time, and a file that
+exists under the literal name wins, so a path that itself contains ``@`` still works.
+"""
+from __future__ import annotations
+
+import os
+import re
+
+from ..core.errors import InputError
+from ..core.response import parse_seconds
+
+_TIMEISH = re.compile(r"[\s\d.+\-eE]*(/[\s\d.+\-eE]*)?")
+
+
+def parse_frame(text: str) -> tuple[str, float | None]:
+    """(path, seconds or None) of one ``FRAME[@SECONDS]`` argument."""
+    path, sep, tail = text.rpartition("@")
+    if not sep or os.path.exists(text) or not _TIMEISH.fullmatch(tail):
+        return text, None
+    if not path:
+        raise InputError(f"{text}: no image before '@'")
+    if not tail.strip():
+        raise InputError(f"{text}: missing exposure time after '@' (e.g. {path}@1/60)")
+    try:
+        return path, parse_seconds(tail)
+    except InputError as exc:
+        raise InputError(f"{text}: {exc}") from None
+
+
+def read_frames(texts, *, need_times: bool):
+    """Images and times of ``FRAME@SECONDS`` arguments; with ``need_times`` every frame
+    must have its time (merging, calibrating)."""
+    from ..core.images import read_image
+    items = [parse_frame(t) for t in texts]
+    if need_times:
+        missing = [p for p, t in items if t is None]
+        if missing:
+            raise InputError(f"every frame needs its exposure time as FRAME@SECONDS (e.g. "
+                             f"{missing[0]}@1/60); missing for: {', '.join(missing)}")
+    for p, _ in items:
+        if "@" in p and not os.path.exists(p):
+            raise InputError(f"no such file: {p} (an exposure time after '@' is a decimal or "
+                             "a fraction such as 1/60)")
+    return [read_image(p) for p, _ in items], [t for _, t in items], [p for p, _ in items]

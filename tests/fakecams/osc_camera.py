@@ -1,0 +1,135 @@
+"""A fake Ricoh Theta over Wi-Fi (Open Spherical Camera API 2.1 or 2.0) that films an HDR
+panorama: its live preview renders 8-bit JPEG frames at the exposure its options say
+(shutterSpeed × iso/100 in manual mode, exposureProgram 1; median at mid-grey in auto mode),
+through a filmic tone curve that is not sRGB. ``camera.getOptions`` and
+``camera.setOptions`` work as on the camera (a speed it does not support is an error).
+Real HTTP on loopback; every frame is rendered when it is sent."""
+from __future__ import annotations
+
+import json
+import threading
+import time
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+import cv2
+import numpy as np
+
+from provider.bench.camera_sim import CameraSim, auto_exposure
+
+SPEEDS = [1 / 8000, 1 / 6400, 1 / 5000, 1 / 4000, 1 / 3200, 1 / 2500, 1 / 2000, 1 / 1600,
+          1 / 1250, 1 / 1000, 1 / 800, 1 / 640, 1 / 500, 1 / 400, 1 / 320, 1 / 250, 1 / 200,
+          1 / 160, 1 / 125, 1 / 100, 1 / 80, 1 / 60, 1 / 50, 1 / 40, 1 / 30, 1 / 25, 1 / 20,
+          1 / 15, 1 / 13, 1 / 10, 1 / 8, 1 / 6, 1 / 5, 0.25, 0.3, 0.4, 0.5, 0.625, 0.8, 1.0,
+          1.3, 1.6, 2.0, 2.5, 3.2, 4.0, 5.0, 6.0, 8.0, 10.0, 13.0, 15.0, 20.0, 25.0, 30.0,
+          60.0]
+
+
+class FakeOscCamera:
+    def __init__(self, hdr, *, camera=None, api="2.1", fps=40.0, size=(128, 64),
+                 options=None):
+        self.hdr = cv2.resize(np.maximum(hdr, 0).astype(np.float32), size,
+                              interpolation=cv2.INTER_AREA)
+        self.camera = camera or CameraSim()
+        self.api, self.fps = api, fps
+        self.options = {"exposureProgram": 2, "shutterSpeed": 0, "iso": 0,
+                        "shutterSpeedSupport": SPEEDS, "isoSupport": [100, 125, 160, 200,
+                                                                       400, 800, 1600]}
+        self.options.update(options or {})
+        self.commands, self.set_calls = [], []
+        self._lock = threading.Lock()
+        cam = self
+
+        class Handler(BaseHTTPRequestHandler):
+            protocol_version = "HTTP/1.1"
+
+            def log_message(self, *args):
+                pass
+
+            def _json(self, status, obj):
+                body = json.dumps(obj).encode()
+                self.send_response(status)
+                self.send_header("Content-Type", "application/json;charset=utf-8")
+                self.send_header("Content-Length", str(len(body)))
+                self.end_headers()
+                self.wfile.write(body)
+
+            def _error(self, name, code, message):
+                self._json(400, {"name": name, "state": "error",
+                                 "error": {"code": code, "message": message}})
+
+            def do_POST(self):
+                cmd = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+                name, params = cmd["name"], cmd.get("parameters") or {}
+                cam.commands.append(name)
+                if cam.api == "2.0" and name not in ("camera.startSession",) and \
+                        params.get("sessionId", "SID_0001") != "SID_0001":
+                    return self._error(name, "invalidSessionId", "bad session")
+                if name == "camera.startSession" and cam.api == "2.0":
+                    return self._json(200, {"name": name, "state": "done",
+                                            "results": {"sessionId": "SID_0001"}})
+                if name == "camera.closeSession":
+                    return self._json(200, {"name": name, "state": "done"})
+                if name == "camera.getOptions":
+                    with cam._lock:
+                        opts = {k: cam.options[k] for k in params.get("optionNames", [])
+                                if k in cam.options}
+                    return self._json(200, {"name": name, "state": "done",
+                                            "results": {"options": opts}})
+                if name == "camera.setOptions":
+                    new = params.get("options") or {}
+                    if "shutterSpeed" in new and new["shutterSpeed"] not in SPEEDS + [0]:
+                        return self._error(name, "invalidParameterValue", "shutterSpeed")
+                    with cam._lock:
+                        cam.options.update(new)
+                        cam.set_calls.append(dict(new))
+                    return self._json(200, {"name": name, "state": "done"})
+                live = (name == "camera.getLivePreview" and cam.api == "2.1") or (
+                    name == "camera._getLivePreview" and cam.api == "2.0")
+                if not live:
+                    return self._error(name, "unknownCommand", "Command executed is unknown.")
+                self.send_response(200)
+                self.send_header("Content-Type",
+                                 "multipart/x-mixed-replace; boundary=\"---osclivepreview---\"")
+                self.send_header("Transfer-Encoding", "chunked")
+                self.end_headers()
+                try:
+                    while not cam.closed:
+                        frame = cam.render()
+                        part = (b"---osclivepreview---\r\nContent-type: image/jpeg\r\n"
+                                b"Content-Length: " + str(len(frame)).encode()
+                                + b"\r\n\r\n" + frame + b"\r\n")
+                        self.wfile.write(f"{len(part):x}\r\n".encode() + part + b"\r\n")
+                        self.wfile.flush()
+                        time.sleep(1.0 / cam.fps)
+                except OSError:
+                    pass
+
+        self.closed = False
+        self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.httpd.daemon_threads = True
+        threading.Thread(target=self.httpd.serve_forever, daemon=True,
+                         kwargs={"poll_interval": 0.05}).start()
+
+    def exposure(self) -> float:
+        """t·gain of the frame rendered now."""
+        with self._lock:
+            o = dict(self.options)
+        if o["exposureProgram"] == 1 and o["shutterSpeed"] and o["iso"]:
+            return o["shutterSpeed"] * o["iso"] / 100.0
+        return auto_exposure(self.hdr)
+
+    def render(self) -> bytes:
+        rgb = self.camera.capture(self.hdr, self.exposure())
+        ok, data = cv2.imencode(".jpg", np.ascontiguousarray(rgb[..., ::-1]),
+                                [cv2.IMWRITE_JPEG_QUALITY, 98])
+        assert ok
+        return data.tobytes()
+
+    @property
+    def spec(self) -> str:
+        return f"theta://127.0.0.1:{self.httpd.server_address[1]}"
+
+    def close(self):
+        self.closed = True
+        self.httpd.shutdown()
+        self.httpd.server_close()
