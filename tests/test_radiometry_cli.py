@@ -99,6 +99,17 @@ def test_compute_merges_a_bracket_within_the_target(calibrated):
     assert sh.irradiance_error(np.array(single["coefficients"]).reshape(9, 3), truth) > 0.1
 
 
+def test_export_takes_the_same_bracket_as_compute(calibrated):
+    """`shlight export` has compute's input: the merged bracket's lighting, in three.js's
+    layout (its `sh` is our radiance SH9, the whole lighting)."""
+    folder, frames, _, _, _ = calibrated
+    merged = message(shlight("compute", *frames, "--camera", folder / "camera.json"))
+    out = message(shlight("export", *frames, "--camera", folder / "camera.json", "--to",
+                          "threejs"))
+    assert out["type"] == "export" and out["format"] == "threejs"
+    np.testing.assert_allclose(out["sh"], merged["coefficients"], rtol=1e-9)
+
+
 def test_a_sun_that_clips_in_every_exposure_shows(tmp_path):
     frames, _, cam = write_bracket(tmp_path, "sky", (-6, -4, -2, 0, 2, 4, 6))
     cal = tmp_path / "true.json"

@@ -7,7 +7,9 @@ import os
 from .options import add_engine_arguments
 
 
-def add_arguments(p) -> None:
+def add_input_arguments(p) -> None:
+    """The input of ``compute`` (and ``export``): images, or FRAME@SECONDS brackets, and the
+    engine options."""
     p.add_argument("image", nargs="+", metavar="IMAGE[@SECONDS]",
                    help="panorama/fisheye image (.exr, .hdr, .png, .jpg, .tif, ...). With its "
                         "exposure time, IMAGE@SECONDS (a decimal or a fraction such as 1/60): "
@@ -18,11 +20,17 @@ def add_arguments(p) -> None:
     add_engine_arguments(p)
 
 
-def run(args) -> int:
+def add_arguments(p) -> None:
+    add_input_arguments(p)
+
+
+def wire_message(args, command: str = "compute") -> dict:
+    """The wire message of the command line's input: one image (with its exposure time, if
+    given) or a bracket merged first; notes and progress on stderr."""
     from ..core.bracket import project_bracket
     from ..core.engine import SH9Projector
     from ..core.engine_options import precompute_note
-    from ..live.message import coefficient_message, dumps
+    from ..live.message import coefficient_message
     from .feedback import Progress, say
     from .frames import read_frames
     from .options import engine_options
@@ -36,18 +44,25 @@ def run(args) -> int:
     height, width = image.shape[:2]
     note = precompute_note(width, height, args.projection, args.downsample)
     if note:
-        say("compute", "note", note)
+        say(command, "note", note)
     projector = SH9Projector(width, height, args.projection, error_estimate=True,
-                             progress=Progress("compute", "per-pixel weights") if note else None,
+                             progress=Progress(command, "per-pixel weights") if note else None,
                              **options)
     for warning in projector.warnings:
-        say("compute", "warning", warning)
+        say(command, "warning", warning)
     if several:
         result = project_bracket(projector, images, times)
     else:
         result = projector.project(image, exposure_s=times[0])
-    msg = coefficient_message(result, probe=args.probe, seq=0,
-                              time=os.path.getmtime(paths[0]), projection=args.projection)
-    text = dumps(msg) if not args.pretty else json.dumps(msg, indent=2, allow_nan=False)
-    print(text)
+    return coefficient_message(result, probe=args.probe, seq=0,
+                               time=os.path.getmtime(paths[0]), projection=args.projection)
+
+
+def print_json(message: dict, pretty: bool) -> None:
+    from ..live.message import dumps
+    print(dumps(message) if not pretty else json.dumps(message, indent=2, allow_nan=False))
+
+
+def run(args) -> int:
+    print_json(wire_message(args), args.pretty)
     return 0

@@ -1,21 +1,16 @@
-"""``shlight export IMAGE --to FORMAT``: one image's lighting in another engine's layout."""
+"""``shlight export IMAGE --to FORMAT``: one image's lighting in another engine's layout
+(the same input as ``compute``: images, FRAME@SECONDS brackets, the engine options)."""
 from __future__ import annotations
 
-import json
-import os
-
-from .options import add_engine_arguments
+from .compute import add_input_arguments, print_json, wire_message
 
 _PHASED = ("arcore", "openxr-android")
 
 
 def add_arguments(p) -> None:
     from ..core.conventions import FORMATS
-    p.add_argument("image", help="panorama/fisheye image (.exr, .hdr, .png, .jpg, .tif, ...)")
     p.add_argument("--to", required=True, choices=FORMATS, metavar="FORMAT",
                    help="target layout: " + ", ".join(FORMATS))
-    p.add_argument("--probe", default="default", help="probe name in the message")
-    p.add_argument("--pretty", action="store_true", help="indent the JSON")
     g = p.add_argument_group("where the targets' own sources disagree (see README)")
     g.add_argument("--babylon-handedness", choices=["left", "right"], default=None,
                    help="gltf: the Babylon.js scene's handedness (default left, Babylon's "
@@ -23,16 +18,12 @@ def add_arguments(p) -> None:
     g.add_argument("--no-condon-shortley", action="store_true",
                    help="arcore, openxr-android: no Condon-Shortley phase (the archived ARCore "
                         "Unity SDK's reading) instead of Google's maintained Android sample's")
-    add_engine_arguments(p)
+    add_input_arguments(p)
 
 
 def run(args) -> int:
-    from ..core.engine import compute_sh9
     from ..core.errors import InputError
-    from ..core.images import read_image
     from ..live.export import export_message
-    from ..live.message import coefficient_message, dumps
-    from .options import engine_options
     options = {}
     if args.babylon_handedness is not None:
         if args.to != "gltf":
@@ -42,11 +33,5 @@ def run(args) -> int:
         if args.to not in _PHASED:
             raise InputError("--no-condon-shortley applies to --to arcore or openxr-android only")
         options["condon_shortley"] = False
-    image = read_image(args.image)
-    result = compute_sh9(image, projection=args.projection, error_estimate=False,
-                         **engine_options(args))
-    msg = coefficient_message(result, probe=args.probe, seq=0,
-                              time=os.path.getmtime(args.image))
-    out = export_message(msg, args.to, **options)
-    print(dumps(out) if not args.pretty else json.dumps(out, indent=2, allow_nan=False))
+    print_json(export_message(wire_message(args, "export"), args.to, **options), args.pretty)
     return 0
