@@ -14,7 +14,7 @@ write an image or a video.
 
 Frames (read this before changing a sign)
 -----------------------------------------
-* Lighting ("probe") frame: the wire frame, right-handed, +Y up (DESIGN.md §1); the
+* Lighting ("probe") frame: the wire frame, right-handed, +Y up (docs/contract.md §1); the
   panorama centre looks along -Z, u = 0.75 along +X.
 * Marker frame (OpenCV/ArUco): origin at the marker centre, x along the printed marker's
   right edge direction, y toward its top edge, z out of the printed face.

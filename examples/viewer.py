@@ -6,7 +6,7 @@
     python examples/viewer.py --lighting ws://pi.local:8765/?probe=desk
     python examples/viewer.py --lighting room.exr --screenshot room.png --frames 3
 
-The scene is drawn in the wire frame itself (right-handed, +Y up, DESIGN.md §1), so the
+The scene is drawn in the wire frame itself (right-handed, +Y up, docs/contract.md §1), so the
 matrices go to the shader unrotated: the camera stands at +Z looking toward -Z (toward the
 panorama centre), +X is to the right of the window. A light at u = 0.75 of the panorama
 (+X) lights the right side of both objects.

@@ -1,6 +1,6 @@
 #version 330 core
 // Demo fragment shader with lights: a Lambertian surface of albedo ρ lit by the ambient SH9
-// and the directional lights of DESIGN.md §10 shows radiance ρ·E(n)/π with
+// and the directional lights of docs/contract.md §10 shows radiance ρ·E(n)/π with
 // E(n) = ñᵀAñ + Σ_k I_k max(0, n·d_k). Upload the message's "ambient_matrices" as
 // shIrradianceR/G/B and its lights (see sh9_lights.glsl). Same outputs as lit_diffuse.frag.
 #include "sh9_irradiance.glsl"

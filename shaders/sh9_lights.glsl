@@ -1,4 +1,4 @@
-// SH9 ambient plus directional lights (DESIGN.md §10):
+// SH9 ambient plus directional lights (docs/contract.md §10):
 //     E(n) = ñᵀ A ñ + Σ_k I_k · max(0, n · d_k)
 // Paste after shaders/sh9_irradiance.glsl (it uses shIrradianceUnclamped); no #version line.
 //

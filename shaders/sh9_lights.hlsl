@@ -1,4 +1,4 @@
-// SH9 ambient plus directional lights (DESIGN.md §10):
+// SH9 ambient plus directional lights (docs/contract.md §10):
 //     E(n) = ñᵀ A ñ + Σ_k I_k · max(0, n · d_k)
 // Include into any HLSL program (Unity built-in, URP, or plain D3D); it includes
 // sh9_irradiance.hlsl (same folder) for _SHIrradianceR/G/B and SHIrradianceUnclamped.

@@ -127,7 +127,7 @@ def f32(values) -> np.ndarray:
 
 def write_hemisphere(path: Path, side: str) -> None:
     """A 64×32 float panorama: radiance 1 on the +X (``right``) or −X hemisphere, 0
-    elsewhere (u = 0.75 looks along +X, DESIGN.md §1). Written under another name and
+    elsewhere (u = 0.75 looks along +X, docs/contract.md §1). Written under another name and
     renamed, so that a file source never reads half a file."""
     img = np.zeros((32, 64, 3), np.float32)
     if side == "right":

@@ -112,7 +112,7 @@ def camera_frame(R, t, marker_px: int = 200, pad: int = 40):
 
 
 def panorama(direction, height: int = 64) -> np.ndarray:
-    """Equirect float panorama (DESIGN.md §1 frame): dim ambient, one bright 15° disc."""
+    """Equirect float panorama (docs/contract.md §1 frame): dim ambient, one bright 15° disc."""
     w = 2 * height
     v = (np.arange(height) + 0.5) / height
     u = (np.arange(w) + 0.5) / w

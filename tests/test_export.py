@@ -283,7 +283,7 @@ def test_the_wire_message_says_what_it_is():
 
 
 def test_lights_from_a_message_or_from_stats():
-    """DESIGN.md §10 fields, from a wire message (lists) or arrays; with
+    """docs/contract.md §10 fields, from a wire message (lists) or arrays; with
     ambient_coefficients given, that ambient is used as is."""
     d, e = OBLIQUE_LIGHT
     amb = hemisphere_sh(AXES["-z"])

@@ -1,4 +1,4 @@
-"""Lights (DESIGN.md §10): ambient SH9 plus directional lights, only where the scene needs them.
+"""Lights (docs/contract.md §10): ambient SH9 plus directional lights, only where the scene needs them.
 
 Accuracy is checked against the float64 brute-force irradiance of tests/reference.py (no SH,
 written independently of provider/), on the nine shared panoramas; stability over simulated
@@ -73,7 +73,7 @@ def test_ambient_plus_lights_is_never_worse_than_sh9(name, hdri):
 
 
 def test_on_sun_scenes_lights_halve_the_error(hdri):
-    """Target: where SH9 alone misses 5.6 % or more (DESIGN.md §10's sun scenes; among the
+    """Target: where SH9 alone misses 5.6 % or more (docs/contract.md §10's sun scenes; among the
     shared panoramas, sky), ambient + lights has less than half its error."""
     sun_scenes = []
     for name in HDRI_NAMES:
@@ -254,7 +254,7 @@ def test_bad_light_options_say_so_in_one_line(tmp_path):
 # ---- the wire -----------------------------------------------------------------------------------
 
 def test_compute_prints_the_lights_fields():
-    """`shlight compute --lights auto`: the five DESIGN.md §10 fields, schema-valid."""
+    """`shlight compute --lights auto`: the five docs/contract.md §10 fields, schema-valid."""
     res = run_cli("compute", str(HDRI_DIR / "sky.exr"), "--lights", "auto")
     assert res.returncode == 0, res.stderr
     msg = json.loads(res.stdout)

@@ -1,4 +1,4 @@
-"""Lights in the live service (DESIGN.md §10): the probe's tracker, smoothing and the change
+"""Lights in the live service (docs/contract.md §10): the probe's tracker, smoothing and the change
 gate, the relay, and the messages real clients receive (real servers on loopback, see
 tests/servertools.py; nothing asserts a duration)."""
 from __future__ import annotations

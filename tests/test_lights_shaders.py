@@ -1,4 +1,4 @@
-"""The shipped ambient + lights shader functions (shaders/sh9_lights.glsl and .hlsl, DESIGN.md
+"""The shipped ambient + lights shader functions (shaders/sh9_lights.glsl and .hlsl, docs/contract.md
 §10) against the CPU, on a real headless OpenGL context, the HLSL through SPIR-V
 (provider/verify/lights.py); the lights cases of the contract vectors; the picture.
 

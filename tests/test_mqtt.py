@@ -1,4 +1,4 @@
-"""``shlight serve --mqtt``: publishing to a real mosquitto on loopback (DESIGN.md §11).
+"""``shlight serve --mqtt``: publishing to a real mosquitto on loopback (docs/contract.md §11).
 
 Topic PREFIX/PROBE, payload exactly the wire JSON, retained, QoS 0; a late subscriber gets
 the latest lighting at once; the broker stopping, restarting or not reading never stops

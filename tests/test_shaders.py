@@ -221,7 +221,7 @@ def test_yaw90_is_an_exact_column_roll():
 EXPECTED_CASE_KEYS = ["name", "coefficients", "matrices", "normals", "irradiance",
                       "unity_matrices", "unity_normals"]
 ROTATION_KEYS = ["rotation", "rotated_matrices", "unity_rotated_matrices"]
-#: Lights cases (DESIGN.md §10; checked in tests/test_lights.py).
+#: Lights cases (docs/contract.md §10; checked in tests/test_lights.py).
 LIGHT_KEYS = ["lights", "light_directions", "light_irradiance", "ambient_coefficients",
               "ambient_matrices", "irradiance_with_lights", "unity_ambient_matrices",
               "unity_light_directions"]

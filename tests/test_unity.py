@@ -171,7 +171,7 @@ def test_core_against_generated_vectors(contract_exe, tmp_path):
                 "rotated_irradiance_unity", "rotated_ambient_shadesh9", "one_sided_light",
                 "intensity_multiplier", "furnace", "parser_rejects_invalid", "parser_accepts_valid",
                 "parser_invariant_culture", "subscribe_message", "uri",
-                # lights (DESIGN.md §10): one-sided directional lights in Unity's frame, Unity's Lambert
+                # lights (docs/contract.md §10): one-sided directional lights in Unity's frame, Unity's Lambert
                 # with the colour/intensity mapping in each colour-space mode, ambient-only SH9
                 "light_split", "light_direction_unity", "light_forward", "light_color_range",
                 "light_radiance_LinearIntensity", "light_radiance_GammaIntensity", "light_radiance_Gamma",
@@ -197,7 +197,7 @@ def _print_agreement(label, report):
 
 
 def test_csharp_ambient_factors_match_the_python_constants():
-    """The k factors in Sh9Math.cs are basis constant × Â_l/π of provider.core.sh (DESIGN.md §7)."""
+    """The k factors in Sh9Math.cs are basis constant × Â_l/π of provider.core.sh (docs/contract.md §7)."""
     from provider.core import sh
     text = (PKG / "Runtime" / "Core" / "Sh9Math.cs").read_text()
     block = re.search(r"UnityAmbientFactors =\s*\{(.*?)\};", text, re.S).group(1)
@@ -205,7 +205,7 @@ def test_csharp_ambient_factors_match_the_python_constants():
     basis = np.array([sh.C0, sh.C1, sh.C1, sh.C1, sh.C2, sh.C2, sh.C20, sh.C2, sh.C22])
     assert len(k) == 9
     assert np.allclose(k, basis * sh.A_HAT_PER_COEFF / math.pi, rtol=2e-6)
-    # and the magnitudes of DESIGN.md §7's signed table
+    # and the magnitudes of docs/contract.md §7's signed table
     design = [0.282095, -0.325735, 0.325735, -0.325735, 0.273137, -0.273137, 0.078848, -0.273137, 0.136569]
     assert np.allclose(k, np.abs(design), atol=1e-6)
 
@@ -332,7 +332,7 @@ def _quaternion_matrix(q) -> np.ndarray:
 
 
 def _equirect_direction(u: float, v: float) -> np.ndarray:
-    """DESIGN.md §1: the right-handed direction of equirect pixel centre (u, v)."""
+    """docs/contract.md §1: the right-handed direction of equirect pixel centre (u, v)."""
     theta, phi = math.pi * v, 2 * math.pi * (u - 0.5)
     return np.array([math.sin(phi) * math.sin(theta), math.cos(theta), -math.cos(phi) * math.sin(theta)])
 
@@ -624,7 +624,7 @@ def test_live_client_against_shlight_serve(live_exe, tmp_path):
         _, rev = rotated.wait_for("a live message (rotated client)", lambda e: e["event"] == "applied" and not e["stale"])
         _check_applied(rev, rotation=rotation, intensity=2.0)
         # one-sided light, independent of the algebra above: the patch of image A lies along d
-        # (DESIGN.md §1), so Unity sees it along (x, y, -z), and the rotated client along R (x, y, -z)
+        # (docs/contract.md §1), so Unity sees it along (x, y, -z), and the rotated client along R (x, y, -z)
         d_unity = _equirect_direction(*scenes["A"][:2]) @ S3
         e_main = _irradiance_rgb(ev, d_unity), _irradiance_rgb(ev, -d_unity)
         assert np.all(e_main[0] > 1.5 * e_main[1]) and e_main[0][0] > 5 * e_main[1][0], e_main  # orange light
@@ -820,14 +820,14 @@ def _srgb_to_linear(v: float) -> float:
 
 
 def test_live_client_drives_the_directional_light(live_exe, tmp_path):
-    """DESIGN.md §10 end to end: `shlight serve --lights auto --max-lights 1` on a panorama with a small, very bright
+    """docs/contract.md §10 end to end: `shlight serve --lights auto --max-lights 1` on a panorama with a small, very bright
     source sends a light; the component shows it on its Directional Light (forward = minus the
     direction toward the light, in Unity's frame), with colour × intensity = E/π (linear colour space,
     lightsUseLinearIntensity on), _SHMainLightScale 1, and gives the ambient probe and SH9 globals the
     ambient SH only."""
     if "--lights" not in _serve_help():
         pytest.skip("`shlight serve --help` lists no --lights: the provider does not send lights yet "
-                    "(needs `shlight serve --lights auto` adding DESIGN.md §10's fields to each sh9 message)")
+                    "(needs `shlight serve --lights auto` adding docs/contract.md §10's fields to each sh9 message)")
     from provider.core import sh
     import cv2
     image = tmp_path / "sun.png"

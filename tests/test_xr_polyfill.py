@@ -416,7 +416,7 @@ def test_native_light_estimation_is_left_alone_unless_forced(browser, tmp_path):
 
 
 def test_estimate_of_a_primary_light_turned_into_the_reference_space(browser, tmp_path):
-    """The live provider sends no lights yet (DESIGN.md §10 is the engine's next step), so
+    """The live provider sends no lights yet (docs/contract.md §10 is the engine's next step), so
     the webxr export of a scene with one (made by the server's own export code) is decoded
     in the page: the light leaves the SH as XREstimatedLight expects, and a rotation turns
     the SH and the direction alike."""

@@ -1,5 +1,5 @@
 """``--sections scenes``, lights: SH9 alone against ambient + directional lights
-(``lights="auto"``, DESIGN.md §10) per real panorama, and what lights cost per frame.
+(``lights="auto"``, docs/contract.md §10) per real panorama, and what lights cost per frame.
 
 Accuracy: irradiance against brute force ∫ L max(0, n·ω) dω summed over every pixel of the
 full-resolution frame at 4096 Fibonacci normals (1024 with ``--quick``). *RMS*: relative

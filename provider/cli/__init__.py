@@ -24,7 +24,7 @@ from .options import Parser  # noqa: E402
 
 #: (command, module of this package, help)
 COMMANDS = (
-    ("compute", "compute", "print the wire JSON (DESIGN.md §3) for one image"),
+    ("compute", "compute", "print the wire JSON (docs/contract.md §3) for one image"),
     ("export", "export", "print one image's lighting in another engine's layout (--to FORMAT)"),
     ("serve", "serve", "serve live coefficients over WebSocket (default: demo source)"),
     ("validate-shaders", "validate", "prove the GLSL/HLSL compute what the CPU computes"),

@@ -1,4 +1,4 @@
-"""``FRAME@SECONDS`` arguments (DESIGN.md §9): an image file and its exposure time.
+"""``FRAME@SECONDS`` arguments (docs/contract.md §9): an image file and its exposure time.
 
 SECONDS is a decimal (``0.004``) or a fraction (``1/250``). Only a trailing ``@`` followed
 by something made of digits, dots, signs and one slash is read as a time, and a file that

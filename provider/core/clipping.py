@@ -1,7 +1,7 @@
 """Samples clipped at the top code of an 8/16-bit frame, and the light they carry (no I/O).
 
 ``clipped_fraction`` counts the channel samples at the top code; ``clipped_light_fraction``
-(DESIGN.md §9) is the share of L00 they put into the projection at their clip level, a lower
+(docs/contract.md §9) is the share of L00 they put into the projection at their clip level, a lower
 bound of the light that was never measured: the sun is a few samples and half the light.
 :class:`ClippedLight` computes both for an :class:`~.engine.SH9Projector` at little cost:
 

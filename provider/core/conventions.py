@@ -1,6 +1,6 @@
 """Our SH9 lighting in each consumer's own convention (numpy only, no I/O).
 
-Input everywhere is the contract (DESIGN.md §1-2, §10):
+Input everywhere is the contract (docs/contract.md §1-2, §10):
 
 * ``coefficients``: (9, 3) raw radiance projections ``L_lm = ∫ L(ω) Y_lm(ω) dω``, order
   L00, L1-1, L10, L11, L2-2, L2-1, L20, L21, L22, real SH with Y1-1 = 0.488603 y,
@@ -53,7 +53,7 @@ from .errors import InputError
 
 FORMATS = ("threejs", "webxr", "unity", "arcore", "gltf", "openxr-android")
 
-#: Our basis-function constants |Y_i| (DESIGN.md §1), per coefficient.
+#: Our basis-function constants |Y_i| (docs/contract.md §1), per coefficient.
 BASIS_CONSTANTS = np.array([sh.C0, sh.C1, sh.C1, sh.C1, sh.C2, sh.C2, sh.C20, sh.C2, sh.C22])
 #: Â_l per coefficient (π, 2π/3, π/4).
 A_HAT = np.asarray(sh.A_HAT_PER_COEFF, dtype=np.float64)
@@ -65,7 +65,7 @@ MIRROR_Z = np.array([1, 1, -1, 1, 1, -1, 1, -1, 1], dtype=np.float64)
 #: Coefficient signs under the mirror x → −x (x-odd: L11, L2-2, L21).
 MIRROR_X = np.array([1, 1, 1, -1, -1, 1, 1, -1, 1], dtype=np.float64)
 #: Unity's per-coefficient factors |Y_i|·Â_l/π = 0.282095, 0.325735 ×3, 0.273137 ×2,
-#: 0.078848, 0.273137, 0.136569 (DESIGN.md §7's k without its signs).
+#: 0.078848, 0.273137, 0.136569 (docs/contract.md §7's k without its signs).
 UNITY_FACTORS = BASIS_CONSTANTS * A_HAT / math.pi
 
 _REC709 = np.array([0.2126, 0.7152, 0.0722])
@@ -102,7 +102,7 @@ def _as_lights(lights) -> list[tuple[np.ndarray, np.ndarray]]:
 
 def lights_from_fields(fields: Mapping) -> tuple[list[tuple[np.ndarray, np.ndarray]],
                                                  np.ndarray | None]:
-    """The lights and the ambient SH of DESIGN.md §10's fields, if any.
+    """The lights and the ambient SH of docs/contract.md §10's fields, if any.
 
     ``fields`` is a wire message dict or an ``SH9Result.stats`` mapping: ``lights`` (k),
     ``light_directions`` (3k numbers), ``light_irradiance`` (3k), and optionally
@@ -131,7 +131,7 @@ def lights_from_fields(fields: Mapping) -> tuple[list[tuple[np.ndarray, np.ndarr
 def light_sh(direction, irradiance) -> np.ndarray:
     """SH9 (9, 3) of a distant light: radiance E⊥·δ(ω − d), so L_lm = E⊥ Y_lm(d).
 
-    Its SH9 irradiance is the order-2 approximation of E⊥·max(0, n·d) (DESIGN.md §10:
+    Its SH9 irradiance is the order-2 approximation of E⊥·max(0, n·d) (docs/contract.md §10:
     ``coefficients = ambient_coefficients + Σ light_sh(d_k, E_k)``).
     """
     d = np.asarray(direction, dtype=np.float64).reshape(3)
@@ -281,7 +281,7 @@ def _unity(L, lights, ambient):
     kNormalizationConstants (Runtime/Lighting/SphericalHarmonics.cs:58-90) belong to its
     Condon-Shortley canonical SH and cancel. Packing SHProperties.cs:31-44 and ShadeSH9
     (UnityCG.cginc:327-372) return E/π. MZ: Unity is left-handed, (x, y, z) → (x, y, −z)
-    (DESIGN.md §1; ARCore Unity SDK LightEstimateApi.cs:131-133, 148-151). Layout
+    (docs/contract.md §1; ARCore Unity SDK LightEstimateApi.cs:131-133, 148-151). Layout
     channel-major, SphericalHarmonicsL2.bindings.cs:16-20, 73-79 (index rgb*9 + i).
     Main light: forward = −(toward light) in Unity axes, colour = E⊥/π because Unity's
     BRDF lacks 1/π (LightEstimateApi.cs:111-122).

@@ -3,13 +3,13 @@
 :class:`SH9Projector` precomputes, once per (frame size, projection, options), everything
 that does not depend on pixels (per-pixel SH weights, the sRGB linearisation table, the
 rotation matrix); :meth:`SH9Projector.project` then costs a few vectorised calls per frame.
-:func:`compute_sh9` is the one-shot convenience (DESIGN.md §4).
+:func:`compute_sh9` is the one-shot convenience (docs/contract.md §4).
 
 Frame contract (like OpenCV's, but RGB channel order): an ``ndarray`` of shape (H, W, 3)
 (or (H, W, 4): alpha ignored; or (H, W) / (H, W, 1): grey), dtype
 
 * ``uint8``: sRGB-encoded unless ``encoding="linear"``; linearised through a table
-  *before* any averaging (DESIGN.md §5);
+  *before* any averaging (docs/contract.md §5);
 * ``uint16``: likewise (16-bit PNG/TIFF are display-encoded), full scale 65535;
 * ``float16/32/64``: linear radiance (HDR, .exr/.hdr), used as is.
 
@@ -18,7 +18,7 @@ HDR; 0..1 relative to full scale for integer frames). With a camera ``response``
 (:class:`~provider.core.response.CameraResponse`) integer frames are decoded by the
 camera's own curve instead of sRGB, and a frame's ``exposure_s`` and ``gain`` given to
 :meth:`SH9Projector.project` divide the coefficients: radiance per second of exposure, so
-that exposure changes never rebuild a table (DESIGN.md §9). Brackets: :mod:`.bracket`.
+that exposure changes never rebuild a table (docs/contract.md §9). Brackets: :mod:`.bracket`.
 """
 from __future__ import annotations
 
@@ -63,7 +63,7 @@ class SH9Result:
         toward the light (world frame), ``.irradiance`` RGB on a surface facing it.
     ambient_coefficients : (9, 3) float64 or None
         SH9 of everything the lights did not take (``lights="auto"``); None when lights are
-        off. ``coefficients`` stay the full SH9 of everything (DESIGN.md §10).
+        off. ``coefficients`` stay the full SH9 of everything (docs/contract.md §10).
     """
 
     coefficients: np.ndarray
@@ -129,7 +129,7 @@ class SH9Projector:
     lights : "off" | "auto"
         "auto": model compact bright sources as directional lights plus an ambient SH9,
         keeping a light only where it lowers the measured irradiance error
-        (:mod:`provider.core.lights`; DESIGN.md §10). "off": the exact path, unchanged.
+        (:mod:`provider.core.lights`; docs/contract.md §10). "off": the exact path, unchanged.
     max_lights : int
         At most this many lights per frame, 1 to :data:`~provider.core.engine_options.MAX_LIGHTS` (default 3).
     response : CameraResponse or None
@@ -377,7 +377,7 @@ class SH9Projector:
         per-frame greedy choice.
 
         ``exposure_s`` and ``gain`` (when the source reports them): the coefficients are
-        divided by ``exposure_s · gain``, radiance per second of exposure (DESIGN.md §9),
+        divided by ``exposure_s · gain``, radiance per second of exposure (docs/contract.md §9),
         so that auto exposure does not make the lighting jump; the table is not rebuilt.
 
         ``stats`` keys: ``compute_ms``, ``clipped_fraction`` (fraction of channel samples at
@@ -539,7 +539,7 @@ _PROJECTOR_CACHE: dict = {}
 
 
 def compute_sh9(image, projection: str = "equirect", **options) -> SH9Result:
-    """SH9 lighting of one image (DESIGN.md §4).
+    """SH9 lighting of one image (docs/contract.md §4).
 
     ``image`` is an (H, W, C) array in RGB order (see the module docstring) or a path to
     an image file (.exr, .hdr, .png, .jpg, .tif, ...). Options are those of

@@ -1,4 +1,4 @@
-"""Directional lights plus SH9 ambient (DESIGN.md §10): finding the lights of a frame.
+"""Directional lights plus SH9 ambient (docs/contract.md §10): finding the lights of a frame.
 
 Maths only (numpy + OpenCV; no I/O, no threads). A scene's compact bright sources (a sun, a
 lamp, a window) are modelled as directional lights, the rest stays in SH9, and a light is

@@ -1,4 +1,4 @@
-"""Lights of one frame (DESIGN.md §10): the results and the per-frame evaluator of light sets.
+"""Lights of one frame (docs/contract.md §10): the results and the per-frame evaluator of light sets.
 
 Maths only (numpy; no I/O). :class:`~provider.core.lights.LightExtractor` builds an
 :class:`Analysis` per frame: the candidate lights, the brute-force irradiance ("truth") at a
@@ -6,7 +6,7 @@ fixed set of normals, and Gram matrices that score *any* set of candidates in mi
 The per-frame greedy choice (:meth:`Analysis.greedy`) and the tracker with hysteresis
 (:class:`~provider.core.lights_tracking.LightTracker`) both choose through it.
 
-Conventions (DESIGN.md §1-2, §10): directions are unit vectors *toward* the light in the
+Conventions (docs/contract.md §1-2, §10): directions are unit vectors *toward* the light in the
 right-handed +Y-up frame; a light's ``irradiance`` is the RGB irradiance on a surface facing
 it (the units of E(n): radiance × sr); the model is
 ``E(n) = ñᵀAñ + Σ_k I_k · max(0, n·d_k)`` with the ambient A = full SH9 − Σ_k I_k Y(d_k)
@@ -119,7 +119,7 @@ class LightsResult:
         return replace(self, lights=lights, ambient=ambient)
 
     def wire_fields(self) -> dict:
-        """The DESIGN.md §10 wire fields (flat lists of floats, JsonUtility-friendly)."""
+        """The docs/contract.md §10 wire fields (flat lists of floats, JsonUtility-friendly)."""
         return {
             "lights": len(self.lights),
             "light_directions": [float(v) for light in self.lights for v in light.direction],

@@ -1,4 +1,4 @@
-"""Lights that are stable in time: hysteresis across frames (DESIGN.md §10).
+"""Lights that are stable in time: hysteresis across frames (docs/contract.md §10).
 
 A pure state machine (no threads, no I/O, no clock): the live layer keeps one
 :class:`LightTracker` per probe and feeds it each frame's

@@ -2,7 +2,7 @@
 
 Every projection maps continuous pixel coordinates ``(px, py)`` (pixel ``(i, j)`` covers
 ``[i, i+1) × [j, j+1)``; y grows downward) to unit directions in the right-handed, +Y-up
-world frame of DESIGN.md §1. From that one map the base class precomputes, once per
+world frame of docs/contract.md §1. From that one map the base class precomputes, once per
 (size, options):
 
 * ``sh_weights`` (H·W, 9): ``∫_pixel Y_lm(ω) dω`` for each pixel (times any overlap or
@@ -152,7 +152,7 @@ class Projection:
 
 
 class Equirect(Projection):
-    """Equirectangular (2:1) panorama, DESIGN.md §1: θ = πv, φ = 2π(u − 0.5),
+    """Equirectangular (2:1) panorama, docs/contract.md §1: θ = πv, φ = 2π(u − 0.5),
     d = (sin φ sin θ, cos θ, −cos φ sin θ); the centre looks along −Z."""
 
     name = "equirect"
@@ -333,7 +333,7 @@ class FisheyeLens:
 class Fisheye(Projection):
     """A single circular fisheye (e.g. a Raspberry Pi camera with a 180° lens).
 
-    Default mount (DESIGN.md §1): optical axis +Y (looking up), image right = +X, image
+    Default mount (docs/contract.md §1): optical axis +Y (looking up), image right = +X, image
     top = +Z; equidistant lens r = f·θ with the image circle inscribed in the frame
     (``radius`` = the pixel radius at ``fov/2``). A calibration ``K, D`` (cv2.fisheye)
     replaces the equidistant model.
@@ -437,7 +437,7 @@ class DualFisheye(Projection):
 
     Left circle: optical axis −Z (the panorama's front), image right +X, up +Y. Right
     circle: axis +Z, image right −X, up +Y (lens-to-lens yaw 180°). Each circle sits in a
-    (width/2)-square. Defaults are one Theta S at 1280×720 (DESIGN.md §8): centres
+    (width/2)-square. Defaults are one Theta S at 1280×720 (docs/contract.md §8): centres
     (319, 319) and (959, 319), 90° ring at radius 284 px, 200° lenses, scaled to other
     sizes; calibrate per unit with ``centers``, ``focal`` and ``fov_deg``.
 

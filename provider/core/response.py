@@ -1,6 +1,6 @@
 """Camera response: 8- and 16-bit code values -> sensor exposure, per channel (no I/O).
 
-An 8-bit frame is not light (DESIGN.md §9). A camera maps sensor exposure
+An 8-bit frame is not light (docs/contract.md §9). A camera maps sensor exposure
 ``X = L · t · gain`` (scene radiance L, exposure time t in seconds, gain = ISO / aperture
 constant) through its tone curve to a code value z. The *inverse response* ``g(z)`` gives X
 back, per channel, as a table of 2**bits entries, exactly like the sRGB table the engine

@@ -1,6 +1,6 @@
 """Spherical-harmonic maths for SH9 lighting (no I/O).
 
-Conventions are fixed by DESIGN.md §1-2 and shared with the GLSL, HLSL and C#:
+Conventions are fixed by docs/contract.md §1-2 and shared with the GLSL, HLSL and C#:
 
 * frame: right-handed, +Y up;
 * real SH basis, order ``L00, L1-1, L10, L11, L2-2, L2-1, L20, L21, L22``;
@@ -19,14 +19,14 @@ SH_NAMES = ("L00", "L1-1", "L10", "L11", "L2-2", "L2-1", "L20", "L21", "L22")
 #: Band (l) of each coefficient.
 SH_BAND = np.array([0, 1, 1, 1, 2, 2, 2, 2, 2])
 
-# Normalisation constants of the real SH basis (DESIGN.md §1).
+# Normalisation constants of the real SH basis (docs/contract.md §1).
 C0 = 0.282095
 C1 = 0.488603
 C2 = 1.092548
 C20 = 0.315392
 C22 = 0.546274
 
-#: Cosine-lobe convolution factors Â_l (DESIGN.md §2).
+#: Cosine-lobe convolution factors Â_l (docs/contract.md §2).
 A_HAT = np.array([math.pi, 2 * math.pi / 3, math.pi / 4])
 A_HAT_PER_COEFF = A_HAT[SH_BAND]
 

@@ -4,7 +4,7 @@
 blocks the event loop. It keeps only the newest frame (no backlog: a slow consumer sees
 fewer frames, never older ones), reports the source as connected or lost, and after a
 failure builds a *fresh* source object and reconnects with exponential backoff (an
-OpenCV capture whose ``read()`` failed once does not recover: DESIGN.md §8). A read
+OpenCV capture whose ``read()`` failed once does not recover: docs/contract.md §8). A read
 that hangs (OpenCV on a dropped network stream) is detected by a watchdog: the stuck
 thread is abandoned and a new attempt starts.
 """

@@ -1,7 +1,7 @@
 """Wire messages in other engines' layouts: ``/latest.json?to=FORMAT``, ``subscribe`` ``to``
 and ``shlight export``.
 
-:func:`export_message` turns one ``sh9`` message (DESIGN.md §3, with §10's light fields when
+:func:`export_message` turns one ``sh9`` message (docs/contract.md §3, with §10's light fields when
 the engine produced them) into an ``export`` message: a short envelope (``type``,
 ``version``, ``probe``, ``seq``, ``time``, ``stale``, ``age_s``) plus what
 :func:`provider.core.conventions.export` returns for the format (its payload and its
@@ -39,7 +39,7 @@ def check_format(fmt) -> str | None:
 def export_message(message: dict, fmt: str, **options) -> dict:
     """The ``export`` message of an ``sh9`` message in format ``fmt`` (one of FORMATS).
 
-    The lights are the message's own DESIGN.md §10 fields (every ``sh9`` message carries
+    The lights are the message's own docs/contract.md §10 fields (every ``sh9`` message carries
     them). ``options``: ``babylon_handedness`` (gltf), ``condon_shortley`` (arcore,
     openxr-android); see :func:`provider.core.conventions.export`.
     """

@@ -1,4 +1,4 @@
-"""The wire contract (DESIGN.md §3): one JSON object per coefficient message.
+"""The wire contract (docs/contract.md §3): one JSON object per coefficient message.
 
 Every message is flat enough for Unity's ``JsonUtility`` (arrays of numbers only, no
 nested arrays, no null, no NaN). Output modes, as in Filament's cmgen:
@@ -7,12 +7,12 @@ nested arrays, no null, no NaN). Output modes, as in Filament's cmgen:
 * ``matrices``: *irradiance* E (a Lambertian surface of albedo ρ shows ρ·E/π).
 
 Every message also says what its numbers are: ``frame`` (``rh-y-up``), ``basis``
-(``sh9-real``: the real SH of DESIGN.md §1), ``condon_shortley`` (false: no
+(``sh9-real``: the real SH of docs/contract.md §1), ``condon_shortley`` (false: no
 Condon-Shortley phase), ``coefficients_mode`` / ``matrices_mode`` (the quantity) and
 ``units`` (``input-linear``: linear in the input's units). Other engines' layouts:
 :mod:`provider.live.export`.
 
-Lights (DESIGN.md §10) are in every message: ``lights`` (k), ``light_directions`` (3k: unit
+Lights (docs/contract.md §10) are in every message: ``lights`` (k), ``light_directions`` (3k: unit
 vectors toward each light), ``light_irradiance`` (3k: RGB irradiance on a surface facing
 it), ``ambient_coefficients`` (27) and ``ambient_matrices`` (48), so that
 E(n) = ñᵀAñ + Σ_k I_k max(0, n·d_k). With lights off, or when a scene needs none: k = 0,
@@ -42,7 +42,7 @@ _STAT_NUMBERS = ("compute_ms", "clipped_fraction", "order_error", "error_estimat
                  "coverage_sr", "negative_energy_fraction", "light_error", "sh9_error",
                  "clipped_light_fraction", "exposure_s", "gain")
 _STAT_INTS = ("negative_pixels", "nonfinite_pixels", "order", "light_candidates")
-#: What the numbers are (DESIGN.md §9): "srgb-assumed", "calibrated", "merged" or "linear";
+#: What the numbers are (docs/contract.md §9): "srgb-assumed", "calibrated", "merged" or "linear";
 #: the camera curve's method; the exposure times of a merged set.
 _STAT_STRINGS = ("radiometry", "response")
 _STAT_LISTS = ("exposures_s",)
@@ -110,7 +110,7 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
 
 
 def light_fields(result) -> dict:
-    """The five DESIGN.md §10 fields of a result (flat number lists; see the module
+    """The five docs/contract.md §10 fields of a result (flat number lists; see the module
     docstring): its ``lights`` and ``ambient_coefficients``, or none and the full SH9."""
     lights = list(getattr(result, "lights", None) or [])
     ambient = getattr(result, "ambient_coefficients", None)

@@ -1,5 +1,5 @@
 """``shlight serve --mqtt mqtt://[USER:PASS@]HOST[:PORT]/PREFIX``: every probe's wire
-messages published to an existing MQTT broker (DESIGN.md §11).
+messages published to an existing MQTT broker (docs/contract.md §11).
 
 Topic ``PREFIX/PROBE``, payload exactly the wire JSON (the bytes WebSocket clients get),
 retained, QoS 0: a subscriber that joins late gets the latest lighting at once. ``mqtts://``

@@ -14,7 +14,7 @@ With ``lights="auto"`` the probe owns a
 :class:`~provider.core.lights_tracking.LightTracker` per frame size (hysteresis across
 frames: no flicker, no jumping between two lamps), reset when the source reconnects.
 
-Radiometry (DESIGN.md §9): a frame whose source reports its exposure (``Frame.info``
+Radiometry (docs/contract.md §9): a frame whose source reports its exposure (``Frame.info``
 ``exposure_s``, ``gain``) is divided by it; a frame of a bracket (``slot``, ``bracket``) goes
 to the probe's :class:`~provider.core.bracket.BracketProjector`, which keeps one (9, 3) part
 per slot and returns merged lighting for every frame.

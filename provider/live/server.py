@@ -26,7 +26,7 @@ Server → client:
        "probes": ["default"], "subscribed": "*", "max_hz": 0, "keepalive_s": 1.0,
        "stale_after_s": 2.0, "max_message_bytes": 4096, "server_time": 1700000000.0}
 
-* ``sh9``, the lighting (DESIGN.md §3), for every subscribed probe: immediately the
+* ``sh9``, the lighting (docs/contract.md §3), for every subscribed probe: immediately the
   probe's latest message, then whenever the lighting changes beyond the change
   threshold, and at least every ``keepalive_s`` seconds. Fields beyond the contract:
   ``fps`` (source frames per second), ``latency_ms`` (capture of the frame → message,

@@ -11,7 +11,7 @@ sampling:
 :class:`LightingFilter` smooths with a time constant but lets a real change through at
 once; :class:`ChangeGate` decides when a message is worth sending.
 
-Lights (``lights="auto"``, DESIGN.md §10). Every linear quantity (full and ambient
+Lights (``lights="auto"``, docs/contract.md §10). Every linear quantity (full and ambient
 coefficients and matrices, each light's irradiance) is smoothed with the same weight, and
 each light's direction with that weight on the sphere (normalised lerp), so a sun that moves
 is followed smoothly. The *set* of lights is never blended: a light appearing or

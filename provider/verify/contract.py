@@ -14,7 +14,7 @@ any small parser read it)::
                 "unity_normals" (3N: (x, y, -z)),
                 and in rotation cases "rotation" (9, row-major, right-handed),
                 "rotated_matrices" (48: R̃ M R̃ᵀ), "unity_rotated_matrices" (48),
-                and in lights cases (DESIGN.md §10) the wire fields "lights" (k),
+                and in lights cases (docs/contract.md §10) the wire fields "lights" (k),
                 "light_directions" (3k), "light_irradiance" (3k), "ambient_coefficients"
                 (27), "ambient_matrices" (48), then "irradiance_with_lights" (3N: ñᵀAñ +
                 Σ_k I_k max(0, n·d_k), not clamped), "unity_ambient_matrices" (48: S A S),
@@ -27,7 +27,7 @@ projection I_k·Y(d_k)) and "irradiance" is still ñᵀMñ of those: the SH9-onl
 every case, and a reader that ignores lights keys loses nothing.
 
 "irradiance" is ñᵀMñ evaluated in float64 from "matrices" (what every shader computes); it
-differs from Σ Â_l L_lm Y_lm(n) by the 6-digit constants of DESIGN.md §2 (< 1e-6 of the scale).
+differs from Σ Â_l L_lm Y_lm(n) by the 6-digit constants of docs/contract.md §2 (< 1e-6 of the scale).
 """
 from __future__ import annotations
 
@@ -108,7 +108,7 @@ def case_normals(coefficients: np.ndarray, count: int = 64) -> np.ndarray:
 
 def lights_vector_case(name: str, ambient, directions, irradiance) -> dict:
     """A lights case: the full SH9 (ambient + Σ I_k Y(d_k)) as an ordinary case, plus the
-    DESIGN.md §10 fields and E of ambient + lights at its normals (which include ±d_k)."""
+    docs/contract.md §10 fields and E of ambient + lights at its normals (which include ±d_k)."""
     A = np.asarray(ambient, np.float64)
     d = np.asarray(directions, np.float64).reshape(-1, 3)
     irr = np.asarray(irradiance, np.float64).reshape(-1, 3)
@@ -159,7 +159,7 @@ def vector_case(name: str, coefficients, rotation=None, normals=None) -> dict:
 
 
 DESCRIPTION = (
-    "Contract test vectors for SH9 irradiance (DESIGN.md sections 1-2), written by "
+    "Contract test vectors for SH9 irradiance (docs/contract.md sections 1-2), written by "
     "`shlight validate-shaders --write-vectors` (provider/verify/contract.py). Per case: radiance SH "
     "coefficients in; the irradiance matrices M (E(n) = n~^T M n~, n~ = (x, y, z, 1)) and E at "
     "the listed unit normals out, float64, NOT clamped at zero. Unity's frame: S M S with "
@@ -169,7 +169,7 @@ DESCRIPTION = (
     "0 at -X); random (seeded Gaussian); panorama_sky and panorama_lab (CC0 Poly Haven "
     "panoramas via @pmndrs/assets, tests/data/hdri; lab rings: E < 0 (blue) at its last normal, "
     "which a shader clamps to 0); rotation cases one_sided_+x_yaw90 (the light moves to -Z) "
-    "and panorama_sky_rotated (yaw 30, pitch -20, roll 10); lights cases (DESIGN.md section 10: "
+    "and panorama_sky_rotated (yaw 30, pitch -20, roll 10); lights cases (docs/contract.md section 10: "
     "E(n) = n~^T A n~ + sum_k I_k max(0, n.d_k) with the ambient matrices A) lights_one_sided "
     "(uniform ambient 0.1 plus one light from (2, 1, -2)/3 of irradiance pi*(1, 0.5, 0.25): "
     "E = 0.1 pi at -d, 0.1 pi + I at d), lights_panorama_sky (the sun), lights_panorama_lab "

@@ -37,7 +37,7 @@ PROSE = ("basis_note", "frame_note", "units_note", "layout", "usage", "descripti
 DESCRIPTION = (
     "Golden vectors of `shlight export --to FORMAT` (provider/core/conventions.py; written by "
     "provider/verify/export_vectors.py with the contract vectors). Per case: coefficients in "
-    "(27, wire order, radiance, rh-y-up) with lights (DESIGN.md section 10) where given; "
+    "(27, wire order, radiance, rh-y-up) with lights (docs/contract.md section 10) where given; "
     "'white' = E/pi a white Lambertian surface must show at 'normals' (rh-y-up), the lights "
     "exact; 'white_sh9' = the same from the SH9 of everything. One object per format: the "
     "export without its prose. One-sided cases: radiance (1, 0.5, 0.25) from the half "

@@ -46,7 +46,7 @@ from .render import (IRRADIANCE_UNIFORMS, NoOpenGL, create_context, set_irradian
 #: Max |E_gpu − E_cpu| / (|ñ|ᵀ|M||ñ|): float32 rounding only (see the module docstring).
 FLOAT32_TOLERANCE = 32 * 2.0 ** -24
 #: The same measure against E from another route. Analytic answers (furnace, one-sided light)
-#: differ from ñᵀMñ by the 6-digit constants of DESIGN.md §2 (8e-7 and 1.6e-6 of the scale);
+#: differ from ñᵀMñ by the 6-digit constants of docs/contract.md §2 (8e-7 and 1.6e-6 of the scale);
 #: the vectors file holds float64 ñᵀMñ at unrounded normals; re-projecting a rotated panorama
 #: carries the engine's float32 sums. A sign or frame slip is an error of order 1.
 INDEPENDENT_TOLERANCE = {"analytic": 5e-6, "vectors": FLOAT32_TOLERANCE, "reprojection": 1e-5}

@@ -1,5 +1,5 @@
 """`shlight validate-shaders`, lights: the shipped ambient + directional-lights functions
-(shaders/sh9_lights.glsl and .hlsl, DESIGN.md §10) against the CPU, and a picture of what
+(shaders/sh9_lights.glsl and .hlsl, docs/contract.md §10) against the CPU, and a picture of what
 lights change.
 
 The GLSL and HLSL paths are those of :mod:`provider.verify.harness` (the HLSL through
@@ -319,7 +319,7 @@ def lights_picture(ctx, image: np.ndarray, title: str, size: int = 256):
         note = np.full_like(heat[0], 40)
         _label(note, "heat: |shader - reference| / mean", 0.4)
         rows += [np.hstack(panels), np.hstack(heat + [note])]
-    # Over the whole sphere of normals (DESIGN.md §5's measure).
+    # Over the whole sphere of normals (docs/contract.md §5's measure).
     truth = brute_force_irradiance(dirs, flux, sh.SPHERE_NORMALS)
     stats["all_normals_sh9_rms_rel"] = sh.relative_rms(
         np.maximum(result.irradiance(sh.SPHERE_NORMALS), 0.0), truth)
@@ -329,7 +329,7 @@ def lights_picture(ctx, image: np.ndarray, title: str, size: int = 256):
     pano = cv2.resize(np.asarray(image, np.float32), (3 * s, 3 * s // 2),
                       interpolation=cv2.INTER_AREA)
     pano = _display(np.maximum(pano, 0), exposure)
-    for dk in d:      # mark each light: u = φ/2π + 0.5, v = θ/π (DESIGN.md §1)
+    for dk in d:      # mark each light: u = φ/2π + 0.5, v = θ/π (docs/contract.md §1)
         u = math.atan2(dk[0], -dk[2]) / (2 * math.pi) + 0.5
         v = math.acos(max(-1.0, min(1.0, float(dk[1])))) / math.pi
         cv2.drawMarker(pano, (int(u * 3 * s), int(v * 3 * s // 2)), (0, 255, 255),

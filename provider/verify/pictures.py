@@ -5,7 +5,7 @@ albedo, so each pixel is E(n)/π of the SH9 matrices), the same pixels lit by br
 irradiance E(n) = Σ L(ω) max(0, n·ω) dω summed straight from the (block-summed) panorama at the
 very normal the shader used, and a heat map of their difference. Both images go through the
 same display transform (exposure, Reinhard, sRGB), so what differs is SH9 itself: the
-order-2 truncation (1-7.5 % RMS on real scenes, DESIGN.md §5) and the clamp where it rings.
+order-2 truncation (1-7.5 % RMS on real scenes, docs/contract.md §5) and the clamp where it rings.
 """
 from __future__ import annotations
 
@@ -199,7 +199,7 @@ def validation_picture(renderer: ObjectRenderer, image: np.ndarray, title: str):
         _label(panels[1], "brute-force reference")
         _label(panels[2], f"|SH9 - reference|: RMS {rms:.1%}")
         rows.append(np.hstack(panels))
-    # DESIGN.md §5's measure: over the whole sphere of normals, not only the visible ones.
+    # docs/contract.md §5's measure: over the whole sphere of normals, not only the visible ones.
     stats["all_normals_rms_rel"] = sh.relative_rms(
         np.maximum(sh.irradiance_from_matrices(result.matrices, sh.SPHERE_NORMALS), 0.0),
         brute_force_irradiance(dirs, flux, sh.SPHERE_NORMALS))

@@ -22,7 +22,7 @@ static class ContractTest
         public bool Ok { get { return MaxRel <= Tolerance && !double.IsNaN(MaxRel); } }
     }
 
-    // ñᵀMñ uses the 6-digit constants c1..c5 of Ramamoorthi & Hanrahan (DESIGN.md §2), so it
+    // ñᵀMñ uses the 6-digit constants c1..c5 of Ramamoorthi & Hanrahan (docs/contract.md §2), so it
     // differs from Σ Â_l L_lm Y_lm(n) by up to ~7e-7 of the scale: the floor for every
     // irradiance comparison. Matrix and rotation algebra is checked to 1e-12.
     const double ConstantRounding = 2e-6;
@@ -140,7 +140,7 @@ static class ContractTest
         double[] umats = Numbers(cs, "unity_matrices");
         double[] unormals = Numbers(cs, "unity_normals");
 
-        // 1. the wire matrices follow from the coefficients (DESIGN.md §2)
+        // 1. the wire matrices follow from the coefficients (docs/contract.md §2)
         Compare("matrices_from_coefficients", Sh9Math.MatricesFromCoefficients(coeffs), mats, 1e-12, name);
         // 2. E(n) = ñᵀMñ, right-handed
         Compare("irradiance_rh", EvalMatrices(mats, normals), irr, ConstantRounding, name);
@@ -299,7 +299,7 @@ static class ContractTest
                 new double[] { 1, 1, 1 }, 1e-6, "uniform ShadeSH9");
     }
 
-    // ---- lights (DESIGN.md §10): a directional light split off the SH9 ---------------------------
+    // ---- lights (docs/contract.md §10): a directional light split off the SH9 ---------------------------
 
     /// <summary>Wire coefficients (27) of a uniform radiance per channel.</summary>
     static double[] Uniform(double r, double g, double b)

@@ -2,7 +2,7 @@
 // (Sh9Client, off the main thread) and, on the main thread in Update, sets the global shader
 // matrices _SHIrradianceR/G/B (Unity frame, re-oriented by this transform), optionally
 // RenderSettings.ambientProbe so that Unity's own shaders follow the room too, and optionally a
-// Directional Light from the first light the server splits off (DESIGN.md §10).
+// Directional Light from the first light the server splits off (docs/contract.md §10).
 //
 // Update allocates nothing in the steady state (measured under Mono by tests/csharp/LiveClient.cs):
 // settings are compared field by field, the conversion works in preallocated buffers, and Unity

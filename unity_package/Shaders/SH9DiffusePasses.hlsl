@@ -104,7 +104,7 @@ half4 SH9ForwardFragment(SH9Varyings i) : SV_Target
     lightColor = float3(GammaToLinearSpaceExact(lightColor.r), GammaToLinearSpaceExact(lightColor.g),
                         GammaToLinearSpaceExact(lightColor.b));
 #endif
-    // Lambert: radiance = ρ E / π (DESIGN.md §2); E is clamped at 0 in SHIrradiance. A Unity light's
+    // Lambert: radiance = ρ E / π (docs/contract.md §2); E is clamped at 0 in SHIrradiance. A Unity light's
     // colour is already E/π of its light (Unity's Lambert has no 1/π): added as is.
     float3 irradianceOverPi = SHIrradiance(n) / UNITY_PI +
                               _SHMainLightScale * lightColor * max(0.0, dot(n, SH9_MAIN_LIGHT_DIRECTION));

@@ -1,4 +1,4 @@
-// SH9 diffuse irradiance, E(n) = ñᵀ M ñ with ñ = (n, 1)  (DESIGN.md §2, Ramamoorthi & Hanrahan 2001).
+// SH9 diffuse irradiance, E(n) = ñᵀ M ñ with ñ = (n, 1)  (docs/contract.md §2, Ramamoorthi & Hanrahan 2001).
 // Include into any HLSL program (Unity built-in, URP, or plain D3D).
 //
 // _SHIrradianceR/G/B: the three symmetric 4×4 irradiance matrices. M is symmetric, so row- or

@@ -13,7 +13,7 @@ from .base import Frame, Pacer, Source
 class DemoSource(Source):
     """An animated HDR panorama, so that a new user sees lighting change with no camera.
 
-    256×128 float32 linear radiance (equirect, DESIGN.md §1): a blue sky over brown
+    256×128 float32 linear radiance (equirect, docs/contract.md §1): a blue sky over brown
     ground, a sun circling the horizon once every ``period`` seconds, and a warm red lamp
     at +X that switches on and off every ``switch`` seconds.
     """

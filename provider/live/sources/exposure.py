@@ -1,4 +1,4 @@
-"""Exposure on live sources (DESIGN.md §9): what a source reports per frame, and the
+"""Exposure on live sources (docs/contract.md §9): what a source reports per frame, and the
 bracket it cycles when it can set its exposure.
 
 Every source that knows a frame's exposure puts it in ``Frame.info``: ``exposure_s`` (the

@@ -87,7 +87,7 @@ class OpenCVSource(Source):
     ``cv2.VideoCapture``.
 
     Streams open with the FFmpeg back end and ``timeout`` as both open and read timeout
-    (honoured only at open time and only by FFmpeg/GStreamer: DESIGN.md §8); a read that
+    (honoured only at open time and only by FFmpeg/GStreamer: docs/contract.md §8); a read that
     hangs anyway is caught by the :class:`Capture` watchdog. Cameras' exposure
     (``--exposure-unit``, ``--bracket``): :mod:`.uvc_exposure`.
     """

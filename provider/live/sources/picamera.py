@@ -16,7 +16,7 @@ log = logging.getLogger("shlight.source")
 class Picamera2Source(Source):
     """A Raspberry Pi camera through Picamera2 (OpenCV has no libcamera back end).
 
-    Picamera2's "RGB888" format arrives in B, G, R byte order (DESIGN.md §8): it is
+    Picamera2's "RGB888" format arrives in B, G, R byte order (docs/contract.md §8): it is
     swapped here. Every frame comes with its own metadata (``capture_request``), so each
     frame reports its exposure: ExposureTime × AnalogueGain × DigitalGain.
 

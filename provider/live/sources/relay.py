@@ -19,7 +19,7 @@ _RELAY_STATS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate
 
 
 def relayed_lights(msg: dict):
-    """(lights, ambient coefficients (9, 3) or None) of an upstream message (DESIGN.md §10);
+    """(lights, ambient coefficients (9, 3) or None) of an upstream message (docs/contract.md §10);
     each light's key is its slot (upstream sends its lights in a stable order)."""
     if "ambient_coefficients" not in msg:
         return [], None             # an upstream from before lights

@@ -1,4 +1,4 @@
-"""A Ricoh Theta over Wi-Fi: the Open Spherical Camera live preview (DESIGN.md §8)."""
+"""A Ricoh Theta over Wi-Fi: the Open Spherical Camera live preview (docs/contract.md §8)."""
 from __future__ import annotations
 
 import json
@@ -24,7 +24,7 @@ class OscCommandError(SourceError):
 
 
 class ThetaSource(Source):
-    """A Ricoh Theta over Wi-Fi: the Open Spherical Camera live preview (DESIGN.md §8).
+    """A Ricoh Theta over Wi-Fi: the Open Spherical Camera live preview (docs/contract.md §8).
 
     Every command is ``POST /osc/commands/execute`` with ``{"name", "parameters"}``. API
     2.1 (Theta V/Z1, and an S switched to 2.1): ``camera.getLivePreview``. API 2.0 (the

@@ -1,5 +1,5 @@
 """The exposure of a Ricoh Theta over Wi-Fi (:class:`~.theta.ThetaSource`), through the Open
-Spherical Camera options (DESIGN.md §9, :mod:`.exposure`).
+Spherical Camera options (docs/contract.md §9, :mod:`.exposure`).
 
 Only with ``options.query_exposure`` (``--camera``) or ``options.bracket``, as it costs
 commands: ``camera.getOptions`` gives exposureProgram, shutterSpeed and iso. In manual mode

@@ -1,5 +1,5 @@
 """The exposure of a UVC camera read through OpenCV (:class:`~.opencv.OpenCVSource`;
-DESIGN.md §9, :mod:`.exposure`).
+docs/contract.md §9, :mod:`.exposure`).
 
 ``CAP_PROP_EXPOSURE`` has no fixed unit (V4L2: 100 µs; DirectShow and Media Foundation:
 log2 seconds) and under auto exposure many drivers report the last manual value, not the one

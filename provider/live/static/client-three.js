@@ -12,7 +12,7 @@
 // tests/test_js_client.py): SphericalHarmonics3 holds *raw radiance* SH in our order
 // (src/math/SphericalHarmonics3.js:84-107 getAt evaluates radiance with the bare basis
 // constants 0.282095, 0.488603 y/z/x, 1.092548 xy/yz/xz, 0.315392 (3z²−1),
-// 0.546274 (x²−y²): the same basis and order as DESIGN.md §1), and getIrradianceAt
+// 0.546274 (x²−y²): the same basis and order as docs/contract.md §1), and getIrradianceAt
 // (src/math/SphericalHarmonics3.js:119-142) folds in the cosine-lobe factors π, 2π/3, π/4:
 // it returns our irradiance E(n). The shader does the same
 // (src/renderers/shaders/ShaderChunk/lights_pars_begin.glsl.js:13 shGetIrradianceAt,

@@ -10,7 +10,7 @@
 //   conn.latest;  conn.state;  conn.close();
 //
 // The wire protocol is the module docstring of provider/live/server.py; the message is
-// DESIGN.md §3. Frame: right-handed, +Y up (as three.js and WebXR). A `Lighting` holds
+// docs/contract.md §3. Frame: right-handed, +Y up (as three.js and WebXR). A `Lighting` holds
 //   coefficients  Float32Array(27): raw radiance SH, L00.rgb, L1-1.rgb, L10, L11, L2-2, L2-1,
 //                 L20, L21, L22 (not convolved, not divided by π)
 //   matrices      Float32Array(48): M_red, M_green, M_blue, 4×4 row-major (symmetric):
@@ -28,7 +28,7 @@
 
 export const FRAME = "rh-y-up";
 
-// DESIGN.md §2 constants of the irradiance matrix.
+// docs/contract.md §2 constants of the irradiance matrix.
 const C1 = 0.429043, C2 = 0.511664, C3 = 0.743125, C4 = 0.886227, C5 = 0.247708;
 
 /** A Lighting from an "sh9" wire message (null if it is not a valid one). */
@@ -78,7 +78,7 @@ export function irradiance(matrices, n) {
 /**
  * The coefficients of the environment turned by the rotation R (9 numbers, row-major
  * 3×3: a direction d of the provider's frame is R·d in yours), exactly: through the
- * matrices, M' = R̃ M R̃ᵀ (DESIGN.md §2), then back to coefficients (the quadratic form on
+ * matrices, M' = R̃ M R̃ᵀ (docs/contract.md §2), then back to coefficients (the quadratic form on
  * the unit sphere fixes them: traceless part → band 2, trace → band 0).
  */
 export function rotateCoefficients(coefficients, R) {

@@ -4,7 +4,7 @@
 // profiles, on UWP/IL2CPP and on Mono). The receive loop runs on a thread-pool task and never
 // touches Unity objects: it parses each text frame, converts it to Unity's frame and publishes
 // the newest result with one atomic reference write (Volatile.Write). The main thread reads
-// <see cref="Latest"/> whenever it likes; older messages are simply dropped (DESIGN.md §6: only
+// <see cref="Latest"/> whenever it likes; older messages are simply dropped (docs/contract.md §6: only
 // the latest coefficients matter). On any failure it reconnects with exponential backoff and
 // keeps the last lighting.
 using System;

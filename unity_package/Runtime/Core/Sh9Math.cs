@@ -1,4 +1,4 @@
-// SH9 maths on the client (plain C#, no UnityEngine). Conventions: DESIGN.md §1, §2, §7.
+// SH9 maths on the client (plain C#, no UnityEngine). Conventions: docs/contract.md §1, §2, §7.
 //
 // Layouts used throughout:
 //  * wire coefficients: double[27], index 3*i + c (coefficient i = L00, L1-1, L10, L11, L2-2,
@@ -14,7 +14,7 @@ namespace Shlight.Lighting
 {
     public static class Sh9Math
     {
-        // Ramamoorthi & Hanrahan 2001, eq. 12 (DESIGN.md §2).
+        // Ramamoorthi & Hanrahan 2001, eq. 12 (docs/contract.md §2).
         public const double C1 = 0.429043, C2 = 0.511664, C3 = 0.743125, C4 = 0.886227, C5 = 0.247708;
 
         /// <summary>
@@ -382,7 +382,7 @@ namespace Shlight.Lighting
             return rgb;
         }
 
-        // ---- directional lights (DESIGN.md §10) --------------------------------------------
+        // ---- directional lights (docs/contract.md §10) --------------------------------------------
 
         /// <summary>
         /// Add a directional light to wire-layout coefficients (27, index 3*i + c): the SH9 projection
@@ -428,7 +428,7 @@ namespace Shlight.Lighting
         /// Light.color (sRGB-encoded, each channel in [0, 1]) and Light.intensity for a Unity light
         /// whose shaders must see the linear colour <paramref name="r"/>, <paramref name="g"/>,
         /// <paramref name="b"/> (for our use: light irradiance / π, so that Unity's Lambert,
-        /// albedo × light colour × N·L with no 1/π, shows ρE/π like DESIGN.md §2).
+        /// albedo × light colour × N·L with no 1/π, shows ρE/π like docs/contract.md §2).
         /// How Unity turns (color, intensity) into the shader's colour (GraphicsSettings.lightsUseLinearIntensity
         /// documentation): <see cref="Sh9LightColorSpace.LinearIntensity"/>: color.linear × intensity;
         /// <see cref="Sh9LightColorSpace.GammaIntensity"/>: (color × intensity) converted to linear;

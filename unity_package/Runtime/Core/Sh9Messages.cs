@@ -1,4 +1,4 @@
-// The wire contract (DESIGN.md §3) as typed C# objects: "sh9", "hello" and "error" messages.
+// The wire contract (docs/contract.md §3) as typed C# objects: "sh9", "hello" and "error" messages.
 // Plain C#: no UnityEngine, no reflection, no JsonUtility (works under IL2CPP/UWP).
 using System;
 using System.Collections.Generic;
@@ -35,7 +35,7 @@ namespace Shlight.Lighting
         public double WindowCutoff;
         public double[] MinIrradiance;
 
-        // Lights (DESIGN.md §10). Coefficients/Matrices above stay the full SH9 of everything;
+        // Lights (docs/contract.md §10). Coefficients/Matrices above stay the full SH9 of everything;
         // these split it into an ambient SH9 plus directional lights.
         /// <summary>Number of directional lights k (0 when the scene needs none or the server does not send lights).</summary>
         public int Lights;
@@ -162,7 +162,7 @@ namespace Shlight.Lighting
         /// <summary>Most lights a message may carry (a bound for hostile input; the provider sends a few).</summary>
         public const int MaxLights = 64;
 
-        // DESIGN.md §10: "lights": k, "light_directions": [3k], "light_irradiance": [3k],
+        // docs/contract.md §10: "lights": k, "light_directions": [3k], "light_irradiance": [3k],
         // "ambient_coefficients": [27], "ambient_matrices": [48]. With k = 0 the arrays are empty and
         // the ambient_* fields may be absent or empty.
         static void ParseLights(Dictionary<string, object> obj, Sh9Message m)
