@@ -1,4 +1,6 @@
-"""Shared fixtures: the real HDR panoramas in tests/data/hdri (CC0, see its README)."""
+"""Shared fixtures: the real HDR panoramas in tests/data/hdri (CC0, see its README), and a
+headless OpenGL context for the shader tests."""
+import os
 from pathlib import Path
 
 import pytest
@@ -24,3 +26,16 @@ def hdri():
             cache[name] = load_hdri(name)
         return cache[name]
     return get
+
+
+@pytest.fixture(scope="module")
+def ctx():
+    """A headless OpenGL 3.3 context (Mesa EGL), one per test module; the test skips with
+    what to install where none can be made (SHLIGHT_REQUIRE_GL=1: fail instead)."""
+    from provider.verify.render import NoOpenGL, create_context
+    try:
+        return create_context()
+    except NoOpenGL as exc:
+        if os.environ.get("SHLIGHT_REQUIRE_GL"):
+            raise
+        pytest.skip(str(exc))

@@ -20,7 +20,6 @@ import pytest
 
 from provider.core import sh
 from provider.verify import contract, harness, lights
-from provider.verify.render import NoOpenGL, create_context
 
 import reference as ref
 from conftest import HDRI_DIR, load_hdri
@@ -29,16 +28,6 @@ ROOT = Path(__file__).resolve().parent.parent
 PANORAMAS = sorted(HDRI_DIR.glob("*.exr"))
 TOL = harness.FLOAT32_TOLERANCE
 NORMALS = harness.dense_normals(16384)
-
-
-@pytest.fixture(scope="module")
-def ctx():
-    try:
-        return create_context()
-    except NoOpenGL as exc:
-        if os.environ.get("SHLIGHT_REQUIRE_GL"):
-            raise
-        pytest.skip(str(exc))
 
 
 @pytest.fixture(scope="module", params=["glsl", "hlsl"])

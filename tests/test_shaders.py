@@ -22,7 +22,6 @@ import pytest
 from provider.core import sh
 from provider.verify import contract, harness
 from provider import compute_sh9
-from provider.verify.render import NoOpenGL, create_context
 
 import reference as ref
 from conftest import HDRI_DIR, load_hdri
@@ -33,16 +32,6 @@ TOL = harness.FLOAT32_TOLERANCE
 #: Fewer dense normals than the CLI's 65 536 keep the file fast: 16 390, about one per
 #: 2.5 square degrees, plus ±X, ±Y, ±Z.
 NORMALS = harness.dense_normals(16384)
-
-
-@pytest.fixture(scope="module")
-def ctx():
-    try:
-        return create_context()
-    except NoOpenGL as exc:
-        if os.environ.get("SHLIGHT_REQUIRE_GL"):
-            raise
-        pytest.skip(str(exc))
 
 
 @pytest.fixture(scope="module")

@@ -97,8 +97,8 @@ SECTION_WHAT = {
     "server": "latency and clients per core of a real shlight serve, then its idle CPU",
     "radiometry": "a simulated 8-bit camera: one frame, calibrated, brackets, against HDR",
 }
-SECTION_COST_S = {"speed": (5, 80), "edge": (2, 5), "fill": (2, 10), "scenes": (10, 10),
-                  "server": (20, 75), "radiometry": (60, 240)}
+SECTION_COST_S = {"speed": (5, 40), "edge": (2, 5), "fill": (2, 10), "scenes": (20, 50),
+                  "server": (20, 70), "radiometry": (20, 40)}
 INSTRUCTIONS_COST_S = (150, 130)    # valgrind runs Python and numpy under emulation
 
 

@@ -2,6 +2,8 @@
 camera, and the float64 reference projection."""
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
 import time
 
@@ -67,3 +69,23 @@ def _exact_float64(frame, lut=None):
     for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
         out[k] += const * part[ri, ci]
     return out
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU seconds of a process, all its threads (Linux /proc); NaN when it
+    cannot be read (the process is gone, or no /proc)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, IndexError, ValueError):
+        return float("nan")
+
+
+def stop(proc: subprocess.Popen, timeout: float = 15.0) -> None:
+    """Terminate a server the bench started; kill it if it does not stop in ``timeout`` s."""
+    proc.terminate()
+    try:
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()

@@ -19,14 +19,9 @@ import threading
 import time
 from pathlib import Path
 
+from .common import cpu_seconds, stop
+
 _SERVING = re.compile(r"serving ws://[^ ]*:(\d+)/")
-
-
-def _cpu_seconds(pid: int) -> float:
-    """User + system CPU seconds of a process, all its threads (Linux /proc)."""
-    with open(f"/proc/{pid}/stat") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def _threads(pid: int) -> int:
@@ -59,16 +54,12 @@ def measure_idle(seconds: float = 10.0, settle: float = 3.0, extra_args=(), env=
         if not ready.wait(60) or proc.poll() is not None:
             raise RuntimeError("shlight serve did not start: " + "".join(lines[-5:]))
         time.sleep(settle)
-        cpu0, t0 = _cpu_seconds(proc.pid), time.monotonic()
+        cpu0, t0 = cpu_seconds(proc.pid), time.monotonic()
         time.sleep(seconds)
-        cpu1, t1 = _cpu_seconds(proc.pid), time.monotonic()
+        cpu1, t1 = cpu_seconds(proc.pid), time.monotonic()
         threads = _threads(proc.pid)
     finally:
-        proc.terminate()
-        try:
-            proc.wait(15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
+        stop(proc)
     return {"cpu_fraction_of_one_core": round((cpu1 - cpu0) / (t1 - t0), 4),
             "seconds": round(t1 - t0, 2), "threads": threads,
             "command": " ".join(["shlight", *argv[3:]]),

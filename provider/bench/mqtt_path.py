@@ -19,6 +19,8 @@ import tempfile
 import threading
 import time
 
+from .common import stop
+
 _TIME = re.compile(rb'"time":([0-9.eE+-]+)')
 
 
@@ -120,15 +122,7 @@ def measure_mqtt(start_server, cpu_seconds, fps: float, seconds: float, server_c
             c.disconnect()
             c.loop_stop()
         if server is not None:
-            server.terminate()
-            try:
-                server.wait(15)
-            except subprocess.TimeoutExpired:
-                server.kill()
-        broker.terminate()
-        try:
-            broker.wait(10)
-        except subprocess.TimeoutExpired:
-            broker.kill()
+            stop(server)
+        stop(broker, 10)
         shutil.rmtree(folder, ignore_errors=True)
     return {"rows": rows}

@@ -30,19 +30,11 @@ import threading
 import time
 from pathlib import Path
 
+from .common import cpu_seconds, stop
+
 _SEQ = re.compile(rb'"seq":(\d+)')
 _TIME = re.compile(rb'"time":([0-9.eE+-]+)')
 _SERVING = re.compile(r"serving wss?://[^ ]*:(\d+)/")
-
-
-def _cpu_seconds(pid: int) -> float:
-    """User + system CPU seconds of a process, all threads (Linux /proc)."""
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-    except (OSError, IndexError, ValueError):
-        return float("nan")
 
 
 def _priority() -> None:
@@ -122,9 +114,9 @@ def _run_steps(port: int, pid: int, steps, seconds: float, fps: float, progress,
                 progress(f"  only {gen.clients} of {n} clients connected: {errors}")
                 break
             time.sleep(1.0)                               # settle: backlog from connecting
-            cpu0, t0 = _cpu_seconds(pid), time.monotonic()
+            cpu0, t0 = cpu_seconds(pid), time.monotonic()
             counts, lats, gen_cpu = gen.measure(seconds)
-            cpu1, t1 = _cpu_seconds(pid), time.monotonic()
+            cpu1, t1 = cpu_seconds(pid), time.monotonic()
             wall = t1 - t0 - 0.2                          # the measurement's lead time
             rates = sorted(max(c, 0) / seconds for c in counts)
             row = {"clients": n, "seconds": round(seconds, 2),
@@ -186,13 +178,9 @@ def _measure(out: Path, quick, fps, progress, server_cpus, client_cpus, steps=No
         time.sleep(1.0)
         rows = _run_steps(port, proc.pid, steps, seconds, fps, progress, client_cpus)
     finally:
-        proc.terminate()
-        try:
-            proc.wait(15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
+        stop(proc)
     from .mqtt_path import measure_mqtt
-    mqtt = measure_mqtt(_start_server, _cpu_seconds, fps, seconds, server_cpus, client_cpus,
+    mqtt = measure_mqtt(_start_server, cpu_seconds, fps, seconds, server_cpus, client_cpus,
                         progress, counts=(1,) if quick else (1, 100))
     held = [r["clients"] for r in rows if r["holds"]]
     fit = _fit(rows)

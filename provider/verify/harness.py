@@ -63,33 +63,43 @@ void main() {
 }
 """
 
-GLSL_EVALUATOR = """
+def glsl_evaluator(function: str = "shIrradiance") -> str:
+    """The GLSL fragment program that writes ``function(n)`` and its unclamped variant for the
+    normal read at each pixel (pasted after the shipped GLSL that defines them)."""
+    return f"""
 uniform sampler2D normals;   // one unit normal per pixel (RGB32F)
 layout(location = 0) out vec4 clampedOut;
 layout(location = 1) out vec4 unclampedOut;
-void main() {
+void main() {{
     vec3 n = texelFetch(normals, ivec2(gl_FragCoord.xy), 0).xyz;
-    clampedOut = vec4(shIrradiance(n), 1.0);
-    unclampedOut = vec4(shIrradianceUnclamped(n), 1.0);
-}
+    clampedOut = vec4({function}(n), 1.0);
+    unclampedOut = vec4({function}Unclamped(n), 1.0);
+}}
 """
 
-HLSL_EVALUATOR = """#include "sh9_irradiance.hlsl"
+
+def hlsl_evaluator(include: str = "sh9_irradiance.hlsl", function: str = "SHIrradiance") -> str:
+    """The HLSL pixel shader that does the same with the shipped HLSL ``include``."""
+    return f"""#include "{include}"
 Texture2D<float4> _Normals;   // one unit normal per pixel
 struct Targets
-{
+{{
     float4 clamped : SV_Target0;
     float4 unclamped : SV_Target1;
-};
+}};
 Targets main(float4 position : SV_Position)
-{
+{{
     float3 n = _Normals.Load(int3(position.xy, 0)).xyz;
     Targets t;
-    t.clamped = float4(SHIrradiance(n), 1.0);
-    t.unclamped = float4(SHIrradianceUnclamped(n), 1.0);
+    t.clamped = float4({function}(n), 1.0);
+    t.unclamped = float4({function}Unclamped(n), 1.0);
     return t;
-}
+}}
 """
+
+
+GLSL_EVALUATOR = glsl_evaluator()
+HLSL_EVALUATOR = hlsl_evaluator()
 
 HLSL_GLOBALS = ("_SHIrradianceR", "_SHIrradianceG", "_SHIrradianceB")
 

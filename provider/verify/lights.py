@@ -28,7 +28,8 @@ from ..core.engine import compute_sh9
 from ..core.images import read_image
 from . import contract
 from .harness import (FLOAT32_TOLERANCE, HLSL_GLOBALS, INDEPENDENT_TOLERANCE, Comparison,
-                      DemoCheck, DISPLAY_TOLERANCE, IrradianceEvaluator)
+                      DemoCheck, DISPLAY_TOLERANCE, IrradianceEvaluator, glsl_evaluator,
+                      hlsl_evaluator)
 from .pictures import (ObjectRenderer, _colour_bar, _display, _heat, _label,
                        brute_force_irradiance, panorama_flux)
 from .render import load_program, set_uniform, shader_source, srgb_encode, tone_map
@@ -36,33 +37,8 @@ from .render import load_program, set_uniform, shader_source, srgb_encode, tone_
 #: Light slots in the shaders (SH_MAX_LIGHTS; provider.core.engine.MAX_LIGHTS).
 MAX_LIGHTS = 4
 
-GLSL_EVALUATOR = """
-uniform sampler2D normals;   // one unit normal per pixel (RGB32F)
-layout(location = 0) out vec4 clampedOut;
-layout(location = 1) out vec4 unclampedOut;
-void main() {
-    vec3 n = texelFetch(normals, ivec2(gl_FragCoord.xy), 0).xyz;
-    clampedOut = vec4(shIrradianceWithLights(n), 1.0);
-    unclampedOut = vec4(shIrradianceWithLightsUnclamped(n), 1.0);
-}
-"""
-
-HLSL_EVALUATOR = """#include "sh9_lights.hlsl"
-Texture2D<float4> _Normals;   // one unit normal per pixel
-struct Targets
-{
-    float4 clamped : SV_Target0;
-    float4 unclamped : SV_Target1;
-};
-Targets main(float4 position : SV_Position)
-{
-    float3 n = _Normals.Load(int3(position.xy, 0)).xyz;
-    Targets t;
-    t.clamped = float4(SHIrradianceWithLights(n), 1.0);
-    t.unclamped = float4(SHIrradianceWithLightsUnclamped(n), 1.0);
-    return t;
-}
-"""
+GLSL_EVALUATOR = glsl_evaluator("shIrradianceWithLights")
+HLSL_EVALUATOR = hlsl_evaluator("sh9_lights.hlsl", "SHIrradianceWithLights")
 
 
 def _slots(directions, irradiance) -> np.ndarray:
