@@ -243,18 +243,26 @@ def compare(case: ShaderCase, path: str, clamped, unclamped, normals,
     M = np.asarray(case.matrices, np.float64)
     exact = sh.irradiance_from_matrices(M, n)
     scale = sh.irradiance_from_matrices(np.abs(M), np.abs(n))   # |ñ|ᵀ|M||ñ| per channel
+    return judge(case, path, clamped, unclamped, exact, scale, tolerance)
+
+
+def judge(case, path: str, clamped, unclamped, exact, scale,
+          tolerance: float = FLOAT32_TOLERANCE) -> Comparison:
+    """The verdict on rendered E (``clamped``, ``unclamped``) against the float64 ``exact``
+    with the error measure's ``scale`` (the sum of the magnitudes of the terms), and the
+    case's independent answer when it has one."""
     safe = np.where(scale > 0, scale, 1.0)
     err = np.abs(unclamped - exact) / safe
     clamp_err = np.abs(clamped - np.maximum(exact, 0.0)) / safe
-    ringing = int(np.count_nonzero(exact < -tolerance * scale))
     ind_err = ind_tol = None
     if case.independent is not None:
         ind_tol = INDEPENDENT_TOLERANCE[case.independent_kind]
         ind_err = float(np.max(np.abs(unclamped - case.independent) / safe))
     result = Comparison(
-        case=case.name, path=path, normals=len(n), max_rel=float(err.max()),
+        case=case.name, path=path, normals=len(exact), max_rel=float(err.max()),
         rms_rel=sh.relative_rms(unclamped, exact), clamp_max_rel=float(clamp_err.max()),
-        negative_outputs=int(np.count_nonzero(clamped < 0)), ringing_normals=ringing,
+        negative_outputs=int(np.count_nonzero(clamped < 0)),
+        ringing_normals=int(np.count_nonzero(exact < -tolerance * scale)),
         independent_max_rel=ind_err, independent_tolerance=ind_tol, tolerance=tolerance,
         note=case.note)
     result.passed = bool(result.max_rel <= tolerance and result.clamp_max_rel <= tolerance

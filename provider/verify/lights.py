@@ -27,9 +27,9 @@ from ..core import sh
 from ..core.engine import compute_sh9
 from ..core.images import read_image
 from . import contract
-from .harness import (FLOAT32_TOLERANCE, HLSL_GLOBALS, INDEPENDENT_TOLERANCE, Comparison,
+from .harness import (FLOAT32_TOLERANCE, HLSL_GLOBALS, Comparison,
                       DemoCheck, DISPLAY_TOLERANCE, IrradianceEvaluator, glsl_evaluator,
-                      hlsl_evaluator)
+                      hlsl_evaluator, judge)
 from .pictures import (ObjectRenderer, _colour_bar, _display, _heat, _label,
                        brute_force_irradiance, panorama_flux)
 from .render import load_program, set_uniform, shader_source, srgb_encode, tone_map
@@ -134,25 +134,7 @@ def compare_lights(case: LightCase, path: str, clamped, unclamped, normals,
     """Rendered E against the float64 CPU value (and the case's independent answer)."""
     n = np.asarray(normals, np.float32).astype(np.float64)   # what the shader saw
     exact, scale = cpu_irradiance(case, n)
-    safe = np.where(scale > 0, scale, 1.0)
-    err = np.abs(unclamped - exact) / safe
-    clamp_err = np.abs(clamped - np.maximum(exact, 0.0)) / safe
-    ind_err = ind_tol = None
-    if case.independent is not None:
-        ind_tol = INDEPENDENT_TOLERANCE[case.independent_kind]
-        ind_err = float(np.max(np.abs(unclamped - case.independent) / safe))
-    result = Comparison(
-        case=case.name, path=path, normals=len(n), max_rel=float(err.max()),
-        rms_rel=sh.relative_rms(unclamped, exact), clamp_max_rel=float(clamp_err.max()),
-        negative_outputs=int(np.count_nonzero(clamped < 0)),
-        ringing_normals=int(np.count_nonzero(exact < -tolerance * scale)),
-        independent_max_rel=ind_err, independent_tolerance=ind_tol, tolerance=tolerance,
-        note=case.note)
-    result.passed = bool(result.max_rel <= tolerance and result.clamp_max_rel <= tolerance
-                         and result.negative_outputs == 0
-                         and (ind_err is None or ind_err <= ind_tol)
-                         and np.all(np.isfinite(unclamped)))
-    return result
+    return judge(case, path, clamped, unclamped, exact, scale, tolerance)
 
 
 def synthetic_light_cases(normals: np.ndarray) -> list[LightCase]:
