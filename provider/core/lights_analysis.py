@@ -158,11 +158,12 @@ class Analysis:
     contains the other (one source found at two threshold levels): a valid set never holds
     both (its error is ``inf``).
 
+    ``extractor`` is the :class:`~provider.core.lights.LightExtractor` that found them.
     Attributes: ``coefficients`` (9, 3) full SH9; ``candidates``; ``truth`` (N, 3) brute-force
     irradiance at ``extractor.normals``; ``sh9_error`` (fraction).
     """
 
-    def __init__(self, extractor: "LightExtractor", coefficients, candidates, truth,
+    def __init__(self, extractor, coefficients, candidates, truth,
                  groups, mu=0.0):
         self.x = extractor
         self.mu = float(mu)             # mean luminance of the frame (radiance units)
