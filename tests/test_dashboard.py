@@ -158,6 +158,14 @@ def test_sphere_follows_the_light_and_stale_badge(browser, tmp_path):
                 "document.getElementById('s-compute').textContent.endsWith(' ms')")
             assert page.text_content("#s-latency").endswith("ms")
             assert page.text_content("#s-source") == "image"
+            # What the numbers are: an 8-bit PNG decoded as sRGB, its patch clipped (255),
+            # lights off; SH9's own error estimate is shown as a percentage.
+            assert page.text_content("#s-radiometry") == "srgb-assumed"
+            assert re.fullmatch(r"\d+\.\d % \(\d+\.\d % of the light\)",
+                                page.text_content("#s-clipped"))
+            assert page.text_content("#s-lights") == "off"
+            page.wait_for_function(
+                "document.getElementById('s-error').textContent.endsWith(' %')")
             l00 = page.eval_on_selector("#bar-0", "e => parseFloat(e.style.width)")
             assert l00 > 0
             page.wait_for_function(
@@ -197,7 +205,7 @@ def test_sphere_follows_the_light_and_stale_badge(browser, tmp_path):
 
 def test_demo_with_token_and_two_probes(browser, tmp_path):
     with shlight_serve("--probe", "room=demo", "--probe", "desk=demo",
-                       "--token", "s3cret") as base:
+                       "--token", "s3cret", "--lights", "auto") as base:
         with pytest.raises(urllib.error.HTTPError) as refused:
             urllib.request.urlopen(base + "/", timeout=5)
         assert refused.value.code == 401
@@ -211,6 +219,10 @@ def test_demo_with_token_and_two_probes(browser, tmp_path):
             lum, drawn = first[..., :3].mean(axis=-1), first[..., 3] > 0
             top, bottom = lum[:128][drawn[:128]].mean(), lum[128:][drawn[128:]].mean()
             assert top > 1.1 * bottom, f"top {top:.1f}, bottom {bottom:.1f}"
+            # The demo's sun becomes a light, and the page says what it bought.
+            page.wait_for_function(
+                "/^[1-4] · error \\d+\\.\\d % \\(SH9 alone \\d+\\.\\d %\\)$/"
+                ".test(document.getElementById('s-lights').textContent)", timeout=20000)
             page.wait_for_function(
                 "document.getElementById('thumb').naturalWidth > 0", timeout=20000)
             # The demo's sun circles the horizon: the sphere changes by itself.

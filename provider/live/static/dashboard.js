@@ -242,7 +242,16 @@
     $("s-age").textContent = fmt(age, 1, " s");
     $("s-rtt").textContent = fmt(state.rtt, 1, " ms");
     $("s-seq").textContent = String(m.seq);
-    $("s-clipped").textContent = fmt(100 * m.clipped_fraction, 1, " %");
+    // What the numbers are (contract §9): radiance per second of exposure when it is known.
+    $("s-radiometry").textContent = (m.radiometry || "–") +
+      (typeof m.exposure_s === "number" ? ` · ${fmt(1000 * m.exposure_s, 2, " ms")}` : "") +
+      (Array.isArray(m.exposures_s) && m.exposures_s.length ? ` · ${m.exposures_s.length} shots` : "");
+    $("s-clipped").textContent = fmt(100 * m.clipped_fraction, 1, " %") +
+      (m.clipped_light_fraction > 0 ? ` (${fmt(100 * m.clipped_light_fraction, 1, " %")} of the light)` : "");
+    $("s-error").textContent = fmt(100 * m.error_estimate, 1, " %");
+    // Lights (contract §10): how many, and the error they leave against SH9 alone.
+    $("s-lights").textContent = !(m.lights > 0) ? (typeof m.light_error === "number" ? "none needed" : "off")
+      : `${m.lights} · error ${fmt(100 * m.light_error, 1, " %")} (SH9 alone ${fmt(100 * m.sh9_error, 1, " %")})`;
     $("s-clamped").textContent = fmt(state.clamped === null ? NaN : 100 * state.clamped, 1, " %");
     showBars(m.coefficients);
     // Stale: the server says so, or nothing arrived for much longer than its keep-alive.
