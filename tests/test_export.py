@@ -18,6 +18,7 @@ import pytest
 
 import consumers as cs
 from provider.core import conventions as cv, sh
+from provider.core.engine import SH9Result
 from provider.core.errors import InputError
 from provider.live.export import ExportCache, check_format, export_message
 from provider.live.message import coefficient_message, load_schema
@@ -251,9 +252,7 @@ def test_webxr_primary_light_only_leaves_the_sh():
 
 @pytest.mark.parametrize("fmt", cv.FORMATS)
 def test_every_export_says_what_it_is_and_validates(fmt):
-    r = type("R", (), {"coefficients": hemisphere_sh(AXES["+x"]),
-                       "matrices": sh.irradiance_matrices(hemisphere_sh(AXES["+x"])),
-                       "stats": {}})()
+    r = SH9Result(hemisphere_sh(AXES["+x"]), sh.irradiance_matrices(hemisphere_sh(AXES["+x"])))
     msg = coefficient_message(r, probe="room", seq=7)
     for with_lights in (False, True):
         if with_lights:
@@ -271,8 +270,7 @@ def test_every_export_says_what_it_is_and_validates(fmt):
 
 
 def test_the_wire_message_says_what_it_is():
-    msg = coefficient_message(type("R", (), {"coefficients": np.ones((9, 3)),
-                                             "matrices": np.zeros((3, 4, 4)), "stats": {}})())
+    msg = coefficient_message(SH9Result(np.ones((9, 3)), np.zeros((3, 4, 4))))
     VALIDATOR.validate(msg)
     assert (msg["frame"], msg["basis"], msg["condon_shortley"], msg["coefficients_mode"],
             msg["matrices_mode"], msg["units"]) == ("rh-y-up", "sh9-real", False, "radiance",
@@ -302,8 +300,7 @@ def test_lights_from_a_message_or_from_stats():
                                b["sphericalHarmonicsCoefficients"], atol=1e-12)
     # the wire path: export_message takes them from the message (a message without lights has
     # lights 0 and the ambient equal to the full SH9)
-    msg = coefficient_message(type("R", (), {"coefficients": total, "matrices": np.zeros((3, 4, 4)),
-                                             "stats": {}})())
+    msg = coefficient_message(SH9Result(total, np.zeros((3, 4, 4))))
     assert msg["lights"] == 0 and np.allclose(msg["ambient_coefficients"], total.reshape(-1))
     without_ambient = {k: v for k, v in msg.items() if not k.startswith("ambient_")}
     for ex in (export_message(dict(without_ambient, lights=1, light_directions=d.tolist(),
@@ -351,8 +348,7 @@ def test_bad_input_is_one_clear_error():
 
 
 def test_export_cache_converts_once_per_message_and_format(caplog):
-    msg = coefficient_message(type("R", (), {"coefficients": hemisphere_sh(AXES["+x"]),
-                                             "matrices": np.zeros((3, 4, 4)), "stats": {}})(),
+    msg = coefficient_message(SH9Result(hemisphere_sh(AXES["+x"]), np.zeros((3, 4, 4))),
                               probe="p", seq=3)
     cache = ExportCache()
     first = cache.text(msg, "webxr")

@@ -31,7 +31,6 @@ from importlib import resources
 
 import numpy as np
 
-from ..core.sh import irradiance_matrices
 
 SCHEMA_VERSION = 1
 FRAME = "rh-y-up"
@@ -110,14 +109,11 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
 
 
 def light_fields(result) -> dict:
-    """The five docs/contract.md §10 fields of a result (flat number lists; see the module
-    docstring): its ``lights`` and ``ambient_coefficients``, or none and the full SH9."""
-    lights = list(getattr(result, "lights", None) or [])
-    ambient = getattr(result, "ambient_coefficients", None)
-    if ambient is None:
-        ambient, ambient_m = result.coefficients, result.matrices
-    else:
-        ambient_m = irradiance_matrices(ambient)
+    """The five docs/contract.md §10 fields of an :class:`~provider.core.engine.SH9Result`
+    (flat number lists; see the module docstring): its ``lights`` and its ambient, which is
+    the full SH9 when it has no lights."""
+    lights = list(result.lights)
+    ambient, ambient_m = result.ambient, result.ambient_matrices
     directions = np.asarray([light.direction for light in lights], np.float64).reshape(-1)
     irradiance = np.asarray([light.irradiance for light in lights], np.float64).reshape(-1)
     arrays = [np.asarray(a, np.float64).reshape(-1)
