@@ -1,4 +1,5 @@
-"""Helpers for the browser tests (tests/test_js_client.py, tests/test_xr_polyfill.py): a
+"""Helpers for the browser tests (tests/test_js_client.py, tests/test_xr_polyfill.py,
+tests/test_dashboard.py): a
 real headless Chromium driven by Playwright, three.js from tests/node/node_modules answered
 in place of its CDN, a page host on another origin, and test panoramas.
 
@@ -61,12 +62,13 @@ def browser():
 
 
 @contextmanager
-def page_of(browser, url: str, tolerate: str | None = None, console: list | None = None):
+def page_of(browser, url: str, tolerate: str | None = None, console: list | None = None,
+            viewport: tuple[int, int] = (400, 400)):
     """A page on ``url`` whose CDN requests for three.js are answered from tests/node; on
     exit, asserts it logged no errors and had no uncaught errors or unhandled rejections
     (but console errors matching ``tolerate``). ``console``: a list that collects
     (type, text) of every console message."""
-    page = browser.new_page(viewport={"width": 400, "height": 400})
+    page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})
     problems: list[str] = []
 
     def on_console(m):

@@ -24,24 +24,15 @@ import pytest
 
 from servertools import ServeProcess
 
-CHROMIUM = "/usr/bin/chromium"
-ROOT = Path(__file__).resolve().parent.parent
+from browsertools import CHROMIUM, ROOT, browser, page_of, sync_playwright  # noqa: F401
 
-try:
-    from playwright.sync_api import sync_playwright
-except ImportError:  # pragma: no cover - depends on the machine
-    sync_playwright = None
-
+# The dashboard needs no three.js: only the browser half of browsertools.NEEDS_BROWSER.
 pytestmark = [
     pytest.mark.skipif(sync_playwright is None,
                        reason="playwright is not installed (pip install playwright)"),
     pytest.mark.skipif(not os.path.exists(CHROMIUM),
                        reason=f"no {CHROMIUM} (apt-get install chromium)"),
 ]
-
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run",
-                 "--disable-quic"]
 
 
 # ---- a real server ------------------------------------------------------------------------------
@@ -71,35 +62,13 @@ def write_panorama(path: Path, side: str) -> None:
 
 # ---- the browser ------------------------------------------------------------------------------
 
-@pytest.fixture(scope="module")
-def browser():
-    with sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        try:
-            yield b
-        finally:
-            b.close()
-
-
 @contextmanager
 def open_dashboard(browser, url: str, tolerate: str | None = None):
-    """A page on ``url``; on exit, asserts it logged no console errors (but those matching
-    the regular expression ``tolerate``) and threw nothing."""
-    page = browser.new_page(viewport={"width": 1100, "height": 760})
-    problems: list[str] = []
-
-    def on_console(m):
-        if m.type == "error" and not (tolerate and re.search(tolerate, m.text)):
-            problems.append(f"console.{m.type}: {m.text}")
-    page.on("console", on_console)
-    page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
-    try:
-        page.goto(url)
+    """The dashboard on ``url``, once it is live; on exit, asserts it logged no console
+    errors (but those matching the regular expression ``tolerate``) and threw nothing."""
+    with page_of(browser, url, tolerate, viewport=(1100, 760)) as page:
         page.wait_for_selector('#conn[data-state="live"]', timeout=15000)
         yield page
-        assert problems == [], "\n".join(problems)
-    finally:
-        page.close()
 
 
 def canvas_pixels(page) -> np.ndarray:
