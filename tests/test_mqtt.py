@@ -206,6 +206,7 @@ def test_bad_mqtt_options_are_one_line(argv, words):
 
 def test_dashboard_shows_the_mqtt_state(tmp_path):
     dashboard = pytest.importorskip("test_dashboard")
+    from browsertools import ARGS
     if dashboard.sync_playwright is None or not os.path.exists(dashboard.CHROMIUM):
         pytest.skip("needs playwright and chromium (see tests/test_dashboard.py)")
     broker = Mosquitto(tmp_path).start()
@@ -214,7 +215,7 @@ def test_dashboard_shows_the_mqtt_state(tmp_path):
                           "--mqtt", f"mqtt://127.0.0.1:{broker.port}/dash") as proc, \
                 dashboard.sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=dashboard.CHROMIUM,
-                                         args=dashboard.CHROMIUM_ARGS)
+                                         args=ARGS)
             try:
                 with dashboard.open_dashboard(browser, proc.http + "/") as page:
                     page.wait_for_selector('#s-mqtt[data-state="connected"]', timeout=15000)
