@@ -22,6 +22,7 @@ from provider.live.sources import SourceError, SourceOptions, parse_source
 from provider.live.sources.http import MultipartJpegReader
 from provider.live.sources.theta import ThetaSource
 
+from fakecams.osc_camera import OscHandler
 from servertools import (MjpegCamera, ServerThread, coefficients, connect, jpeg_panorama,
                          poll, recv_json, recv_until)
 
@@ -96,20 +97,7 @@ class FakeTheta:
         self.digest, self.refused = digest, 0
         theta = self
 
-        class Handler(BaseHTTPRequestHandler):
-            protocol_version = "HTTP/1.1"
-
-            def log_message(self, *args):
-                pass
-
-            def _json(self, status, obj):
-                body = json.dumps(obj).encode()
-                self.send_response(status)
-                self.send_header("Content-Type", "application/json;charset=utf-8")
-                self.send_header("Content-Length", str(len(body)))
-                self.end_headers()
-                self.wfile.write(body)
-
+        class Handler(OscHandler):
             def _digest_ok(self) -> bool:
                 """RFC 7616 Digest (MD5, qop=auth), as a Theta in client mode asks for."""
                 auth = self.headers.get("Authorization", "")
@@ -149,21 +137,7 @@ class FakeTheta:
                 if not live:
                     return self._json(400, {"name": name, "state": "error", "error": {
                         "code": "unknownCommand", "message": "Command executed is unknown."}})
-                self.send_response(200)
-                self.send_header("Content-Type",
-                                 "multipart/x-mixed-replace; boundary=\"---osclivepreview---\"")
-                self.send_header("Transfer-Encoding", "chunked")
-                self.end_headers()
-                try:
-                    for _ in range(200):
-                        part = (b"---osclivepreview---\r\nContent-type: image/jpeg\r\n"
-                                b"Content-Length: " + str(len(theta.frame)).encode()
-                                + b"\r\n\r\n" + theta.frame + b"\r\n")
-                        self.wfile.write(f"{len(part):x}\r\n".encode() + part + b"\r\n")
-                        self.wfile.flush()
-                        time.sleep(0.05)
-                except OSError:
-                    pass
+                self._live_preview((theta.frame for _ in range(200)), 0.05)
 
         self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
         self.httpd.daemon_threads = True

@@ -24,6 +24,43 @@ SPEEDS = [1 / 8000, 1 / 6400, 1 / 5000, 1 / 4000, 1 / 3200, 1 / 2500, 1 / 2000, 
           60.0]
 
 
+class OscHandler(BaseHTTPRequestHandler):
+    """What the fake OSC cameras' request handlers share (this one and tests/test_sources.py's
+    FakeTheta): JSON answers and the live preview stream."""
+    protocol_version = "HTTP/1.1"
+
+    def log_message(self, *args):
+        pass
+
+    def _json(self, status, obj):
+        body = json.dumps(obj).encode()
+        self.send_response(status)
+        self.send_header("Content-Type", "application/json;charset=utf-8")
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+
+    def _live_preview(self, frames, period: float):
+        """The answer to getLivePreview, as a Theta sends it: a chunked multipart MJPEG body
+        with the Theta's boundary, one JPEG of ``frames`` (bytes each) every ``period``
+        seconds, until ``frames`` ends or the client goes away."""
+        self.send_response(200)
+        self.send_header("Content-Type",
+                         "multipart/x-mixed-replace; boundary=\"---osclivepreview---\"")
+        self.send_header("Transfer-Encoding", "chunked")
+        self.end_headers()
+        try:
+            for frame in frames:
+                part = (b"---osclivepreview---\r\nContent-type: image/jpeg\r\n"
+                        b"Content-Length: " + str(len(frame)).encode()
+                        + b"\r\n\r\n" + frame + b"\r\n")
+                self.wfile.write(f"{len(part):x}\r\n".encode() + part + b"\r\n")
+                self.wfile.flush()
+                time.sleep(period)
+        except OSError:
+            pass
+
+
 class FakeOscCamera:
     def __init__(self, hdr, *, camera=None, api="2.1", fps=40.0, size=(128, 64),
                  options=None):
@@ -39,20 +76,7 @@ class FakeOscCamera:
         self._lock = threading.Lock()
         cam = self
 
-        class Handler(BaseHTTPRequestHandler):
-            protocol_version = "HTTP/1.1"
-
-            def log_message(self, *args):
-                pass
-
-            def _json(self, status, obj):
-                body = json.dumps(obj).encode()
-                self.send_response(status)
-                self.send_header("Content-Type", "application/json;charset=utf-8")
-                self.send_header("Content-Length", str(len(body)))
-                self.end_headers()
-                self.wfile.write(body)
-
+        class Handler(OscHandler):
             def _error(self, name, code, message):
                 self._json(400, {"name": name, "state": "error",
                                  "error": {"code": code, "message": message}})
@@ -87,22 +111,7 @@ class FakeOscCamera:
                     name == "camera._getLivePreview" and cam.api == "2.0")
                 if not live:
                     return self._error(name, "unknownCommand", "Command executed is unknown.")
-                self.send_response(200)
-                self.send_header("Content-Type",
-                                 "multipart/x-mixed-replace; boundary=\"---osclivepreview---\"")
-                self.send_header("Transfer-Encoding", "chunked")
-                self.end_headers()
-                try:
-                    while not cam.closed:
-                        frame = cam.render()
-                        part = (b"---osclivepreview---\r\nContent-type: image/jpeg\r\n"
-                                b"Content-Length: " + str(len(frame)).encode()
-                                + b"\r\n\r\n" + frame + b"\r\n")
-                        self.wfile.write(f"{len(part):x}\r\n".encode() + part + b"\r\n")
-                        self.wfile.flush()
-                        time.sleep(1.0 / cam.fps)
-                except OSError:
-                    pass
+                self._live_preview(cam.frames(), 1.0 / cam.fps)
 
         self.closed = False
         self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
@@ -117,6 +126,11 @@ class FakeOscCamera:
         if o["exposureProgram"] == 1 and o["shutterSpeed"] and o["iso"]:
             return o["shutterSpeed"] * o["iso"] / 100.0
         return auto_exposure(self.hdr)
+
+    def frames(self):
+        """The live preview's JPEGs, each rendered when it is sent, until close()."""
+        while not self.closed:
+            yield self.render()
 
     def render(self) -> bytes:
         rgb = self.camera.capture(self.hdr, self.exposure())
