@@ -17,7 +17,7 @@ from provider.verify import contract
 
 ROOT = Path(__file__).resolve().parent.parent
 CORE = sorted((ROOT / "unity_package" / "Runtime" / "Core").glob("*.cs"))
-SOURCE = ROOT / "tests" / "csharp" / "ExportTest.cs"
+SOURCES = [ROOT / "tests" / "csharp" / "Checks.cs", ROOT / "tests" / "csharp" / "ExportTest.cs"]
 
 
 @pytest.fixture(scope="module")
@@ -27,7 +27,7 @@ def export_exe(tmp_path_factory):
         pytest.skip("Mono is not installed: apt-get install mono-mcs mono-runtime")
     exe = tmp_path_factory.mktemp("export_csharp") / "ExportTest.exe"
     r = subprocess.run([mcs, "-nologo", "-warnaserror+", "-target:exe", f"-out:{exe}",
-                        *map(str, CORE), str(SOURCE)], capture_output=True, text=True, timeout=120)
+                        *map(str, CORE), *map(str, SOURCES)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, f"mcs failed:\n{r.stdout}\n{r.stderr}"
     return mono, exe
 

@@ -78,7 +78,7 @@ def build_dir(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def contract_exe(build_dir):
-    return _compile(build_dir / "ContractTest.exe", [*CORE, CSHARP / "ContractTest.cs"])
+    return _compile(build_dir / "ContractTest.exe", [*CORE, CSHARP / "Checks.cs", CSHARP / "ContractTest.cs"])
 
 
 @pytest.fixture(scope="session")

@@ -12,51 +12,13 @@ using Shlight.Lighting;
 
 static class ContractTest
 {
-    sealed class Check
-    {
-        public string Name;
-        public double MaxAbs;   // max |got - want|
-        public double MaxRel;   // max |got - want| / max |want| (scale-relative)
-        public double Tolerance;
-        public int Count;
-        public bool Ok { get { return MaxRel <= Tolerance && !double.IsNaN(MaxRel); } }
-    }
-
     // ñᵀMñ uses the 6-digit constants c1..c5 of Ramamoorthi & Hanrahan (docs/contract.md §2), so it
     // differs from Σ Â_l L_lm Y_lm(n) by up to ~7e-7 of the scale: the floor for every
     // irradiance comparison. Matrix and rotation algebra is checked to 1e-12.
     const double ConstantRounding = 2e-6;
 
-    static readonly Dictionary<string, Check> checks = new Dictionary<string, Check>();
-    static readonly List<string> failures = new List<string>();
-
-    static void Compare(string name, double[] got, double[] want, double tolerance, string where)
-    {
-        if (got.Length != want.Length)
-        {
-            failures.Add(name + " [" + where + "]: length " + got.Length + " != " + want.Length);
-            return;
-        }
-        double scale = 0, maxAbs = 0;
-        foreach (double w in want) scale = Math.Max(scale, Math.Abs(w));
-        for (int i = 0; i < got.Length; i++) maxAbs = Math.Max(maxAbs, Math.Abs(got[i] - want[i]));
-        double rel = maxAbs / Math.Max(scale, 1e-300);
-        if (scale == 0) rel = maxAbs;
-        Check c;
-        if (!checks.TryGetValue(name, out c)) checks[name] = c = new Check { Name = name, Tolerance = tolerance };
-        c.MaxAbs = Math.Max(c.MaxAbs, maxAbs);
-        c.MaxRel = Math.Max(c.MaxRel, rel);
-        c.Count += got.Length;
-        if (!(rel <= tolerance)) failures.Add(name + " [" + where + "]: rel error " + rel.ToString("E3") + " > " + tolerance);
-    }
-
-    static void Expect(string name, bool condition, string detail)
-    {
-        Check c;
-        if (!checks.TryGetValue(name, out c)) checks[name] = c = new Check { Name = name, Tolerance = 0 };
-        c.Count++;
-        if (!condition) { c.MaxRel = 1; failures.Add(name + ": " + detail); }
-    }
+    // Scale-relative errors (absolute only where the expected vector is all zeros).
+    static readonly Checks checks = new Checks(0.0);
 
     static double[] Numbers(Dictionary<string, object> obj, string key)
     {
@@ -141,30 +103,30 @@ static class ContractTest
         double[] unormals = Numbers(cs, "unity_normals");
 
         // 1. the wire matrices follow from the coefficients (docs/contract.md §2)
-        Compare("matrices_from_coefficients", Sh9Math.MatricesFromCoefficients(coeffs), mats, 1e-12, name);
+        checks.Compare("matrices_from_coefficients", Sh9Math.MatricesFromCoefficients(coeffs), mats, 1e-12, name);
         // 2. E(n) = ñᵀMñ, right-handed
-        Compare("irradiance_rh", EvalMatrices(mats, normals), irr, ConstantRounding, name);
+        checks.Compare("irradiance_rh", EvalMatrices(mats, normals), irr, ConstantRounding, name);
         // 3. frame conversion S M S, and E in Unity's frame at (x, y, -z)
         double[] myUnity = Sh9Math.MatricesToUnity(mats);
-        Compare("unity_matrices", myUnity, umats, 1e-12, name);
-        Compare("irradiance_unity", EvalMatrices(myUnity, unormals), irr, ConstantRounding, name);
+        checks.Compare("unity_matrices", myUnity, umats, 1e-12, name);
+        checks.Compare("irradiance_unity", EvalMatrices(myUnity, unormals), irr, ConstantRounding, name);
         // 4. the message path: parse a wire message built from the case, snapshot, upload values
         string wire = "{\"type\":\"sh9\",\"version\":1,\"probe\":\"default\",\"seq\":1,\"time\":0,\"stale\":false," +
                       "\"frame\":\"rh-y-up\",\"coefficients\":" + JsonArray(coeffs) + ",\"matrices\":" + JsonArray(mats) + "}";
         Sh9Parsed parsed = Sh9Protocol.Parse(wire);
         var snap = new Sh9Snapshot(parsed.Sh9, 0, 1);
-        Compare("message_roundtrip_unity_matrices", snap.UnityMatrices, umats, 1e-12, name);
+        checks.Compare("message_roundtrip_unity_matrices", snap.UnityMatrices, umats, 1e-12, name);
         var values = new Sh9LightingValues();
         values.Set(snap.UnityMatrices, null, 1.0);
-        Compare("upload_float32_irradiance", EvalMatrices(ToDouble(values.Matrices), unormals), irr, ConstantRounding, name);
+        checks.Compare("upload_float32_irradiance", EvalMatrices(ToDouble(values.Matrices), unormals), irr, ConstantRounding, name);
         // 5. Unity ambient probe: ShadeSH9 on the converted SphericalHarmonicsL2 = E/π
         double[] want = Divide(irr, Math.PI);
         double[] probeFromCoeffs = Sh9Math.AmbientProbeFromCoefficients(snap.UnityCoefficients);
         double[] probeFromMats = Sh9Math.AmbientProbeFromMatrices(snap.UnityMatrices);
-        Compare("ambient_shadesh9_from_coefficients", EvalShadeSH9(probeFromCoeffs, unormals), want, ConstantRounding, name);
-        Compare("ambient_shadesh9_from_matrices", EvalShadeSH9(probeFromMats, unormals), want, ConstantRounding, name);
-        Compare("ambient_paths_agree", probeFromMats, probeFromCoeffs, ConstantRounding, name);
-        Compare("ambient_float32_upload", EvalShadeSH9(ToDouble(values.AmbientProbe), unormals), want, ConstantRounding, name);
+        checks.Compare("ambient_shadesh9_from_coefficients", EvalShadeSH9(probeFromCoeffs, unormals), want, ConstantRounding, name);
+        checks.Compare("ambient_shadesh9_from_matrices", EvalShadeSH9(probeFromMats, unormals), want, ConstantRounding, name);
+        checks.Compare("ambient_paths_agree", probeFromMats, probeFromCoeffs, ConstantRounding, name);
+        checks.Compare("ambient_float32_upload", EvalShadeSH9(ToDouble(values.AmbientProbe), unormals), want, ConstantRounding, name);
 
         // 6. rotation cases: M' = R̃ M R̃ᵀ, in both frames; Unity's via a quaternion like transform.rotation
         if (cs.ContainsKey("rotation"))
@@ -172,15 +134,15 @@ static class ContractTest
             double[] rot = Numbers(cs, "rotation");
             double[] rmats = Numbers(cs, "rotated_matrices");
             double[] urmats = Numbers(cs, "unity_rotated_matrices");
-            Compare("rotated_matrices_rh", Sh9Math.RotateMatrices(mats, rot), rmats, 1e-12, name);
+            checks.Compare("rotated_matrices_rh", Sh9Math.RotateMatrices(mats, rot), rmats, 1e-12, name);
             double[] ur = Sh9Math.RotationToUnity(rot);
-            Compare("rotated_matrices_unity", Sh9Math.RotateMatrices(umats, ur), urmats, 1e-12, name);
+            checks.Compare("rotated_matrices_unity", Sh9Math.RotateMatrices(umats, ur), urmats, 1e-12, name);
             double[] q = MatrixToQuaternion(ur);
             double[] fromQ = Sh9Math.QuaternionToMatrix(q[0], q[1], q[2], q[3]);
-            Compare("quaternion_roundtrip", fromQ, ur, 1e-12, name);
+            checks.Compare("quaternion_roundtrip", fromQ, ur, 1e-12, name);
             var rv = new Sh9LightingValues();
             rv.Set(snap.UnityMatrices, fromQ, 1.0);
-            Compare("rotated_upload_float32", ToDouble(rv.Matrices), urmats, ConstantRounding, name);
+            checks.Compare("rotated_upload_float32", ToDouble(rv.Matrices), urmats, ConstantRounding, name);
             // E'(R n) = E(n): the rotated probe seen along the rotated normal
             int n = unormals.Length / 3;
             var rn = new double[unormals.Length];
@@ -189,8 +151,8 @@ static class ContractTest
                 double[] v = Sh9Math.Rotate(ur, unormals[3 * k], unormals[3 * k + 1], unormals[3 * k + 2]);
                 rn[3 * k] = v[0]; rn[3 * k + 1] = v[1]; rn[3 * k + 2] = v[2];
             }
-            Compare("rotated_irradiance_unity", EvalMatrices(urmats, rn), irr, ConstantRounding, name);
-            Compare("rotated_ambient_shadesh9", EvalShadeSH9(ToDouble(rv.AmbientProbe), rn), want, ConstantRounding, name);
+            checks.Compare("rotated_irradiance_unity", EvalMatrices(urmats, rn), irr, ConstantRounding, name);
+            checks.Compare("rotated_ambient_shadesh9", EvalShadeSH9(ToDouble(rv.AmbientProbe), rn), want, ConstantRounding, name);
         }
     }
 
@@ -256,16 +218,16 @@ static class ContractTest
         double[] probe = ToDouble(v.AmbientProbe);
         string fromMatrix = Brightest((x, y, z) => Green(m, x, y, z));
         string fromAmbient = Brightest((x, y, z) => GreenSH9(probe, x, y, z));
-        Expect("one_sided_light", fromMatrix == expectWorld,
+        checks.Expect("one_sided_light", fromMatrix == expectWorld,
                label + ": matrices brightest at " + fromMatrix + ", expected " + expectWorld);
-        Expect("one_sided_light", fromAmbient == expectWorld,
+        checks.Expect("one_sided_light", fromAmbient == expectWorld,
                label + ": ambient probe brightest at " + fromAmbient + ", expected " + expectWorld);
         // the far side is darker than the lit side by a wide margin
         double[] d = { 0, 0, 0 };
         int axis = "xyz".IndexOf(expectWorld[1]);
         d[axis] = expectWorld[0] == '+' ? 1 : -1;
         double lit = Green(m, d[0], d[1], d[2]), dark = Green(m, -d[0], -d[1], -d[2]);
-        Expect("one_sided_light", lit > 3 * dark, label + ": lit " + lit + " vs dark " + dark);
+        checks.Expect("one_sided_light", lit > 3 * dark, label + ": lit " + lit + " vs dark " + dark);
     }
 
     static void OneSidedLights()
@@ -291,11 +253,11 @@ static class ContractTest
         var snap = new Sh9Snapshot(Sh9Protocol.Parse("{\"type\":\"sh9\",\"coefficients\":" + JsonArray(coeffs) + "}").Sh9, 0, 1);
         var a = new Sh9LightingValues(); a.Set(snap.UnityMatrices, null, 1.0);
         var b = new Sh9LightingValues(); b.Set(snap.UnityMatrices, null, 2.5);
-        Compare("intensity_multiplier", ToDouble(b.Matrices), Sh9Math.Scale(ToDouble(a.Matrices), 2.5), 1e-6, "2.5x");
+        checks.Compare("intensity_multiplier", ToDouble(b.Matrices), Sh9Math.Scale(ToDouble(a.Matrices), 2.5), 1e-6, "2.5x");
         // Furnace: uniform radiance 1 gives E = π, ShadeSH9 = 1 (a white surface shows 1).
         var f = new Sh9LightingValues(); f.SetUniform(1, 1, 1);
-        Compare("furnace", f.Irradiance(0.6, 0.8, 0), new[] { Math.PI, Math.PI, Math.PI }, 1e-6, "uniform");
-        Compare("furnace", Sh9Math.ShadeSH9(Sh9Math.PackUnityShaderConstants(ToDouble(f.AmbientProbe)), 0, 0, 1),
+        checks.Compare("furnace", f.Irradiance(0.6, 0.8, 0), new[] { Math.PI, Math.PI, Math.PI }, 1e-6, "uniform");
+        checks.Compare("furnace", Sh9Math.ShadeSH9(Sh9Math.PackUnityShaderConstants(ToDouble(f.AmbientProbe)), 0, 0, 1),
                 new double[] { 1, 1, 1 }, 1e-6, "uniform ShadeSH9");
     }
 
@@ -357,13 +319,13 @@ static class ContractTest
         var v = new Sh9LightingValues();
         double[] q = quaternion ?? new double[] { 0, 0, 0, 1 };
         v.Set(snap, q[0], q[1], q[2], q[3], 1.0, true);
-        Expect("light_split", v.LightActive, label + ": light not active");
-        Compare("light_direction_unity", v.LightDirection, expectWorld, 1e-12, label);
+        checks.Expect("light_split", v.LightActive, label + ": light not active");
+        checks.Compare("light_direction_unity", v.LightDirection, expectWorld, 1e-12, label);
         // the light's transform: forward (R·(0,0,1), the direction the light travels) = -toward
         var lq = new double[4];
         Sh9Math.LookRotation(-v.LightDirection[0], -v.LightDirection[1], -v.LightDirection[2], lq);
         double[] forward = Sh9Math.Rotate(Sh9Math.QuaternionToMatrix(lq[0], lq[1], lq[2], lq[3]), 0, 0, 1);
-        Compare("light_forward", forward, new[] { -expectWorld[0], -expectWorld[1], -expectWorld[2] }, 1e-12, label);
+        checks.Compare("light_forward", forward, new[] { -expectWorld[0], -expectWorld[1], -expectWorld[2] }, 1e-12, label);
         // Unity's directional light is seen from -forward (_WorldSpaceLightPos0 / _MainLightPosition);
         // a white Lambertian surface shows colour × max(0, N·L) with no 1/π: it must equal ρE/π
         double[] toLight = { -forward[0], -forward[1], -forward[2] };
@@ -373,7 +335,7 @@ static class ContractTest
         {
             Sh9Math.LightColorFromLinear(v.LightIrradiance[0] / Math.PI, v.LightIrradiance[1] / Math.PI,
                                          v.LightIrradiance[2] / Math.PI, space, rgbi);
-            Expect("light_color_range", rgbi[0] >= 0 && rgbi[0] <= 1 && rgbi[1] >= 0 && rgbi[1] <= 1 && rgbi[2] >= 0 &&
+            checks.Expect("light_color_range", rgbi[0] >= 0 && rgbi[0] <= 1 && rgbi[1] >= 0 && rgbi[1] <= 1 && rgbi[2] >= 0 &&
                    rgbi[2] <= 1 && rgbi[3] > 0, label + " " + space + ": colour outside [0, 1] or no intensity");
             double[] seen = UnitySeesLinear(rgbi, space);
             foreach (double sign in new[] { 1.0, -1.0 })
@@ -387,22 +349,22 @@ static class ContractTest
                     shown[c] = seen[c] * lambert;                              // Unity's Lambert, albedo 1
                     want[c] = e[c] * Math.Max(0, sign) / Math.PI;              // ρ·E/π: all on the lit side, none behind
                 }
-                Compare("light_radiance_" + space, shown, want, 1e-6, label + (sign > 0 ? " lit side" : " far side"));
+                checks.Compare("light_radiance_" + space, shown, want, 1e-6, label + (sign > 0 ? " lit side" : " far side"));
             }
         }
         // the ambient probe and SH9 globals carry the ambient only: the light is not counted twice
         double[] probe = ToDouble(v.AmbientProbe);
         double[] flat = Sh9Math.ShadeSH9(Sh9Math.PackUnityShaderConstants(probe), expectWorld[0], expectWorld[1], expectWorld[2]);
-        Compare("light_ambient_only", flat, new[] { 0.05, 0.05, 0.05 }, 1e-6, label + " ShadeSH9 toward the light");
-        Compare("light_ambient_only", v.Irradiance(expectWorld[0], expectWorld[1], expectWorld[2]),
+        checks.Compare("light_ambient_only", flat, new[] { 0.05, 0.05, 0.05 }, 1e-6, label + " ShadeSH9 toward the light");
+        checks.Compare("light_ambient_only", v.Irradiance(expectWorld[0], expectWorld[1], expectWorld[2]),
                 new[] { 0.05 * Math.PI, 0.05 * Math.PI, 0.05 * Math.PI }, 1e-6, label + " SH9 toward the light");
         // without a light to draw, the full SH9 (light included) as before
         var full = new Sh9LightingValues();
         full.Set(snap, q[0], q[1], q[2], q[3], 1.0, false);
-        Expect("light_not_drawn_full_sh", !full.LightActive, label + ": light active although not drawn");
+        checks.Expect("light_not_drawn_full_sh", !full.LightActive, label + ": light active although not drawn");
         double[] fe = full.Irradiance(expectWorld[0], expectWorld[1], expectWorld[2]);
         double[] fb = full.Irradiance(-expectWorld[0], -expectWorld[1], -expectWorld[2]);
-        Expect("light_not_drawn_full_sh", fe[0] > 0.5 * e[0] && fe[0] > 3 * fb[0],
+        checks.Expect("light_not_drawn_full_sh", fe[0] > 0.5 * e[0] && fe[0] > 3 * fb[0],
                label + ": full SH9 not lit toward the light: " + fe[0] + " vs " + fb[0]);
     }
 
@@ -424,14 +386,14 @@ static class ContractTest
         var snap = new Sh9Snapshot(msg, 0, 1);
         var v = new Sh9LightingValues();
         v.Set(snap, 0, 0, 0, 1, 2.5, true);
-        Compare("light_intensity_multiplier", v.LightIrradiance, new[] { 7.5, 5.0, 2.5 }, 1e-12, "2.5x");
+        checks.Compare("light_intensity_multiplier", v.LightIrradiance, new[] { 7.5, 5.0, 2.5 }, 1e-12, "2.5x");
 
         // A message with lights but no ambient_* cannot be split: the full SH9, no light drawn.
         Sh9Message noAmbient = Sh9Protocol.Parse(LightMessage(d, e, Uniform(0.05, 0.05, 0.05), false)).Sh9;
-        Expect("light_without_ambient", noAmbient.Lights == 1 && !noAmbient.HasLightSplit, "HasLightSplit without ambient");
+        checks.Expect("light_without_ambient", noAmbient.Lights == 1 && !noAmbient.HasLightSplit, "HasLightSplit without ambient");
         var na = new Sh9LightingValues();
         na.Set(new Sh9Snapshot(noAmbient, 0, 1), 0, 0, 0, 1, 1.0, true);
-        Expect("light_without_ambient", !na.LightActive, "light drawn without an ambient SH9");
+        checks.Expect("light_without_ambient", !na.LightActive, "light drawn without an ambient SH9");
 
         // Two lights: the first is drawn, the second stays in the SH9 (its order-2 projection).
         double[] d2 = { 0, 1, 0 }, e2 = { 1, 1, 1 };
@@ -442,14 +404,14 @@ static class ContractTest
         string two = "{\"type\":\"sh9\",\"coefficients\":" + JsonArray(full2) + ",\"lights\":2,\"light_directions\":[1,0,0,0,1,0]," +
                      "\"light_irradiance\":[3,2,1,1,1,1],\"ambient_coefficients\":" + JsonArray(amb) + "}";
         Sh9Message m2 = Sh9Protocol.Parse(two).Sh9;
-        Expect("two_lights_parsed", m2.Lights == 2 && m2.HasLightSplit && m2.AmbientMatrices != null, "parse");
+        checks.Expect("two_lights_parsed", m2.Lights == 2 && m2.HasLightSplit && m2.AmbientMatrices != null, "parse");
         var v2 = new Sh9LightingValues();
         v2.Set(new Sh9Snapshot(m2, 0, 1), 0, 0, 0, 1, 1.0, true);
         double[] ambPlusSecond = (double[])amb.Clone();
         Sh9Math.AddDirectionalLight(ambPlusSecond, d2[0], d2[1], d2[2], e2[0], e2[1], e2[2]);
-        Compare("two_lights", ToDouble(v2.Matrices),
+        checks.Compare("two_lights", ToDouble(v2.Matrices),
                 Sh9Math.MatricesToUnity(Sh9Math.MatricesFromCoefficients(ambPlusSecond)), 1e-6, "ambient + second light");
-        Compare("two_lights_first_drawn", v2.LightIrradiance, e, 0, "first light drawn");
+        checks.Compare("two_lights_first_drawn", v2.LightIrradiance, e, 0, "first light drawn");
     }
 
     static void LightParserChecks()
@@ -466,13 +428,13 @@ static class ContractTest
             string error = null;
             try { m = Sh9Protocol.Parse(head + tail).Sh9; }
             catch (FormatException e) { error = e.Message; }
-            Expect("lights_parser_accepts", m != null && m.Lights == 0 && !m.HasLightSplit && m.LightDirections.Length == 0,
+            checks.Expect("lights_parser_accepts", m != null && m.Lights == 0 && !m.HasLightSplit && m.LightDirections.Length == 0,
                    "lights off: " + tail + " " + error);
         }
         // a light toward a non-unit direction is normalised; wire layout kept
         Sh9Message ok = Sh9Protocol.Parse(head + ",\"lights\":1,\"light_directions\":[0,1.5e-0,0],\"light_irradiance\":[1,1,1]," +
                                           "\"ambient_coefficients\":" + z27 + "}").Sh9;
-        Expect("lights_parser_accepts", ok.Lights == 1 && ok.LightDirections[1] == 1.0 && ok.HasLightSplit &&
+        checks.Expect("lights_parser_accepts", ok.Lights == 1 && ok.LightDirections[1] == 1.0 && ok.HasLightSplit &&
                ok.AmbientMatrices != null && ok.AmbientMatrices.Length == 48, "one light, derived ambient matrices");
         // bad input: a clear message naming the field
         var bad = new Dictionary<string, string>
@@ -494,7 +456,7 @@ static class ContractTest
             string error = null;
             try { Sh9Protocol.Parse(head + kv.Key); }
             catch (FormatException e) { error = e.Message; }
-            Expect("lights_parser_rejects", error != null && error.Contains(kv.Value),
+            checks.Expect("lights_parser_rejects", error != null && error.Contains(kv.Value),
                    "accepted or unclear: " + kv.Key + " -> " + (error ?? "accepted"));
         }
     }
@@ -524,7 +486,7 @@ static class ContractTest
             Sh9Math.QuaternionToMatrix(0.1, 0.2, 0.3, 0.9, r9);
         }
         long bytes = GC.GetAllocatedBytesForCurrentThread() - before;
-        Expect("no_allocation_per_frame", bytes == 0, "Sh9LightingValues.Set & co allocated " + bytes + " bytes in 1000 calls");
+        checks.Expect("no_allocation_per_frame", bytes == 0, "Sh9LightingValues.Set & co allocated " + bytes + " bytes in 1000 calls");
     }
 
     // ---- parser robustness ----------------------------------------------------------------
@@ -546,7 +508,7 @@ static class ContractTest
             bool threw = false;
             try { Sh9Protocol.Parse(text); }
             catch (FormatException) { threw = true; }
-            Expect("parser_rejects_invalid", threw, "accepted: " + (text.Length > 60 ? text.Substring(0, 60) + "..." : text));
+            checks.Expect("parser_rejects_invalid", threw, "accepted: " + (text.Length > 60 ? text.Substring(0, 60) + "..." : text));
         }
         // A full message with statistics, unicode and escapes, unknown fields and nesting is accepted.
         string good = "{\"type\":\"sh9\",\"version\":1,\"probe\":\"r\\u00e4um \\\"1\\\"\",\"seq\":42,\"time\":1700000000.25," +
@@ -554,23 +516,23 @@ static class ContractTest
                       ",\"matrices\":" + JsonArray(Sh9Math.MatricesFromCoefficients(Spot(1, 0, 0))) +
                       ",\"compute_ms\":1.5E-1,\"min_irradiance\":[-0.1,0,1e-3],\"window_cutoff\":0,\"future\":{\"x\":[1,[2]]},\"note\":null}";
         Sh9Parsed p = Sh9Protocol.Parse(good);
-        Expect("parser_accepts_valid", p.Kind == Sh9MessageKind.Sh9 && p.Sh9.Probe == "r\u00e4um \"1\"" && p.Sh9.Seq == 42
+        checks.Expect("parser_accepts_valid", p.Kind == Sh9MessageKind.Sh9 && p.Sh9.Probe == "r\u00e4um \"1\"" && p.Sh9.Seq == 42
                && p.Sh9.Stale && p.Sh9.AgeSeconds == 0.5 && p.Sh9.ComputeMs == 0.15 && p.Sh9.MinIrradiance[0] == -0.1
                && p.Sh9.Time == 1700000000.25 && !p.Sh9.MatricesDerived, "full message");
         Sh9Parsed h = Sh9Protocol.Parse("{\"type\":\"hello\",\"version\":1,\"provider\":\"shlight 0.1\",\"frame\":\"rh-y-up\",\"probes\":[\"default\",\"desk\"]}");
-        Expect("parser_accepts_valid", h.Kind == Sh9MessageKind.Hello && h.Hello.Probes.Length == 2 && h.Hello.Probes[1] == "desk", "hello");
+        checks.Expect("parser_accepts_valid", h.Kind == Sh9MessageKind.Hello && h.Hello.Probes.Length == 2 && h.Hello.Probes[1] == "desk", "hello");
         Sh9Parsed e = Sh9Protocol.Parse("{\"type\":\"error\",\"error\":\"unauthorized\",\"detail\":\"bad token\"}");
-        Expect("parser_accepts_valid", e.Kind == Sh9MessageKind.Error && e.Error.ToString() == "unauthorized: bad token", "error");
-        Expect("parser_accepts_valid", Sh9Protocol.Parse("{\"type\":\"pong\"}").Kind == Sh9MessageKind.Unknown, "unknown type");
-        Expect("subscribe_message", Sh9Protocol.SubscribeMessage("desk \"2\"", 30) ==
+        checks.Expect("parser_accepts_valid", e.Kind == Sh9MessageKind.Error && e.Error.ToString() == "unauthorized: bad token", "error");
+        checks.Expect("parser_accepts_valid", Sh9Protocol.Parse("{\"type\":\"pong\"}").Kind == Sh9MessageKind.Unknown, "unknown type");
+        checks.Expect("subscribe_message", Sh9Protocol.SubscribeMessage("desk \"2\"", 30) ==
                "{\"type\":\"subscribe\",\"probe\":\"desk \\\"2\\\"\",\"max_hz\":30}", Sh9Protocol.SubscribeMessage("desk \"2\"", 30));
-        Expect("uri", Sh9Client.BuildUri("192.168.1.5:8765", "a b&c", true).AbsoluteUri == "ws://192.168.1.5:8765/?token=a%20b%26c",
+        checks.Expect("uri", Sh9Client.BuildUri("192.168.1.5:8765", "a b&c", true).AbsoluteUri == "ws://192.168.1.5:8765/?token=a%20b%26c",
                Sh9Client.BuildUri("192.168.1.5:8765", "a b&c", true).AbsoluteUri);
-        Expect("uri", Sh9Client.BuildUri("http://pc.local:8765", "t", false).AbsoluteUri == "ws://pc.local:8765/",
+        checks.Expect("uri", Sh9Client.BuildUri("http://pc.local:8765", "t", false).AbsoluteUri == "ws://pc.local:8765/",
                Sh9Client.BuildUri("http://pc.local:8765", "t", false).AbsoluteUri);
         // Invariant culture: parsing must not depend on the thread's locale.
         System.Threading.Thread.CurrentThread.CurrentCulture = new CultureInfo("de-DE");
-        Expect("parser_invariant_culture", (double)MiniJson.Parse("0.5") == 0.5, "de-DE");
+        checks.Expect("parser_invariant_culture", (double)MiniJson.Parse("0.5") == 0.5, "de-DE");
         System.Threading.Thread.CurrentThread.CurrentCulture = CultureInfo.InvariantCulture;
     }
 
@@ -582,8 +544,8 @@ static class ContractTest
             if (args.Length > 0)
             {
                 Dictionary<string, object> doc = MiniJson.ParseObject(File.ReadAllText(args[0]));
-                Expect("vectors_header", Sh9Protocol.GetString(doc, "frame", "") == "rh-y-up", "frame");
-                Expect("vectors_header", (int)Sh9Protocol.GetNumber(doc, "version", 0) == 1, "version");
+                checks.Expect("vectors_header", Sh9Protocol.GetString(doc, "frame", "") == "rh-y-up", "frame");
+                checks.Expect("vectors_header", (int)Sh9Protocol.GetNumber(doc, "version", 0) == 1, "version");
                 var list = doc["cases"] as List<object>;
                 foreach (object o in list)
                 {
@@ -599,28 +561,8 @@ static class ContractTest
         }
         catch (Exception ex)
         {
-            failures.Add("exception: " + ex);
+            checks.Fail("exception: " + ex);
         }
-        var sb = new StringBuilder();
-        sb.Append("{\"cases\":").Append(cases).Append(",\"checks\":{");
-        bool first = true;
-        foreach (Check c in checks.Values)
-        {
-            if (!first) sb.Append(',');
-            first = false;
-            sb.Append(MiniJson.Quote(c.Name)).Append(":{\"max_abs\":").Append(MiniJson.Number(c.MaxAbs))
-              .Append(",\"max_rel\":").Append(MiniJson.Number(c.MaxRel)).Append(",\"tolerance\":")
-              .Append(MiniJson.Number(c.Tolerance)).Append(",\"n\":").Append(c.Count)
-              .Append(",\"ok\":").Append(c.Ok ? "true" : "false").Append('}');
-        }
-        sb.Append("},\"failures\":[");
-        for (int i = 0; i < failures.Count; i++)
-        {
-            if (i > 0) sb.Append(',');
-            sb.Append(MiniJson.Quote(failures[i]));
-        }
-        sb.Append("]}");
-        Console.WriteLine(sb.ToString());
-        return failures.Count == 0 ? 0 : 1;
+        return checks.Report(cases);
     }
 }

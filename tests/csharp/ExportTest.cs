@@ -15,41 +15,8 @@ using Shlight.Lighting;
 
 static class ExportTest
 {
-    sealed class Check
-    {
-        public double MaxRel;
-        public double Tolerance;
-        public int Count;
-    }
-
-    static readonly Dictionary<string, Check> checks = new Dictionary<string, Check>();
-    static readonly List<string> failures = new List<string>();
-
-    static void Compare(string name, double[] got, double[] want, double tolerance, string where)
-    {
-        if (got.Length != want.Length)
-        {
-            failures.Add(name + " [" + where + "]: length " + got.Length + " != " + want.Length);
-            return;
-        }
-        double scale = 0, maxAbs = 0;
-        foreach (double w in want) scale = Math.Max(scale, Math.Abs(w));
-        for (int i = 0; i < got.Length; i++) maxAbs = Math.Max(maxAbs, Math.Abs(got[i] - want[i]));
-        double rel = maxAbs / Math.Max(scale, 1.0);   // the vectors' scale is about 1
-        Check c;
-        if (!checks.TryGetValue(name, out c)) checks[name] = c = new Check { Tolerance = tolerance };
-        c.MaxRel = Math.Max(c.MaxRel, rel);
-        c.Count += got.Length;
-        if (!(rel <= tolerance)) failures.Add(name + " [" + where + "]: error " + rel.ToString("E3") + " > " + tolerance);
-    }
-
-    static void Expect(string name, bool ok, string detail)
-    {
-        Check c;
-        if (!checks.TryGetValue(name, out c)) checks[name] = c = new Check { Tolerance = 0 };
-        c.Count++;
-        if (!ok) { c.MaxRel = 1; failures.Add(name + ": " + detail); }
-    }
+    // The export's vectors have a scale of about 1: errors near 0 are measured absolutely.
+    static readonly Checks checks = new Checks(1.0);
 
     static double[] Numbers(Dictionary<string, object> obj, string key)
     {
@@ -129,16 +96,16 @@ static class ExportTest
         double[] sh = Numbers(unity, "sh");
         double[] constants = Numbers(unity, "shaderConstants");
 
-        Expect("self_description", Sh9Protocol.GetString(unity, "frame", "") == "unity-lh-y-up", name + ": frame");
-        Expect("self_description", Sh9Protocol.GetString(unity, "quantity", "") == "irradiance_over_pi", name + ": quantity");
-        Expect("self_description", !Sh9Protocol.GetBool(unity, "condon_shortley", true), name + ": condon_shortley");
+        checks.Expect("self_description", Sh9Protocol.GetString(unity, "frame", "") == "unity-lh-y-up", name + ": frame");
+        checks.Expect("self_description", Sh9Protocol.GetString(unity, "quantity", "") == "irradiance_over_pi", name + ": quantity");
+        checks.Expect("self_description", !Sh9Protocol.GetBool(unity, "condon_shortley", true), name + ": condon_shortley");
 
         // the package's conversions agree with the Python export (6-digit constants in C#)
-        Compare("package_from_coefficients", Sh9Math.AmbientProbeFromCoefficients(Sh9Math.CoefficientsToUnity(coeffs)), sh, 2e-6, name);
+        checks.Compare("package_from_coefficients", Sh9Math.AmbientProbeFromCoefficients(Sh9Math.CoefficientsToUnity(coeffs)), sh, 2e-6, name);
         double[] unityMatrices = Sh9Math.MatricesToUnity(Sh9Math.MatricesFromCoefficients(coeffs));
-        Compare("package_from_matrices", Sh9Math.AmbientProbeFromMatrices(unityMatrices), sh, 2e-6, name);
-        Compare("packing", PackLikeUnity(sh), constants, 1e-15, name);
-        Compare("packing", Sh9Math.PackUnityShaderConstants(sh), constants, 1e-15, name + " (package)");
+        checks.Compare("package_from_matrices", Sh9Math.AmbientProbeFromMatrices(unityMatrices), sh, 2e-6, name);
+        checks.Compare("packing", PackLikeUnity(sh), constants, 1e-15, name);
+        checks.Compare("packing", Sh9Math.PackUnityShaderConstants(sh), constants, 1e-15, name + " (package)");
 
         int n = normals.Length / 3;
         var un = new double[3 * n];          // Unity's frame: (x, y, -z)
@@ -147,13 +114,13 @@ static class ExportTest
         if (lights)
         {
             var main = (Dictionary<string, object>)unity["mainLight"];
-            Compare("shadesh9_white", Shown(Numbers(unity, "shaderConstantsAmbient"), un, main), white, 2e-4, name + " ambient + main light");
-            Compare("shadesh9_white", Shown(constants, un, null), Numbers(cs, "white_sh9"), 2e-4, name + " sh alone");
+            checks.Compare("shadesh9_white", Shown(Numbers(unity, "shaderConstantsAmbient"), un, main), white, 2e-4, name + " ambient + main light");
+            checks.Compare("shadesh9_white", Shown(constants, un, null), Numbers(cs, "white_sh9"), 2e-4, name + " sh alone");
         }
         else
         {
             double[] shown = Shown(constants, un, null);
-            Compare("shadesh9_white", shown, white, 2e-4, name);
+            checks.Compare("shadesh9_white", shown, white, 2e-4, name);
             object axisObj;
             if (cs.TryGetValue("light_axis", out axisObj))
             {
@@ -167,8 +134,8 @@ static class ExportTest
                 }
                 bool litOk = Math.Abs(un[3 * lit] - ua[0]) + Math.Abs(un[3 * lit + 1] - ua[1]) + Math.Abs(un[3 * lit + 2] - ua[2]) < 1e-12;
                 bool darkOk = Math.Abs(un[3 * dark] + ua[0]) + Math.Abs(un[3 * dark + 1] + ua[1]) + Math.Abs(un[3 * dark + 2] + ua[2]) < 1e-12;
-                Expect("one_sided_lit_side", litOk, name + ": brightest Unity normal (" + un[3 * lit] + ", " + un[3 * lit + 1] + ", " + un[3 * lit + 2] + ")");
-                Expect("one_sided_dark_side", darkOk && Math.Abs(shown[3 * dark]) < 2e-4, name + ": opposite side not dark");
+                checks.Expect("one_sided_lit_side", litOk, name + ": brightest Unity normal (" + un[3 * lit] + ", " + un[3 * lit + 1] + ", " + un[3 * lit + 2] + ")");
+                checks.Expect("one_sided_dark_side", darkOk && Math.Abs(shown[3 * dark]) < 2e-4, name + ": opposite side not dark");
             }
         }
     }
@@ -187,29 +154,8 @@ static class ExportTest
         }
         catch (Exception ex)
         {
-            failures.Add("exception: " + ex);
+            checks.Fail("exception: " + ex);
         }
-        var sb = new StringBuilder();
-        sb.Append("{\"cases\":").Append(cases).Append(",\"checks\":{");
-        bool first = true;
-        foreach (KeyValuePair<string, Check> kv in checks)
-        {
-            if (!first) sb.Append(',');
-            first = false;
-            bool ok = kv.Value.MaxRel <= kv.Value.Tolerance;
-            sb.Append(MiniJson.Quote(kv.Key)).Append(":{\"ok\":").Append(ok ? "true" : "false")
-              .Append(",\"max_rel\":").Append(MiniJson.Number(kv.Value.MaxRel))
-              .Append(",\"tolerance\":").Append(MiniJson.Number(kv.Value.Tolerance))
-              .Append(",\"count\":").Append(kv.Value.Count).Append('}');
-        }
-        sb.Append("},\"failures\":[");
-        for (int i = 0; i < failures.Count; i++)
-        {
-            if (i > 0) sb.Append(',');
-            sb.Append(MiniJson.Quote(failures[i]));
-        }
-        sb.Append("]}");
-        Console.WriteLine(sb.ToString());
-        return failures.Count == 0 ? 0 : 1;
+        return checks.Report(cases);
     }
 }
