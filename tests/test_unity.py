@@ -356,6 +356,31 @@ def _write_panorama(path: Path, u: float, v: float, colour) -> None:
     os.replace(tmp, path)
 
 
+#: Room lightings that differ, each a bright patch at (u, v) off the z = 0 plane (so the z-odd
+#: terms matter): _write_panorama's (u, v, colour).
+SCENES = {"A": (0.65, 0.30, (255, 190, 90)), "B": (0.20, 0.70, (80, 140, 255)),
+          "C": (0.90, 0.20, (250, 250, 250))}
+
+
+class _SceneLightings:
+    """The coefficients compute_sh9 gives for some of SCENES (panoramas written to
+    ``tmp_path``/NAME.png), to tell which scene a LiveClient event shows."""
+
+    def __init__(self, tmp_path: Path, names: str):
+        from provider import compute_sh9
+        self.coefficients = {}
+        for name in names:
+            path = tmp_path / f"{name}.png"
+            _write_panorama(path, *SCENES[name])
+            self.coefficients[name] = compute_sh9(str(path)).coefficients
+
+    def shown(self, ev, name: str) -> bool:
+        """Whether the event's wire coefficients are scene ``name``'s (to 1e-9 of their scale)."""
+        want = self.coefficients[name]
+        got = np.array(ev["wire_coefficients"]).reshape(9, 3)
+        return np.allclose(got, want, rtol=0, atol=1e-9 * np.abs(want).max())
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -581,27 +606,16 @@ def test_live_client_against_shlight_serve(live_exe, tmp_path):
     `shlight serve` over a real WebSocket: live messages converted and applied like in Unity, the
     source lost (stale, last lighting kept) and back (fresh), the server killed and restarted (the
     client reconnects by itself), a rotated transform with the token in the query, a wrong token."""
-    from provider import compute_sh9
 
     token = "s3cret-token"
     port = _free_port()
     image = tmp_path / "room.png"
     url = f"ws://127.0.0.1:{port}/"
-    # three lightings that differ, each with a light off the z = 0 plane (so z-odd terms matter)
-    scenes = {"A": (0.65, 0.30, (255, 190, 90)), "B": (0.20, 0.70, (80, 140, 255)), "C": (0.90, 0.20, (250, 250, 250))}
-    expected = {}
-    for name, (u, v, colour) in scenes.items():
-        p = tmp_path / f"{name}.png"
-        _write_panorama(p, u, v, colour)
-        expected[name] = compute_sh9(str(p)).coefficients
-
-    def is_scene(ev, name):
-        c = np.array(ev["wire_coefficients"]).reshape(9, 3)
-        return np.allclose(c, expected[name], rtol=0, atol=1e-9 * np.abs(expected[name]).max())
+    is_scene = _SceneLightings(tmp_path, "ABC").shown
 
     q = np.array([0.2, 0.5, -0.1, 0.8], np.float32)   # transform.rotation of the rotated client
     rotation = _quaternion_matrix(q.astype(np.float64))
-    _write_panorama(image, *scenes["A"])
+    _write_panorama(image, *SCENES["A"])
     clients, servers = [], []
     t0 = time.monotonic()
     try:
@@ -625,7 +639,7 @@ def test_live_client_against_shlight_serve(live_exe, tmp_path):
         _check_applied(rev, rotation=rotation, intensity=2.0)
         # one-sided light, independent of the algebra above: the patch of image A lies along d
         # (docs/contract.md §1), so Unity sees it along (x, y, -z), and the rotated client along R (x, y, -z)
-        d_unity = _equirect_direction(*scenes["A"][:2]) @ S3
+        d_unity = _equirect_direction(*SCENES["A"][:2]) @ S3
         e_main = _irradiance_rgb(ev, d_unity), _irradiance_rgb(ev, -d_unity)
         assert np.all(e_main[0] > 1.5 * e_main[1]) and e_main[0][0] > 5 * e_main[1][0], e_main  # orange light
         assert np.allclose(_irradiance_rgb(rev, rotation @ d_unity), 2 * e_main[0], rtol=1e-5)
@@ -648,7 +662,7 @@ def test_live_client_against_shlight_serve(live_exe, tmp_path):
 
         # 3. the source comes back with new content: fresh messages resume by themselves
         n = len(main.events)
-        _write_panorama(image, *scenes["B"])
+        _write_panorama(image, *SCENES["B"])
         i, fresh = main.wait_for("fresh messages after the source returned",
                                  lambda e: e["event"] == "applied" and not e["stale"], n)
         assert fresh["state"] == "Live" and is_scene(fresh, "B") and fresh["connections"] == 1
@@ -664,7 +678,7 @@ def test_live_client_against_shlight_serve(live_exe, tmp_path):
                       lambda e: e["event"] == "state" and e["state"] in ("Disconnected", "Connecting"), n)
         _, down = main.wait_for("an error after the server died",
                                 lambda e: e["event"] == "state" and e["error"], n)
-        _write_panorama(image, *scenes["C"])
+        _write_panorama(image, *SCENES["C"])
         servers.append(_Serve(port, image, token))
         _, back = main.wait_for("a message after the server restarted",
                                 lambda e: e["event"] == "applied" and e["connections"] == 2, n, timeout=30)
@@ -748,20 +762,10 @@ def test_live_client_reconnects_at_once_on_resume(live_exe, tmp_path):
     at once and shows the new light; a client that gets no resume call (the control) stays on the
     dead connection, which only the 30 s receive watchdog would end. Focus coming back alone
     reconnects only when the stream has gone quiet, not after every system menu."""
-    from provider import compute_sh9
     image = tmp_path / "room.png"
-    scenes = {"A": (0.65, 0.30, (255, 190, 90)), "B": (0.20, 0.70, (80, 140, 255))}
-    expected = {}
-    for name, (u, v, colour) in scenes.items():
-        q = tmp_path / f"{name}.png"
-        _write_panorama(q, u, v, colour)
-        expected[name] = compute_sh9(str(q)).coefficients
+    is_scene = _SceneLightings(tmp_path, "AB").shown
 
-    def is_scene(ev, name):
-        c = np.array(ev["wire_coefficients"]).reshape(9, 3)
-        return np.allclose(c, expected[name], rtol=0, atol=1e-9 * np.abs(expected[name]).max())
-
-    _write_panorama(image, *scenes["A"])
+    _write_panorama(image, *SCENES["A"])
     clients = []
     with ServeProcess("--source", str(image), "--fps", "10", "--keepalive", "0.25") as server:
         relay = _Relay(server.port)
@@ -787,7 +791,7 @@ def test_live_client_reconnects_at_once_on_resume(live_exe, tmp_path):
             app.wait_for("paused", lambda e: e["event"] == "paused")
             menu.send("blur")
             assert relay.hold() == 3
-            _write_panorama(image, *scenes["B"])
+            _write_panorama(image, *SCENES["B"])
             time.sleep(3.0)        # longer than the focus heuristic's 2.5 s of silence
 
             n_app, n_control, n_menu = len(app.events), len(control.events), len(menu.events)
