@@ -12,6 +12,7 @@ import threading
 import time
 from pathlib import Path
 
+from provider.bench.common import stop as stop_process
 from servertools import poll
 
 MOSQUITTO = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
@@ -70,12 +71,7 @@ class Mosquitto:
 
     def stop(self) -> None:
         if self.proc is not None and self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
+            stop_process(self.proc, 10)
 
     def __enter__(self) -> "Mosquitto":
         return self.start()

@@ -21,6 +21,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from provider.bench.common import stop as stop_process
+
 ROOT = Path(__file__).resolve().parent.parent
 SHLIGHT = [sys.executable, "-m", "provider.cli"]
 SERVING = re.compile(r"serving wss?://[^ ]*:(\d+)/")
@@ -159,12 +161,7 @@ class ServeProcess(_Loopback):
 
     def stop(self) -> int:
         if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
+            stop_process(self.proc, 15)
         self._reader.join(5)
         return self.proc.returncode
 

@@ -45,7 +45,7 @@ sys.path.insert(0, str(EXAMPLES))
 import ar_composite as ac  # noqa: E402
 from provider import compute_sh9  # noqa: E402
 from provider.verify import render  # noqa: E402
-from servertools import ServeProcess  # noqa: E402
+from servertools import ServeProcess, stop_process  # noqa: E402
 
 W, H = 640, 480
 # off-centre principal point and fx != fy, so a swapped or mis-signed term shows
@@ -447,12 +447,7 @@ def xvfb_display():
             pytest.skip(f"Xvfb did not start ({XVFB_HINT})")
         yield f":{number}"
     finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
+        stop_process(proc, 10)
 
 
 def sphere_offset(img_rgb):

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from servertools import ServeProcess
+from servertools import ServeProcess, stop_process
 
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "unity_package"
@@ -1010,12 +1010,7 @@ def test_live_client_over_tls_served_by_shlight(live_exe, tmp_path):
                 time.sleep(0.2)
         _check_tls_clients(live_exe, f"wss://localhost:{port}/", tmp_path, pki, compute_sh9(str(image)).coefficients)
     finally:
-        proc.terminate()
-        try:
-            proc.wait(15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
+        stop_process(proc, 15)
 
 
 def test_live_client_times_out_on_a_silent_server(live_exe):

@@ -83,9 +83,11 @@ def cpu_seconds(pid: int) -> float:
 
 
 def stop(proc: subprocess.Popen, timeout: float = 15.0) -> None:
-    """Terminate a server the bench started; kill it if it does not stop in ``timeout`` s."""
+    """Terminate a process (a server the bench or a test started); kill it if it does not
+    stop in ``timeout`` s, and reap it."""
     proc.terminate()
     try:
         proc.wait(timeout)
     except subprocess.TimeoutExpired:
         proc.kill()
+        proc.wait(5)
