@@ -110,11 +110,6 @@ class CameraSim:
                               params={"model": "CameraSim", "exponent": list(self.exponent),
                                       "clip_stops": list(self.clip_stops)})
 
-    @property
-    def clip_exposure(self) -> np.ndarray:
-        """Sensor exposure X at which each channel saturates."""
-        return self._xc.copy()
-
     # -- rendering --------------------------------------------------------------------------
     def capture(self, hdr: np.ndarray, exposure_time: float, rng=None,
                 bits: int = 8) -> np.ndarray:
@@ -139,9 +134,3 @@ class CameraSim:
         times = [base_time * 2.0 ** ev for ev in evs]
         return [self.capture(hdr, t, rng, bits) for t in times], times
 
-
-def srgb_encode8(linear: np.ndarray) -> np.ndarray:
-    """What an ideal sRGB camera records (as provider.bench._to_srgb8 with exposure folded in)."""
-    v = np.clip(linear, 0, 1)
-    s = np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(v, 1 / 2.4) - 0.055)
-    return np.rint(s * 255).astype(np.uint8)

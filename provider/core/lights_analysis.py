@@ -118,18 +118,6 @@ class LightsResult:
             ambient = sh_rotation @ ambient
         return replace(self, lights=lights, ambient=ambient)
 
-    def wire_fields(self) -> dict:
-        """The docs/contract.md §10 wire fields (flat lists of floats, JsonUtility-friendly)."""
-        return {
-            "lights": len(self.lights),
-            "light_directions": [float(v) for light in self.lights for v in light.direction],
-            "light_irradiance": [float(v) for light in self.lights for v in light.irradiance],
-            "ambient_coefficients": [float(v) for v in self.ambient.reshape(-1)],
-            "ambient_matrices": [float(v) for v in
-                                 sh.irradiance_matrices(self.ambient).reshape(-1)],
-            "light_error": float(self.light_error),
-        }
-
 
 def model_irradiance(ambient, lights, normals) -> np.ndarray:
     """``ñᵀAñ + Σ_k I_k max(0, n·d_k)`` at unit normals (..., 3) -> (..., 3), not clamped.
