@@ -35,6 +35,7 @@ from .errors import InputError
 from .lights import LightExtractor, LinearView
 from .lights_analysis import model_irradiance
 from .projections import Equirect, Projection, ProjectionError, make_projection
+from . import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from .engine_options import check_options, exposure_scale
 from .response import CameraResponse, apply_lut
 
@@ -164,6 +165,8 @@ class SH9Projector:
             raise InputError(str(exc)) from None
         #: Allowed but probably wrong (e.g. a 2:1 panorama read as a fisheye): say them.
         self.warnings = list(full.warnings)
+        #: (x0, y0, x1, y1): the part of each frame the projection covers (a ball's box).
+        self.window = getattr(full, "window", None)
         self.width, self.height = int(width), int(height)
         self.encoding, self.exposure, self.downsample = encoding, float(exposure), downsample
         self.order, self.dering, self.order_budget = order, dering, float(order_budget)
@@ -363,6 +366,9 @@ class SH9Projector:
         if frame.shape[:2] != (self.height, self.width):
             raise InputError(f"frame is {frame.shape[1]}×{frame.shape[0]}, this projector "
                              f"was built for {self.width}×{self.height}")
+        if self.window is not None:
+            x0, y0, x1, y1 = self.window
+            frame = frame[y0:y1, x0:x1]
         return np.ascontiguousarray(frame)
 
     def project(self, frame: np.ndarray, error_estimate: bool | None = None,
