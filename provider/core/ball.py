@@ -141,3 +141,14 @@ def _fit_circle(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
     sol, *_ = np.linalg.lstsq(A, x * x + y * y, rcond=None)
     return float(sol[0]), float(sol[1]), float(math.sqrt(max(sol[2] + sol[0] ** 2 + sol[1] ** 2, 0)))
 
+
+
+def resolve_ball(options: dict, frame: np.ndarray) -> tuple[dict, BallCircle | None]:
+    """Engine options with ``ball="auto"`` replaced by the ``center`` and ``radius`` of the
+    ball located in ``frame`` (and that circle); other options come back unchanged (None)."""
+    if options.get("ball") != "auto":
+        return options, None
+    circle = locate_ball(frame)
+    out = {k: v for k, v in options.items() if k != "ball"}
+    out.update(center=(circle.x, circle.y), radius=circle.radius)
+    return out, circle
