@@ -18,6 +18,8 @@ from .errors import InputError
 #: Frames are searched at most this many pixels wide (Hough is costly); the edge is then
 #: refined at full resolution.
 SEARCH_SIZE = 800
+#: Circles of the Hough transform refined; the one whose edge most rays agree with wins.
+CANDIDATES = 8
 #: Edge samples around the circle when refining it.
 EDGE_RAYS = 720
 
@@ -61,10 +63,9 @@ def grey8(image: np.ndarray) -> np.ndarray:
 
 def locate_ball(image: np.ndarray, *, min_radius_fraction: float = 0.05) -> BallCircle:
     """The ball in ``image`` (H×W, or H×W×C in RGB order, any dtype the engine takes):
-    the strongest circle of :func:`cv2.HoughCircles` with a radius from
-    ``min_radius_fraction`` to 0.55 of the frame's smaller side, then refined on the edge
-    (the steepest step along :data:`EDGE_RAYS` rays, a least-squares circle without the
-    outliers). Raises :class:`InputError` when no circle is found."""
+    the :data:`CANDIDATES` strongest circles of :func:`cv2.HoughCircles` with a radius from
+    ``min_radius_fraction`` to 0.55 of the frame's smaller side, each refined on its edge
+    (:func:`refine_edge`); the one with the most rays on its edge wins. Raises :class:`InputError` when no circle is found."""
     grey = grey8(image)
     h, w = grey.shape[:2]
     if min(h, w) < 32:
@@ -75,29 +76,35 @@ def locate_ball(image: np.ndarray, *, min_radius_fraction: float = 0.05) -> Ball
     small = cv2.GaussianBlur(small, (0, 0), 1.5)
     side = min(small.shape[:2])
     found = None
-    for votes in (80, 60, 45, 30, 20):
-        found = cv2.HoughCircles(small, cv2.HOUGH_GRADIENT, dp=1, minDist=side / 4,
-                                 param1=100, param2=votes,
-                                 minRadius=max(4, int(side * min_radius_fraction)),
-                                 maxRadius=int(side * 0.55))
-        if found is not None:
+    for votes in (60, 40, 25):      # the first threshold with candidates; they come
+        found = cv2.HoughCircles(  # strongest first, and near circles are kept (minDist)
+            small, cv2.HOUGH_GRADIENT, dp=1, minDist=max(2.0, side / 40), param1=100,
+            param2=votes, minRadius=max(4, int(side * min_radius_fraction)),
+            maxRadius=int(side * 0.55))
+        if found is not None and len(found[0]) >= CANDIDATES:
             break
     if found is None:
         raise InputError(f"no ball found in the {w}×{h} frame (no circle of radius "
                          f"{min_radius_fraction:.0%} to 55 % of its smaller side): "
                          "give it with --ball X,Y,R")
-    x, y, r = (float(v) / scale for v in found[0][0][:3])
-    circle = BallCircle(x + 0.5, y + 0.5, r)   # OpenCV's pixel centres are integers
-    for _ in range(3):
-        circle = refine_edge(grey, circle)
-    return circle
+    best = None
+    for x, y, r in found[0][:CANDIDATES, :3] / scale:
+        circle = BallCircle(float(x) + 0.5, float(y) + 0.5, float(r))  # OpenCV: centres integer
+        for _ in range(3):
+            circle = refine_edge(grey, circle)
+        if best is None or circle.edge_points > best.edge_points:
+            best = circle
+    return best
 
 
 def refine_edge(grey: np.ndarray, circle: BallCircle, *, search: float = 0.12) -> BallCircle:
-    """``circle`` fitted to the steepest step of ``grey`` (8-bit) along rays from its centre,
-    within ``search`` (a fraction of the radius) of its rim: sub-pixel (a parabola through
-    the peak), and a least-squares circle through the edge points, dropping those farther
-    than 2.5 median deviations (at least 0.5 px)."""
+    """``circle`` fitted to the edge of ``grey`` (8-bit) near its rim: every strong step
+    (a local maximum of the slope, at least 0.3 of the steepest on its ray, sub-pixel by a
+    parabola) along :data:`EDGE_RAYS` rays within ``search`` (a fraction of the radius) of
+    the rim is a candidate; of the circles that many rays agree with (within 0.75 px, at
+    least half the best support, sampled consensus), the outermost is refitted by least
+    squares to one candidate per ray. Steps inside the rim (its reflection squeezes the
+    whole sphere behind the ball into a thin ring) and in the background lose."""
     img = cv2.GaussianBlur(grey.astype(np.float32), (0, 0), 1.0)
     h, w = img.shape[:2]
     angles = np.linspace(0, 2 * np.pi, EDGE_RAYS, endpoint=False)
@@ -111,28 +118,47 @@ def refine_edge(grey: np.ndarray, circle: BallCircle, *, search: float = 0.12) -
     inside = ((X >= 1) & (X <= w - 2) & (Y >= 1) & (Y <= h - 2)).all(axis=1)
     profile = cv2.remap(img, X, Y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     slope = np.abs(np.diff(profile, axis=1))
-    k = np.clip(np.argmax(slope, axis=1), 1, slope.shape[1] - 2)
-    rows = np.arange(len(angles))
-    a, b, c = slope[rows, k - 1], slope[rows, k], slope[rows, k + 1]
+    peak = np.zeros_like(slope, bool)
+    peak[:, 1:-1] = (slope[:, 1:-1] > slope[:, :-2]) & (slope[:, 1:-1] >= slope[:, 2:])
+    peak &= (slope >= 0.3 * slope.max(axis=1, keepdims=True)) & (slope > 1.0)
+    peak &= inside[:, None]
+    ray, k = np.nonzero(peak)
+    if ray.size < 12:
+        return circle
+    a, b, c = slope[ray, k - 1], slope[ray, k], slope[ray, k + 1]
     denom = a - 2 * b + c
     offset = np.where(denom < 0, 0.5 * (a - c) / np.where(denom < 0, denom, -1), 0.0)
     rho = radii[0] + (k + 0.5 + np.clip(offset, -1, 1)) * step
-    strong = inside & (b > max(2.0, 0.25 * float(np.median(b[inside])) if inside.any() else 2.0))
-    ex, ey = cx + np.cos(angles) * rho, cy + np.sin(angles) * rho
-    keep = strong
-    fit = None
-    for _ in range(3):
-        if keep.sum() < 12:
-            break
-        fit = _fit_circle(ex[keep], ey[keep])
-        dev = np.abs(np.hypot(ex - fit[0], ey - fit[1]) - fit[2])
-        limit = max(0.5, 2.5 * float(np.median(dev[keep])))
-        keep = strong & (dev <= limit)
-    if fit is None or keep.sum() < 12:
+    ex, ey = cx + np.cos(angles[ray]) * rho, cy + np.sin(angles[ray]) * rho
+    rng = np.random.default_rng(0)
+    fits = []
+    for _ in range(300):
+        i = rng.choice(ray.size, 3, replace=False)
+        if len(set(ray[i])) < 3:
+            continue
+        fit = _fit_circle(ex[i], ey[i])
+        if not 0.8 * circle.radius < fit[2] < 1.2 * circle.radius:
+            continue
+        near = np.abs(np.hypot(ex - fit[0], ey - fit[1]) - fit[2]) < 0.75
+        fits.append((np.unique(ray[near]).size, fit))
+    most = max((v for v, _ in fits), default=0)
+    if most < 12:
         return circle
-    dev = np.hypot(ex[keep] - fit[0], ey[keep] - fit[1]) - fit[2]
-    return BallCircle(fit[0] + 0.5, fit[1] + 0.5, fit[2], float(np.sqrt(np.mean(dev ** 2))),
-                      int(keep.sum()))
+    # The rim reflects what lies right behind the ball, so the true edge can be faint and a
+    # ring of the reflection just inside it as well supported: of the well-supported circles
+    # (half the best support), the outermost is the ball.
+    best = max((f for v, f in fits if v >= 0.5 * most), key=lambda f: f[2])
+    for _ in range(3):      # least squares on the nearest candidate of each agreeing ray
+        dev = np.abs(np.hypot(ex - best[0], ey - best[1]) - best[2])
+        order = np.lexsort((dev, ray))
+        first = order[np.r_[True, ray[order][1:] != ray[order][:-1]]]
+        keep = first[dev[first] < 0.75]
+        if keep.size < 12:
+            break
+        best = _fit_circle(ex[keep], ey[keep])
+    dev = np.hypot(ex[keep] - best[0], ey[keep] - best[1]) - best[2]
+    return BallCircle(best[0] + 0.5, best[1] + 0.5, best[2], float(np.sqrt(np.mean(dev ** 2))),
+                      int(keep.size))
 
 
 def _fit_circle(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
