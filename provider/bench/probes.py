@@ -152,6 +152,7 @@ def _plot(curves, path):
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
+        import matplotlib.ticker  # noqa: F401
     except ImportError:
         print("matplotlib not installed: no plot (pip install matplotlib)", file=sys.stderr)
         return
@@ -182,6 +183,9 @@ def _plot(curves, path):
         ax.plot([p[0] for p in pts], [p[1] * 100 for p in pts], "o-", label=key.split("-")[1])
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ticks = [p[0] for p in curves.get("distance-corrected", [])]
+    ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     ax.set_xlabel("camera distance (ball radii)")
     ax.set_title("perspective: read as orthographic or corrected")
     ax.legend(fontsize=8)
