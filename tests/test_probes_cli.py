@@ -191,3 +191,26 @@ def test_lights_find_the_sun_in_a_ball_and_an_angular_map():
         r = project(p, render_probe(hdr, p), lights="auto")
         assert r.lights, p.name
         assert float(np.dot(r.lights[0].direction, sun)) > math.cos(math.radians(3)), p.name
+
+
+def test_a_live_probe_with_ball_auto_finds_the_ball_then_keeps_its_projector(frame, tmp_path):
+    """``shlight serve --projection mirrorball --ball auto``: the probe locates the ball in
+    the first frame that shows one, builds the projector for it once, and rejects a frame
+    without a ball in one clear line (the server lives on)."""
+    from provider.core.errors import InputError
+    from provider.live.probe import Probe
+    from provider.live.sources import Frame, SourceOptions, parse_source
+    img, hdr = frame
+    path = tmp_path / "ball.hdr"
+    cv2.imwrite(str(path), img[..., ::-1])
+    probe = Probe("ball", parse_source(str(path), SourceOptions()), projection="mirrorball",
+                  engine_options={"ball": "auto"})
+    with pytest.raises(InputError, match="no ball found"):
+        probe._project(Frame(np.full((480, 640, 3), 0.3, np.float32), 0.0))
+    r = probe._project(Frame(img, 1.0))
+    truth = SH9Projector(hdr.shape[1], hdr.shape[0]).project(hdr).coefficients
+    assert sh.irradiance_error(r.coefficients, truth) < 5e-2
+    projector = probe._projectors[(640, 480)]
+    assert projector.window is not None
+    probe._project(Frame(img, 2.0))
+    assert probe._projectors[(640, 480)] is projector
