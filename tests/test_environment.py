@@ -163,3 +163,21 @@ def test_sizes_that_are_not_powers_of_two_from_8_to_256_are_refused(size):
 def test_wrong_frame_size_is_one_clear_error():
     with pytest.raises(InputError, match="built for 128×64"):
         EnvironmentProjector(128, 64, size=8).project(np.zeros((32, 64, 3), np.float32))
+
+
+@pytest.mark.parametrize("projection", ["angular", "mirrorball", "cross"])
+def test_light_probe_projections_make_the_same_cube(projection):
+    """A chrome ball, an angular map or a cube cross of a scene gives that scene's cube."""
+    from provider.core.projections import make_projection
+    from reference import render_equirect
+    from test_projections_probe import render
+    axis = np.array([0.6, 0.3, -0.74]) / np.linalg.norm([0.6, 0.3, -0.74])
+
+    def env(d):
+        return (0.2 + 5 * np.maximum(d @ axis, 0) ** 8)[..., None] * np.array([1.0, 0.8, 0.6])
+    w, h = (512, 384) if projection == "cross" else (512, 512)
+    frame = render(make_projection(projection, w, h), env)
+    want = compute_environment(render_equirect(env, 512, 256, 4).astype(np.float32), size=16)
+    got = compute_environment(frame, size=16, projection=projection)
+    for x, y in zip(got.mips, want.mips):
+        assert rel_rms(x, y) < 0.03

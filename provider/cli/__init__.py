@@ -31,6 +31,7 @@ COMMANDS = (
     ("bench", "bench", "speed against error: Markdown table and PNG plot"),
     ("calibrate-response", "calibrate",
      "a camera's response curve from FRAME@SECONDS brackets -> camera.json"),
+    ("locate-ball", "locate", "find a mirror ball in a frame: its circle as JSON (for --ball)"),
 )
 
 

@@ -132,6 +132,10 @@ class FrameDecoder:
         if frame.shape[:2] != (self.height, self.width):
             raise InputError(f"frame is {frame.shape[1]}×{frame.shape[0]}, this projector "
                              f"was built for {self.width}×{self.height}")
+        window = getattr(self, "window", None)    # (x0, y0, x1, y1): a ball's box
+        if window is not None:
+            x0, y0, x1, y1 = window
+            frame = frame[y0:y1, x0:x1]
         return np.ascontiguousarray(frame)
 
     def decode(self, frame: np.ndarray, stats: dict) -> np.ndarray:

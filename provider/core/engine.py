@@ -35,6 +35,7 @@ from .errors import InputError
 from .lights import LightExtractor, LinearView
 from .lights_analysis import model_irradiance
 from .projections import Equirect, Projection, ProjectionError, make_projection
+from . import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from .engine_options import check_options, exposure_scale
 from .decode import FrameDecoder, _count_pixels, srgb_to_linear  # noqa: F401 (re-exported)
 
@@ -154,6 +155,8 @@ class SH9Projector(FrameDecoder):
             raise InputError(str(exc)) from None
         #: Allowed but probably wrong (e.g. a 2:1 panorama read as a fisheye): say them.
         self.warnings = list(full.warnings)
+        #: (x0, y0, x1, y1): the part of each frame the projection covers (a ball's box).
+        self.window = getattr(full, "window", None)
         self.downsample = downsample
         self.order, self.dering, self.order_budget = order, dering, float(order_budget)
         self.rotation = None if rotation is None else np.asarray(rotation, np.float64)

@@ -35,6 +35,7 @@ import cv2
 import numpy as np
 
 from . import cubemap, prefilter
+from . import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from .decode import FrameDecoder
 from .engine_options import check_options, exposure_scale
 from .errors import InputError
@@ -129,6 +130,8 @@ class EnvironmentProjector(FrameDecoder):
         except ProjectionError as exc:
             raise InputError(str(exc)) from None
         self.warnings = list(full.warnings)
+        #: (x0, y0, x1, y1): the part of each frame the projection covers (a ball's box).
+        self.window = getattr(full, "window", None)
         self.rotation = None if rotation is None else np.asarray(rotation, np.float64)
         self.sizes = cubemap.mip_sizes(self.size)
         self.roughness = [k / (len(self.sizes) - 1) for k in range(len(self.sizes))]

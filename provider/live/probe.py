@@ -89,6 +89,8 @@ class Probe:
         self._error_estimate: float | None = None
         self._trackers: dict = {}       # frame size -> LightTracker (lights="auto")
         self._tracked_reconnects = 0
+        self._ball_options: dict | None = None   # --ball auto: the options with the ball found
+        self._ball_reconnects = 0
         self._brackets: dict = {}       # (size, slot exposures) -> BracketProjector
         self._lighting: SH9Result | None = None
         self._frame_time = 0.0          # unix time of the newest frame (the source's clock)
@@ -166,7 +168,12 @@ class Probe:
         if image.ndim < 2:
             raise InputError(f"frame of shape {image.shape}")
         key = (image.shape[1], image.shape[0])
+        if (self.engine_options.get("ball") == "auto"
+                and self.capture.reconnects != self._ball_reconnects):
+            self._projectors.clear()   # a new stream: the camera may have moved
         projector = self._projectors.get(key)
+        if projector is None and self.engine_options.get("ball") == "auto":
+            self._locate_ball(key, image)   # raises until a frame shows the ball
         if projector is None:
             if len(self._projectors) >= 4:   # a source that keeps changing size
                 self._projectors.clear()
@@ -200,6 +207,15 @@ class Probe:
             result.stats["error_estimate"] = self._error_estimate
         return result
 
+    def _locate_ball(self, key, image) -> None:
+        """``--ball auto``: find the ball in this frame (the first of its size, and again
+        after the source reconnects: the camera may have moved), for :meth:`_build_projector`."""
+        from ..core.ball import resolve_ball
+        self._ball_options, circle = resolve_ball(self.engine_options, image)
+        self._ball_reconnects = self.capture.reconnects
+        log.info("probe %s: ball found at x %.1f, y %.1f, radius %.1f px in %d×%d frames",
+                 self.name, circle.x, circle.y, circle.radius, *key)
+
     def _build_projector(self, width: int, height: int):
         """The projector for frames of this size, or the InputError saying why there is
         none. Said once: frames of this size are then rejected without rebuilding (an
@@ -218,9 +234,12 @@ class Probe:
                 while step[0] is not None and fraction >= step[0]:
                     log.info("probe %s: per-pixel weights %.0f %% done", self.name, step[0] * 100)
                     step[0] = next(steps, None)
+        options = self.engine_options
+        if options.get("ball") == "auto":
+            options = self._ball_options
         try:
             projector = SH9Projector(width, height, self.projection, progress=progress,
-                                     **self.engine_options)
+                                     **options)
         except Exception as exc:  # noqa: BLE001 - a bug must not become a rebuild per frame
             reason = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
             log.error("probe %s: cannot project %d×%d frames with these options: %s "
