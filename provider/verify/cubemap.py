@@ -251,6 +251,8 @@ def upload_cube(ctx, mips, dtype: str = "f4", face_order=range(6)):
     n0 = levels[0].shape[1]
     tex = ctx.texture_cube((n0, n0), 4, dtype=dtype)
     gl = _gl()
+    while gl.glGetError():       # errors left by earlier calls are not this upload's
+        pass
     gl.glBindTexture(GL_TEXTURE_CUBE_MAP, tex.glo)
     gl.glPixelStorei(0x0CF5, 1)                                  # GL_UNPACK_ALIGNMENT
     for k, level in enumerate(levels):
