@@ -41,11 +41,12 @@ vec3 shlight_prefiltered_radiance(vec3 R, float roughness) {
                       shlight_specular_lod(roughness)).rgb;
 }
 
-// Karis's analytic DFG: (scale, bias) with EnvBRDF = F0 · scale + bias.
+// Karis's analytic DFG: (scale, bias) with EnvBRDF = F0 · scale + bias (roughness clamped
+// to 0..1 like the lod).
 vec2 shlight_env_brdf_scale_bias(float roughness, float NoV) {
     const vec4 c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
     const vec4 c1 = vec4(1.0, 0.0425, 1.04, -0.04);
-    vec4 r = roughness * c0 + c1;
+    vec4 r = clamp(roughness, 0.0, 1.0) * c0 + c1;
     float a004 = min(r.x * r.x, exp2(-9.28 * NoV)) * r.x + r.y;
     return vec2(-1.04, 1.04) * a004 + r.zw;
 }

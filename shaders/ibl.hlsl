@@ -48,12 +48,13 @@ float3 shlight_prefiltered_radiance(float3 R, float roughness)
                                       shlight_specular_lod(roughness)).rgb;
 }
 
-// Karis's analytic DFG: (scale, bias) with EnvBRDF = F0 · scale + bias.
+// Karis's analytic DFG: (scale, bias) with EnvBRDF = F0 · scale + bias (roughness clamped
+// to 0..1 like the lod).
 float2 shlight_env_brdf_scale_bias(float roughness, float NoV)
 {
     const float4 c0 = float4(-1.0, -0.0275, -0.572, 0.022);
     const float4 c1 = float4(1.0, 0.0425, 1.04, -0.04);
-    float4 r = roughness * c0 + c1;
+    float4 r = saturate(roughness) * c0 + c1;
     float a004 = min(r.x * r.x, exp2(-9.28 * NoV)) * r.x + r.y;
     return float2(-1.04, 1.04) * a004 + r.zw;
 }

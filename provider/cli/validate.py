@@ -29,6 +29,6 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    from ..verify import ibl, lights
+    from ..verify import lights, reflections
     from ..verify.harness import run as run_validation
-    return run_validation(args, extensions=(lights, ibl))
+    return run_validation(args, extensions=(lights, reflections))
