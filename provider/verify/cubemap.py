@@ -169,36 +169,12 @@ def cube_from_function(function, size: int, levels: int | None = None) -> list[n
     return mips
 
 
-def box_mips(level0: np.ndarray) -> list[np.ndarray]:
-    """Mip 0 and its 2×2 box averages down to 2×2 (a stand-in for the prefiltered chain)."""
-    mips = [np.asarray(level0, np.float32)]
-    while mips[-1].shape[1] > 2:
-        m = mips[-1]
-        n = m.shape[1] // 2
-        mips.append(m.reshape(6, n, 2, n, 2, -1).mean(axis=(2, 4)).astype(np.float32))
-    return mips
-
-
-def equirect_nearest(image: np.ndarray, directions) -> np.ndarray:
-    """The equirect pixel containing each direction (docs/contract.md §1: u = φ/2π + ½ with
-    φ = atan2(x, −z), v = θ/π with θ from +Y)."""
-    img = np.asarray(image, np.float32)
-    h, w = img.shape[:2]
-    d = np.asarray(directions, np.float64)
-    u = np.arctan2(d[..., 0], -d[..., 2]) / (2 * np.pi) + 0.5
-    v = np.arccos(np.clip(d[..., 1], -1, 1)) / np.pi
-    col = np.clip(np.floor(u * w).astype(int), 0, w - 1)
-    row = np.clip(np.floor(v * h).astype(int), 0, h - 1)
-    return img[row, col]
 
 
 def cube_from_equirect(image: np.ndarray, size: int = 32) -> list[np.ndarray]:
-    """A test cube of an equirect panorama: the lead's ``compute_environment`` (GGX
-    prefiltered) where provider.core has it, else mip 0 by nearest lookup and box mips."""
-    try:
-        from ..core.environment import compute_environment
-    except ImportError:
-        return box_mips(equirect_nearest(image, texel_directions(size)))
+    """The provider's cube of an equirect panorama (``compute_environment``: mip 0 and the
+    GGX-prefiltered mips), as float32 arrays."""
+    from ..core.environment import compute_environment
     return [np.asarray(m, np.float32) for m in compute_environment(image, size=size).mips]
 
 
