@@ -184,3 +184,17 @@ def test_cli_missing_image_and_unwritable_output_say_one_line(tmp_path):
                    str(tmp_path / "no-dir" / "c.ktx2"))
     assert done.returncode == 2 and done.stderr.count("\n") == 1
     assert "cannot write" in done.stderr
+
+
+def test_bench_bytes_per_update_are_those_of_a_real_cube(bridge_cube):
+    """provider.bench.environment_transport (the environment bench's bytes): the KTX2 and
+    WebSocket bytes of one update as the server sends them, and bytes/s at 1,000 clients."""
+    from provider.bench.environment_transport import transport_bytes
+    from provider.live.session import binary_frame, text_frame
+    real = encode_environment(bridge_cube, probe="default", seq=123456, sh9_seq=1234567,
+                              time_s=1.7e9, compute_ms=12.345)
+    row, = transport_bytes((32,), subscribers=1000, hz=1.0)
+    assert row["mips"] == len(bridge_cube.mips)
+    assert row["ktx2"] == len(real.ktx2)
+    assert abs(row["websocket"] - len(text_frame(real.text) + binary_frame(real.ktx2))) <= 8
+    assert row["bytes_per_s"] == row["websocket"] * 1000
