@@ -280,3 +280,18 @@ def test_mqtt_retains_the_same_cube_bytes(tmp_path):
             retained, lighting = late.first("site/default")
             assert json.loads(lighting)["type"] == "sh9"
         assert key_value(payload, "shlight.probe") == "default"
+
+
+def test_a_bracket_feeds_the_cube_from_one_steady_slot():
+    """Exposure brackets: only the slot of median exposure makes cubes (not one slot after
+    another, which would make the cube's highlights flicker); plain frames always."""
+    import numpy as np
+    from provider.live.environment import feeds_cube
+    from provider.live.sources import Frame
+    image = np.zeros((32, 64, 3), np.uint8)
+    bracket = (1 / 60, 1 / 4000, 1 / 250, 1 / 1000, 1 / 15)      # median: 1/250, slot 2
+    fed = [feeds_cube(Frame(image, 0.0, info={"slot": k, "bracket": bracket}))
+           for k in range(5)]
+    assert fed == [False, False, True, False, False]
+    assert feeds_cube(Frame(image, 0.0, info={"exposure_s": 0.01}))
+    assert not feeds_cube(Frame(None, 0.0, lighting=object()))

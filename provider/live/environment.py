@@ -66,6 +66,21 @@ def cube_options(engine_options: dict) -> dict:
     return {k: v for k, v in engine_options.items() if k not in _SH9_ONLY}
 
 
+def feeds_cube(frame) -> bool:
+    """Whether a frame may make the cube: any frame with an image; of an exposure bracket
+    (``info`` ``slot``, ``bracket``), only the slot of median exposure, so that the cube
+    keeps one steady exposure instead of alternating between the slots (each slot is divided
+    by its own exposure, so the units are the same either way)."""
+    if frame.lighting is not None or frame.image is None:
+        return False
+    info = frame.info or {}
+    bracket, slot = info.get("bracket"), info.get("slot")
+    if slot is None or not bracket:
+        return True
+    order = sorted(range(len(bracket)), key=lambda k: bracket[k])
+    return slot == order[len(order) // 2]
+
+
 def key_values(result, *, probe: str, seq: int, sh9_seq: int | None, time_s: float,
                exposure: float = 1.0, exposure_s=None, gain=None) -> dict[str, str]:
     """The KTX2 key/value data of a cube (all text; lists and objects as JSON): what its

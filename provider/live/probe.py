@@ -40,7 +40,7 @@ from ..core.engine_options import precompute_note
 from ..core.errors import InputError
 from ..core.lights_tracking import LightTracker
 from .capture import Capture
-from .environment import EnvironmentSettings, EnvironmentWorker
+from .environment import EnvironmentSettings, EnvironmentWorker, feeds_cube
 from .message import coefficient_message, dumps
 from .sources import Frame, SourceSpec
 from .temporal import ChangeGate, LightingFilter, light_model
@@ -177,7 +177,8 @@ class Probe:
         self.error = ""
         if frame.image is not None:
             self.image, self.image_seq = frame.image, self.image_seq + 1
-            self._environment_frame = frame if frame.lighting is None else None
+            if feeds_cube(frame):
+                self._environment_frame = frame
 
     def _project(self, frame: Frame) -> SH9Result:
         """Worker thread: decode if needed, build the projector once per size, project."""
