@@ -57,6 +57,9 @@ Client → server (all optional; a plain client just listens):
   cap beyond the server's ``--max-hz``), in the layout ``to`` (default ``sh9``). Any
   field may be left out to keep its value.
 * ``{"type": "ping", "id": 7}``.
+* ``"environment": true`` in a subscribe (``shlight serve --environment``): also the
+  probes' reflection cubes, each an ``environment`` JSON message and then one binary frame
+  (KTX2; :mod:`provider.live.environment_fanout`, docs/contract.md §12).
 
 A client message larger than ``--max-message-bytes`` closes the connection with code
 1009. A client that does not read for ``--send-timeout`` seconds is disconnected.
