@@ -203,7 +203,8 @@ def test_environment_requests_to_probes_without_cubes_get_one_error():
         subscribe(ws, probe="a", environment=True)
         frames = read_until(ws, lambda f: of_type(f, "error"))
         error = of_type(frames, "error")[0]
-        assert error["error"] == "environment_off" and "probe a" in error["detail"]
+        assert error["error"] == "environment_off"
+        assert "probe a makes no reflection cubes" in error["detail"] and "b" in error["detail"]
         assert of_type(frames, "subscribed")[0]["environment"] is False
         subscribe(ws, environment="yes")
         error = of_type(read_until(ws, lambda f: of_type(f, "error")), "error")[0]

@@ -83,10 +83,15 @@ class EnvironmentFanout:
         subscribed = self._subscribed(client)
         offering = [name for name in subscribed if self.server.probes[name].environment]
         if not offering:
-            which = (f"probe {subscribed[0]}" if len(subscribed) == 1 and client.subscription
-                     != ALL else "no probe of this server")
+            if not self.probes:
+                which = "no probe of this server makes"
+            elif len(subscribed) == 1 and client.subscription != ALL:
+                which = f"probe {subscribed[0]} makes no"
+            else:
+                which = "none of the subscribed probes makes"
             return {"type": "error", "error": "environment_off",
-                    "detail": f"{which} makes reflection cubes (shlight serve --environment); "
+                    "detail": f"{which} reflection cubes (shlight serve --environment; "
+                              f"probes with cubes: {', '.join(self.probes) or 'none'}); "
                               "the lighting (sh9) still comes"}
         client.environment = True
         self.clients.add(client)

@@ -339,9 +339,11 @@ class ProviderServer:
             self._subscribe(client, probe, None if max_hz is None else float(max_hz), to)
             problem = self.environment.subscribe(client, msg)    # reflection cubes
             reply = {"type": "subscribed", "probe": client.subscription,
-                     "max_hz": float(client.max_hz), "environment": client.environment}
+                     "max_hz": float(client.max_hz)}
             if "to" in msg or client.to:
                 reply["to"] = client.to or NATIVE
+            if "environment" in msg or client.environment:
+                reply["environment"] = client.environment
             client.reply(reply)
             if problem is not None:
                 self._client_error(client, problem["error"], problem["detail"])
