@@ -18,6 +18,12 @@ Radiometry (docs/contract.md §9): a frame whose source reports its exposure (``
 ``exposure_s``, ``gain``) is divided by it; a frame of a bracket (``slot``, ``bracket``) goes
 to the probe's :class:`~provider.core.bracket.BracketProjector`, which keeps one (9, 3) part
 per slot and returns merged lighting for every frame.
+
+Reflections (``environment``, docs/contract.md §12): the frame of every sh9 message that
+carries changed lighting is offered to the probe's
+:class:`~provider.live.environment.EnvironmentWorker` (its own thread, newest frame only, at
+most ``hz``); finished cubes go to ``publish_environment(cube)`` on the event loop. The SH9
+path never waits for them.
 """
 from __future__ import annotations
 
@@ -34,6 +40,7 @@ from ..core.engine_options import precompute_note
 from ..core.errors import InputError
 from ..core.lights_tracking import LightTracker
 from .capture import Capture
+from .environment import EnvironmentSettings, EnvironmentWorker, feeds_cube
 from .message import coefficient_message, dumps
 from .sources import Frame, SourceSpec
 from .temporal import ChangeGate, LightingFilter, light_model
@@ -62,7 +69,8 @@ class Probe:
 
     def __init__(self, name: str, spec: SourceSpec, *, projection: str = "equirect",
                  engine_options: dict | None = None, temporal: TemporalSettings | None = None,
-                 publish=None, backoff_max: float = 10.0):
+                 publish=None, backoff_max: float = 10.0,
+                 environment: EnvironmentSettings | None = None):
         self.name, self.spec = name, spec
         self.projection, self.engine_options = projection, dict(engine_options or {})
         self.temporal = t = temporal or TemporalSettings()
@@ -99,6 +107,12 @@ class Probe:
         self._stale_since = None
         self._wake = asyncio.Event()
         self._last_error_log = -1e9
+        # Reflections (off unless asked): the cube thread, and the frame of the newest lighting.
+        self.publish_environment = lambda cube: None
+        self.environment = None if environment is None else EnvironmentWorker(
+            name, projection, self.engine_options, size=environment.size, hz=environment.hz,
+            deliver=lambda cube: self.publish_environment(cube))
+        self._environment_frame: Frame | None = None
 
     # -- the task ----------------------------------------------------------------------------
     async def run(self) -> None:
@@ -113,6 +127,8 @@ class Probe:
 
         self.capture.notify = notify
         self.capture.start()
+        if self.environment is not None:
+            self.environment.start(loop)
         tick = min(max(min(self.temporal.keepalive, self.stale_after) / 4, 0.02), 0.25)
         try:
             while True:
@@ -134,6 +150,8 @@ class Probe:
                 self._maybe_publish(time.time())
         finally:
             await asyncio.to_thread(self.capture.stop)
+            if self.environment is not None:
+                await asyncio.to_thread(self.environment.stop)
 
     async def _process(self, frame: Frame) -> None:
         try:
@@ -161,6 +179,8 @@ class Probe:
         self.error = ""
         if frame.image is not None:
             self.image, self.image_seq = frame.image, self.image_seq + 1
+            if feeds_cube(frame):
+                self._environment_frame = frame
 
     def _project(self, frame: Frame) -> SH9Result:
         """Worker thread: decode if needed, build the projector once per size, project."""
@@ -296,6 +316,10 @@ class Probe:
             latency_ms=round(self.latency_s * 1e3, 3), resent=not changed,
             source=self.spec.kind)
         text = dumps(msg).encode()
+        if changed and not stale and self._environment_frame is not None \
+                and self.environment is not None:
+            self.environment.offer(self._environment_frame, self.seq)   # never waits
+            self._environment_frame = None
         self.seq += 1
         self._fresh = False
         self.gate.mark_sent(lighting.coefficients, now, light_model(lighting))
@@ -305,13 +329,16 @@ class Probe:
     # -- for /healthz and /metrics ------------------------------------------------------------
     def health(self) -> dict:
         now = time.time()
-        return {"state": self.state, "source": self.spec.description,
-                "source_state": self.capture.state, "source_error": self.capture.reason,
-                "error": self.error, "seq": self.seq,
-                "age_s": round(now - self._frame_time, 3) if self._lighting else None,
-                "fps": round(self.capture.fps, 2), "compute_ms": round(self.compute_ms, 3),
-                "frames": self.frames_processed, "frames_rejected": self.frames_rejected,
-                "reconnects": self.capture.reconnects}
+        health = {"state": self.state, "source": self.spec.description,
+                  "source_state": self.capture.state, "source_error": self.capture.reason,
+                  "error": self.error, "seq": self.seq,
+                  "age_s": round(now - self._frame_time, 3) if self._lighting else None,
+                  "fps": round(self.capture.fps, 2), "compute_ms": round(self.compute_ms, 3),
+                  "frames": self.frames_processed, "frames_rejected": self.frames_rejected,
+                  "reconnects": self.capture.reconnects}
+        if self.environment is not None:
+            health["environment"] = self.environment.health()
+        return health
 
 
 class _AlreadySaid(InputError):
