@@ -95,14 +95,15 @@ def counts(srv, name: str = "default") -> dict:
 def test_every_frame_still_makes_its_sh9_message_with_reflections_on(reflections):
     """A 12 fps source sending every frame (--change-threshold 0): over a window of 36
     frames, each frame delivered is projected and makes exactly one sh9 message, which a
-    client receives, whether or not busy 64² cubes are made at 10 Hz beside it (the counts
+    client receives, whether or not busy 32² cubes are made at 10 Hz beside it (the counts
     are the same with and without: the cube never holds an sh9 message back)."""
-    extra = ["--environment", "--environment-size", "64", "--environment-hz", "10"] \
+    extra = ["--environment", "--environment-size", "32", "--environment-hz", "10"] \
         if reflections else []
     with ServerThread("--fps", "12", "--change-threshold", "0", *extra) as srv, \
             connect(srv.url) as ws:
         subscribe(ws, probe="default", environment=reflections)
-        read_until(ws, lambda f: len(of_type(f, "sh9")) >= 3)      # warmed up
+        read_until(ws, lambda f: len(of_type(f, "sh9")) >= 3 and  # warmed up: the cube built
+                   (not reflections or any(k == "binary" for k, _ in f)), timeout=60)
         before = counts(srv)
         frames = read_until(ws, lambda f: len(of_type(f, "sh9")) >= 36, timeout=30)
         after = counts(srv)

@@ -45,10 +45,12 @@ _SH9_ONLY = ("order", "order_budget", "dering", "lights", "max_lights", "error_e
 
 def check_size(size) -> int:
     """``size`` if it is a power of two from 8 to 256, else :class:`InputError` (one line)."""
-    if isinstance(size, bool) or not isinstance(size, int) or size not in SIZES:
+    from ..core.cubemap import check_size as core_check
+    try:
+        return core_check(size if not isinstance(size, bool) else None)
+    except ValueError:
         raise InputError(f"environment size {size!r}: a power of two from "
-                         f"{SIZES[0]} to {SIZES[-1]} (default {DEFAULT_SIZE})")
-    return size
+                         f"{SIZES[0]} to {SIZES[-1]} (default {DEFAULT_SIZE})") from None
 
 
 def check_hz(hz) -> float:
