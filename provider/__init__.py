@@ -27,6 +27,7 @@ _EXPORTS = {
     "rotate_coefficients": "core.sh", "rotate_matrices": "core.sh",
     "SH9Projector": "core.engine", "SH9Result": "core.engine", "compute_sh9": "core.engine",
     "InputError": "core.errors",
+    "find_marker": "core.registration", "MarkerPose": "core.registration",
 }
 __all__ = sorted(_EXPORTS)
 

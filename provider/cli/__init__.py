@@ -31,6 +31,8 @@ COMMANDS = (
     ("bench", "bench", "speed against error: Markdown table and PNG plot"),
     ("calibrate-response", "calibrate",
      "a camera's response curve from FRAME@SECONDS brackets -> camera.json"),
+    ("register", "register", "where a printed marker is in a panorama: the camera's pose (§13)"),
+    ("marker", "marker", "write a printable registration marker (PNG at print resolution)"),
 )
 
 
