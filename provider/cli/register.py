@@ -100,7 +100,7 @@ def measure(args, command: str = "register"):
     poses, missing = [], []
     for name in args.image:
         if name.startswith("theta://"):
-            from ..live.registration_capture import theta_still
+            from ..live.registration import theta_still
             say(command, "note", f"taking a full-resolution still with {name}")
             path = theta_still(name)
         else:
@@ -124,6 +124,33 @@ def measure(args, command: str = "register"):
         raise InputError("some images say their pitch and roll and some do not: "
                          "pass --level off, or only stills of one camera")
     return average_poses(poses) if len(poses) > 1 else poses[0]
+
+
+def add_serve_arguments(parser) -> None:
+    """``shlight serve``'s registration options (docs/contract.md §13)."""
+    g = parser.add_argument_group("registration (docs/contract.md §13)")
+    g.add_argument("--marker", default=None, metavar="SPEC",
+                   help="re-detect this printed marker (aruco:DICT_4X4_50:7, qr[:TEXT]); each "
+                        "message then carries 'registration' (the marker's pose in the camera)")
+    g.add_argument("--marker-size", type=finite_float, default=None, metavar="METRES",
+                   help="its printed side (needed with --marker)")
+    g.add_argument("--register-every", type=finite_float, default=5.0, metavar="SECONDS",
+                   help="seconds between detections, off the frame path (default 5)")
+
+
+def registrar_for(ns, name: str):
+    """The probe's :class:`~provider.live.registration.Registrar`, or None without --marker."""
+    if ns.marker is None:
+        if ns.marker_size is not None:
+            raise InputError("--marker-size needs --marker SPEC")
+        return None
+    if ns.marker_size is None:
+        raise InputError("--marker needs --marker-size METRES (the printed side)")
+    from ..live.registration import Registrar
+    from .options import engine_options
+    opts = {k: v for k, v in engine_options(ns).items()
+            if k in ("fov_deg", "center", "radius", "K", "D")}
+    return Registrar(ns.marker, ns.marker_size, ns.projection, opts, ns.register_every, name)
 
 
 def run(args) -> int:

@@ -97,6 +97,8 @@ class Probe:
         self._stale_since = None
         self._wake = asyncio.Event()
         self._last_error_log = -1e9
+        #: A :class:`~provider.live.registration.Registrar` (``--marker``), or None.
+        self.registrar = None
 
     # -- the task ----------------------------------------------------------------------------
     async def run(self) -> None:
@@ -131,6 +133,8 @@ class Probe:
                     frame = self.capture.take()
                 self._maybe_publish(time.time())
         finally:
+            if self.registrar is not None:
+                self.registrar.close()
             await asyncio.to_thread(self.capture.stop)
 
     async def _process(self, frame: Frame) -> None:
@@ -159,6 +163,8 @@ class Probe:
         self.error = ""
         if frame.image is not None:
             self.image, self.image_seq = frame.image, self.image_seq + 1
+        if self.registrar is not None:     # a time check here; detection in its own thread
+            self.registrar.offer(frame)
 
     def _project(self, frame: Frame) -> SH9Result:
         """Worker thread: decode if needed, build the projector once per size, project."""
@@ -276,6 +282,9 @@ class Probe:
             age_s=max(now - self._frame_time, 0.0), fps=round(self.capture.fps, 3),
             latency_ms=round(self.latency_s * 1e3, 3), resent=not changed,
             source=self.spec.kind)
+        registration = self.registrar.fields(now) if self.registrar is not None else None
+        if registration is not None:
+            msg["registration"] = registration
         text = dumps(msg).encode()
         self.seq += 1
         self._fresh = False
