@@ -29,6 +29,7 @@ _EXPORTS = {
     "InputError": "core.errors",
     "EnvironmentProjector": "core.environment", "EnvironmentResult": "core.environment",
     "compute_environment": "core.environment",
+    "find_marker": "core.registration", "MarkerPose": "core.registration",
 }
 __all__ = sorted(_EXPORTS)
 

@@ -91,6 +91,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                           "PREFIX/PROBE, retained, QoS 0)")
     net.add_argument("--mqtt-ca", metavar="FILE", default=None,
                      help="mqtts://: trust this CA certificate (PEM) instead of the system's")
+    from .register import add_serve_arguments
+    add_serve_arguments(parser)
     tmp = parser.add_argument_group("temporal behaviour")
     _add_temporal_arguments(tmp)
     _add_environment_arguments(parser.add_argument_group("reflections (docs/contract.md §12)"))
@@ -277,6 +279,8 @@ def build_server(args):
         probes.append(Probe(name, spec, projection=ns.projection,
                             engine_options=engine_options(ns), temporal=temporal,
                             backoff_max=ns.reconnect_max, environment=environment))
+        from .register import registrar_for
+        probes[-1].registrar = registrar_for(ns, name)
     publishers = []
     if args.mqtt:
         from ..live.mqtt import MqttPublisher, parse_mqtt_url

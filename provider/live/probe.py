@@ -113,6 +113,8 @@ class Probe:
             name, projection, self.engine_options, size=environment.size, hz=environment.hz,
             deliver=lambda cube: self.publish_environment(cube))
         self._environment_frame: Frame | None = None
+        #: A :class:`~provider.live.registration.Registrar` (``--marker``), or None.
+        self.registrar = None
 
     # -- the task ----------------------------------------------------------------------------
     async def run(self) -> None:
@@ -149,6 +151,8 @@ class Probe:
                     frame = self.capture.take()
                 self._maybe_publish(time.time())
         finally:
+            if self.registrar is not None:
+                self.registrar.close()
             await asyncio.to_thread(self.capture.stop)
             if self.environment is not None:
                 await asyncio.to_thread(self.environment.stop)
@@ -181,6 +185,8 @@ class Probe:
             self.image, self.image_seq = frame.image, self.image_seq + 1
             if feeds_cube(frame):
                 self._environment_frame = frame
+        if self.registrar is not None:     # a time check here; detection in its own thread
+            self.registrar.offer(frame)
 
     def _project(self, frame: Frame) -> SH9Result:
         """Worker thread: decode if needed, build the projector once per size, project."""
@@ -315,6 +321,9 @@ class Probe:
             age_s=max(now - self._frame_time, 0.0), fps=round(self.capture.fps, 3),
             latency_ms=round(self.latency_s * 1e3, 3), resent=not changed,
             source=self.spec.kind)
+        registration = self.registrar.fields(now) if self.registrar is not None else None
+        if registration is not None:
+            msg["registration"] = registration
         text = dumps(msg).encode()
         if changed and not stale and self._environment_frame is not None \
                 and self.environment is not None:
