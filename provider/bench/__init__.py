@@ -33,6 +33,9 @@ Sections (all written to ``--out``, default ./bench-results):
 * ``probes.md`` / ``.png`` (only with ``--sections probes``, see :mod:`provider.bench.probes`):
   mirror balls and angular maps rendered from the real panoramas against the panorama's
   own SH9: resolution, the unseen cone, the camera's reflection, perspective.
+* ``environment.md`` / ``.png`` (only with ``--sections environment``, see
+  :mod:`provider.bench.environment`): the reflection cube's cost per update against the SH9
+  path, its error against a float64 brute force per size and roughness, and its bytes.
 
 Before it starts, the run lists the sections with what each costs; each section then says
 when it starts and how long it took.
@@ -100,9 +103,11 @@ SECTION_WHAT = {
     "server": "latency and clients per core of a real shlight serve, then its idle CPU",
     "radiometry": "a simulated 8-bit camera: one frame, calibrated, brackets, against HDR",
     "probes": "mirror balls and angular maps from the real panoramas against their SH9",
+    "environment": "the reflection cube: cost against SH9, error against brute force, bytes",
 }
 SECTION_COST_S = {"speed": (5, 40), "edge": (2, 5), "fill": (2, 10), "scenes": (20, 50),
-                  "server": (20, 70), "radiometry": (20, 40), "probes": (15, 150)}
+                  "server": (20, 70), "radiometry": (20, 40), "probes": (15, 150),
+                  "environment": (60, 400)}
 INSTRUCTIONS_COST_S = (150, 130)    # valgrind runs Python and numpy under emulation
 
 
@@ -161,5 +166,10 @@ def _probes(hdri, out, args):
     bench_probes(hdri, out, args)
 
 
+def _environment(hdri, out, args):
+    from .environment import bench_environment
+    bench_environment(hdri, out, args)
+
+
 _SECTIONS = {"speed": _speed, "edge": _edge, "fill": _fill, "scenes": _scenes, "server": _server,
-             "radiometry": _radiometry, "probes": _probes}
+             "radiometry": _radiometry, "probes": _probes, "environment": _environment}

@@ -152,9 +152,11 @@ class EnvironmentProjector(FrameDecoder):
         # are what the overlap integrates), at most WORK_MAX_WIDTH.
         target = min(WORK_PIXELS_PER_TEXEL * self.base * 2, WORK_MAX_WIDTH)
         if isinstance(full, Equirect):
-            if full.width <= target:
+            # An integer factor: OpenCV's area resize has a fast path for those.
+            factor = max(1, round(full.width / target))
+            if factor == 1 or full.width // factor < 2 * self.base:
                 return full, None
-            return Equirect(target, target // 2), (full.width, full.height)
+            return full.scaled(factor), full.scaled_source_size(factor)
         area = target * target / 2
         factor = max(1, int(math.sqrt(full.width * full.height / area)))
         if factor == 1:
@@ -226,6 +228,12 @@ class EnvironmentProjector(FrameDecoder):
         self._pix = (uniq // ntex).astype(np.int32)
         self._tex = tex_u.astype(np.int64)
         self._val = (weight / np.maximum(covered[tex_u], 1e-300) * frac[tex_u]).astype(np.float32)
+        # The same map as an operator (texels that see nothing get one zero weight).
+        empty = np.flatnonzero(np.bincount(self._tex, minlength=ntex) == 0)
+        self._overlap_op = prefilter.SparseOperator(
+            np.concatenate([self._tex, empty]), np.concatenate([self._pix, np.zeros_like(empty)]),
+            np.concatenate([self._val, np.zeros(empty.size, np.float32)]),
+            (ntex, p.width * p.height))
         self._fill_share = (1.0 - frac).astype(np.float32)          # (6n²,)
         self._fill_weights = self._fill_model(p, d, w, pix)
         # Each work pixel's solid angle and mean direction (world frame): where the light
@@ -312,7 +320,7 @@ class EnvironmentProjector(FrameDecoder):
         px = np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
         if scale != 1.0:
             px = px * np.float32(scale)
-        base = self._overlap(px, self._pix, self._val)
+        base = self._overlap_op.apply(px)
         if self._fill_weights is not None:
             fill = self._fill_weights @ px                     # (3,)
             base += self._fill_share[:, None] * fill[None, :].astype(np.float32)
