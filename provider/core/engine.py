@@ -36,6 +36,7 @@ from .lights import LightExtractor, LinearView
 from .lights_analysis import model_irradiance
 from .projections import Equirect, Projection, ProjectionError, make_projection
 from .engine_options import check_options, exposure_scale
+from .float_clean import FloatCleaner, clean_frame
 from .response import CameraResponse, apply_lut
 
 
@@ -237,33 +238,11 @@ class SH9Projector:
         return "linear" if self.encoding == "linear" else "srgb-assumed"
 
     def _clean_float(self, frame: np.ndarray, stats: dict) -> np.ndarray:
-        """Float32 linear radiance with non-finite and negative samples set to 0 (counted).
-
-        Clean frames (the common case) cost one ``cv2.minMaxLoc`` pass and are not copied;
-        exposure is applied to the coefficients, not here.
-        """
-        lin = frame if frame.dtype == np.float32 else frame.astype(np.float32)
-        flat = lin.reshape(lin.shape[0], -1)
-        finite = math.isfinite(cv2.sumElems(flat)[0])
-        lo = cv2.minMaxLoc(flat)[0] if finite else -1.0  # minMaxLoc skips NaN
-        if finite and lo >= 0:
-            return lin
-        h = lin.shape[0]
-        if not finite:
-            bad = ~np.isfinite(lin)
-            stats["nonfinite_pixels"] = _count_pixels(bad.view(np.uint8))
-            lin = np.where(bad, np.float32(0), lin)
-            flat = lin.reshape(h, -1)
-            lo = cv2.minMaxLoc(flat)[0]
-        if lo < 0:
-            stats["negative_pixels"] = _count_pixels(
-                cv2.compare(flat, 0, cv2.CMP_LT).reshape(lin.shape))
-            total = cv2.sumElems(flat)[0]
-            _, flat = cv2.threshold(flat, 0, 0, cv2.THRESH_TOZERO)  # negatives -> 0
-            lin = flat.reshape(lin.shape)
-            positive = cv2.sumElems(flat)[0]
-            stats["negative_energy_fraction"] = float((positive - total) / max(positive, 1e-300))
-        return lin
+        """Float32 linear radiance with non-finite and negative samples set to 0 (counted
+        into ``stats``: :mod:`.float_clean`). Clean float32 frames are not copied; exposure
+        is applied to the coefficients, not here. The projection itself cleans band by band
+        (:meth:`_project_float`); this is for the callers that need the whole frame."""
+        return clean_frame(frame, stats, self.BAND_ROWS)
 
     # -- projection -------------------------------------------------------------------------
     #: Rows per band when linearising integer frames: the float32 band stays in cache.
@@ -322,8 +301,7 @@ class SH9Projector:
                     stats["clipped_fraction"] = clip["n"] / frame.size
                     clipped = clip["l00"]
                 return self._coefficients(acc) * scale, None, mid, clipped
-            lin = self._clean_float(frame, stats)
-            self._accumulate(lin, 0, acc)
+            lin = self._project_float(frame, stats, acc)
             return self._coefficients(acc) * scale, None, lin, 0.0
         # Fast path: area-average the *linear* frame, then project the small one.
         clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
@@ -334,6 +312,25 @@ class SH9Projector:
                            interpolation=cv2.INTER_AREA)
         self._accumulate(small, 0, acc)
         return self._coefficients(acc) * scale, small, lin, clipped
+
+    def _project_float(self, frame: np.ndarray, stats: dict, acc: np.ndarray):
+        """Clean (:class:`.float_clean.FloatCleaner`) and project a float frame band by band,
+        each band while it is in cache; returns the whole clean frame when the lights or the
+        error estimate will read it (a copy only if a band was dirty), else None."""
+        cleaner = FloatCleaner()
+        keep = self._extractor is not None or self.error_estimate
+        out = None
+        rows = self.BAND_ROWS
+        for r0 in range(0, frame.shape[0], rows):
+            band = cleaner.band(frame[r0:r0 + rows])
+            self._accumulate(band, r0, acc)
+            if keep and out is None and not np.may_share_memory(band, frame):
+                out = np.empty(frame.shape, np.float32)
+                out[:r0] = frame[:r0]
+            if out is not None:
+                out[r0:r0 + rows] = band
+        cleaner.finish(stats)
+        return out if out is not None else (frame if keep else None)
 
     def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
         """Sets ``stats["clipped_fraction"]`` (channel samples of an 8/16-bit frame at the top
@@ -527,12 +524,6 @@ class SH9Projector:
         if self.dering == "auto":
             out, _ = sh.dering(out)
         return sh.truncate_order(out, order)
-
-
-def _count_pixels(mask: np.ndarray) -> int:
-    """Pixels of an (H, W, 3) uint8/bool mask with any channel set."""
-    planes = cv2.split(np.ascontiguousarray(mask, dtype=np.uint8))
-    return int(cv2.countNonZero(cv2.max(cv2.max(planes[0], planes[1]), planes[2])))
 
 
 _PROJECTOR_CACHE: dict = {}
