@@ -123,6 +123,11 @@ def test_the_live_server_rejects_and_counts_frames_with_no_usable_light(files):
     (["bench", "--repeat", "-5"], ["--repeat"]),
     (["bench", "--sections", ""], ["--sections names no section"]),
     (["bench", "--sections", ",,"], ["--sections names no section"]),
+    (["compute", "{ok}", "--camera", "{ok}"], ["camera file", "not a text file"]),
+    (["compute", "{ok}", "--projection", "fisheye", "--calibration", "{ok}"],
+     ["calibration", "not a JSON text file"]),
+    (["calibrate-response", "{ok}@1", "{ok}@1", "{ok}@1", "-o", "{missing}.json"],
+     ["at least 1 EV apart"]),
 ])
 def test_options_are_checked_before_any_work(files, argv, words):
     names = {"ok": str(files / "ok.png"), "file": str(files / "file"),

@@ -101,6 +101,9 @@ def check_frames(images, times, samples) -> None:
     if bits != 8:
         raise InputError("calibration needs 8-bit frames (OpenCV's CalibrateDebevec/"
                          "Robertson are 8-bit only)")
+    if max(times) / min(times) < 2.0:
+        raise InputError("calibration needs exposure times at least 1 EV apart (got "
+                         + ", ".join(f"{t:g} s" for t in times) + ")")
     pixels = images[0].shape[0] * images[0].shape[1]
     if samples is not None and samples > pixels:
         raise InputError(f"--samples {samples} is more than the {pixels} pixels of a frame")

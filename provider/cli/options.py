@@ -152,7 +152,13 @@ def engine_options(args) -> dict:
                     cal = json.load(f)
                 import numpy as np
                 opts["K"], opts["D"] = np.asarray(cal["K"], float), np.asarray(cal["D"], float)
-            except (OSError, ValueError, KeyError, TypeError) as exc:
+            except UnicodeDecodeError:
+                raise InputError(f"cannot use calibration {args.calibration}: not a JSON text "
+                                 "file ({\"K\": 3x3, \"D\": 4})") from None
+            except KeyError as exc:
+                raise InputError(f"cannot use calibration {args.calibration}: no {exc} "
+                                 "({\"K\": 3x3, \"D\": 4})") from None
+            except (OSError, ValueError, TypeError) as exc:
                 raise InputError(f"cannot use calibration {args.calibration}: {exc}") from None
     elif args.projection == "dual-fisheye" and args.fov is not None:
         opts["fov_deg"] = args.fov
