@@ -135,3 +135,17 @@ def test_options_are_checked_before_any_work(files, argv, words):
     before = sorted(os.listdir(files))
     _refused(run_cli(*[a.format(**names) for a in argv]), *words)
     assert sorted(os.listdir(files)) == before                 # nothing written
+
+
+def test_a_live_jpeg_frame_cut_short_is_refused_not_decoded_half_way():
+    """A camera stream's frame (MJPEG, OSC preview) that ends early: refused, counted by the
+    probe like any bad frame, never projected with a grey lower half."""
+    from provider import InputError
+    from provider.live.sources.base import Frame
+    rng = np.random.default_rng(4)
+    ok, buf = cv2.imencode(".jpg", rng.integers(0, 256, (240, 320, 3), dtype=np.uint8))
+    data = buf.tobytes()
+    assert Frame(None, 0.0, jpeg=data).decoded().shape == (240, 320, 3)
+    for cut in (len(data) // 8, len(data) // 2, len(data) - 40):
+        with pytest.raises(InputError, match="truncated"):
+            Frame(None, 0.0, jpeg=data[:cut]).decoded()

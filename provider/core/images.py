@@ -43,7 +43,7 @@ def read_image(path) -> np.ndarray:
             data = f.read()
     except OSError as exc:
         raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
-    _check_complete(path, data)
+    check_complete(path, data)
     try:
         img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     except cv2.error:
@@ -84,13 +84,14 @@ def _read_exr(path: str) -> np.ndarray:
     return np.ascontiguousarray(rgb, dtype=np.float32)
 
 
-def _check_complete(path: str, data: bytes) -> None:
+def check_complete(path: str, data: bytes) -> None:
     """Refuse a JPEG or PNG that ends before its image does (a copy cut short): OpenCV
     would decode the part it has and fill the rest with grey, and libjpeg/libpng would
     print their own words."""
     if data[:3] == b"\xff\xd8\xff":                                    # JPEG
         tail = data.rstrip(b"\x00\r\n ")
-        if not tail.endswith(b"\xff\xd9") and data.rfind(b"\xff\xd9") < data.rfind(b"\xff\xda"):
+        scan = data.rfind(b"\xff\xda")                     # the last start of scan
+        if not tail.endswith(b"\xff\xd9") and (scan < 0 or data.rfind(b"\xff\xd9") < scan):
             raise InputError(f"cannot read {path}: the JPEG is truncated (it ends before its "
                              "end-of-image marker); copy it again")
     elif data[:8] == b"\x89PNG\r\n\x1a\n" and data.rfind(b"IEND") < 0:
