@@ -27,6 +27,9 @@ _EXPORTS = {
     "rotate_coefficients": "core.sh", "rotate_matrices": "core.sh",
     "SH9Projector": "core.engine", "SH9Result": "core.engine", "compute_sh9": "core.engine",
     "InputError": "core.errors",
+    "EnvironmentProjector": "core.environment", "EnvironmentResult": "core.environment",
+    "compute_environment": "core.environment",
+    "find_marker": "core.registration", "MarkerPose": "core.registration",
 }
 __all__ = sorted(_EXPORTS)
 

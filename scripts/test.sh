@@ -27,7 +27,7 @@ if [ ${#missing[@]} -gt 0 ]; then
     fi
 fi
 bash scripts/setup.sh test
-if [ ! -d tests/node/node_modules/three ]; then
+if [ ! -d tests/node/node_modules/three ] || [ ! -d tests/node/node_modules/ktx-parse ]; then
     if command -v npm >/dev/null; then
         npm ci --prefix tests/node --no-audit --no-fund --loglevel=error >/dev/null \
             || echo "WARNING: npm ci --prefix tests/node failed: the three.js tests will be skipped"

@@ -5,6 +5,13 @@ from pathlib import Path
 
 import pytest
 
+# The tests run numpy's BLAS with one thread, as every shlight command does
+# (provider/cli/threads.py): a float32 product summed by two threads in another order would
+# differ from the command's in the last bits, and the tests compare them exactly.
+from provider.cli.threads import limit_blas_threads
+
+limit_blas_threads()
+
 DATA = Path(__file__).resolve().parent / "data"
 HDRI_DIR = DATA / "hdri"
 HDRI_NAMES = sorted(p.stem for p in HDRI_DIR.glob("*.exr"))

@@ -29,7 +29,8 @@ PACKAGE_DATA = ("provider/shaders/sh9_irradiance.glsl", "provider/shaders/sh9_ir
                 "provider/shaders/lit_diffuse.vert", "provider/shaders/lit_diffuse.frag",
                 "provider/shaders/contract_vectors.json", "provider/data/hdri/bridge.exr",
                 "provider/data/hdri/README.md", "provider/live/static/index.html",
-                "provider/live/sh9_message.schema.json")
+                "provider/live/sh9_message.schema.json",
+                "provider/shaders/ibl.glsl", "provider/shaders/ibl.hlsl")
 
 
 def _run(argv, cwd, timeout=300, env=None):

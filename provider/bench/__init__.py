@@ -30,6 +30,9 @@ Sections (all written to ``--out``, default ./bench-results):
   :mod:`provider.bench.server`): frame-to-client latency p50/p99 of a real ``shlight serve``
   and the number of clients one core keeps at 30 Hz; then ``server_idle.md`` /
   ``server_idle.json`` (:mod:`provider.bench.idle`): the CPU of a server with no client.
+* ``probes.md`` / ``.png`` (only with ``--sections probes``, see :mod:`provider.bench.probes`):
+  mirror balls and angular maps rendered from the real panoramas against the panorama's
+  own SH9: resolution, the unseen cone, the camera's reflection, perspective.
 
 Before it starts, the run lists the sections with what each costs; each section then says
 when it starts and how long it took.
@@ -96,9 +99,10 @@ SECTION_WHAT = {
     "scenes": "what SH9 misses on each real panorama; SH9 against ambient + lights",
     "server": "latency and clients per core of a real shlight serve, then its idle CPU",
     "radiometry": "a simulated 8-bit camera: one frame, calibrated, brackets, against HDR",
+    "probes": "mirror balls and angular maps from the real panoramas against their SH9",
 }
 SECTION_COST_S = {"speed": (5, 40), "edge": (2, 5), "fill": (2, 10), "scenes": (20, 50),
-                  "server": (20, 70), "radiometry": (20, 40)}
+                  "server": (20, 70), "radiometry": (20, 40), "probes": (15, 150)}
 INSTRUCTIONS_COST_S = (150, 130)    # valgrind runs Python and numpy under emulation
 
 
@@ -152,5 +156,10 @@ def _radiometry(hdri, out, args):
     bench_radiometry(hdri, out, args)
 
 
+def _probes(hdri, out, args):
+    from .probes import bench_probes
+    bench_probes(hdri, out, args)
+
+
 _SECTIONS = {"speed": _speed, "edge": _edge, "fill": _fill, "scenes": _scenes, "server": _server,
-             "radiometry": _radiometry}
+             "radiometry": _radiometry, "probes": _probes}

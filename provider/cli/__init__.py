@@ -1,11 +1,11 @@
 """`shlight` command line: compute | export | serve | validate-shaders | bench |
-calibrate-response.
+calibrate-response | environment.
 
 User errors (bad files, bad options) print one clear line to stderr and exit with status
 2; they never show a traceback. Each command's options live in a module of this package
 (:mod:`.compute`, :mod:`.export`, :mod:`.serve`, :mod:`.validate`, :mod:`.bench`,
-:mod:`.calibrate`; the frame@time syntax in :mod:`.frames`; the engine options shared
-by several in :mod:`.options`); what the command does lives in its layer and is imported
+:mod:`.calibrate`, :mod:`.environment`; the frame@time syntax in :mod:`.frames`; the
+engine options shared by several in :mod:`.options`); what the command does lives in its layer and is imported
 only when the command runs.
 """
 from __future__ import annotations
@@ -31,6 +31,11 @@ COMMANDS = (
     ("bench", "bench", "speed against error: Markdown table and PNG plot"),
     ("calibrate-response", "calibrate",
      "a camera's response curve from FRAME@SECONDS brackets -> camera.json"),
+    ("locate-ball", "locate", "find a mirror ball in a frame: its circle as JSON (for --ball)"),
+    ("environment", "environment",
+     "one image's reflection cube (GGX-prefiltered mips) -> KTX2 (-o cube.ktx2)"),
+    ("register", "register", "where a printed marker is in a panorama: the camera's pose (§13)"),
+    ("marker", "marker", "write a printable registration marker (PNG at print resolution)"),
 )
 
 

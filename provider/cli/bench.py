@@ -19,7 +19,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="count instructions per frame with valgrind's callgrind in the edge "
                         "section (slow: about 2 min; default: on, off with --quick)")
     p.add_argument("--sections", default="speed,edge,fill,scenes",
-                   help="comma list of: speed, edge, fill, scenes, server, radiometry (each "
+                   help="comma list of: speed, edge, fill, scenes, server, radiometry, probes (each "
                         "says what it costs before it starts)")
 
 

@@ -42,6 +42,8 @@ def wire_message(args, command: str = "compute") -> dict:
         from ..core.response import check_bracket
         check_bracket(images, times)  # sizes, pixel types, times: one clear line each
     height, width = image.shape[:2]
+    if options.get("ball") == "auto":
+        options = locate_ball_note(options, image, command)
     note = precompute_note(width, height, args.projection, args.downsample)
     if note:
         say(command, "note", note)
@@ -56,6 +58,16 @@ def wire_message(args, command: str = "compute") -> dict:
         result = projector.project(image, exposure_s=times[0])
     return coefficient_message(result, probe=args.probe, seq=0,
                                time=os.path.getmtime(paths[0]), projection=args.projection)
+
+
+def locate_ball_note(options: dict, image, command: str) -> dict:
+    """``--ball auto``: the engine options with the ball found in ``image``, said on stderr."""
+    from ..core.ball import resolve_ball
+    from .feedback import say
+    options, circle = resolve_ball(options, image)
+    say(command, "note", f"ball found at x {circle.x:.1f}, y {circle.y:.1f}, radius "
+                         f"{circle.radius:.1f} px (--ball {circle.as_dict()['ball']})")
+    return options
 
 
 def print_json(message: dict, pretty: bool) -> None:

@@ -66,8 +66,10 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
     """Projection and engine options shared by `compute`, `serve` and `bench`."""
     g = p.add_argument_group("projection and engine options")
     g.add_argument("--projection", default="equirect",
-                   choices=["equirect", "fisheye", "dual-fisheye", "cubemap"],
-                   help="image geometry (default: equirect, 2:1)")
+                   choices=["equirect", "fisheye", "dual-fisheye", "cubemap", "mirrorball",
+                            "angular", "cross"],
+                   help="image geometry (default: equirect, 2:1; mirrorball: a chrome ball, "
+                        "angular: Debevec's angular map, cross: a 4×3 or 3×4 cube cross)")
     g.add_argument("--encoding", default="auto", choices=["auto", "srgb", "linear"],
                    help="transfer function of 8/16-bit input (auto = sRGB; float is linear)")
     g.add_argument("--exposure", type=finite_float, default=1.0,
@@ -103,6 +105,8 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--camera", default=None, metavar="CAMERA.json",
                    help="the camera's response (shlight calibrate-response): 8/16-bit frames "
                         "are decoded with its curve instead of sRGB")
+    from .probe_options import add_probe_arguments
+    add_probe_arguments(g)
 
 
 def engine_options(args) -> dict:
@@ -162,4 +166,9 @@ def engine_options(args) -> dict:
                 raise InputError(f"cannot use calibration {args.calibration}: {exc}") from None
     elif args.projection == "dual-fisheye" and args.fov is not None:
         opts["fov_deg"] = args.fov
+    elif args.projection in ("mirrorball", "angular"):
+        from .probe_options import probe_options
+        opts.update(probe_options(args))
+    if getattr(args, "ball", None) is not None and args.projection not in ("mirrorball", "angular"):
+        raise InputError("--ball is for --projection mirrorball or angular")
     return opts

@@ -91,8 +91,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                           "PREFIX/PROBE, retained, QoS 0)")
     net.add_argument("--mqtt-ca", metavar="FILE", default=None,
                      help="mqtts://: trust this CA certificate (PEM) instead of the system's")
+    from .register import add_serve_arguments
+    add_serve_arguments(parser)
     tmp = parser.add_argument_group("temporal behaviour")
     _add_temporal_arguments(tmp)
+    _add_environment_arguments(parser.add_argument_group("reflections (docs/contract.md §12)"))
     parser.add_argument("--log-level", default="info",
                         choices=["debug", "info", "warning", "error"])
     add_engine_arguments(parser)
@@ -141,6 +144,35 @@ def _add_temporal_arguments(g) -> None:
                    help="mark lighting stale after this long without a frame (default 2 s)")
 
 
+def _add_environment_arguments(g) -> None:
+    g.add_argument("--environment", action="store_true",
+                   help="also make an HDR reflection cube (GGX-prefiltered mips) per probe, "
+                        "from the same frames as SH9 but in its own thread: GET "
+                        "/environment.ktx2, WebSocket subscribe {\"environment\": true}, MQTT "
+                        "PREFIX/PROBE/environment")
+    g.add_argument("--environment-size", type=_environment_size, default=32, metavar="N",
+                   help="edge of a cube face in texels: a power of two from 8 to 256 (default 32)")
+    g.add_argument("--environment-hz", type=_environment_hz, default=1.0, metavar="HZ",
+                   help="at most this many cube updates per second, only when the lighting "
+                        "changed (default 1)")
+
+
+def _environment_size(text: str) -> int:
+    from ..live.environment import check_size
+    try:
+        return check_size(int(text))
+    except (InputError, ValueError):
+        raise argparse.ArgumentTypeError(f"{text!r}: a power of two from 8 to 256") from None
+
+
+def _environment_hz(text: str) -> float:
+    from ..live.environment import check_hz
+    try:
+        return check_hz(float(text))
+    except (InputError, ValueError):
+        raise argparse.ArgumentTypeError(f"{text!r}: updates per second in (0, 30]") from None
+
+
 def _offsets(text: str) -> tuple[float, ...]:
     from ..core.bracket import check_offsets
     try:
@@ -160,6 +192,7 @@ def _probe_parser() -> argparse.ArgumentParser:
     p = _ProbeArgsParser(prog="--probe-args NAME=", add_help=False)
     _add_source_arguments(p)
     _add_temporal_arguments(p)
+    _add_environment_arguments(p)
     add_engine_arguments(p)
     return p
 
@@ -195,6 +228,7 @@ def _check_numbers(ns, where: str = "") -> None:
 def build_server(args):
     """A :class:`~provider.live.server.ProviderServer` from parsed ``shlight serve``
     arguments (not started)."""
+    from ..live.environment import EnvironmentSettings
     from ..live.probe import Probe, TemporalSettings
     from ..live.server import ProviderServer, ServeSettings
     from ..live.sources import SourceOptions, parse_source
@@ -240,9 +274,13 @@ def build_server(args):
         temporal = TemporalSettings(smoothing=ns.smoothing, snap=ns.snap,
                                     change_threshold=ns.change_threshold,
                                     keepalive=ns.keepalive, stale_after=ns.stale_after)
+        environment = (EnvironmentSettings(ns.environment_size, ns.environment_hz)
+                       if ns.environment else None)
         probes.append(Probe(name, spec, projection=ns.projection,
                             engine_options=engine_options(ns), temporal=temporal,
-                            backoff_max=ns.reconnect_max))
+                            backoff_max=ns.reconnect_max, environment=environment))
+        from .register import registrar_for
+        probes[-1].registrar = registrar_for(ns, name)
     publishers = []
     if args.mqtt:
         from ..live.mqtt import MqttPublisher, parse_mqtt_url

@@ -18,7 +18,8 @@ def add_arguments(p) -> None:
                    help=f"dense normals per case (default {DENSE_NORMALS})")
     p.add_argument("--tolerance", type=float, default=FLOAT32_TOLERANCE,
                    help="max |E_gpu - E_cpu| / (|n|^T|M||n|) (default 32 float32 roundoffs "
-                        f"= {FLOAT32_TOLERANCE:.2e})")
+                        f"= {FLOAT32_TOLERANCE:.2e}); the reflection checks scale their own "
+                        "tolerance, (32 + 4 x cube size) roundoffs, by the same factor")
     p.add_argument("--write-vectors", nargs="?", const=str(VECTORS_PATH), default=None,
                    metavar="PATH", help="write the contract test vectors (default path: "
                                         "shaders/contract_vectors.json), then check them")
@@ -76,7 +77,7 @@ def check_arguments(args) -> None:
 
 
 def run(args) -> int:
-    from ..verify import lights
+    from ..verify import lights, reflections
     from ..verify.harness import run as run_validation
     check_arguments(args)
-    return run_validation(args, extensions=(lights,))
+    return run_validation(args, extensions=(lights, reflections))

@@ -35,15 +35,10 @@ from .errors import InputError
 from .lights import LightExtractor, LinearView
 from .lights_analysis import model_irradiance
 from .projections import Equirect, Projection, ProjectionError, make_projection
+from . import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from .engine_options import check_options, exposure_scale
-from .float_clean import FloatCleaner, clean_frame
-from .response import CameraResponse, apply_lut
-
-
-def srgb_to_linear(v: np.ndarray) -> np.ndarray:
-    """IEC 61966-2-1 sRGB decoding of values in [0, 1]."""
-    v = np.asarray(v, np.float64)
-    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+from .float_clean import FloatCleaner
+from .decode import FrameDecoder, _count_pixels, srgb_to_linear  # noqa: F401 (re-exported)
 
 
 @dataclass
@@ -94,7 +89,7 @@ class SH9Result:
         return model_irradiance(self.ambient, self.lights, normals)
 
 
-class SH9Projector:
+class SH9Projector(FrameDecoder):
     """Projects frames of one size and projection onto SH9.
 
     Parameters
@@ -147,11 +142,7 @@ class SH9Projector:
         check_options(encoding=encoding, exposure=exposure, downsample=downsample,
                       rotation=rotation, order=order, dering=dering, order_budget=order_budget,
                       lights=lights, max_lights=max_lights)
-        if response is not None and not isinstance(response, CameraResponse):
-            raise InputError(f"response must be a CameraResponse, got {type(response).__name__}")
-        if response is not None and encoding != "auto":
-            raise InputError(f"encoding {encoding!r} and a camera response both say how to "
-                             "decode integer frames: give one")
+        self._init_decoder(width, height, encoding, exposure, response)
         downsample = int(downsample)
         if width // downsample < 1 or height // downsample < 1:
             raise InputError(f"--downsample {downsample} is larger than the {width}×{height} frame")
@@ -165,13 +156,13 @@ class SH9Projector:
             raise InputError(str(exc)) from None
         #: Allowed but probably wrong (e.g. a 2:1 panorama read as a fisheye): say them.
         self.warnings = list(full.warnings)
-        self.width, self.height = int(width), int(height)
-        self.encoding, self.exposure, self.downsample = encoding, float(exposure), downsample
+        #: (x0, y0, x1, y1): the part of each frame the projection covers (a ball's box).
+        self.window = getattr(full, "window", None)
+        self.downsample = downsample
         self.order, self.dering, self.order_budget = order, dering, float(order_budget)
         self.rotation = None if rotation is None else np.asarray(rotation, np.float64)
         self._sh_rotation = None if rotation is None else sh.sh_rotation(self.rotation)
         self.error_estimate = bool(error_estimate)
-        self.response = response
         self.lights, self.max_lights = lights, int(max_lights)
         # Lights (pixel-independent precomputation once, like the SH weights): integer
         # frames on the exact path build the detection copy band by band while linearising.
@@ -194,7 +185,6 @@ class SH9Projector:
                 self._weights = p.sh_weights.astype(np.float32)  # (H·W, 9)
             finally:
                 p.progress = None
-        self._luts = {}
         self._clipped = ClippedLight(self)
         self._estimator = None
         self._coverage = 4 * math.pi if isinstance(p, Equirect) else p.coverage
@@ -205,44 +195,6 @@ class SH9Projector:
             raise InputError(f"this {p.width}×{p.height} {p.name} frame integrates to "
                              f"{self._coverage:.1f} sr, more than the whole sphere (4π = "
                              "12.6 sr): the frame is too small for this projection")
-
-    # -- linearisation -------------------------------------------------------------------
-    def _lut(self, dtype) -> np.ndarray:
-        if dtype not in self._luts:
-            full = 255 if dtype == np.uint8 else 65535
-            if self.response is not None:   # the camera's curve at t = 1 (16-bit: resampled)
-                r = self.response.to_bits(8 if dtype == np.uint8 else 16)
-                self._luts[dtype] = (r.lut(1.0) * np.float32(self.exposure)).astype(np.float32)
-                return self._luts[dtype]
-            v = np.arange(full + 1) / full
-            lin = v if self.encoding == "linear" else srgb_to_linear(v)
-            self._luts[dtype] = (lin * self.exposure).astype(np.float32)
-        return self._luts[dtype]
-
-    def _linearise(self, frame: np.ndarray, lut: np.ndarray | None = None) -> np.ndarray:
-        """Linear float32 radiance of an integer frame (or a band of one); ``lut``: another
-        table than the projector's own (a bracket slot's)."""
-        if lut is not None:
-            return apply_lut(frame, lut)
-        if frame.dtype == np.uint8:
-            return cv2.LUT(frame, self._lut(np.uint8))
-        lut = self._lut(np.uint16)
-        return lut[frame] if lut.ndim == 1 else apply_lut(frame, lut)
-
-    @property
-    def radiometry(self) -> str:
-        """What integer frames' numbers are: "srgb-assumed", "calibrated" (the camera's
-        curve) or "linear" (``encoding="linear"``)."""
-        if self.response is not None:
-            return "srgb-assumed" if self.response.method == "srgb" else "calibrated"
-        return "linear" if self.encoding == "linear" else "srgb-assumed"
-
-    def _clean_float(self, frame: np.ndarray, stats: dict) -> np.ndarray:
-        """Float32 linear radiance with non-finite and negative samples set to 0 (counted
-        into ``stats``: :mod:`.float_clean`). Clean float32 frames are not copied; exposure
-        is applied to the coefficients, not here. The projection itself cleans band by band
-        (:meth:`_project_float`); this is for the callers that need the whole frame."""
-        return clean_frame(frame, stats, self.BAND_ROWS)
 
     # -- projection -------------------------------------------------------------------------
     #: Rows per band when linearising integer frames: the float32 band stays in cache.
@@ -337,30 +289,6 @@ class SH9Projector:
         code) and returns the L00 those samples put into the projection through ``lut``,
         summed over the channels: light that is only a lower bound (the sun)."""
         return self._clipped.whole(frame, lut, stats)
-
-    def _prepare(self, frame) -> np.ndarray:
-        if not isinstance(frame, np.ndarray):
-            raise InputError(f"a frame must be a numpy array, got {type(frame).__name__}")
-        if frame.size == 0:
-            raise InputError("empty image (0 pixels)")
-        if frame.ndim == 2:
-            frame = frame[..., None]
-        if frame.ndim != 3:
-            raise InputError(f"a frame must be H×W×channels, got shape {frame.shape}")
-        c = frame.shape[2]
-        if c == 1:
-            frame = np.repeat(frame, 3, axis=2)
-        elif c == 4:
-            frame = frame[..., :3]
-        elif c != 3:
-            raise InputError(f"a frame must have 1, 3 or 4 channels, got {c}")
-        if frame.dtype not in (np.uint8, np.uint16, np.float16, np.float32, np.float64):
-            raise InputError(f"unsupported pixel type {frame.dtype} "
-                             "(use uint8, uint16 or float)")
-        if frame.shape[:2] != (self.height, self.width):
-            raise InputError(f"frame is {frame.shape[1]}×{frame.shape[0]}, this projector "
-                             f"was built for {self.width}×{self.height}")
-        return np.ascontiguousarray(frame)
 
     def project(self, frame: np.ndarray, error_estimate: bool | None = None,
                 tracker=None, *, exposure_s: float | None = None,

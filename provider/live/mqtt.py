@@ -2,7 +2,9 @@
 messages published to an existing MQTT broker (docs/contract.md §11).
 
 Topic ``PREFIX/PROBE``, payload exactly the wire JSON (the bytes WebSocket clients get),
-retained, QoS 0: a subscriber that joins late gets the latest lighting at once. ``mqtts://``
+retained, QoS 0: a subscriber that joins late gets the latest lighting at once. With
+``--environment``, each probe's reflection cube too: ``PREFIX/PROBE/environment``, the KTX2
+bytes of ``GET /environment.ktx2`` (docs/contract.md §12), retained. ``mqtts://``
 connects with TLS (system trust, or ``--mqtt-ca FILE``). Default ports 1883 / 8883; default
 prefix ``shlight``.
 
@@ -158,6 +160,11 @@ class MqttPublisher:
             self.skipped += 1
         self._pending[probe] = text
         self._flush()
+
+    def offer_environment(self, probe: str, ktx2: bytes) -> None:
+        """A probe's new reflection cube (KTX2 bytes, ``shlight serve --environment``):
+        retained on ``PREFIX/PROBE/environment``, newest only, like the lighting."""
+        self.offer(f"{probe}/environment", ktx2)
 
     def _flush(self) -> None:
         if self.state != "connected":

@@ -18,6 +18,12 @@ Radiometry (docs/contract.md §9): a frame whose source reports its exposure (``
 ``exposure_s``, ``gain``) is divided by it; a frame of a bracket (``slot``, ``bracket``) goes
 to the probe's :class:`~provider.core.bracket.BracketProjector`, which keeps one (9, 3) part
 per slot and returns merged lighting for every frame.
+
+Reflections (``environment``, docs/contract.md §12): the frame of every sh9 message that
+carries changed lighting is offered to the probe's
+:class:`~provider.live.environment.EnvironmentWorker` (its own thread, newest frame only, at
+most ``hz``); finished cubes go to ``publish_environment(cube)`` on the event loop. The SH9
+path never waits for them.
 """
 from __future__ import annotations
 
@@ -34,6 +40,7 @@ from ..core.engine_options import precompute_note
 from ..core.errors import InputError
 from ..core.lights_tracking import LightTracker
 from .capture import Capture
+from .environment import EnvironmentSettings, EnvironmentWorker, feeds_cube
 from .message import coefficient_message, dumps
 from .sources import Frame, SourceSpec
 from .temporal import ChangeGate, LightingFilter, light_model
@@ -62,7 +69,8 @@ class Probe:
 
     def __init__(self, name: str, spec: SourceSpec, *, projection: str = "equirect",
                  engine_options: dict | None = None, temporal: TemporalSettings | None = None,
-                 publish=None, backoff_max: float = 10.0):
+                 publish=None, backoff_max: float = 10.0,
+                 environment: EnvironmentSettings | None = None):
         self.name, self.spec = name, spec
         self.projection, self.engine_options = projection, dict(engine_options or {})
         self.temporal = t = temporal or TemporalSettings()
@@ -89,6 +97,8 @@ class Probe:
         self._error_estimate: float | None = None
         self._trackers: dict = {}       # frame size -> LightTracker (lights="auto")
         self._tracked_reconnects = 0
+        self._ball_options: dict | None = None   # --ball auto: the options with the ball found
+        self._ball_reconnects = 0
         self._brackets: dict = {}       # (size, slot exposures) -> BracketProjector
         self._lighting: SH9Result | None = None
         self._frame_time = 0.0          # unix time of the newest frame (the source's clock)
@@ -97,6 +107,14 @@ class Probe:
         self._stale_since = None
         self._wake = asyncio.Event()
         self._last_error_log = -1e9
+        # Reflections (off unless asked): the cube thread, and the frame of the newest lighting.
+        self.publish_environment = lambda cube: None
+        self.environment = None if environment is None else EnvironmentWorker(
+            name, projection, self.engine_options, size=environment.size, hz=environment.hz,
+            deliver=lambda cube: self.publish_environment(cube))
+        self._environment_frame: Frame | None = None
+        #: A :class:`~provider.live.registration.Registrar` (``--marker``), or None.
+        self.registrar = None
 
     # -- the task ----------------------------------------------------------------------------
     async def run(self) -> None:
@@ -111,6 +129,8 @@ class Probe:
 
         self.capture.notify = notify
         self.capture.start()
+        if self.environment is not None:
+            self.environment.start(loop)
         tick = min(max(min(self.temporal.keepalive, self.stale_after) / 4, 0.02), 0.25)
         try:
             while True:
@@ -131,7 +151,11 @@ class Probe:
                     frame = self.capture.take()
                 self._maybe_publish(time.time())
         finally:
+            if self.registrar is not None:
+                self.registrar.close()
             await asyncio.to_thread(self.capture.stop)
+            if self.environment is not None:
+                await asyncio.to_thread(self.environment.stop)
 
     async def _process(self, frame: Frame) -> None:
         try:
@@ -159,6 +183,10 @@ class Probe:
         self.error = ""
         if frame.image is not None:
             self.image, self.image_seq = frame.image, self.image_seq + 1
+            if feeds_cube(frame):
+                self._environment_frame = frame
+        if self.registrar is not None:     # a time check here; detection in its own thread
+            self.registrar.offer(frame)
 
     def _project(self, frame: Frame) -> SH9Result:
         """Worker thread: decode if needed, build the projector once per size, project."""
@@ -166,7 +194,12 @@ class Probe:
         if image.ndim < 2:
             raise InputError(f"frame of shape {image.shape}")
         key = (image.shape[1], image.shape[0])
+        if (self.engine_options.get("ball") == "auto"
+                and self.capture.reconnects != self._ball_reconnects):
+            self._projectors.clear()   # a new stream: the camera may have moved
         projector = self._projectors.get(key)
+        if projector is None and self.engine_options.get("ball") == "auto":
+            self._locate_ball(key, image)   # raises until a frame shows the ball
         if projector is None:
             if len(self._projectors) >= 4:   # a source that keeps changing size
                 self._projectors.clear()
@@ -200,6 +233,15 @@ class Probe:
             result.stats["error_estimate"] = self._error_estimate
         return result
 
+    def _locate_ball(self, key, image) -> None:
+        """``--ball auto``: find the ball in this frame (the first of its size, and again
+        after the source reconnects: the camera may have moved), for :meth:`_build_projector`."""
+        from ..core.ball import resolve_ball
+        self._ball_options, circle = resolve_ball(self.engine_options, image)
+        self._ball_reconnects = self.capture.reconnects
+        log.info("probe %s: ball found at x %.1f, y %.1f, radius %.1f px in %d×%d frames",
+                 self.name, circle.x, circle.y, circle.radius, *key)
+
     def _build_projector(self, width: int, height: int):
         """The projector for frames of this size, or the InputError saying why there is
         none. Said once: frames of this size are then rejected without rebuilding (an
@@ -218,9 +260,12 @@ class Probe:
                 while step[0] is not None and fraction >= step[0]:
                     log.info("probe %s: per-pixel weights %.0f %% done", self.name, step[0] * 100)
                     step[0] = next(steps, None)
+        options = self.engine_options
+        if options.get("ball") == "auto":
+            options = self._ball_options
         try:
             projector = SH9Projector(width, height, self.projection, progress=progress,
-                                     **self.engine_options)
+                                     **options)
         except Exception as exc:  # noqa: BLE001 - a bug must not become a rebuild per frame
             reason = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
             log.error("probe %s: cannot project %d×%d frames with these options: %s "
@@ -276,7 +321,14 @@ class Probe:
             age_s=max(now - self._frame_time, 0.0), fps=round(self.capture.fps, 3),
             latency_ms=round(self.latency_s * 1e3, 3), resent=not changed,
             source=self.spec.kind)
+        registration = self.registrar.fields(now) if self.registrar is not None else None
+        if registration is not None:
+            msg["registration"] = registration
         text = dumps(msg).encode()
+        if changed and not stale and self._environment_frame is not None \
+                and self.environment is not None:
+            self.environment.offer(self._environment_frame, self.seq)   # never waits
+            self._environment_frame = None
         self.seq += 1
         self._fresh = False
         self.gate.mark_sent(lighting.coefficients, now, light_model(lighting))
@@ -286,13 +338,16 @@ class Probe:
     # -- for /healthz and /metrics ------------------------------------------------------------
     def health(self) -> dict:
         now = time.time()
-        return {"state": self.state, "source": self.spec.description,
-                "source_state": self.capture.state, "source_error": self.capture.reason,
-                "error": self.error, "seq": self.seq,
-                "age_s": round(now - self._frame_time, 3) if self._lighting else None,
-                "fps": round(self.capture.fps, 2), "compute_ms": round(self.compute_ms, 3),
-                "frames": self.frames_processed, "frames_rejected": self.frames_rejected,
-                "reconnects": self.capture.reconnects}
+        health = {"state": self.state, "source": self.spec.description,
+                  "source_state": self.capture.state, "source_error": self.capture.reason,
+                  "error": self.error, "seq": self.seq,
+                  "age_s": round(now - self._frame_time, 3) if self._lighting else None,
+                  "fps": round(self.capture.fps, 2), "compute_ms": round(self.compute_ms, 3),
+                  "frames": self.frames_processed, "frames_rejected": self.frames_rejected,
+                  "reconnects": self.capture.reconnects}
+        if self.environment is not None:
+            health["environment"] = self.environment.health()
+        return health
 
 
 class _AlreadySaid(InputError):

@@ -57,6 +57,9 @@ Client → server (all optional; a plain client just listens):
   cap beyond the server's ``--max-hz``), in the layout ``to`` (default ``sh9``). Any
   field may be left out to keep its value.
 * ``{"type": "ping", "id": 7}``.
+* ``"environment": true`` in a subscribe (``shlight serve --environment``): also the
+  probes' reflection cubes, each an ``environment`` JSON message and then one binary frame
+  (KTX2; :mod:`provider.live.environment_fanout`, docs/contract.md §12).
 
 A client message larger than ``--max-message-bytes`` closes the connection with code
 1009. A client that does not read for ``--send-timeout`` seconds is disconnected.
@@ -65,7 +68,8 @@ HTTP (same port; the token is needed as for WebSockets, except for ``/healthz`` 
 -------------------------------------------------------------------------------------------------
 ``/`` the dashboard, ``/healthz`` (JSON; status ``ok`` or ``degraded``),
 ``/latest.json?probe=NAME[&to=FORMAT]`` (the latest sh9 message, or its export;
-an unknown format: HTTP 400), ``/thumbnail.jpg?probe=NAME``
+an unknown format: HTTP 400), ``/environment.ktx2?probe=NAME`` (with ``--environment``: the
+latest reflection cube, KTX2; docs/contract.md §12), ``/thumbnail.jpg?probe=NAME``
 (the newest frame, tone-mapped), ``/metrics`` (Prometheus text format).
 """
 from __future__ import annotations
@@ -93,6 +97,7 @@ from websockets.http11 import Request, Response
 from .. import __version__
 from ..core.errors import InputError
 from . import status
+from .environment_fanout import EnvironmentFanout
 from .dashboard import DASHBOARD_CSP, PUBLIC_FILES, PUBLIC_HEADERS, static_file, thumbnail_jpeg
 from .export import FORMATS, NATIVE, ExportCache, check_format
 from .message import FRAME, SCHEMA_VERSION, dumps
@@ -140,8 +145,10 @@ class ProviderServer:
             raise InputError("no probes to serve")
         self.settings = settings or ServeSettings()
         self.probes = {p.name: p for p in probes}
+        self.environment = EnvironmentFanout(self)     # reflection cubes (--environment)
         for p in probes:
             p.publish = self.publish
+            p.publish_environment = self.environment.publish
         self.clients: set[ClientSession] = set()
         # Other destinations of every message (provider.live.mqtt.MqttPublisher): offer(),
         # start(loop), stop() (blocking), health(), add_metrics().
@@ -279,6 +286,7 @@ class ProviderServer:
             writer.cancel()
             for subscribers in self._subscribers.values():
                 subscribers.discard(client)
+            self.environment.forget(client)
             self.clients.discard(client)
             code = ws.close_code if ws.close_code is not None else 1006
             log.info("client %s left (code %d, %d messages sent; %d connected)", client.label,
@@ -300,7 +308,7 @@ class ProviderServer:
                 "max_hz": float(max_hz or 0.0),
                 "keepalive_s": probe.temporal.keepalive, "stale_after_s": probe.stale_after,
                 "max_message_bytes": self.settings.max_message_bytes,
-                "server_time": time.time()}
+                "server_time": time.time(), **self.environment.hello()}
 
     def _on_message(self, client: ClientSession, message) -> None:
         """Handle one client message; anything malformed gets an ``error`` reply."""
@@ -329,11 +337,16 @@ class ProviderServer:
             except InputError as exc:
                 return self._client_error(client, "unknown_format", str(exc))
             self._subscribe(client, probe, None if max_hz is None else float(max_hz), to)
+            problem = self.environment.subscribe(client, msg)    # reflection cubes
             reply = {"type": "subscribed", "probe": client.subscription,
                      "max_hz": float(client.max_hz)}
             if "to" in msg or client.to:
                 reply["to"] = client.to or NATIVE
+            if "environment" in msg or client.environment:
+                reply["environment"] = client.environment
             client.reply(reply)
+            if problem is not None:
+                self._client_error(client, problem["error"], problem["detail"])
         elif kind == "ping":
             ident = msg.get("id")
             pong = {"type": "pong", "time": time.time()}
@@ -433,6 +446,9 @@ class ProviderServer:
             return _response(200, *found, PUBLIC_HEADERS)
         if path == "/metrics":
             return _response(200, self.metrics().encode(), status.MetricsText.CONTENT_TYPE)
+        if path == "/environment.ktx2":
+            code, body, ctype, headers, error = self.environment.http(query)
+            return _json_error(code, *error) if error else _response(code, body, ctype, headers)
         if path in ("/latest.json", "/thumbnail.jpg"):
             name = query.get("probe", [next(iter(self.probes))])[0]
             probe = self.probes.get(name)

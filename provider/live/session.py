@@ -32,6 +32,13 @@ def text_frame(payload: bytes) -> bytes:
     return head + payload
 
 
+def binary_frame(payload: bytes) -> bytes:
+    """``payload`` as one unmasked, unfragmented WebSocket binary frame (opcode 2): like
+    :func:`text_frame`, built once per reflection cube for every client."""
+    framed = text_frame(payload)
+    return bytes((0x82,)) + framed[1:]
+
+
 @dataclass
 class Counters:
     """Server-wide counters for /metrics."""
@@ -71,6 +78,12 @@ class ClientSession:
         # Frames may be written straight to the socket (see offer) unless this connection
         # compresses them (permessage-deflate: per-client bytes).
         self._direct = not ws.protocol.extensions
+        # Reflections (docs/contract.md §12), only for a client that asked: per probe the
+        # newest (environment message, KTX2 bytes) pair not yet sent; a pair is written as
+        # one, never with another message between its two frames.
+        self.environment = False
+        self._cubes: dict[str, tuple[bytes, bytes] | None] = {}
+        self._pair_in_flight = False
 
     def offer(self, probe: str, text: bytes, frame: bytes | None = None) -> None:
         """Make ``text`` the probe's pending message (replacing an unsent older one).
@@ -87,21 +100,36 @@ class ClientSession:
         self._slots[probe] = text
         self._wake.set()
 
-    def _write_now(self, probe: str, frame: bytes) -> bool:
-        if self._replies or self._slots.get(probe) is not None:
+    def offer_environment(self, probe: str, text: bytes, data: bytes,
+                          frames: bytes | None = None) -> bool:
+        """Make (``text``, ``data``) the probe's pending cube, replacing an unsent older one
+        (a slow client gets the newest cube only). ``frames``: both, framed once for every
+        client, written at once when nothing waits (as :meth:`offer`). True if it replaced
+        an unsent one."""
+        if frames is not None and self._direct and self._write_now(probe, frames, pair=True):
+            return False
+        replaced = self._cubes.get(probe) is not None
+        self._cubes[probe] = (text, data)
+        self._wake.set()
+        return replaced
+
+    def _write_now(self, probe: str, frame: bytes, pair: bool = False) -> bool:
+        if self._replies or self._pair_in_flight or self._slots.get(probe) is not None:
+            return False
+        if pair and self._cubes.get(probe) is not None:
             return False
         ws = self.ws
         transport = ws.transport
         if ws.protocol.state is not State.OPEN or transport.get_write_buffer_size():
             return False
-        if self.max_hz > 0:
+        if self.max_hz > 0 and not pair:   # cubes come at --environment-hz already
             now = asyncio.get_running_loop().time()
             if self._next_send.get(probe, 0.0) > now:
                 return False
             self._next_send[probe] = self._next_after(probe, now)
         transport.write(frame)
-        self.sent += 1
-        self.counters.messages_sent += 1
+        self.sent += 1 + pair
+        self.counters.messages_sent += 1 + pair
         return True
 
     def _next_after(self, probe: str, now: float) -> float:
@@ -112,6 +140,7 @@ class ClientSession:
 
     def forget(self, probe: str) -> None:
         self._slots.pop(probe, None)
+        self._cubes.pop(probe, None)
 
     def reply(self, message: dict) -> None:
         """Queue a control message (kept in order; the oldest dropped beyond 16)."""
@@ -140,6 +169,17 @@ class ClientSession:
                     await self._send(text)
                     if self.max_hz > 0:
                         self._next_send[probe] = self._next_after(probe, now)
+                for probe in list(self._cubes):
+                    pair = self._cubes.get(probe)
+                    if pair is None:
+                        continue
+                    self._cubes[probe] = None
+                    self._pair_in_flight = True
+                    try:
+                        await self._send(pair[0])
+                        await self._send(pair[1], text=False)
+                    finally:
+                        self._pair_in_flight = False
         except ConnectionClosed:
             pass
         except asyncio.CancelledError:
@@ -162,17 +202,17 @@ class ClientSession:
             timer.cancel()
         self._timer = loop.call_later(delay, self._wake.set)
 
-    async def _send(self, text: bytes) -> None:
+    async def _send(self, payload: bytes, text: bool = True) -> None:
         transport = self.ws.transport
         if transport.get_write_buffer_size() == 0:
-            await self.ws.send(text, text=True)    # cannot block: the buffer is empty
+            await self.ws.send(payload, text=text)    # cannot block: the buffer is empty
         else:
             # A timer, not asyncio.wait_for: before Python 3.12 that can swallow the
             # writer's cancellation. Aborting the transport makes the send raise
             # ConnectionClosed, which ends the writer.
             timer = asyncio.get_running_loop().call_later(self.send_timeout, self._stalled)
             try:
-                await self.ws.send(text, text=True)
+                await self.ws.send(payload, text=text)
             finally:
                 timer.cancel()
         self.sent += 1

@@ -49,6 +49,8 @@ def health(server) -> dict:
         health[publisher.kind] = publisher.health()
         if health[publisher.kind]["state"] != "connected":
             health["status"] = "degraded"
+    if server.environment.probes:              # shlight serve --environment
+        health["environment"] = server.environment.health()
     return health
 
 def metrics(server) -> str:
@@ -96,4 +98,5 @@ def metrics(server) -> str:
           per(lambda p: len(server._subscribers[p.name])))
     for publisher in server.publishers:
         publisher.add_metrics(m)
+    server.environment.add_metrics(m)
     return m.text()

@@ -503,13 +503,20 @@ def run(args, extensions=()) -> int:
         for ext in extensions:
             pictures += ext.pictures(ctx, panoramas, out_dir)
 
-    worst = {p: max((r.max_rel for r in compared if r.path == p), default=None) for p in paths}
-    rms = {p: max((r.rms_rel for r in compared if r.path == p), default=None) for p in paths}
+    # The summary of the irradiance functions (one error measure and tolerance); extensions
+    # with a measure of their own (e.g. reflections) summarise theirs with ``summary``.
+    own = [r for r in compared if isinstance(r, Comparison)]
+    worst = {p: max((r.max_rel for r in own if r.path == p), default=None) for p in paths}
+    rms = {p: max((r.rms_rel for r in own if r.path == p), default=None) for p in paths}
     for p in paths:
         if worst[p] is not None:
-            print(f"{p}: {sum(r.path == p for r in compared)} comparisons, worst max relative "
+            print(f"{p}: {sum(r.path == p for r in own)} comparisons, worst max relative "
                   f"error {worst[p]:.2e}, worst relative RMS {rms[p]:.2e} "
                   f"(tolerance {args.tolerance:.2e})")
+    for ext in extensions:
+        if hasattr(ext, "summary"):
+            for line in ext.summary(compared, paths):
+                print(line)
     if args.require_hlsl and skipped:
         failed += 1
     report = {"renderer": info.get("GL_RENDERER"), "version": info.get("GL_VERSION"),

@@ -73,6 +73,8 @@ class FakeOscCamera:
                                                                        400, 800, 1600]}
         self.options.update(options or {})
         self.commands, self.set_calls = [], []
+        #: The JPEG that camera.takePicture "takes" (None: the command is unknown).
+        self.still: bytes | None = None
         self._lock = threading.Lock()
         cam = self
 
@@ -107,14 +109,36 @@ class FakeOscCamera:
                         cam.options.update(new)
                         cam.set_calls.append(dict(new))
                     return self._json(200, {"name": name, "state": "done"})
+                if name == "camera.takePicture" and cam.still is not None:
+                    return self._json(200, {"name": name, "state": "inProgress", "id": "7"})
                 live = (name == "camera.getLivePreview" and cam.api == "2.1") or (
                     name == "camera._getLivePreview" and cam.api == "2.0")
                 if not live:
                     return self._error(name, "unknownCommand", "Command executed is unknown.")
                 self._live_preview(cam.frames(), 1.0 / cam.fps)
 
+            def do_GET(self):          # the still camera.takePicture gave the URL of
+                if self.path != "/files/still.jpg" or cam.still is None:
+                    return self._json(404, {})
+                self.send_response(200)
+                self.send_header("Content-Type", "image/jpeg")
+                self.send_header("Content-Length", str(len(cam.still)))
+                self.end_headers()
+                self.wfile.write(cam.still)
+
+        class StatusHandler(Handler):   # /osc/commands/status: the picture is ready
+            def do_POST(self):
+                if self.path != "/osc/commands/status":
+                    return Handler.do_POST(self)
+                self.rfile.read(int(self.headers["Content-Length"]))
+                cam.commands.append("status")
+                url = f"http://127.0.0.1:{cam.httpd.server_address[1]}/files/still.jpg"
+                key = "fileUrl" if cam.api == "2.1" else "fileUri"
+                return self._json(200, {"name": "camera.takePicture", "state": "done",
+                                        "results": {key: url}})
+
         self.closed = False
-        self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), StatusHandler)
         self.httpd.daemon_threads = True
         threading.Thread(target=self.httpd.serve_forever, daemon=True,
                          kwargs={"poll_interval": 0.05}).start()

@@ -43,7 +43,12 @@
       return;
     }
     state.ws = ws;
+    ws.binaryType = "arraybuffer";     // reflection cubes (dashboard-environment.js)
     ws.onmessage = (ev) => {
+      if (ev.data instanceof ArrayBuffer) {
+        if (window.shlightEnvironment) window.shlightEnvironment.cube(ev.data);
+        return;
+      }
       let msg;
       try { msg = JSON.parse(ev.data); } catch (err) { return; }
       if (msg && typeof msg === "object") onMessage(msg);
@@ -78,6 +83,9 @@
       $("provider").textContent = `${msg.provider || ""} · ${msg.frame || ""}`;
       setConn("live", "live");
       refreshMqtt();
+      // Reflection cubes (shlight serve --environment): asked for, as any client must.
+      state.environment = Array.isArray(msg.environment) && msg.environment.length > 0;
+      if (state.environment && window.shlightEnvironment) send({ type: "subscribe", environment: true });
     } else if (msg.type === "sh9") {
       if (!Array.isArray(msg.matrices) || msg.matrices.length !== 48 ||
           !Array.isArray(msg.coefficients) || msg.coefficients.length !== 27) return;
@@ -93,6 +101,9 @@
         showNumbers();
         if (!$("thumb").dataset.loaded) refreshThumbnail();
       }
+    } else if (msg.type === "environment" && window.shlightEnvironment) {
+      // its KTX2 bytes are the next (binary) frame; only the selected probe's are shown
+      window.shlightEnvironment.announce(String(msg.probe) === state.selected ? msg : null);
     } else if (msg.type === "pong") {
       const sent = state.pings[msg.id];
       if (sent !== undefined) {
@@ -174,6 +185,7 @@
     const ev = +$("ev").value;
     let exposure = Math.pow(2, ev);
     if ($("auto").checked) exposure *= lumSum > 0 && count ? 0.5 / (lumSum / count) : 1;
+    if (window.shlightEnvironment) window.shlightEnvironment.lighting(M, exposure);
     for (let k = 0; k < n; k++) {
       const p = 4 * k;
       if (!inside[k]) { px[p + 3] = 0; continue; }
@@ -316,6 +328,10 @@
     $("probe").addEventListener("change", (ev) => {
       state.selected = ev.target.value;
       delete $("thumb").dataset.loaded;
+      if (state.environment && window.shlightEnvironment) {
+        window.shlightEnvironment.forget();
+        send({ type: "subscribe", environment: true });   // the newest cubes again
+      }
       requestDraw();
       showNumbers();
       refreshThumbnail();

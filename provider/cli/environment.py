@@ -1,0 +1,70 @@
+"""``shlight environment IMAGE -o cube.ktx2``: the reflection cube of one image (an HDR cube
+map with GGX-prefiltered mips, KTX 2.0 RGBA16F; docs/contract.md §12), with the input
+options of ``shlight compute``; a one-line summary on stderr."""
+from __future__ import annotations
+
+import os
+import sys
+
+from ..core.errors import InputError
+from .options import add_engine_arguments
+
+
+def add_arguments(p) -> None:
+    p.description = ("The reflection cube of one panorama or fisheye image: a KTX 2.0 cube "
+                     "map (RGBA16F, all mips, GGX-prefiltered; docs/contract.md §12).")
+    p.add_argument("image", metavar="IMAGE[@SECONDS]",
+                   help="panorama/fisheye image (.exr, .hdr, .png, .jpg, ...); with its "
+                        "exposure time, IMAGE@SECONDS: radiance per second of exposure")
+    p.add_argument("-o", "--output", required=True, metavar="CUBE.ktx2",
+                   help="where to write the KTX2 file ('-': standard output)")
+    p.add_argument("--size", type=int, default=32, metavar="N",
+                   help="edge of a cube face in texels: a power of two from 8 to 256 "
+                        "(default 32)")
+    p.add_argument("--probe", default="default", help="probe name in the file's key/value data")
+    add_engine_arguments(p)
+
+
+def run(args) -> int:
+    from ..live.environment import check_size, cube_options, encode_environment
+    from .feedback import say
+    from .frames import read_frames
+    from .options import engine_options
+    size = check_size(args.size)
+    images, times, paths = read_frames([args.image], need_times=False)
+    options = engine_options(args)
+    from ..core.environment import EnvironmentProjector
+    image = images[0]
+    projector = EnvironmentProjector(image.shape[1], image.shape[0], args.projection,
+                                     size=size, **cube_options(options))
+    for warning in getattr(projector, "warnings", ()):
+        say("environment", "warning", warning)
+    result = projector.project(image, exposure_s=times[0])
+    cube = encode_environment(result, probe=args.probe, seq=0, sh9_seq=None,
+                              time_s=os.path.getmtime(paths[0]),
+                              exposure=options.get("exposure", 1.0), exposure_s=times[0])
+    _write(args.output, cube.ktx2)
+    where = "standard output" if args.output == "-" else args.output
+    rough = ", ".join(f"{r:g}" for r in cube.roughness)
+    print(f"shlight environment: {where}: {cube.size}×{cube.size}×6 cube, "
+          f"{len(cube.roughness)} mips (roughness {rough}), RGBA16F KTX2, "
+          f"{len(cube.ktx2):,} bytes, {cube.compute_ms:.1f} ms", file=sys.stderr)
+    return 0
+
+
+def _write(path: str, data: bytes) -> None:
+    if path == "-":
+        sys.stdout.buffer.write(data)
+        sys.stdout.buffer.flush()
+        return
+    tmp = f"{path}.part"
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except OSError as exc:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None

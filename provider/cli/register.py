@@ -1,0 +1,160 @@
+"""``shlight register``: where a printed marker is in a panorama (docs/contract.md §13)."""
+from __future__ import annotations
+
+import json
+
+from ..core.errors import InputError
+from .options import finite_float
+
+EPILOG = """\
+prints JSON: rotation (9 numbers, row-major: R_camera<-marker, its columns the marker's x, y, z
+axes as OpenCV's ArUco defines them, in the camera frame of docs/contract.md §1), position
+(the marker's centre, metres), error_deg / error_px (RMS corner reprojection error), apparent
+size in panorama pixels, and whether the frame was levelled by gravity (a still's XMP
+GPano:PosePitchDegrees / PoseRollDegrees). Several IMAGEs of one static scene: the pose is
+averaged over those that show the marker. theta://HOST: a full-resolution still is taken
+through OSC camera.takePicture. The headset composes R_world<-camera = R_world<-marker ·
+R_camera<-marker^T.
+
+examples:
+  shlight marker aruco:DICT_4X4_50:7 --size 0.2 -o marker.png     # print it at 100 %
+  shlight register room.jpg --marker aruco:DICT_4X4_50:7 --marker-size 0.2
+  shlight register theta://192.168.1.1 --marker qr:room-1 --marker-size 0.15
+"""
+
+
+def add_projection_arguments(p) -> None:
+    """The projection options of the engine (docs/contract.md §1), as compute takes them."""
+    g = p.add_argument_group("projection")
+    g.add_argument("--projection", default="equirect",
+                   choices=["equirect", "fisheye", "dual-fisheye", "cubemap"],
+                   help="image geometry (default: equirect, 2:1)")
+    g.add_argument("--fov", type=finite_float, default=None,
+                   help="fisheye field of view in degrees (fisheye 180, dual-fisheye 200)")
+    g.add_argument("--center", metavar="CX,CY", default=None,
+                   help="fisheye image-circle centre (px)")
+    g.add_argument("--radius", type=finite_float, default=None,
+                   help="fisheye pixel radius at fov/2 (default: inscribed circle)")
+    g.add_argument("--calibration", default=None,
+                   help="JSON file with an OpenCV fisheye calibration {\"K\": 3x3, \"D\": 4}")
+
+
+def add_arguments(p) -> None:
+    import argparse
+    p.description = "Find a printed marker in a panorama: its pose in the camera's frame."
+    p.epilog = EPILOG
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
+    p.add_argument("image", nargs="+", metavar="IMAGE|theta://HOST",
+                   help="panorama/fisheye image(s) of one static scene, or a Theta to take a still")
+    p.add_argument("--marker", required=True, metavar="SPEC",
+                   help="aruco:DICT_4X4_50:7 (dictionary and id), or qr / qr:TEXT")
+    p.add_argument("--marker-size", type=finite_float, required=True, metavar="METRES",
+                   help="the printed side: ArUco's black square, or the QR symbol without "
+                        "its quiet zone (what `shlight marker` prints under it)")
+    p.add_argument("--level", default="auto", choices=["auto", "off"],
+                   help="auto: level the frame where the still says its pitch and roll (XMP)")
+    p.add_argument("--pretty", action="store_true", help="indent the JSON")
+    add_projection_arguments(p)
+
+
+def projection_options(args) -> dict:
+    """The projection's options from the command line (InputError on bad values)."""
+    opts = {}
+    if args.fov is not None:
+        if not 0 < args.fov <= 360:
+            raise InputError(f"--fov {args.fov:g}: a field of view is in (0, 360] degrees")
+        opts["fov_deg"] = args.fov
+    if args.projection != "fisheye":
+        return opts
+    if args.center is not None:
+        try:
+            cx, cy = (float(v) for v in args.center.split(","))
+        except ValueError:
+            raise InputError(f"--center {args.center!r}: expected CX,CY in pixels") from None
+        opts["center"] = (cx, cy)
+    if args.radius is not None:
+        opts["radius"] = args.radius
+    if args.calibration:
+        import numpy as np
+        try:
+            with open(args.calibration) as f:
+                cal = json.load(f)
+            opts["K"], opts["D"] = np.asarray(cal["K"], float), np.asarray(cal["D"], float)
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise InputError(f"cannot use calibration {args.calibration}: {exc}") from None
+    return opts
+
+
+def measure(args, command: str = "register"):
+    """The marker's pose (averaged over the images that show it) and the images' names."""
+    from ..core.images import read_image
+    from ..core.marker_detect import parse_marker
+    from ..core.registration import (MarkerNotFound, average_poses, find_marker, levelled,
+                                     levelling_rotation)
+    from ..core.xmp_pose import read_pose
+    from .feedback import say
+    spec = parse_marker(args.marker)
+    if not args.marker_size > 0:
+        raise InputError(f"--marker-size {args.marker_size:g}: the printed side in metres (> 0)")
+    options = projection_options(args)
+    poses, missing = [], []
+    for name in args.image:
+        if name.startswith("theta://"):
+            from ..live.registration import theta_still
+            say(command, "note", f"taking a full-resolution still with {name}")
+            path = theta_still(name)
+        else:
+            path = name
+        image = read_image(path)
+        try:
+            pose = find_marker(image, spec, args.marker_size, args.projection, **options)
+        except MarkerNotFound as exc:
+            missing.append(f"{name}: {exc}")
+            continue
+        tilt = read_pose(path) if args.level == "auto" else None
+        if tilt is not None:
+            pose = levelled(pose, levelling_rotation(*tilt))
+        poses.append(pose)
+    if not poses:
+        raise MarkerNotFound(missing[0] if len(missing) == 1
+                             else f"no {spec} marker found in any of {len(args.image)} images")
+    for line in missing:
+        say(command, "note", f"skipped {line}")
+    if len({p.levelled for p in poses}) > 1:
+        raise InputError("some images say their pitch and roll and some do not: "
+                         "pass --level off, or only stills of one camera")
+    return average_poses(poses) if len(poses) > 1 else poses[0]
+
+
+def add_serve_arguments(parser) -> None:
+    """``shlight serve``'s registration options (docs/contract.md §13)."""
+    g = parser.add_argument_group("registration (docs/contract.md §13)")
+    g.add_argument("--marker", default=None, metavar="SPEC",
+                   help="re-detect this printed marker (aruco:DICT_4X4_50:7, qr[:TEXT]); each "
+                        "message then carries 'registration' (the marker's pose in the camera)")
+    g.add_argument("--marker-size", type=finite_float, default=None, metavar="METRES",
+                   help="its printed side (needed with --marker)")
+    g.add_argument("--register-every", type=finite_float, default=5.0, metavar="SECONDS",
+                   help="seconds between detections, off the frame path (default 5)")
+
+
+def registrar_for(ns, name: str):
+    """The probe's :class:`~provider.live.registration.Registrar`, or None without --marker."""
+    if ns.marker is None:
+        if ns.marker_size is not None:
+            raise InputError("--marker-size needs --marker SPEC")
+        return None
+    if ns.marker_size is None:
+        raise InputError("--marker needs --marker-size METRES (the printed side)")
+    from ..live.registration import Registrar
+    from .options import engine_options
+    opts = {k: v for k, v in engine_options(ns).items()
+            if k in ("fov_deg", "center", "radius", "K", "D")}
+    return Registrar(ns.marker, ns.marker_size, ns.projection, opts, ns.register_every, name)
+
+
+def run(args) -> int:
+    pose = measure(args)
+    out = {**pose.to_json(), "marker_size": args.marker_size, "projection": args.projection}
+    print(json.dumps(out, indent=2 if args.pretty else None, allow_nan=False))
+    return 0

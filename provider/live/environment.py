@@ -1,0 +1,312 @@
+"""A probe's live reflection cube (``shlight serve --environment``; docs/contract.md §12,
+"Transport"): made in its own worker thread from the frames the probe already decoded for
+SH9, at most ``hz`` times a second and only when the lighting changed, then encoded once as
+KTX 2.0 (:mod:`.ktx2`) for every client, MQTT and ``GET /environment.ktx2``.
+
+The SH9 path never waits for a cube: :meth:`EnvironmentWorker.offer` (called on the event
+loop when the probe sends a changed sh9 message) only replaces the one pending frame and
+wakes the thread; the thread takes the newest frame when its turn comes (at most ``hz``),
+projects it with :class:`provider.core.environment.EnvironmentProjector` (built once per frame
+size), encodes it and hands an :class:`EnvironmentCube` back to the event loop. Frames offered
+meanwhile are replaced, never queued. The thread runs at a lower scheduling priority (nice
++10 where the OS allows it), so that on a busy edge core the cube yields to SH9.
+"""
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import threading
+import time
+from dataclasses import dataclass, field
+
+from .. import __version__
+from ..core.errors import InputError
+from .ktx2 import encode_cube
+from .message import FRAME, SCHEMA_VERSION, UNITS, dumps
+
+log = logging.getLogger("shlight.environment")
+
+#: Edge sizes a cube may have (powers of two, as the core requires).
+SIZES = tuple(1 << k for k in range(3, 9))       # 8 .. 256
+DEFAULT_SIZE = 32
+DEFAULT_HZ = 1.0
+MAX_HZ = 30.0
+FORMAT, ENCODING = "rgba16f", "ktx2"
+LAYOUT = ("faces +X -X +Y -Y +Z -Z (the OpenGL cube-map order); texel [f, i, j] at "
+          "s = (j + 1/2)/n, t = (i + 1/2)/n, row i = t; docs/contract.md §12")
+FILTER = ("mip 0: radiance, the solid-angle mean over each texel; mip k > 0: GGX-prefiltered "
+          "radiance (split sum, n = v = r, alpha = roughness^2); lod = roughness * (mips - 1)")
+
+#: Engine options that only the SH9 path has (the cube takes the input options).
+_SH9_ONLY = ("order", "order_budget", "dering", "lights", "max_lights", "error_estimate")
+
+
+def check_size(size) -> int:
+    """``size`` if it is a power of two from 8 to 256, else :class:`InputError` (one line)."""
+    from ..core.cubemap import check_size as core_check
+    try:
+        return core_check(size if not isinstance(size, bool) else None)
+    except ValueError:
+        raise InputError(f"environment size {size!r}: a power of two from "
+                         f"{SIZES[0]} to {SIZES[-1]} (default {DEFAULT_SIZE})") from None
+
+
+def check_hz(hz) -> float:
+    """``hz`` if it is a finite rate in (0, 30] updates per second, else :class:`InputError`."""
+    if isinstance(hz, bool) or not isinstance(hz, (int, float)) or not math.isfinite(hz) \
+            or not 0 < hz <= MAX_HZ:
+        raise InputError(f"environment rate {hz!r}: updates per second in (0, {MAX_HZ:g}] "
+                         f"(default {DEFAULT_HZ:g})")
+    return float(hz)
+
+
+def cube_options(engine_options: dict) -> dict:
+    """The engine options that apply to the cube (input decoding, exposure, rotation,
+    projection geometry), without the SH9-only ones."""
+    return {k: v for k, v in engine_options.items() if k not in _SH9_ONLY}
+
+
+def feeds_cube(frame) -> bool:
+    """Whether a frame may make the cube: any frame with an image; of an exposure bracket
+    (``info`` ``slot``, ``bracket``), only the slot of median exposure, so that the cube
+    keeps one steady exposure instead of alternating between the slots (each slot is divided
+    by its own exposure, so the units are the same either way)."""
+    if frame.lighting is not None or frame.image is None:
+        return False
+    info = frame.info or {}
+    bracket, slot = info.get("bracket"), info.get("slot")
+    if slot is None or not bracket:
+        return True
+    order = sorted(range(len(bracket)), key=lambda k: bracket[k])
+    return slot == order[len(order) // 2]
+
+
+def key_values(result, *, probe: str, seq: int, sh9_seq: int | None, time_s: float,
+               exposure: float = 1.0, exposure_s=None, gain=None) -> dict[str, str]:
+    """The KTX2 key/value data of a cube (all text; lists and objects as JSON): what its
+    numbers are (frame, layout, filter, units, exposure) and where it belongs (probe, seq,
+    the sh9 message's seq, time)."""
+    stats = getattr(result, "stats", None) or {}
+    exposure_s = stats.get("exposure_s", exposure_s)
+    gain = stats.get("gain", gain)
+    kv = {"shlight.frame": FRAME, "shlight.layout": LAYOUT, "shlight.filter": FILTER,
+          "shlight.roughness": json.dumps([round(float(r), 6) for r in result.roughness]),
+          "shlight.units": str(getattr(result, "units", None) or UNITS),
+          "shlight.exposure": json.dumps({"exposure": float(exposure),
+                                          "exposure_s": _number(exposure_s),
+                                          "gain": _number(gain)}),
+          "shlight.probe": probe, "shlight.seq": str(int(seq)),
+          "shlight.sh9_seq": "" if sh9_seq is None else str(int(sh9_seq)),
+          "shlight.time": repr(float(time_s)),
+          "KTXwriter": f"shlight {__version__}"}
+    if stats.get("radiometry"):
+        kv["shlight.radiometry"] = str(stats["radiometry"])
+    return kv
+
+
+def _number(v):
+    return float(v) if v is not None and math.isfinite(float(v)) else None
+
+
+@dataclass(frozen=True)
+class EnvironmentSettings:
+    """``shlight serve --environment``: the cube's edge (texels) and its most updates/s."""
+
+    size: int = DEFAULT_SIZE
+    hz: float = DEFAULT_HZ
+
+    def __post_init__(self):
+        check_size(self.size)
+        check_hz(self.hz)
+
+
+@dataclass
+class EnvironmentCube:
+    """One encoded cube update: its KTX2 bytes and the ``environment`` message that
+    announces them (``text``: that message as UTF-8 JSON)."""
+
+    probe: str
+    seq: int
+    sh9_seq: int | None
+    size: int
+    roughness: list
+    ktx2: bytes
+    message: dict
+    text: bytes
+    compute_ms: float = 0.0
+    encode_ms: float = 0.0
+    time: float = field(default_factory=time.time)
+
+
+def encode_environment(result, *, probe: str, seq: int, sh9_seq: int | None, time_s: float,
+                       exposure: float = 1.0, exposure_s=None, gain=None,
+                       compute_ms: float | None = None) -> EnvironmentCube:
+    """The KTX2 bytes and the ``environment`` message of a core result (``mips``,
+    ``roughness``; provider.core.environment)."""
+    t0 = time.perf_counter()
+    data = encode_cube(result.mips, key_values(
+        result, probe=probe, seq=seq, sh9_seq=sh9_seq, time_s=time_s, exposure=exposure,
+        exposure_s=exposure_s, gain=gain))
+    encode_ms = (time.perf_counter() - t0) * 1e3
+    stats = getattr(result, "stats", None) or {}
+    if compute_ms is None:
+        compute_ms = float(stats.get("compute_ms", 0.0))
+    size = int(result.mips[0].shape[1])
+    roughness = [float(r) for r in result.roughness]
+    message = {"type": "environment", "version": SCHEMA_VERSION, "probe": probe,
+               "seq": int(seq), "sh9_seq": -1 if sh9_seq is None else int(sh9_seq),
+               "time": float(time_s), "frame": FRAME, "size": size, "mips": len(result.mips),
+               "roughness": roughness, "format": FORMAT, "encoding": ENCODING,
+               "byte_length": len(data),
+               "units": str(getattr(result, "units", None) or UNITS),
+               "compute_ms": round(float(compute_ms), 3), "encode_ms": round(encode_ms, 3)}
+    return EnvironmentCube(probe, int(seq), sh9_seq, size, roughness, data, message,
+                           dumps(message).encode(), compute_ms, encode_ms)
+
+
+class EnvironmentWorker:
+    """A probe's cube thread (see the module docstring). ``deliver(cube)`` is called on the
+    event loop given to :meth:`start` with every new :class:`EnvironmentCube`."""
+
+    def __init__(self, probe: str, projection: str, engine_options: dict, *,
+                 size: int = DEFAULT_SIZE, hz: float = DEFAULT_HZ, deliver=None):
+        self.probe, self.projection = probe, projection
+        self.size, self.hz = check_size(size), check_hz(hz)
+        self.options = cube_options(engine_options)
+        self.exposure = float(self.options.get("exposure", 1.0))
+        self.deliver = deliver or (lambda cube: None)
+        self.updates = 0                # cubes made
+        self.offered = 0                # frames offered (changed lighting)
+        self.replaced = 0               # offered frames replaced by a newer one unprojected
+        self.errors = 0
+        self.error = ""
+        self.compute_ms = 0.0           # the last cube: projection, then encoding
+        self.encode_ms = 0.0
+        self.bytes = 0                  # the last cube's KTX2 length
+        self.latest: EnvironmentCube | None = None
+        self._pending = None            # (frame, sh9_seq)
+        self._cond = threading.Condition()
+        self._stopping = False
+        self._thread: threading.Thread | None = None
+        self._loop = None
+        self._projectors: dict = {}
+        self._last_error_log = -1e9
+
+    # -- event loop side ---------------------------------------------------------------------
+    def start(self, loop) -> None:
+        self._loop = loop
+        self._stopping = False
+        self._thread = threading.Thread(target=self._run, daemon=True,
+                                        name=f"environment-{self.probe}")
+        self._thread.start()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """End the thread (blocking: call it in a worker thread)."""
+        with self._cond:
+            self._stopping = True
+            self._cond.notify()
+        if self._thread is not None:
+            self._thread.join(timeout)
+
+    def offer(self, frame, sh9_seq: int) -> None:
+        """The frame of a changed sh9 message (seq ``sh9_seq``): it replaces any frame
+        still waiting; never blocks."""
+        with self._cond:
+            if self._pending is not None:
+                self.replaced += 1
+            self._pending = (frame, sh9_seq)
+            self.offered += 1
+            self._cond.notify()
+
+    def _arrived(self, cube: EnvironmentCube) -> None:
+        self.latest = cube
+        self.deliver(cube)
+
+    # -- the thread --------------------------------------------------------------------------
+    def _run(self) -> None:
+        try:     # yield to SH9 on a busy core (Linux: per-thread nice)
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 10)
+        except (AttributeError, OSError):
+            pass
+        next_at = 0.0
+        while True:
+            with self._cond:
+                while not self._stopping and (self._pending is None
+                                              or time.monotonic() < next_at):
+                    wait = None if self._pending is None else next_at - time.monotonic()
+                    self._cond.wait(wait)
+                if self._stopping:
+                    return
+                frame, sh9_seq = self._pending
+                self._pending = None
+            next_at = time.monotonic() + 1.0 / self.hz
+            try:
+                cube = self._make(frame, sh9_seq)
+            except Exception as exc:  # noqa: BLE001 - the thread never dies on a bad frame
+                self._failed(str(exc) if isinstance(exc, InputError)
+                             else f"{type(exc).__name__}: {exc}")
+                continue
+            if cube is None:
+                continue
+            try:
+                self._loop.call_soon_threadsafe(self._arrived, cube)
+            except RuntimeError:        # the event loop is closed: shutting down
+                return
+
+    def _make(self, frame, sh9_seq: int) -> EnvironmentCube | None:
+        image = frame.decoded()         # decoded already by the SH9 path: no second decode
+        key = (image.shape[1], image.shape[0])
+        projector = self._projectors.get(key)
+        if projector is None:
+            if len(self._projectors) >= 4:
+                self._projectors.clear()
+            projector = self._projectors[key] = self._build(*key)
+        if isinstance(projector, InputError):
+            return None                 # said once when it was built
+        info = frame.info or {}
+        t0 = time.perf_counter()
+        result = projector.project(image, exposure_s=info.get("exposure_s"),
+                                   gain=info.get("gain", 1.0))
+        compute_ms = (time.perf_counter() - t0) * 1e3
+        cube = encode_environment(result, probe=self.probe, seq=self.updates, sh9_seq=sh9_seq,
+                                  time_s=frame.time, exposure=self.exposure,
+                                  exposure_s=info.get("exposure_s"), gain=info.get("gain"),
+                                  compute_ms=compute_ms)
+        self.updates += 1
+        self.compute_ms, self.encode_ms, self.bytes = compute_ms, cube.encode_ms, len(cube.ktx2)
+        self.error = ""
+        return cube
+
+    def _build(self, width: int, height: int):
+        from ..core.environment import EnvironmentProjector
+        try:
+            return EnvironmentProjector(width, height, self.projection, size=self.size,
+                                        **self.options)
+        except Exception as exc:  # noqa: BLE001 - a bug must not become a rebuild per frame
+            reason = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+            log.error("probe %s: no reflection cube for %d×%d frames: %s", self.probe, width,
+                      height, reason)
+            self.errors += 1
+            self.error = reason
+            return InputError(reason)
+
+    def _failed(self, reason: str) -> None:
+        self.errors += 1
+        self.error = reason
+        now = time.monotonic()
+        if now - self._last_error_log > 10.0:
+            self._last_error_log = now
+            log.error("probe %s: reflection cube failed (%d so far): %s", self.probe,
+                      self.errors, reason)
+
+    # -- /healthz ----------------------------------------------------------------------------
+    def health(self) -> dict:
+        latest = self.latest
+        return {"size": self.size, "hz": self.hz, "updates": self.updates,
+                "seq": latest.seq if latest else None,
+                "sh9_seq": latest.sh9_seq if latest else None,
+                "bytes": self.bytes, "compute_ms": round(self.compute_ms, 3),
+                "encode_ms": round(self.encode_ms, 3), "offered": self.offered,
+                "replaced": self.replaced, "errors": self.errors, "error": self.error}

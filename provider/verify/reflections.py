@@ -1,0 +1,50 @@
+"""`shlight validate-shaders`, reflections: the harness extension (:func:`provider.verify.harness.run`)
+that runs the image-based-lighting checks of :mod:`provider.verify.ibl` through each shader path,
+summarises them with their own tolerance, and draws the picture of
+:mod:`provider.verify.ibl_pictures`.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .harness import FLOAT32_TOLERANCE
+from .ibl import (IblComparison, IblEvaluator, panorama_cases, run_case, sphere_inputs,
+                  synthetic_cases, unity_frame_check)
+from .ibl_pictures import write_ibl_picture
+
+
+def compare(ctx, path: str, normals, panoramas, vectors, tolerance) -> list[IblComparison]:
+    """Every IBL case through one shader path; ``tolerance`` (the SH9 one, default 32u) scales
+    :func:`provider.verify.ibl.ibl_tolerance` alike."""
+    factor = tolerance / FLOAT32_TOLERANCE
+    evaluator = IblEvaluator(ctx, path)
+    inputs = sphere_inputs()
+    cases = synthetic_cases() + panorama_cases(panoramas)
+    out = [run_case(evaluator, case, inputs, case.tolerance(factor)) for case in cases]
+    return out + [unity_frame_check(ctx, path, inputs, cases[0].tolerance(factor))]
+
+
+def demo_checks(ctx) -> list:
+    return []
+
+
+def summary(results, paths) -> list[str]:
+    """One line per shader path: the reflection comparisons' worst error and tolerance."""
+    lines = []
+    for p in paths:
+        mine = [r for r in results if isinstance(r, IblComparison) and r.path == p]
+        if mine:
+            worst = max(mine, key=lambda r: r.max_rel / r.tolerance)
+            lines.append(f"{p}: {len(mine)} reflection comparisons, worst max relative error "
+                         f"{worst.max_rel:.2e} ({worst.case}, tolerance {worst.tolerance:.2e})")
+    return lines
+
+
+def pictures(ctx, panoramas, out_dir) -> list[dict]:
+    pic = write_ibl_picture(ctx, panoramas, out_dir)
+    if pic is None:
+        return []
+    print(f"picture {pic['file']}: spheres of roughness 0 to 1 lit by {Path(pic['panorama']).stem} "
+          f"(cube {pic['cube']}), shader vs CPU reference max relative error "
+          f"{pic['max_rel']:.1e}")
+    return [pic]

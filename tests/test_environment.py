@@ -1,0 +1,183 @@
+"""The reflection cube core (docs/contract.md §12): layout, mip 0 against exact texel means,
+the GGX mips against a float64 brute force over every panorama pixel, units, rotation,
+fisheye fill and bad input."""
+import math
+
+import numpy as np
+import pytest
+
+import reference_cube as ref
+from conftest import HDRI_NAMES
+from provider import InputError, compute_environment
+from provider.core import cubemap
+from provider.core.engine import compute_sh9
+from provider.core.environment import EnvironmentProjector
+from reference import fibonacci, brute_irradiance, rel_rms
+
+
+def clean(img):
+    """The provider zeroes negative and non-finite samples (counted): so must the reference."""
+    return np.where(np.isfinite(img) & (img > 0), img, 0).astype(np.float32)
+
+
+@pytest.mark.parametrize("n", [2, 8, 32])
+def test_texel_layout_is_the_contract_table(n):
+    d = cubemap.texel_directions(n)
+    np.testing.assert_allclose(d, ref.cube_directions(n), atol=1e-12)
+    face, i, j, _, _ = cubemap.direction_to_texel(d.reshape(-1, 3), n)
+    np.testing.assert_array_equal(cubemap.flat_index(face, i, j, n), np.arange(6 * n * n))
+    np.testing.assert_array_equal(ref.texel_of(d.reshape(-1, 3), n), np.arange(6 * n * n))
+    assert cubemap.texel_solid_angles(n).sum() == pytest.approx(4 * math.pi, rel=1e-12)
+
+
+def test_face_order_and_orientation_named_directions():
+    # the centre of +X looks along +X; on +Y, row 0 (t = 0) is toward -Z; on +Z, column 0 is -X
+    d = cubemap.texel_directions(2)
+    for f, axis in enumerate([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]):
+        assert d[f].mean(axis=(0, 1)) @ axis > 0.8
+    assert d[2, 0].mean(axis=0)[2] < 0 and d[4, :, 0].mean(axis=0)[0] < 0
+    assert d[0, 0].mean(axis=0)[1] > 0     # +X: row 0 is up (tc = -y)
+
+
+@pytest.mark.parametrize("name", HDRI_NAMES)
+def test_mip0_is_the_exact_texel_mean_and_keeps_each_face_flux(hdri, name):
+    img = clean(hdri(name))
+    env = compute_environment(img, size=32)
+    want, area = ref.texel_means(img, 32, supersample=4)
+    rel = np.abs(env.mips[0] - want) / np.maximum(np.abs(want), 1e-6)
+    assert np.median(rel) < 0.01
+    flux = (env.mips[0] * area[..., None]).sum(axis=(1, 2))
+    np.testing.assert_allclose(flux, (want * area[..., None]).sum(axis=(1, 2)), rtol=0.01)
+
+
+def test_a_half_degree_sun_keeps_its_flux_and_its_place():
+    h, w = 512, 1024
+    img = np.full((h, w, 3), 0.5, np.float32)
+    img[200:202, 700:702] = 2e4                      # a sun ~0.35° across, 4×10⁴ the sky
+    env = compute_environment(img, size=32)
+    want, area = ref.texel_means(img, 32, supersample=2)
+    flux = lambda c: float((c[..., 1] * area).sum())
+    assert flux(env.mips[0]) == pytest.approx(flux(want), rel=5e-3)
+    # its place: the centroid of the light above the sky is the sun's direction (< ½ texel)
+    sun = ref.equirect_directions(w, h)[200:202, 700:702].mean(axis=(0, 1))
+    excess = (env.mips[0][..., 1] - 0.5) * area
+    centroid = (excess[..., None] * ref.cube_directions(32)).sum(axis=(0, 1, 2))
+    angle = math.degrees(math.acos(centroid @ sun / np.linalg.norm(centroid) / np.linalg.norm(sun)))
+    assert angle < 90 / 32 / 2
+
+
+@pytest.mark.parametrize("name", ["sky", "lab", "bridge"])
+def test_prefiltered_mips_match_brute_force_ggx(hdri, name):
+    img = clean(hdri(name))
+    env = compute_environment(img, size=32)
+    assert env.roughness == [0, 0.25, 0.5, 0.75, 1.0]
+    assert [m.shape for m in env.mips] == [(6, n, n, 3) for n in (32, 16, 8, 4, 2)]
+    for k in range(1, len(env.mips)):
+        n = env.mips[k].shape[1]
+        want = ref.prefiltered(img, ref.cube_directions(n), env.roughness[k])
+        limit = 0.03 if env.roughness[k] >= 0.2 else 0.06
+        assert ref.rel_rms(env.mips[k], want) < limit, (name, k)
+
+
+def test_cube_irradiance_agrees_with_brute_force_as_well_as_sh9(hdri):
+    normals = fibonacci(200)
+    for name in ("sky", "lab", "venice"):
+        img = clean(hdri(name))
+        truth = brute_irradiance(img, normals)
+        cube = compute_environment(img, size=32).irradiance(normals)
+        sh9 = compute_sh9(img).irradiance(normals)
+        assert rel_rms(cube, truth) <= max(rel_rms(sh9, truth), 0.01), name
+
+
+def test_furnace_every_mip_is_the_constant():
+    env = compute_environment(np.full((64, 128, 3), 2.5, np.float32), size=16)
+    for m in env.mips:
+        np.testing.assert_allclose(m, 2.5, rtol=2e-5)
+
+
+def test_one_sided_light_is_on_its_face_in_every_mip():
+    d = ref.equirect_directions(256, 128)
+    for axis, face in [((1, 0, 0), 0), ((0, 1, 0), 2), ((0, 0, -1), 5)]:
+        img = np.repeat(np.maximum(d @ np.array(axis, float), 0)[..., None] ** 8, 3, 2)
+        env = compute_environment(img.astype(np.float32), size=16)
+        for m in env.mips:
+            assert int(np.argmax(m[..., 0].sum(axis=(1, 2)))) == face
+
+
+def test_units_follow_sh9_exposure_and_frame_exposure():
+    rng = np.random.default_rng(3)
+    frame = rng.integers(0, 256, (64, 128, 3), dtype=np.uint8)
+    a = EnvironmentProjector(128, 64, size=8).project(frame)
+    b = EnvironmentProjector(128, 64, size=8, exposure=2.0).project(frame, exposure_s=0.5)
+    for x, y in zip(a.mips, b.mips):
+        np.testing.assert_allclose(y, 4 * x, rtol=1e-5)
+    assert b.stats["exposure_s"] == 0.5 and a.stats["radiometry"] == "srgb-assumed"
+    # the cube's mean radiance and SH9's L00 describe the same light
+    sh = compute_sh9(frame).coefficients[0]
+    mean = (a.mips[0] * cubemap.texel_solid_angles(8)[..., None]).sum(axis=(0, 1, 2))
+    np.testing.assert_allclose(mean * 0.282095, sh, rtol=2e-3)
+
+
+def test_rotation_turns_the_cube_as_it_turns_the_coefficients(hdri):
+    img = clean(hdri("venice"))
+    yaw = np.array([[0, 0, 1], [0, 1, 0], [-1, 0, 0]], float)   # 90° about +Y
+    turned = compute_environment(img, size=16, rotation=yaw)
+    rolled = compute_environment(np.roll(img, img.shape[1] // 4, axis=1), size=16)
+    sign = 1 if rel_rms(turned.mips[0], rolled.mips[0]) < 0.02 else -1
+    rolled = compute_environment(np.roll(img, sign * img.shape[1] // 4, axis=1), size=16)
+    for x, y in zip(turned.mips, rolled.mips):
+        assert rel_rms(x, y) < 0.02
+    # and the same turn of SH9 (its own convention) agrees with the turned cube's irradiance
+    normals = fibonacci(100)
+    sh = compute_sh9(img, rotation=yaw).irradiance(normals)
+    assert rel_rms(turned.irradiance(normals), sh) < 0.15
+
+
+def test_fisheye_unseen_half_gets_the_fill():
+    h = w = 256
+    img = np.full((h, w, 3), 1.0, np.float32)
+    zero = EnvironmentProjector(w, h, "fisheye", size=8, fill="zero").project(img)
+    ground = EnvironmentProjector(w, h, "fisheye", size=8, fill="ground", albedo=0.5).project(img)
+    # the lens looks up (+Y): the -Y face is unseen
+    assert zero.mips[0][3].max() == 0 and zero.mips[0][2].min() == pytest.approx(1, rel=0.02)
+    # ground: albedo · E_up / π = 0.5 · π / π for a uniform sky of radiance 1
+    np.testing.assert_allclose(ground.mips[0][3], 0.5, rtol=0.02)
+    assert zero.stats["coverage_sr"] == pytest.approx(2 * math.pi, rel=0.01)
+
+
+def test_bad_frames_are_counted_not_spread():
+    img = np.ones((64, 128, 3), np.float32)
+    img[10, 10] = np.nan
+    img[20, 20] = -5
+    env = compute_environment(img, size=8)
+    assert env.stats["nonfinite_pixels"] == 1 and env.stats["negative_pixels"] == 1
+    assert all(np.isfinite(m).all() and m.min() >= 0 for m in env.mips)
+
+
+@pytest.mark.parametrize("size", [4, 12, 33, 512, "x", 32.5, None])
+def test_sizes_that_are_not_powers_of_two_from_8_to_256_are_refused(size):
+    with pytest.raises(InputError, match="power of two from 8 to 256"):
+        EnvironmentProjector(128, 64, size=size)
+
+
+def test_wrong_frame_size_is_one_clear_error():
+    with pytest.raises(InputError, match="built for 128×64"):
+        EnvironmentProjector(128, 64, size=8).project(np.zeros((32, 64, 3), np.float32))
+
+
+@pytest.mark.parametrize("projection", ["angular", "mirrorball", "cross"])
+def test_light_probe_projections_make_the_same_cube(projection):
+    """A chrome ball, an angular map or a cube cross of a scene gives that scene's cube."""
+    from provider.core.projections import make_projection
+    from reference import render_equirect
+    from test_projections_probe import render
+    axis = np.array([0.6, 0.3, -0.74]) / np.linalg.norm([0.6, 0.3, -0.74])
+
+    def env(d):
+        return (0.2 + 5 * np.maximum(d @ axis, 0) ** 8)[..., None] * np.array([1.0, 0.8, 0.6])
+    w, h = (512, 384) if projection == "cross" else (512, 512)
+    frame = render(make_projection(projection, w, h), env)
+    want = compute_environment(render_equirect(env, 512, 256, 4).astype(np.float32), size=16)
+    got = compute_environment(frame, size=16, projection=projection)
+    for x, y in zip(got.mips, want.mips):
+        assert rel_rms(x, y) < 0.03
