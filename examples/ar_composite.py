@@ -148,12 +148,30 @@ def marker_object_points(length: float) -> np.ndarray:
 def estimate_pose(corners, length: float, K, D):
     """(R 3×3, t (3,)) with X_cv = R·X_marker + t (OpenCV camera frame, ``length`` units)."""
     import cv2
-    ok, rvec, tvec = cv2.solvePnP(marker_object_points(length), np.asarray(corners, np.float64),
-                                  K, D, flags=cv2.SOLVEPNP_IPPE_SQUARE)
-    if not ok:
+    obj = marker_object_points(length)
+    img = np.asarray(corners, np.float64).reshape(4, 2)
+    # IPPE_SQUARE's two solutions, and SQPnP's: the one that reprojects best. IPPE alone
+    # returns the identity, 599 px off, for a marker seen exactly head-on (a rotation of
+    # exactly 180° about x: a picture of the printed marker, the README's example).
+    candidates = []
+    for flags in (cv2.SOLVEPNP_IPPE_SQUARE, cv2.SOLVEPNP_SQPNP):
+        try:
+            n, rvecs, tvecs, _ = cv2.solvePnPGeneric(obj, img, K, D, flags=flags)
+        except cv2.error:
+            continue
+        candidates += list(zip(rvecs[:n], tvecs[:n]))
+    best, best_err = None, math.inf
+    for rvec, tvec in candidates:
+        if float(tvec.reshape(3)[2]) <= 0:        # behind the camera
+            continue
+        projected, _ = cv2.projectPoints(obj, rvec, tvec, K, D)
+        err = float(np.abs(projected.reshape(4, 2) - img).max())
+        if err < best_err:
+            best, best_err = (rvec, tvec), err
+    if best is None:
         return None
-    R, _ = cv2.Rodrigues(rvec)
-    return R, tvec.reshape(3)
+    R, _ = cv2.Rodrigues(best[0])
+    return R, best[1].reshape(3)
 
 
 # -- frames -----------------------------------------------------------------------------------

@@ -202,6 +202,44 @@ def test_nonfinite_and_negative_pixels_are_zeroed_and_counted():
     assert np.all(np.isfinite(r.matrices))
 
 
+def test_float_frames_are_cleaned_band_by_band_like_the_whole_frame():
+    """The clean-up inside the projection pass (provider.core.float_clean) gives the counts
+    and coefficients of cleaning the whole frame first, in every band, in every dtype."""
+    from provider.core.engine import SH9Projector
+    rng = np.random.default_rng(3)
+    img = rng.random((96, 192, 3)).astype(np.float32)
+    img[rng.random((96, 192)) < 0.02, 1] = -0.25        # negatives in every band
+    img[70, 5] = [np.nan, -np.inf, 1]                   # one pixel, two bad channels
+    img[90, 100, 2] = np.inf
+    clean = np.where(np.isfinite(img) & (img > 0), img, 0).astype(np.float32)
+    bad = ~np.isfinite(img)
+    negative = (img < 0) & ~bad
+    want = compute_sh9(clean, error_estimate=False).coefficients
+    for dtype in (np.float32, np.float64, np.float16):
+        frame = img.astype(dtype)
+        for lights in ("off", "auto"):
+            p = SH9Projector(192, 96, lights=lights, error_estimate=True)
+            r = p.project(frame)
+            assert r.stats["nonfinite_pixels"] == int(bad.any(axis=2).sum())
+            assert r.stats["negative_pixels"] == int((negative & ~bad.any(axis=2)[..., None])
+                                                     .any(axis=2).sum())
+            kept = clean.astype(np.float64).sum()
+            lost = -img[negative & ~bad.any(axis=2)[..., None]].astype(np.float64).sum()
+            assert r.stats["negative_energy_fraction"] == pytest.approx(lost / kept, rel=1e-3)
+            if dtype != np.float16:
+                assert np.allclose(r.coefficients, want, rtol=1e-5, atol=1e-7)
+            assert np.isfinite(r.stats["error_estimate"])
+        assert np.array_equal(p._clean_float(frame, {}), clean.astype(dtype).astype(np.float32))
+    assert p._clean_float(clean, {}) is clean   # a clean float32 frame is not copied
+
+
+@pytest.mark.parametrize("fill", [np.nan, -1.0, np.inf])
+def test_frame_with_no_usable_light_is_refused_not_served_as_darkness(fill):
+    img = np.full((32, 64, 3), fill, np.float32)
+    with pytest.raises(InputError, match="no usable light"):
+        compute_sh9(img)
+
+
 def test_all_black_frame_gives_zeros_without_division_by_zero():
     for img in (np.zeros((32, 64, 3), np.uint8), np.zeros((32, 64, 3), np.float32)):
         r = compute_sh9(img)

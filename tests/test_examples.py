@@ -167,6 +167,22 @@ def test_pose_is_recovered(detector, spin, tilt):
     assert np.linalg.norm(te - t) < 0.02 * np.linalg.norm(t)
 
 
+def test_a_marker_seen_head_on_gives_the_head_on_pose():
+    """The README's example: a picture of the printed marker, seen exactly head-on. IPPE alone
+    returns the identity there (599 px off, the object drawn as if the camera were tilted);
+    the pose kept is the one that reprojects the corners."""
+    import cv2
+    w, h = 1200, 1000
+    K, D = ac.default_intrinsics(w, h)
+    corners = np.array([[300, 200], [899, 200], [899, 799], [300, 799]], np.float64)
+    R, t = ac.estimate_pose(corners, 0.1, K, D)
+    rvec, _ = cv2.Rodrigues(R)
+    projected, _ = cv2.projectPoints(ac.marker_object_points(0.1), rvec, t, K, D)
+    assert np.abs(projected.reshape(4, 2) - corners).max() < 0.5
+    assert R[2, 2] == pytest.approx(-1, abs=1e-6)      # the marker faces the camera: no tilt
+    assert t[2] > 0
+
+
 def test_no_marker_means_none(detector):
     assert ac.detect_marker(background(), detector) is None
     R, t = true_pose(0)

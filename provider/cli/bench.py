@@ -24,6 +24,27 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "says what it costs before it starts)")
 
 
+def check_arguments(args) -> None:
+    """Every option checked before any work starts (exit 2, nothing written)."""
+    import os
+    from ..bench import SECTION_COST_S
+    from ..core.errors import InputError
+    if args.repeat < 1:
+        raise InputError(f"--repeat must be at least 1, got {args.repeat}")
+    order = [s.strip() for s in args.sections.split(",") if s.strip()]
+    if not order:
+        raise InputError(f"--sections names no section (sections: {', '.join(SECTION_COST_S)})")
+    unknown = sorted(set(order) - set(SECTION_COST_S))
+    if unknown:
+        raise InputError(f"unknown bench sections: {', '.join(unknown)} "
+                         f"(sections: {', '.join(SECTION_COST_S)})")
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise InputError(f"--out {args.out} is a file; give a folder for the results")
+    if not os.path.isdir(args.hdri):
+        raise InputError(f"--hdri {args.hdri}: no such folder")
+
+
 def run(args) -> int:
     from ..bench import run as run_bench
+    check_arguments(args)
     return run_bench(args)

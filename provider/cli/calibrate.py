@@ -1,6 +1,7 @@
 """``shlight calibrate-response``: a camera's response curve from a bracket of one view."""
 from __future__ import annotations
 
+import math
 import os
 import sys
 
@@ -18,38 +19,141 @@ def add_arguments(p) -> None:
     p.add_argument("-o", "--output", required=True, metavar="CAMERA.json",
                    help="where to write the response; a PNG of the curve beside sRGB is "
                         "written next to it (CAMERA.png)")
-    p.add_argument("--method", choices=["debevec", "robertson"], default="debevec",
-                   help="OpenCV calibration (default debevec; robertson measured 5-7 %% off)")
+    p.add_argument("--method", choices=["auto", "debevec", "robertson"], default="auto",
+                   help="auto (default): the curve that explains the frames best, among "
+                        "Debevec with well-spread samples at several smoothness weights and "
+                        "OpenCV's Debevec and Robertson; debevec or robertson: OpenCV's alone")
     p.add_argument("--samples", type=int, default=None,
-                   help="Debevec: pixels sampled (default 150)")
+                   help="pixels sampled (auto: 1000, spread over the scene's radiance; "
+                        "debevec: 150)")
     p.add_argument("--lambda", dest="lambda_", type=float, default=None,
-                   help="Debevec: smoothness (default 50; grow it with --samples, ~samples/3)")
+                   help="debevec: smoothness (default 50; grow it with --samples, ~samples/3; "
+                        "auto chooses it)")
 
 
 def run(args) -> int:
     from ..bench.response_plot import plot_response
     from ..core.errors import InputError
     from ..core.response import DEBEVEC_LAMBDA, DEBEVEC_SAMPLES, calibrate
+    from ..core.response_fit import calibrate_best, disagreement
     from ..live.camerafile import save_camera
     from .frames import read_frames
-    if len(args.frames) < 3:
-        raise InputError(f"calibration needs at least 3 frames of one static view, got "
-                         f"{len(args.frames)}")
+    check_arguments(args)
     print(f"reading {len(args.frames)} frames ...", file=sys.stderr, flush=True)
     images, times, paths = read_frames(args.frames, need_times=True)
-    kw = {}
-    if args.method == "debevec":
-        kw = dict(samples=args.samples or DEBEVEC_SAMPLES,
-                  lambda_=DEBEVEC_LAMBDA if args.lambda_ is None else args.lambda_)
+    check_frames(images, times, args.samples)
     print(f"calibrating ({args.method}) ...", file=sys.stderr, flush=True)
-    response = calibrate(images, times, args.method, **kw)
+    if args.method == "auto":
+        response = calibrate_best(images, times, samples=args.samples or 1000)
+    else:
+        kw = {}
+        if args.method == "debevec":
+            kw = dict(samples=args.samples or DEBEVEC_SAMPLES,
+                      lambda_=DEBEVEC_LAMBDA if args.lambda_ is None else args.lambda_)
+        response = calibrate(images, times, args.method, **kw)
+        response.params["quality"] = {
+            "curve": disagreement(response.table, images, times),
+            "srgb": disagreement(CameraResponseSRGB(), images, times)}
+    if not all(math.isfinite(v) and v > 0 for v in response.table.ravel()):
+        raise InputError("the calibration gave a broken curve (not positive and finite): "
+                         "are the frames one static view with these exposure times?")
     response.params["frames"] = [os.path.basename(p) for p in paths]
     save_camera(response, args.output)
     png = os.path.splitext(args.output)[0] + ".png"
     plot_response(response, png)
-    print("\n".join(summary_lines(response)))
+    print("\n".join(summary_lines(response) + quality_lines(response)))
     print(f"wrote {args.output} and {png}")
     return 0
+
+
+def check_arguments(args) -> None:
+    """Everything about the options, before any frame is read (exit 2, nothing written)."""
+    from ..core.errors import InputError
+    if len(args.frames) < 3:
+        raise InputError(f"calibration needs at least 3 frames of one static view, got "
+                         f"{len(args.frames)}")
+    if args.lambda_ is not None:
+        if args.method != "debevec":
+            raise InputError(f"--lambda is Debevec's smoothness; --method {args.method} "
+                             + ("chooses it from the frames" if args.method == "auto"
+                                else "has none") + " (use --method debevec)")
+        if not (math.isfinite(args.lambda_) and args.lambda_ > 0):
+            raise InputError(f"--lambda must be a finite number above 0, got {args.lambda_:g}")
+    if args.samples is not None:
+        if args.method == "robertson":
+            raise InputError("--samples is for --method auto or debevec (robertson uses "
+                             "every pixel)")
+        if args.samples < 10:
+            raise InputError(f"--samples must be at least 10, got {args.samples}")
+    out = os.path.dirname(os.path.abspath(args.output))
+    if not os.path.isdir(out):
+        raise InputError(f"cannot write {args.output}: no folder {out}")
+    if os.path.isdir(args.output):
+        raise InputError(f"cannot write {args.output}: it is a folder")
+
+
+def check_frames(images, times, samples) -> None:
+    """Frames that cannot give a curve: refused before calibrating."""
+    import numpy as np
+    from ..core.errors import InputError
+    from ..core.response import check_bracket
+    images, times, bits = check_bracket(images, times)
+    if bits != 8:
+        raise InputError("calibration needs 8-bit frames (OpenCV's CalibrateDebevec/"
+                         "Robertson are 8-bit only)")
+    if max(times) / min(times) < 2.0:
+        raise InputError("calibration needs exposure times at least 1 EV apart (got "
+                         + ", ".join(f"{t:g} s" for t in times) + ")")
+    pixels = images[0].shape[0] * images[0].shape[1]
+    if samples is not None and samples > pixels:
+        raise InputError(f"--samples {samples} is more than the {pixels} pixels of a frame")
+    usable = [np.count_nonzero((im > 0) & (im < 255)) for im in images]
+    if sum(usable) == 0:
+        raise InputError("no frame has a usable code (all are black or clipped white): "
+                         "expose from mostly dark to mostly clipped, not beyond")
+    order = np.argsort(times)
+    means = [float(images[i].mean()) for i in order]
+    if means[-1] - means[0] < 1.0:
+        raise InputError("the frames do not get brighter with exposure time (identical "
+                         "frames, or the times do not match them): one static view at "
+                         "different exposure times is needed")
+
+
+def CameraResponseSRGB():
+    from ..core.response import CameraResponse
+    return CameraResponse.srgb().table
+
+
+def quality_lines(response) -> list[str]:
+    """How well the curve explains its own frames, per code range, beside sRGB."""
+    q = response.params.get("quality")
+    if not q:
+        return []
+    lines = ["how well the curve explains its frames (pixels well exposed in two neighbouring "
+             "frames: disagreement of g(z)/t, median / 90th percentile):",
+             "  codes        curve                sRGB            samples"]
+    from ..core.response_fit import CODE_RANGES
+    for name, lo, hi in CODE_RANGES:
+        c, s = q["curve"][name], q["srgb"][name]
+        if not c["pairs"]:
+            lines.append(f"  {lo:3d}-{hi:3d}  (no pixel pairs: {name})")
+            continue
+        lines.append(f"  {lo:3d}-{hi:3d}  {c['median'] * 100:6.1f} % / {c['p90'] * 100:6.1f} %  "
+                     f"{s['median'] * 100:6.1f} % / {s['p90'] * 100:6.1f} %  {c['pairs']:9d}"
+                     f"  {name}")
+    trusted = response.params.get("trusted_codes")
+    if trusted:
+        lines.append(f"trusted codes {trusted[0]}-{trusted[1]} (enough pixel pairs in every "
+                     "channel); beyond them the curve is extrapolated, monotone")
+    fit = response.params.get("fit")
+    if fit:
+        lines.append("chosen: " + fit["method"] + (f" lambda {fit['lambda']:g}"
+                                                    if fit["lambda"] is not None else "")
+                     + (f", {fit['extrapolated']} extrapolated" if fit.get("extrapolated")
+                        else "")
+                     + " (scores, lower is better: " + ", ".join(
+                         f"{k} {v:.3f}" for k, v in fit["candidates"].items()) + ")")
+    return lines
 
 
 def summary_lines(response) -> list[str]:
@@ -57,8 +161,12 @@ def summary_lines(response) -> list[str]:
     s = response.summary()
     times = s["exposure_times"] or []
     p = response.params
-    how = (f"{p.get('samples')} samples, lambda {p.get('lambda'):g}"
-           if response.method == "debevec" else f"{p.get('max_iter')} iterations")
+    if p.get("fit"):
+        how = f"{p.get('samples')} samples, best of {len(p['fit']['candidates'])} fits"
+    elif response.method == "debevec":
+        how = f"{p.get('samples')} samples, lambda {p.get('lambda'):g}"
+    else:
+        how = f"{p.get('max_iter')} iterations"
     lines = [f"{response.method} calibration from {len(times)} frames, "
              f"{_fmt_time(min(times))} to {_fmt_time(max(times))} ({how})",
              "inverse response g(code): sensor exposure, mid-grey (code 118) = 0.18",

@@ -85,7 +85,7 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--lights", default="off", choices=["off", "auto"],
                    help="auto: directional lights for compact bright sources (a sun, a lamp) "
                         "plus ambient SH9, kept only where they lower the measured error")
-    g.add_argument("--max-lights", type=int, default=3, metavar="K",
+    g.add_argument("--max-lights", type=int, default=None, metavar="K",
                    help="at most K lights per frame with --lights auto (1-4, default 3)")
     g.add_argument("--rotate", metavar="YAW,PITCH,ROLL", default=None,
                    type=lambda t: _floats(t, 3, "--rotate"),
@@ -116,11 +116,16 @@ def engine_options(args) -> dict:
     opts = dict(encoding=args.encoding, exposure=args.exposure, downsample=args.downsample,
                 order=args.order if args.order == "auto" else int(args.order),
                 order_budget=args.order_budget, dering=args.dering)
-    if args.lights != "off":
+    if args.max_lights is not None:     # the same rule whatever else is given
         from ..core.engine_options import MAX_LIGHTS
         if not 1 <= args.max_lights <= MAX_LIGHTS:
             raise InputError(f"--max-lights {args.max_lights}: out of range (1-{MAX_LIGHTS})")
-        opts.update(lights=args.lights, max_lights=args.max_lights)
+        if args.lights == "off":
+            raise InputError("--max-lights limits the lights of --lights auto; give "
+                             "--lights auto too, or leave --max-lights out")
+    if args.lights != "off":
+        opts.update(lights=args.lights,
+                    max_lights=3 if args.max_lights is None else args.max_lights)
     if args.rotate:
         opts["rotation"] = rotation_from_euler(*args.rotate)
     check_options(**opts)
@@ -151,7 +156,13 @@ def engine_options(args) -> dict:
                     cal = json.load(f)
                 import numpy as np
                 opts["K"], opts["D"] = np.asarray(cal["K"], float), np.asarray(cal["D"], float)
-            except (OSError, ValueError, KeyError, TypeError) as exc:
+            except UnicodeDecodeError:
+                raise InputError(f"cannot use calibration {args.calibration}: not a JSON text "
+                                 "file ({\"K\": 3x3, \"D\": 4})") from None
+            except KeyError as exc:
+                raise InputError(f"cannot use calibration {args.calibration}: no {exc} "
+                                 "({\"K\": 3x3, \"D\": 4})") from None
+            except (OSError, ValueError, TypeError) as exc:
                 raise InputError(f"cannot use calibration {args.calibration}: {exc}") from None
     elif args.projection == "dual-fisheye" and args.fov is not None:
         opts["fov_deg"] = args.fov

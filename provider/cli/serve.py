@@ -176,7 +176,7 @@ def _environment_hz(text: str) -> float:
 def _offsets(text: str) -> tuple[float, ...]:
     from ..core.bracket import check_offsets
     try:
-        return check_offsets(float(v) for v in text.replace("\u2212", "-").split(","))
+        return check_offsets(text.replace("\u2212", "-").split(","))
     except (InputError, ValueError) as exc:
         raise argparse.ArgumentTypeError(f"EV offsets such as -4,-2,0,2,4: {exc}")
 

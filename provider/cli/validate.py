@@ -28,7 +28,56 @@ def add_arguments(p) -> None:
                         "shaders/contract_vectors.json if present)")
 
 
+#: The most dense normals per case (--normals): 4M normals, ~100 MB per array.
+MAX_NORMALS = 1 << 22
+
+
+def check_arguments(args) -> None:
+    """Every option checked before any work starts (no OpenGL context, nothing written)."""
+    import json
+    import math
+    import os
+    from ..core.errors import InputError
+    if not 1 <= args.normals <= MAX_NORMALS:
+        raise InputError(f"--normals must be between 1 and {MAX_NORMALS}, got {args.normals}")
+    if not (math.isfinite(args.tolerance) and args.tolerance > 0):
+        raise InputError(f"--tolerance must be a finite number above 0, got {args.tolerance:g}")
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise InputError(f"--out {args.out} is a file; give a folder for the pictures and "
+                         "report.json")
+    existing = os.path.abspath(args.out)
+    while not os.path.exists(existing):
+        existing = os.path.dirname(existing)
+    if not os.path.isdir(existing) or not os.access(existing, os.W_OK):
+        raise InputError(f"--out {args.out}: cannot write under {existing}")
+    if args.write_vectors:
+        folder = os.path.dirname(os.path.abspath(args.write_vectors))
+        if os.path.isdir(args.write_vectors):
+            raise InputError(f"--write-vectors {args.write_vectors} is a folder; give a .json "
+                             "file")
+        if not os.path.isdir(folder):
+            raise InputError(f"--write-vectors {args.write_vectors}: no folder {folder}")
+    if args.panoramas:          # the user's own files: unreadable ones refused before work
+        from ..core.images import read_image
+        for path in args.panoramas:
+            read_image(path)
+    if args.vectors:
+        if not os.path.isfile(args.vectors):
+            raise InputError(f"no such vectors file: {args.vectors}")
+        try:
+            with open(args.vectors, encoding="utf-8") as f:
+                doc = json.load(f)
+            ok = isinstance(doc, dict) and isinstance(doc.get("cases"), list) and all(
+                isinstance(c, dict) and "name" in c for c in doc["cases"])
+        except (OSError, ValueError):
+            ok = False
+        if not ok:
+            raise InputError(f"--vectors {args.vectors} is not a contract vectors file (write "
+                             "one with --write-vectors)")
+
+
 def run(args) -> int:
     from ..verify import lights, reflections
     from ..verify.harness import run as run_validation
+    check_arguments(args)
     return run_validation(args, extensions=(lights, reflections))

@@ -242,9 +242,17 @@ def check_offsets(offsets) -> tuple[float, ...]:
     """EV offsets of a live bracket: at least 2, finite, within ±16 EV, at least 0.5 EV
     apart (so that every frame's exposure names its slot without doubt)."""
     try:
-        evs = tuple(float(v) for v in offsets)
-    except (TypeError, ValueError):
-        raise InputError(f"bracket offsets must be numbers (EV), got {offsets!r}") from None
+        items = list(offsets)
+    except TypeError:
+        raise InputError("bracket offsets must be a list of numbers (EV)") from None
+    evs = []
+    for v in items:
+        try:
+            evs.append(float(v))
+        except (TypeError, ValueError):
+            raise InputError(f"bracket offsets must be numbers (EV): {str(v).strip()!r} is "
+                             "not one") from None
+    evs = tuple(evs)
     if len(evs) < 2:
         raise InputError(f"a bracket needs at least 2 EV offsets, got {len(evs)}")
     if not all(math.isfinite(v) and abs(v) <= 16 for v in evs):

@@ -10,12 +10,12 @@ every product (see :mod:`provider.core.engine` for the frame contract).
 """
 from __future__ import annotations
 
-import math
 
 import cv2
 import numpy as np
 
 from .errors import InputError
+from .float_clean import clean_frame
 from .response import CameraResponse, apply_lut
 
 
@@ -82,33 +82,12 @@ class FrameDecoder:
         return "linear" if self.encoding == "linear" else "srgb-assumed"
 
     def _clean_float(self, frame: np.ndarray, stats: dict) -> np.ndarray:
-        """Float32 linear radiance with non-finite and negative samples set to 0 (counted).
-
-        Clean frames (the common case) cost one ``cv2.minMaxLoc`` pass and are not copied;
-        exposure is applied to the coefficients, not here.
-        """
-        lin = frame if frame.dtype == np.float32 else frame.astype(np.float32)
-        flat = lin.reshape(lin.shape[0], -1)
-        finite = math.isfinite(cv2.sumElems(flat)[0])
-        lo = cv2.minMaxLoc(flat)[0] if finite else -1.0  # minMaxLoc skips NaN
-        if finite and lo >= 0:
-            return lin
-        h = lin.shape[0]
-        if not finite:
-            bad = ~np.isfinite(lin)
-            stats["nonfinite_pixels"] = _count_pixels(bad.view(np.uint8))
-            lin = np.where(bad, np.float32(0), lin)
-            flat = lin.reshape(h, -1)
-            lo = cv2.minMaxLoc(flat)[0]
-        if lo < 0:
-            stats["negative_pixels"] = _count_pixels(
-                cv2.compare(flat, 0, cv2.CMP_LT).reshape(lin.shape))
-            total = cv2.sumElems(flat)[0]
-            _, flat = cv2.threshold(flat, 0, 0, cv2.THRESH_TOZERO)  # negatives -> 0
-            lin = flat.reshape(lin.shape)
-            positive = cv2.sumElems(flat)[0]
-            stats["negative_energy_fraction"] = float((positive - total) / max(positive, 1e-300))
-        return lin
+        """Float32 linear radiance with non-finite and negative samples set to 0 (counted
+        into ``stats``: :mod:`.float_clean`, band by band). Clean float32 frames are not
+        copied; exposure is applied to the product, not here. A frame with no usable light
+        left (all NaN, all negative) raises :class:`InputError`. SH9's projection cleans
+        inside its own pass instead (``SH9Projector._project_float``)."""
+        return clean_frame(frame, stats)
 
     def _prepare(self, frame) -> np.ndarray:
         if not isinstance(frame, np.ndarray):

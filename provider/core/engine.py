@@ -37,6 +37,7 @@ from .lights_analysis import model_irradiance
 from .projections import Equirect, Projection, ProjectionError, make_projection
 from . import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from .engine_options import check_options, exposure_scale
+from .float_clean import FloatCleaner
 from .decode import FrameDecoder, _count_pixels, srgb_to_linear  # noqa: F401 (re-exported)
 
 
@@ -252,8 +253,7 @@ class SH9Projector(FrameDecoder):
                     stats["clipped_fraction"] = clip["n"] / frame.size
                     clipped = clip["l00"]
                 return self._coefficients(acc) * scale, None, mid, clipped
-            lin = self._clean_float(frame, stats)
-            self._accumulate(lin, 0, acc)
+            lin = self._project_float(frame, stats, acc)
             return self._coefficients(acc) * scale, None, lin, 0.0
         # Fast path: area-average the *linear* frame, then project the small one.
         clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
@@ -264,6 +264,25 @@ class SH9Projector(FrameDecoder):
                            interpolation=cv2.INTER_AREA)
         self._accumulate(small, 0, acc)
         return self._coefficients(acc) * scale, small, lin, clipped
+
+    def _project_float(self, frame: np.ndarray, stats: dict, acc: np.ndarray):
+        """Clean (:class:`.float_clean.FloatCleaner`) and project a float frame band by band,
+        each band while it is in cache; returns the whole clean frame when the lights or the
+        error estimate will read it (a copy only if a band was dirty), else None."""
+        cleaner = FloatCleaner()
+        keep = self._extractor is not None or self.error_estimate
+        out = None
+        rows = self.BAND_ROWS
+        for r0 in range(0, frame.shape[0], rows):
+            band = cleaner.band(frame[r0:r0 + rows])
+            self._accumulate(band, r0, acc)
+            if keep and out is None and not np.may_share_memory(band, frame):
+                out = np.empty(frame.shape, np.float32)
+                out[:r0] = frame[:r0]
+            if out is not None:
+                out[r0:r0 + rows] = band
+        cleaner.finish(stats)
+        return out if out is not None else (frame if keep else None)
 
     def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
         """Sets ``stats["clipped_fraction"]`` (channel samples of an 8/16-bit frame at the top

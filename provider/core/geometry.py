@@ -28,6 +28,10 @@ def finite(value, what: str) -> float:
     return v
 
 
+#: A lens circle more than this many frame widths in radius: the frame sees almost nothing.
+MAX_CIRCLE_SPANS = 100.0
+
+
 def check_fov(fov_deg) -> float:
     """A fisheye field of view in (0, 360] degrees."""
     fov = finite(fov_deg, "fisheye field of view")
@@ -48,3 +52,9 @@ def check_lens_in_frame(lens, x0: float, y0: float, x1: float, y1: float, what: 
             f"{what} image circle is {lens.circle_radius:.1f} px in radius: too small to "
             f"integrate (at least {MIN_CIRCLE_PX:g} px; a larger frame, a smaller "
             "--downsample, or check --radius)")
+    span = max(x1 - x0, y1 - y0, 1.0)
+    if lens.circle_radius > MAX_CIRCLE_SPANS * span:
+        raise ProjectionError(
+            f"{what} image circle is {lens.circle_radius:.4g} px in radius, more than "
+            f"{MAX_CIRCLE_SPANS:g}× the {span:g} px frame: the frame would see almost nothing "
+            "of the lens's field (too large; check --radius)")

@@ -25,8 +25,11 @@ def load_camera(path) -> CameraResponse:
     except FileNotFoundError:
         raise InputError(f"no such camera file: {path} (make one with shlight "
                          "calibrate-response)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read camera file {path}: {exc}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"cannot read camera file {path}: not a text file (a camera.json "
+                         "written by shlight calibrate-response is JSON)") from None
+    except OSError as exc:
+        raise InputError(f"cannot read camera file {path}: {exc.strerror or exc}") from None
     try:
         data = json.loads(text)
     except ValueError as exc:

@@ -96,6 +96,19 @@ class SourceSpec:
         return self.options.fps if self.kind == "video" else None
 
 
+def _check_host(url: str, scheme: str) -> None:
+    """A network source names a host and, if any, a port number: refused at start (the
+    same whatever other options are given), not retried forever."""
+    try:
+        parts = urllib.parse.urlsplit(url)
+        parts.port                                  # noqa: B018 - raises on a bad port
+    except ValueError as exc:
+        raise InputError(f"{scheme}:// source {redact(url)}: {exc}") from None
+    if not parts.hostname and scheme not in ("udp", "srt"):   # udp://@:1234 listens
+        raise InputError(f"{scheme}:// source needs a host, e.g. {scheme}://192.168.1.20"
+                         f"{':8765/' if scheme.startswith('ws') else '/'}: {redact(url)}")
+
+
 def parse_source(spec: str, options: SourceOptions | None = None) -> SourceSpec:
     """Parse a ``--source`` specification (see the module docstring).
 
@@ -121,6 +134,8 @@ def parse_source(spec: str, options: SourceOptions | None = None) -> SourceSpec:
     if low.startswith("opencv:"):
         return SourceSpec("opencv", s[7:], o, f"OpenCV {redact(s[7:])}")
     scheme = urllib.parse.urlsplit(s).scheme.lower() if "://" in s else ""
+    if scheme in ("http", "https", "ws", "wss", "rtsp", "rtsps", "rtmp", "udp", "tcp", "srt"):
+        _check_host(s, scheme)
     if scheme in ("http", "https"):
         return SourceSpec("mjpeg", s, o, f"MJPEG {redact(s)}")
     if scheme in ("theta", "osc", "thetas", "oscs"):

@@ -61,7 +61,13 @@ class Frame:
     def decoded(self) -> np.ndarray:
         """The RGB image, decoding ``jpeg`` on first use; :class:`InputError` if corrupt."""
         if self.image is None and self.jpeg is not None:
-            bgr = cv2.imdecode(np.frombuffer(self.jpeg, np.uint8), cv2.IMREAD_COLOR)
+            from ...core.images import check_complete
+            # a frame cut short is refused, not decoded half-way (the rest grey)
+            check_complete(f"JPEG frame ({len(self.jpeg)} bytes)", self.jpeg)
+            try:
+                bgr = cv2.imdecode(np.frombuffer(self.jpeg, np.uint8), cv2.IMREAD_COLOR)
+            except cv2.error:       # a header declaring more than OpenCV decodes
+                bgr = None
             if bgr is None:
                 raise InputError(f"corrupt JPEG frame ({len(self.jpeg)} bytes)")
             self.image = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
