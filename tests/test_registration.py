@@ -10,6 +10,8 @@ import subprocess
 import sys
 
 import cv2
+import zlib
+
 import numpy as np
 import pytest
 
@@ -72,7 +74,7 @@ def test_1920_live_frame_meets_its_target():
 def test_every_projection_gives_the_pose(name, width, height, around):
     proj = make_projection(name, width, height)
     base = scene("apartment", proj)
-    rng = np.random.default_rng(hash(name) % 1000)
+    rng = np.random.default_rng(zlib.crc32(name.encode()))   # the same poses every run
     for _ in range(2):
         R, t = random_pose(rng, around=None if around is None else np.array(around, float),
                            max_off_deg=70)
