@@ -51,7 +51,7 @@
 // GGX D) is E(n) itself; a LightProbe with the SH9 would count it twice, so
 // connectEnvironment hides the LightProbe it is given while a cube lights the scene
 // (diffuse: "environment", the default) or keeps it (diffuse: "both").
-import { connect, registrationRotation, rotateCoefficients } from "./client.js";
+import { bilinear, connect, faceDirection, registrationRotation, rotateCoefficients } from "./client.js";
 
 /**
  * Set a THREE.LightProbe (anything with .sh.coefficients[9] of Vector3/Color-like .set)
@@ -89,53 +89,6 @@ export function connectLightProbe(url, lightProbe, options = {}) {
 }
 
 // ---- reflections: the provider's cube as three's PMREM -----------------------------------
-
-/** Unit-less direction of face coordinates sc, tc ∈ [−1, 1] (beyond: off the face) on face f
- * (docs/contract.md §12: the OpenGL table in our frame). */
-function faceDirection(f, sc, tc) {
-  switch (f) {
-    case 0: return [1, -tc, -sc];
-    case 1: return [-1, -tc, sc];
-    case 2: return [sc, 1, tc];
-    case 3: return [sc, -1, -tc];
-    case 4: return [sc, -tc, 1];
-    default: return [-sc, -tc, -1];
-  }
-}
-
-/** [face, s, t] of a direction (s → column, t → row, in [0, 1]). */
-function directionToFace(d) {
-  const ax = Math.abs(d[0]), ay = Math.abs(d[1]), az = Math.abs(d[2]);
-  let f, sc, tc, ma;
-  if (ax >= ay && ax >= az) { ma = ax; f = d[0] >= 0 ? 0 : 1; sc = d[0] >= 0 ? -d[2] : d[2]; tc = -d[1]; }
-  else if (ay >= az) { ma = ay; f = d[1] >= 0 ? 2 : 3; sc = d[0]; tc = d[1] >= 0 ? d[2] : -d[2]; }
-  else { ma = az; f = d[2] >= 0 ? 4 : 5; sc = d[2] >= 0 ? d[0] : -d[0]; tc = -d[1]; }
-  return [f, (sc / ma + 1) / 2, (tc / ma + 1) / 2];
-}
-
-/** Texel (f, i, j) of an n×n mip (faces: 6 Float32Array RGBA) into out[0..3]; a texel off the
- * face's edge is the one across it (the direction of its centre, on the adjacent face). */
-function texel(faces, n, f, i, j, w, out) {
-  if (i < 0 || j < 0 || i >= n || j >= n) {
-    const [g, s, t] = directionToFace(faceDirection(f, (2 * (j + 0.5)) / n - 1, (2 * (i + 0.5)) / n - 1));
-    f = g;
-    i = Math.min(n - 1, Math.max(0, Math.floor(t * n)));
-    j = Math.min(n - 1, Math.max(0, Math.floor(s * n)));
-  }
-  const o = 4 * (i * n + j), face = faces[f];
-  for (let c = 0; c < 4; c++) out[c] += w * face[o + c];
-}
-
-/** Bilinear (seamless) value of an n×n mip toward d, times w, added to out. */
-function bilinear(faces, n, d, w, out) {
-  const [f, s, t] = directionToFace(d);
-  const x = s * n - 0.5, y = t * n - 0.5, j0 = Math.floor(x), i0 = Math.floor(y);
-  const fx = x - j0, fy = y - i0;
-  texel(faces, n, f, i0, j0, w * (1 - fx) * (1 - fy), out);
-  texel(faces, n, f, i0, j0 + 1, w * fx * (1 - fy), out);
-  texel(faces, n, f, i0 + 1, j0, w * (1 - fx) * fy, out);
-  texel(faces, n, f, i0 + 1, j0 + 1, w * fx * fy, out);
-}
 
 /** Log2 of three's smallest PMREM face (PMREMGenerator.js LOD_MIN = 3: 8×8). */
 const PMREM_LOD_MIN = 3;

@@ -181,7 +181,8 @@ export function connect(url, options = {}) {
       if (probe !== undefined) opts.probe = probe;
       if (maxHz !== undefined) opts.maxHz = maxHz;
       send({ type: "subscribe", probe: opts.probe || "*", max_hz: +opts.maxHz || 0,
-             ...(opts.environment ? { environment: true } : {}), ...(opts.subscribe || {}) });
+             ...(opts.environment && hasCubes() ? { environment: true } : {}),
+             ...(opts.subscribe || {}) });
     },
     /** round trip to the server in ms (resolves on the pong) */
     ping() {
@@ -201,6 +202,13 @@ export function connect(url, options = {}) {
       setState("closed", "");
     },
   };
+
+  // Cubes are asked for only where a probe makes them (hello lists them), so that a provider
+  // without --environment answers no `environment_off` error.
+  function hasCubes() {
+    const list = conn.hello && conn.hello.environment;
+    return Array.isArray(list) && list.length > 0;
+  }
 
   function setState(state, detail) {
     if (state === conn.state && detail === conn.detail) return;
@@ -396,6 +404,84 @@ export function parseEnvironmentKtx2(buffer, message = null) {
       return this.mips[k].faces.map((h) => Float32Array.from(h, halfToFloat));
     },
   };
+}
+
+// ---- sampling a cube as textureLod does (seamless bilinear, linear between mips) -------
+
+/** Unit-less direction of face coordinates sc, tc ∈ [−1, 1] (beyond: off the face) on face f
+ * (docs/contract.md §12: the OpenGL table in our frame). */
+export function faceDirection(f, sc, tc) {
+  switch (f) {
+    case 0: return [1, -tc, -sc];
+    case 1: return [-1, -tc, sc];
+    case 2: return [sc, 1, tc];
+    case 3: return [sc, -1, -tc];
+    case 4: return [sc, -tc, 1];
+    default: return [-sc, -tc, -1];
+  }
+}
+
+/** [face, s, t] of a direction (s → column, t → row, in [0, 1]). */
+export function directionToFace(d) {
+  const ax = Math.abs(d[0]), ay = Math.abs(d[1]), az = Math.abs(d[2]);
+  let f, sc, tc, ma;
+  if (ax >= ay && ax >= az) { ma = ax; f = d[0] >= 0 ? 0 : 1; sc = d[0] >= 0 ? -d[2] : d[2]; tc = -d[1]; }
+  else if (ay >= az) { ma = ay; f = d[1] >= 0 ? 2 : 3; sc = d[0]; tc = d[1] >= 0 ? d[2] : -d[2]; }
+  else { ma = az; f = d[2] >= 0 ? 4 : 5; sc = d[2] >= 0 ? d[0] : -d[0]; tc = -d[1]; }
+  return [f, (sc / ma + 1) / 2, (tc / ma + 1) / 2];
+}
+
+/** Texel (f, i, j) of an n×n mip (faces: 6 Float32Array RGBA) into out[0..3]; a texel off the
+ * face's edge is the one across it (the direction of its centre, on the adjacent face). */
+function texel(faces, n, f, i, j, w, out) {
+  if (i < 0 || j < 0 || i >= n || j >= n) {
+    const [g, s, t] = directionToFace(faceDirection(f, (2 * (j + 0.5)) / n - 1, (2 * (i + 0.5)) / n - 1));
+    f = g;
+    i = Math.min(n - 1, Math.max(0, Math.floor(t * n)));
+    j = Math.min(n - 1, Math.max(0, Math.floor(s * n)));
+  }
+  const o = 4 * (i * n + j), face = faces[f];
+  for (let c = 0; c < 4; c++) out[c] += w * face[o + c];
+}
+
+/** Bilinear (seamless) value of an n×n mip toward d, times w, added to out. */
+export function bilinear(faces, n, d, w, out) {
+  const [f, s, t] = directionToFace(d);
+  const x = s * n - 0.5, y = t * n - 0.5, j0 = Math.floor(x), i0 = Math.floor(y);
+  const fx = x - j0, fy = y - i0;
+  texel(faces, n, f, i0, j0, w * (1 - fx) * (1 - fy), out);
+  texel(faces, n, f, i0, j0 + 1, w * fx * (1 - fy), out);
+  texel(faces, n, f, i0 + 1, j0, w * (1 - fx) * fy, out);
+  texel(faces, n, f, i0 + 1, j0 + 1, w * fx * fy, out);
+}
+
+/**
+ * A cube resampled: face size `size`, each texel the source (an EnvironmentCube) read as
+ * textureLod does at `lod` toward R·d (R row-major 3×3, null: d itself), d the texel's
+ * direction. Returns 6 Float32Array(size·size·4). `floats`: cube.floatFaces per mip, if at hand.
+ */
+export function resampleCube(cube, size, { lod = 0, rotation = null, floats = null } = {}) {
+  floats = floats || cube.mips.map((_, k) => cube.floatFaces(k));
+  const last = cube.mipCount - 1, R = rotation, acc = [0, 0, 0, 0];
+  const k0 = Math.min(Math.floor(lod + 1e-9), last), k1 = Math.min(k0 + 1, last);
+  const w = Math.min(Math.max(lod - k0, 0), 1);
+  const faces = [];
+  for (let f = 0; f < 6; f++) {
+    const out = new Float32Array(size * size * 4);
+    for (let i = 0; i < size; i++) {
+      for (let j = 0; j < size; j++) {
+        let d = faceDirection(f, (2 * (j + 0.5)) / size - 1, (2 * (i + 0.5)) / size - 1);
+        if (R) d = [R[0] * d[0] + R[1] * d[1] + R[2] * d[2], R[3] * d[0] + R[4] * d[1] + R[5] * d[2],
+                    R[6] * d[0] + R[7] * d[1] + R[8] * d[2]];
+        acc.fill(0);
+        bilinear(floats[k0], cube.size >> k0, d, 1 - w, acc);
+        if (w > 0) bilinear(floats[k1], cube.size >> k1, d, w, acc);
+        out.set(acc, 4 * (i * size + j));
+      }
+    }
+    faces.push(out);
+  }
+  return faces;
 }
 
 // ---- registration (docs/contract.md §13) ---------------------------------------------
