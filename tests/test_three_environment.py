@@ -189,3 +189,55 @@ def test_three_reads_the_providers_prefiltered_radiance(browser, roughness):
                 pictures(page, "bridge")
         finally:
             ctx.__exit__(None, None, None)
+
+
+def _quaternion(R):
+    """Unit quaternion {x, y, z, w} of a rotation matrix (as an XRRigidTransform's orientation)."""
+    w = np.sqrt(max(1 + np.trace(R), 1e-12)) / 2
+    return {"x": (R[2, 1] - R[1, 2]) / (4 * w), "y": (R[0, 2] - R[2, 0]) / (4 * w),
+            "z": (R[1, 0] - R[0, 1]) / (4 * w), "w": w}
+
+
+def test_registration_from_a_marker_pose_turns_the_cube_and_the_sh(browser, tmp_path):
+    """A known registration: the provider saw the marker at R_camera←marker (a message's
+    `registration`, docs/contract.md §13), the headset's tracker sees it at R_world←marker
+    (an XRRigidTransform-like quaternion, and a tracker with +Y as the marker's normal), with
+    R_world←camera taking the room's +X to the world's +Y: the mirror sphere shows the red
+    (+X) cap on top, and the SH turned by the same rotation sees at +Y what the room had at +X."""
+    from provider.core import sh
+    pano = tmp_path / "caps.hdr"
+    write_caps(pano)
+    R_cm = sh.rotation_from_euler(yaw_deg=35, pitch_deg=-20, roll_deg=10)
+    R_wc = np.array([[0, -1, 0], [1, 0, 0], [0, 0, 1.0]])          # +X → +Y, +Y → −X
+    R_wm = R_wc @ R_cm
+    y_normal = np.array([[1, 0, 0], [0, 0, 1], [0, -1, 0.0]])       # MARKER_AXES["y-normal"]
+    with ServeProcess("--source", str(pano), "--environment", "--keepalive", "60") as proc:
+        served_cube(proc.http)
+        ctx, page = _start(browser, proc)
+        try:
+            got = page.evaluate("""([Rcm, q, Rwt]) => { const t = window.t;
+              const none = t.conn.setMarkerPose(q);          // no registration yet: false
+              t.conn.latest.message.registration = { rotation: Rcm };
+              const ok = t.conn.setMarkerPose(q);
+              const composed = t.conn.rotation;
+              const tracker = t.c.registrationRotation(Rwt, { rotation: Rcm }, { markerAxes: "y-normal" });
+              const L = t.conn.latest.coefficients, M = t.c.matricesFromCoefficients;
+              const turned = M(t.c.rotateCoefficients(L, composed));
+              return { none, ok, composed, tracker, eY: t.c.irradiance(turned, [0, 1, 0]),
+                       eX: t.c.irradiance(M(L), [1, 0, 0]) }; }""",
+                                 [R_cm.reshape(-1).tolist(), _quaternion(R_wm),
+                                  (R_wm @ y_normal.T).reshape(-1).tolist()])
+            assert got["none"] is False and got["ok"] is True
+            np.testing.assert_allclose(np.reshape(got["composed"], (3, 3)), R_wc, atol=1e-6)
+            np.testing.assert_allclose(np.reshape(got["tracker"], (3, 3)), R_wc, atol=1e-6)
+            np.testing.assert_allclose(got["eY"], got["eX"], rtol=1e-4)
+            assert got["eY"][0] > 5 * max(got["eY"][1:])                  # red light from +Y
+            img = json_rows(page.evaluate("window.t.render('shaded', 0)"))
+            S = img.shape[0]
+            c, r = S // 2, int(0.42 * S)
+            top, left, right = img[c - r, c, :3], img[c, c - r, :3], img[c, c + r, :3]
+            assert top[0] > 1 and top[1:].max() < 0.05 * top[0], top        # red (+X) on top
+            assert left[1] > 1 and left[[0, 2]].max() < 0.05 * left[1], left  # green (+Y) left
+            assert right.max() < 0.05 * top[0], right
+        finally:
+            ctx.__exit__(None, None, None)

@@ -57,7 +57,7 @@
 //
 // Stale lighting: while the provider's source is lost, or the provider is unreachable, the
 // last lighting stays (estimate.shlight.stale is true); one console warning per outage.
-import { connect, resampleCube, rotateCoefficients } from "./client.js";
+import { connect, registrationRotation, resampleCube, rotateCoefficients } from "./client.js";
 
 export const FEATURE = "light-estimation";
 /** The `convention` of the estimates: the webxr export's (three.js's reading). */
@@ -234,6 +234,16 @@ export function installLightEstimationPolyfill(options = {}) {
       view = null;
       cubeVersion++;
       tellProbes();
+    },
+    /**
+     * Registration (docs/contract.md §13): the rotation from the headset tracker's pose of the
+     * printed marker (an XRRigidTransform, its matrix, a quaternion or 9 numbers: client.js
+     * rotationOf) and the provider's `registration` (the sh9 message's, or its 9-number
+     * rotation): R_world←camera = R_world←marker · R_camera←markerᵀ. markerAxes: the
+     * tracker's marker axes (client.js MARKER_AXES: "aruco", "y-normal", or 9 numbers).
+     */
+    setMarkerPose(worldFromMarker, registration, { markerAxes = "aruco" } = {}) {
+      handle.setRotation(registrationRotation(worldFromMarker, registration, { markerAxes }));
     },
     /** connect to the provider now (e.g. to have lighting before the session starts) */
     connect() { return ensureConnected(); },
