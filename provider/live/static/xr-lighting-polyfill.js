@@ -14,8 +14,21 @@
 //     does not say, the native call is tried first), else (or with `force`) a probe of ours.
 //   XRFrame.prototype.getLightEstimate(probe): for a probe of ours, the provider's newest
 //     lighting as an XRLightEstimate (null until the first arrives), else the native call.
-//   XRWebGLBinding.prototype.getReflectionCubeMap(probe): null for a probe of ours (the provider
-//     has SH9 only, no cube map), else the native call.
+//   XRWebGLBinding.prototype.getReflectionCubeMap(probe): for a probe of ours, a WebGL cube
+//     texture of the binding's context holding the provider's reflection cube (shlight serve
+//     --environment; docs/contract.md §12) turned into the reference space like the SH (null
+//     until the first cube, or where the provider makes none), else the native call. Faces
+//     GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, so textureCube(cube, d) is the radiance toward d
+//     of the reference space; level 0 only (radiance, as the WebXR Lighting Estimation
+//     spec's cube map; the provider's prefiltered mips stay with client-three.js), LINEAR.
+//     Format: RGBA16F (HDR, in the units of the SH) where the context can sample it (WebGL 2;
+//     WebGL 1 with OES_texture_half_float(_linear)); else SRGB8_ALPHA8 (EXT_sRGB), the
+//     spec's "srgba8" (radiance clipped to 1, sRGB-encoded). handle.cubeFormat says which.
+//     Every new cube (and setYaw/setRotation) fires 'reflectionchange' on our probes; three's
+//     XREstimatedLight(renderer, true) then puts the cube into xrLight.environment
+//     (XREstimatedLight.js updateReflection: __webglTexture, needsPMREMUpdate). The binding's
+//     context is recorded at construction: the polyfill replaces the global XRWebGLBinding by
+//     a Proxy of it (instanceof and statics unchanged; handle.XRWebGLBinding is that class).
 //   XRSession.prototype.preferredReflectionFormat: "srgba8" where the browser has none.
 //   navigator.xr.requestSession: "light-estimation" moves from requiredFeatures to
 //     optionalFeatures (dropped with `force`), so that a session that needs it still starts.
@@ -44,7 +57,7 @@
 //
 // Stale lighting: while the provider's source is lost, or the provider is unreachable, the
 // last lighting stays (estimate.shlight.stale is true); one console warning per outage.
-import { connect, rotateCoefficients } from "./client.js";
+import { connect, registrationRotation, resampleCube, rotateCoefficients } from "./client.js";
 
 export const FEATURE = "light-estimation";
 /** The `convention` of the estimates: the webxr export's (three.js's reading). */
@@ -156,6 +169,10 @@ class ShlightLightEstimate {
  *            A-Frame 1.8's reflection component, which sets its probe's intensity to 3.14)
  *   maxHz    cap on lighting messages per second (0: none); onState(state, detail),
  *            onLighting(lighting): as client.js's connect()
+ *   environment  ask the provider for its reflection cube (default true; only where a probe
+ *            makes cubes), for getReflectionCubeMap
+ *   gl       the WebGL context for the cube maps of bindings made before install (else the
+ *            one each XRWebGLBinding was made with)
  *   XRSession, XRFrame, XRWebGLBinding, xr, WebSocket: what to patch / use (default: the
  *            browser's; a stand-in where there is no XR device, as the tests do)
  * Returns a handle: installed, state, stale, latest, connection, estimate(), setYaw(degrees),
@@ -164,7 +181,8 @@ class ShlightLightEstimate {
  */
 export function installLightEstimationPolyfill(options = {}) {
   const opts = { url: null, probe: null, token: null, yaw: 0, rotation: null, force: false,
-                 shScale: 1, maxHz: 0, onState: null, onLighting: null, ...options };
+                 shScale: 1, maxHz: 0, onState: null, onLighting: null, environment: true,
+                 ...options };
   const g = globalThis;
   const SessionClass = "XRSession" in options ? options.XRSession : g.XRSession;
   const FrameClass = "XRFrame" in options ? options.XRFrame : g.XRFrame;
@@ -177,6 +195,9 @@ export function installLightEstimationPolyfill(options = {}) {
   const shScale = checkScale(+opts.shScale);
 
   let conn = null, chosenProbe = opts.probe, view = null, warned = false;
+  let cubeVersion = 0;                      // bumped by each new cube and each new rotation
+  const glOf = new WeakMap();               // binding -> its WebGL context
+  const cubeOf = new WeakMap();             // binding -> { texture, version, format }
   const probes = new Set();                 // our live probes, to tell of new lighting
   const sessionOf = new WeakMap();          // probe -> its session
   const watched = new WeakSet();            // sessions whose "end" we listen to
@@ -194,6 +215,12 @@ export function installLightEstimationPolyfill(options = {}) {
     get latest() { return conn ? conn.latest : null; },
     /** the client.js connection (null until the first probe of ours, or connect()) */
     get connection() { return conn; },
+    /** the newest reflection cube (client.js EnvironmentCube, the provider's frame) or null */
+    get cube() { return conn ? conn.environment : null; },
+    /** "rgba16f" | "srgba8": the format of the last cube handed out (null before) */
+    cubeFormat: null,
+    /** the XRWebGLBinding class whose bindings the polyfill can fill (a Proxy of the browser's) */
+    XRWebGLBinding: null,
     /** the rotation in use (row-major 3×3) or null */
     get rotation() { return rotation ? rotation.slice() : null; },
     /** the estimate getLightEstimate hands out now (in the reference space), or null */
@@ -205,7 +232,18 @@ export function installLightEstimationPolyfill(options = {}) {
     setRotation(R) {
       rotation = checkRotation(R);
       view = null;
+      cubeVersion++;
       tellProbes();
+    },
+    /**
+     * Registration (docs/contract.md §13): the rotation from the headset tracker's pose of the
+     * printed marker (an XRRigidTransform, its matrix, a quaternion or 9 numbers: client.js
+     * rotationOf) and the provider's `registration` (the sh9 message's, or its 9-number
+     * rotation): R_world←camera = R_world←marker · R_camera←markerᵀ. markerAxes: the
+     * tracker's marker axes (client.js MARKER_AXES: "aruco", "y-normal", or 9 numbers).
+     */
+    setMarkerPose(worldFromMarker, registration, { markerAxes = "aruco" } = {}) {
+      handle.setRotation(registrationRotation(worldFromMarker, registration, { markerAxes }));
     },
     /** connect to the provider now (e.g. to have lighting before the session starts) */
     connect() { return ensureConnected(); },
@@ -235,12 +273,14 @@ export function installLightEstimationPolyfill(options = {}) {
     return view;
   }
 
+  function tell(probe) {
+    const ev = new Event("reflectionchange");
+    probe.dispatchEvent(ev);
+    if (typeof probe.onreflectionchange === "function") probe.onreflectionchange(ev);
+  }
+
   function tellProbes() {
-    for (const probe of probes) {
-      const ev = new Event("reflectionchange");
-      probe.dispatchEvent(ev);
-      if (typeof probe.onreflectionchange === "function") probe.onreflectionchange(ev);
-    }
+    for (const probe of probes) tell(probe);
   }
 
   function ensureConnected() {
@@ -249,7 +289,8 @@ export function installLightEstimationPolyfill(options = {}) {
     conn = connect(url, {
       probe: chosenProbe || "*", token: opts.token, maxHz: opts.maxHz,
       ...(opts.WebSocket ? { WebSocket: opts.WebSocket } : {}),
-      subscribe: { to: "webxr" }, decode: decodeEstimate,
+      subscribe: { to: "webxr" }, decode: decodeEstimate, environment: opts.environment,
+      onEnvironment: () => { cubeVersion++; tellProbes(); },
       onMessage: (msg, c) => {
         // No probe named: the provider's first (as /latest.json), not every probe by turns.
         if (msg.type === "hello" && !chosenProbe && Array.isArray(msg.probes) && msg.probes.length) {
@@ -300,6 +341,9 @@ export function installLightEstimationPolyfill(options = {}) {
     const probe = new ShlightLightProbe(space);
     sessionOf.set(probe, session);
     probes.add(probe);
+    // A cube that came before this probe: say so once it is handed out (three.js listens to
+    // 'reflectionchange' only, XREstimatedLight.js:44-50).
+    if (conn.environment) setTimeout(() => { if (probes.has(probe)) tell(probe); }, 0);
     if (!watched.has(session) && typeof session.addEventListener === "function") {
       watched.add(session);
       session.addEventListener("end", () => {
@@ -343,12 +387,37 @@ export function installLightEstimationPolyfill(options = {}) {
   }
   if (typeof BindingClass === "function") {
     // XREstimatedLight(renderer, true) asks for a cube map at each 'reflectionchange'
-    // (XREstimatedLight.js:44-50, 66): none for our probes, so three keeps its own.
+    // (XREstimatedLight.js:44-50, 66): the provider's cube for our probes.
     const nativeCube = BindingClass.prototype.getReflectionCubeMap;
     patch(BindingClass.prototype, "getReflectionCubeMap", function (probe) {
-      if (probe instanceof ShlightLightProbe) return null;
+      if (probe instanceof ShlightLightProbe) return reflectionCubeMap(this);
       return nativeCube.call(this, probe);
     });
+    handle.XRWebGLBinding = new Proxy(BindingClass, {
+      construct(target, args, newTarget) {
+        const binding = Reflect.construct(target, args, newTarget === handle.XRWebGLBinding ? target : newTarget);
+        if (args[1]) glOf.set(binding, args[1]);
+        return binding;
+      },
+    });
+    if (g.XRWebGLBinding === BindingClass) {
+      g.XRWebGLBinding = handle.XRWebGLBinding;
+      restore.push(() => { if (g.XRWebGLBinding === handle.XRWebGLBinding) g.XRWebGLBinding = BindingClass; });
+    }
+  }
+
+  /** The binding's cube texture, filled with the newest cube (in the reference space). */
+  function reflectionCubeMap(binding) {
+    const cube = conn && conn.environment, gl = glOf.get(binding) || opts.gl;
+    if (!cube || !gl) return null;
+    let held = cubeOf.get(binding);
+    if (held && held.version === cubeVersion && held.cube === cube) return held.texture;
+    if (!held) { held = { texture: gl.createTexture(), version: -1, cube: null }; cubeOf.set(binding, held); }
+    const faces = rotation ? resampleCube(cube, cube.size, { rotation: transpose(rotation) }) : cube.floatFaces(0);
+    handle.cubeFormat = uploadCube(gl, held.texture, cube.size, faces);
+    held.version = cubeVersion;
+    held.cube = cube;
+    return held.texture;
   }
   if (xr && typeof xr.requestSession === "function") {
     const nativeSession = xr.requestSession;
@@ -360,6 +429,74 @@ export function installLightEstimationPolyfill(options = {}) {
   }
   handle.installed = true;
   return handle;
+}
+
+function transpose(R) {
+  return [R[0], R[3], R[6], R[1], R[4], R[7], R[2], R[5], R[8]];
+}
+
+/** float32 → IEEE half (uint16), round to nearest even; beyond ±65504: ±65504. */
+function toHalf(v) {
+  const f = new Float32Array(1), u = new Uint32Array(f.buffer);
+  f[0] = Math.max(-65504, Math.min(65504, v));
+  const x = u[0], sign = (x >>> 16) & 0x8000, e = ((x >>> 23) & 0xff) - 127 + 15;
+  let m = x & 0x7fffff;
+  if (e <= 0) {                               // subnormal half (or 0)
+    if (e < -10) return sign;
+    m = (m | 0x800000) >>> (1 - e);
+    return sign | ((m + 0xfff + ((m >>> 13) & 1)) >>> 13);
+  }
+  const h = (e << 10) | (m >>> 13), rest = m & 0x1fff;
+  return sign | (h + (rest > 0x1000 || (rest === 0x1000 && (h & 1)) ? 1 : 0));
+}
+
+/**
+ * Upload a cube's level 0 (6 Float32Array RGBA, face f at TEXTURE_CUBE_MAP_POSITIVE_X + f, row 0
+ * first, no flip) into `texture` of `gl`, leaving the context's bindings and unpack state as
+ * they were (three.js caches them). Returns the format used: "rgba16f" or "srgba8".
+ */
+function uploadCube(gl, texture, n, faces) {
+  const webgl2 = typeof WebGL2RenderingContext !== "undefined" && gl instanceof WebGL2RenderingContext;
+  const half = !webgl2 && gl.getExtension("OES_texture_half_float");
+  if (!webgl2 && half) gl.getExtension("OES_texture_half_float_linear");
+  const srgb = !webgl2 && !half && gl.getExtension("EXT_sRGB");
+  const saved = { binding: gl.getParameter(gl.TEXTURE_BINDING_CUBE_MAP),
+                  flip: gl.getParameter(gl.UNPACK_FLIP_Y_WEBGL), premultiply: gl.getParameter(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL),
+                  alignment: gl.getParameter(gl.UNPACK_ALIGNMENT), colorspace: gl.getParameter(gl.UNPACK_COLORSPACE_CONVERSION_WEBGL) };
+  const buffer = webgl2 && gl.getParameter(gl.PIXEL_UNPACK_BUFFER_BINDING);
+  if (buffer) gl.bindBuffer(gl.PIXEL_UNPACK_BUFFER, null);
+  gl.bindTexture(gl.TEXTURE_CUBE_MAP, texture);
+  gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
+  gl.pixelStorei(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL, false);
+  gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+  gl.pixelStorei(gl.UNPACK_COLORSPACE_CONVERSION_WEBGL, gl.NONE);
+  let format = "rgba16f";
+  for (let f = 0; f < 6; f++) {
+    const target = gl.TEXTURE_CUBE_MAP_POSITIVE_X + f;
+    if (webgl2) {
+      gl.texImage2D(target, 0, gl.RGBA16F, n, n, 0, gl.RGBA, gl.FLOAT, faces[f]);
+    } else if (half) {
+      gl.texImage2D(target, 0, gl.RGBA, n, n, 0, gl.RGBA, half.HALF_FLOAT_OES, Uint16Array.from(faces[f], toHalf));
+    } else {
+      format = "srgba8";
+      const enc = (v) => { v = Math.min(Math.max(v, 0), 1); return Math.round(255 * (v <= 0.0031308 ? 12.92 * v : 1.055 * v ** (1 / 2.4) - 0.055)); };
+      const bytes = Uint8Array.from(faces[f], (v, i) => (i % 4 === 3 ? 255 : enc(v)));
+      const fmt = srgb ? srgb.SRGB_ALPHA_EXT : gl.RGBA;
+      gl.texImage2D(target, 0, fmt, n, n, 0, fmt, gl.UNSIGNED_BYTE, bytes);
+    }
+  }
+  gl.texParameteri(gl.TEXTURE_CUBE_MAP, gl.TEXTURE_MIN_FILTER, gl.LINEAR);
+  gl.texParameteri(gl.TEXTURE_CUBE_MAP, gl.TEXTURE_MAG_FILTER, gl.LINEAR);
+  gl.texParameteri(gl.TEXTURE_CUBE_MAP, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
+  gl.texParameteri(gl.TEXTURE_CUBE_MAP, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+  if (webgl2) gl.texParameteri(gl.TEXTURE_CUBE_MAP, gl.TEXTURE_MAX_LEVEL, 0);
+  gl.bindTexture(gl.TEXTURE_CUBE_MAP, saved.binding);
+  gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, saved.flip);
+  gl.pixelStorei(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL, saved.premultiply);
+  gl.pixelStorei(gl.UNPACK_ALIGNMENT, saved.alignment);
+  gl.pixelStorei(gl.UNPACK_COLORSPACE_CONVERSION_WEBGL, saved.colorspace);
+  if (buffer) gl.bindBuffer(gl.PIXEL_UNPACK_BUFFER, buffer);
+  return format;
 }
 
 /** A session init where "light-estimation" no longer stops the session from starting. */
