@@ -8,8 +8,8 @@ does for SH9 (and decodes frames the same way: :class:`~provider.core.decode.Fra
 1. *work image*: the linear frame area-averaged to a few pixels per base texel (equirect:
    at most 8 pixels per texel side; other projections: the integer downsample the SH9 fast
    path uses), so per-frame work does not grow with the camera's resolution;
-2. *overlap*: a sparse map from work pixels to the base cube (twice the requested size up to
-   32², the size itself beyond): each work pixel is split into sub-pixels with exact solid
+2. *overlap*: a sparse map from work pixels to the base cube (64² for 16² and 32² cubes, 32²
+   for 8², the size itself beyond): each work pixel is split into sub-pixels with exact solid
    angles and sent, with the sensor rotation, to the texels it overlaps. A base texel is the
    solid-angle-weighted mean of the input over its footprint: a 0.5° sun keeps its flux and
    its place. Directions a lens does not see get the projection's fill (a fisheye's
@@ -135,7 +135,9 @@ class EnvironmentProjector(FrameDecoder):
         self.rotation = None if rotation is None else np.asarray(rotation, np.float64)
         self.sizes = cubemap.mip_sizes(self.size)
         self.roughness = [k / (len(self.sizes) - 1) for k in range(len(self.sizes))]
-        self.base = 2 * self.size if self.size <= 32 else self.size
+        # The finest level: 64² for 16² and 32² cubes (the narrow lobe of mip 1 needs it),
+        # 4× the size for 8², the size itself beyond.
+        self.base = min(4 * self.size, 64) if self.size <= 32 else self.size
         self.levels = cubemap.mip_sizes(self.base)
         self._omega = [cubemap.texel_solid_angles(n) for n in self.levels]
         self._work, self._crop = self._work_geometry(full)
