@@ -226,3 +226,138 @@ def test_ktx2_reader_refuses_what_is_not_a_shlight_cube(cube_exe, tmp_path):
         assert rc == 2 and lines and "error" in lines[0], name
         assert len(lines[0]["error"].splitlines()) == 1
         print(f"\n{name}: {lines[0]['error']}")
+
+
+# ---- registration (issue 21.4) -----------------------------------------------------------------
+
+def _unity_matrix(q) -> np.ndarray:
+    """The 3×3 of a Unity quaternion (x, y, z, w) (what Quaternion * Vector3 applies)."""
+    x, y, z, w = np.asarray(q, float) / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def _matrix_to_quaternion(m) -> list[float]:
+    m = np.asarray(m, float)
+    w = math.sqrt(max(0.0, 1 + m[0, 0] + m[1, 1] + m[2, 2])) / 2
+    x = math.copysign(math.sqrt(max(0.0, 1 + m[0, 0] - m[1, 1] - m[2, 2])) / 2, m[2, 1] - m[1, 2])
+    y = math.copysign(math.sqrt(max(0.0, 1 - m[0, 0] + m[1, 1] - m[2, 2])) / 2, m[0, 2] - m[2, 0])
+    z = math.copysign(math.sqrt(max(0.0, 1 - m[0, 0] - m[1, 1] + m[2, 2])) / 2, m[1, 0] - m[0, 1])
+    return [x, y, z, w]
+
+
+def _look_rotation(forward, up) -> np.ndarray:
+    """Unity's Quaternion.LookRotation(forward, up) as a matrix: columns right = Cross(up, forward),
+    up' = Cross(forward, right), forward (Vector3.Cross is the usual formula)."""
+    f = np.asarray(forward, float) / np.linalg.norm(forward)
+    r = np.cross(up, f)
+    r /= np.linalg.norm(r)
+    return np.stack([r, np.cross(f, r), f], 1)
+
+
+def _random_rotation(rng) -> np.ndarray:
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    return q * np.sign(np.linalg.det(q))
+
+
+def _irradiance(matrices, n) -> np.ndarray:
+    m = np.asarray(matrices).reshape(3, 4, 4)
+    nt = np.append(np.asarray(n) / np.linalg.norm(n), 1.0)
+    return np.einsum("i,cij,j->c", nt, m, nt)
+
+
+#: For each marker-axes convention of the tracker's Transform: the local axes of the printed
+#: marker's out-of-face normal and its printed up (Sh9MarkerAxes).
+MARKER_AXES = {0: ((0, 0, -1), (0, 1, 0)), 1: ((0, 1, 0), (0, 0, 1))}
+
+
+def test_registration_lights_the_sphere_from_the_markers_side(registration_exe, tmp_path):
+    """A room lit only from the marker's face as the 360° camera sees it (a cap at R_camera←marker·z)
+    must light a Unity sphere from the marker's face as the headset's tracker sees it, for marker
+    poses built both ways: a Transform rotation given as a Unity quaternion (the face normal is then
+    rotation · the convention's local normal), and one built with Quaternion.LookRotation from the
+    marker's physical normal and up in Unity's world. Both Sh9MarkerAxes conventions; the message goes
+    through the client's parser; the composition allocates nothing; the cube turns the same way."""
+    from provider import compute_sh9
+    from provider.core.environment import compute_environment  # noqa: F401 (the cube: via the file)
+    rng = np.random.default_rng(21)
+    r_cm = _random_rotation(rng)                       # R_camera←marker (wire, columns = marker axes)
+    p_cm = r_cm @ np.array([0.0, 0.0, 1.3])            # 1.3 m in front of the marker
+    face_in_camera = r_cm[:, 2]
+    up_in_camera = r_cm[:, 1]
+    pano = _panorama(tmp_path / "pano.pfm", [(face_in_camera, 0.95, (30.0, 30.0, 30.0)),
+                                             (up_in_camera, 0.97, (0.0, 0.0, 12.0))], floor=0.05)
+    coefficients = compute_sh9(str(pano)).coefficients
+    message = {"type": "sh9", "version": 1, "probe": "default", "seq": 1, "time": 0, "frame": "rh-y-up",
+               "coefficients": np.asarray(coefficients).reshape(-1).tolist(),
+               "registration": {"marker": "aruco:DICT_4X4_50", "marker_id": "7",
+                                "rotation": r_cm.reshape(-1).tolist(), "position": p_cm.tolist(),
+                                "age_s": 0.2, "error_deg": 0.3, "error_px": 0.5, "frames": 3,
+                                "spread_deg": 0.1, "levelled": False}}
+    cases, expect = [], []
+    for axes, (local_normal, local_up) in MARKER_AXES.items():
+        for _ in range(3):                                         # as a quaternion
+            q = rng.normal(size=4)
+            q /= np.linalg.norm(q)
+            rot = _unity_matrix(q)
+            cases.append({"q": q.tolist(), "p": rng.normal(size=3).tolist(), "axes": axes})
+            expect.append((rot @ local_normal, rot @ local_up))
+        for _ in range(3):                                         # LookRotation from the physical axes
+            normal, up = _random_rotation(rng)[:, :2].T
+            if axes == 0:
+                rot = _look_rotation(-normal, up)                  # the quad looks along −normal... its +Z
+            else:
+                rot = _look_rotation(up, normal)                   # +Z = printed up, +Y = normal
+            q = _matrix_to_quaternion(rot)
+            assert np.allclose(_unity_matrix(q), rot)
+            cases.append({"q": q, "p": [0.5, 1.0, 2.0], "axes": axes})
+            expect.append((normal, up))
+    job = tmp_path / "job.json"
+    job.write_text(json.dumps({"message": json.dumps(message), "cases": cases}))
+    ktx = _environment(pano, tmp_path / "cube.ktx2", 32)
+    rc, lines = _run(registration_exe, job, ktx, tmp_path / "unity.bin")
+    assert rc == 0 and len(lines) == len(cases), lines
+    from provider.core import sh
+    normals = sh.fibonacci_sphere(2000)
+    for case, out, (normal, up) in zip(cases, lines, expect):
+        assert out["alloc_bytes"] == 0
+        e = np.array([_irradiance(out["matrices"], n) for n in normals])
+        brightest = normals[np.argmax(e[:, 0])]
+        angle = math.degrees(math.acos(np.clip(brightest @ normal, -1, 1)))
+        assert angle < 8, (case, angle)
+        front, back = _irradiance(out["matrices"], normal), _irradiance(out["matrices"], -normal)
+        assert front[0] > 4 * back[0], (front, back)
+        # the blue cap at the printed up: blue exceeds red more toward up than toward down
+        toward_up, toward_down = _irradiance(out["matrices"], up), _irradiance(out["matrices"], -up)
+        assert toward_up[2] - toward_up[0] > 3 * abs(toward_down[2] - toward_down[0]) + 0.01
+        # where the camera is: the marker seen from there, in the probe's frame, is S·p_camera
+        rot_u = np.array(out["rotation"]).reshape(3, 3)
+        assert np.allclose(rot_u, _unity_matrix(out["quaternion"]), atol=1e-9)
+        seen = rot_u.T @ (np.array(case["p"]) - np.array(out["camera"]))
+        assert np.allclose(seen, S3 @ p_cm, atol=1e-9)
+    # the cube of the first case, turned by the same rotation: bright toward the marker's face
+    levels = read_unity_cube(tmp_path / "unity.bin", 64)
+    d = texel_directions(64).reshape(-1, 3)
+    from provider.core.cubemap import texel_solid_angles
+    inside = (levels[0][..., 0].reshape(-1) > 15) * texel_solid_angles(64).reshape(-1)   # the white cap
+    centroid = (d * inside[:, None]).sum(0)
+    centroid /= np.linalg.norm(centroid)
+    angle = math.degrees(math.acos(np.clip(centroid @ expect[0][0], -1, 1)))
+    print(f"\nregistration: {len(cases)} marker poses lit from the marker's side; cube's bright cap "
+          f"{angle:.2f}° from the marker's face normal")
+    assert angle < 1
+
+
+def test_registration_that_is_not_a_rotation_is_refused(registration_exe, tmp_path):
+    """A registration whose rotation is a mirror or not orthonormal: the message is refused with a
+    reason (the lighting is never turned by a made-up pose)."""
+    base = {"type": "sh9", "version": 1, "coefficients": [0.1] * 27,
+            "registration": {"marker_id": "7", "position": [0, 0, 1]}}
+    for rotation, says in (([1, 0, 0, 0, 1, 0, 0, 0, -1], "reflection"), ([1, 0, 0, 0, 2, 0, 0, 0, 1], "not a rotation"),
+                           ([1, 0, 0], "9 numbers")):
+        base["registration"]["rotation"] = rotation
+        job = tmp_path / "job.json"
+        job.write_text(json.dumps({"message": json.dumps(base), "cases": []}))
+        rc, lines = _run(registration_exe, job)
+        assert rc == 2 and says in lines[0]["error"], lines

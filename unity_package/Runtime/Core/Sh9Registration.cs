@@ -108,7 +108,8 @@ namespace Shlight.Lighting
                                          double[] scratch)
         {
             double[] s = scratch;                       // [0..8] R(Q), [9..17] C, [18..26] R_world←marker
-            Sh9Math.QuaternionToMatrix(qx, qy, qz, qw, s);
+            Sh9Math.QuaternionToMatrix(qx, qy, qz, qw, unityRotation);
+            Array.Copy(unityRotation, 0, s, 0, 9);
             MarkerAxesInLocal(axes, unityRotation);     // C, kept in scratch[9..17]
             Array.Copy(unityRotation, 0, s, 9, 9);
             // R_world←marker = S·R(Q)·C (S negates row 2)
