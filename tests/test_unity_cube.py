@@ -361,3 +361,67 @@ def test_registration_that_is_not_a_rotation_is_refused(registration_exe, tmp_pa
         job.write_text(json.dumps({"message": json.dumps(base), "cases": []}))
         rc, lines = _run(registration_exe, job)
         assert rc == 2 and says in lines[0]["error"], lines
+
+
+# ---- the components against a live `shlight serve --environment` -------------------------------------
+
+@pytest.fixture(scope="module")
+def reflections_exe(tmp_path_factory):
+    from test_unity import RUNTIME, STANDIN
+    return _compile(tmp_path_factory.mktemp("refl") / "ReflectionsClient.exe",
+                    [*CORE, *RUNTIME, STANDIN, CSHARP / "ReflectionsClient.cs"])
+
+
+def test_components_compile_for_unity_2022_and_later(tmp_path):
+    """With UNITY_2022_1_OR_NEWER the component sets RenderSettings.customReflectionTexture (2022.1
+    made customReflection an obsolete wrapper): both branches compile against the stand-in."""
+    from test_unity import RUNTIME, STANDIN
+    mcs, _ = _mono_tools()
+    r = subprocess.run([mcs, "-nologo", "-warnaserror+", "-define:UNITY_2022_1_OR_NEWER", "-target:library",
+                        f"-out:{tmp_path / 'r.dll'}", *map(str, [*CORE, *RUNTIME, STANDIN])],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
+@pytest.mark.parametrize("target", ["render-settings", "reflection-probe", "registered"])
+def test_live_reflections_from_shlight_serve(reflections_exe, cube_exe, tmp_path, target):
+    """SH9LightingClient + SH9Reflections (+ SH9MarkerRegistration) in the stand-in's player loop
+    against `shlight serve --environment` over a real WebSocket: the cube arrives (the environment
+    subscription and its binary KTX2 frame), is baked and uploaded into one RGBAHalf Cubemap of 7 levels
+    whose texels equal an offline bake of the server's /environment.ktx2 (turned by the registration's
+    rotation when registered), is given to Unity (RenderSettings Custom, or the probe in Custom mode) and
+    taken back on disable; and the Updates allocate nothing in steady frames, upload frames included."""
+    import urllib.request
+    from servertools import ServeProcess
+    image = _panorama(tmp_path / "room.pfm", [((1, 0.2, -0.3), 0.9, (20.0, 15.0, 8.0))], w=256, h=128)
+    args = [] if target == "render-settings" else ["--probe"] if target == "reflection-probe" else []
+    registration = None
+    if target == "registered":
+        rng = np.random.default_rng(3)
+        registration = (_random_rotation(rng), np.array([0.1, -0.2, 1.2]))
+        args.append("--registration=" + ",".join(repr(float(v)) for v in
+                                                 [*registration[0].reshape(-1), *registration[1]]))
+    with ServeProcess("--source", str(image), "--environment", "--environment-size", "32", "--fps", "10",
+                      "--change-threshold", "0", "--environment-hz", "4") as server:
+        _, mono = _mono_tools()
+        r = subprocess.run([mono, str(reflections_exe), server.url, "6", str(tmp_path / "unity.bin"), *args],
+                           capture_output=True, text=True, timeout=120)
+        assert r.returncode == 0, r.stderr[-3000:]
+        ex = json.loads(r.stdout.strip().splitlines()[-1])
+        with urllib.request.urlopen(f"{server.http}/environment.ktx2?probe=default", timeout=10) as resp:
+            (tmp_path / "served.ktx2").write_bytes(resp.read())
+    print(f"\n{target}: {ex}")
+    assert ex["size"] == 64 and ex["mips"] == 7 and ex["format"] == "RGBAHalf" and ex["filter"] == "Trilinear"
+    assert ex["uploads"] >= 2 and ex["assigned"] and ex["restored"]
+    assert ex["steady_frames"] >= 100 and ex["upload_frames"] >= 1, ex
+    assert ex["steady_alloc_bytes"] == 0, ex
+    rotation = None
+    if registration is not None:
+        q = ex["probe_rotation"]
+        rotation = _unity_matrix(q)
+    meta, want = bake(cube_exe, tmp_path / "served.ktx2", tmp_path / "offline.bin", rotation)
+    got = read_unity_cube(tmp_path / "unity.bin", 64)
+    tol = 0 if rotation is None else 2 ** -9          # the float quaternion the transform holds
+    for m in range(LEVELS):
+        scale = np.abs(want[m]).max()
+        assert np.abs(got[m] - want[m]).max() <= tol * scale, m
