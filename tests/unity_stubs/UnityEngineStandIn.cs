@@ -335,6 +335,109 @@ namespace UnityEngine
         public static Rendering.AmbientMode ambientMode { get { return mode; } set { mode = value; } }
         public static Rendering.SphericalHarmonicsL2 ambientProbe { get { return probe; } set { probe = value; } }
         public static Light sun { get { return sunLight; } set { sunLight = value; } }
+
+        // Reflections. 2020.3 declares `Cubemap customReflection`; 2021 made it a Texture; 2022.1 added
+        // `Texture customReflectionTexture` and made customReflection an obsolete Cubemap wrapper around it
+        // (UnityCsReference, Runtime/Export/Graphics/GraphicsManagers.bindings.cs at 2020.3.0f1, 2021.3.0f1,
+        // 2022.1.0a10). Both are here: the package is compiled with and without UNITY_2022_1_OR_NEWER.
+        static Rendering.DefaultReflectionMode reflectionMode = Rendering.DefaultReflectionMode.Skybox;
+        static Texture customTexture;
+        static float reflectionIntensityValue = 1f;
+        public static Rendering.DefaultReflectionMode defaultReflectionMode { get { return reflectionMode; } set { reflectionMode = value; } }
+        public static Cubemap customReflection { get { return customTexture as Cubemap; } set { customTexture = value; } }
+        public static Texture customReflectionTexture { get { return customTexture; } set { customTexture = value; } }
+        public static float reflectionIntensity { get { return reflectionIntensityValue; } set { reflectionIntensityValue = value; } }
+    }
+
+    public enum FilterMode { Point = 0, Bilinear = 1, Trilinear = 2 }
+    public enum TextureWrapMode { Repeat = 0, Clamp = 1, Mirror = 2, MirrorOnce = 3 }
+    public enum TextureFormat { Alpha8 = 1, RGB24 = 3, RGBA32 = 4, ARGB32 = 5, RHalf = 15, RGHalf = 16, RGBAHalf = 17, RFloat = 18, RGBAFloat = 20 }
+    public enum CubemapFace { Unknown = -1, PositiveX = 0, NegativeX = 1, PositiveY = 2, NegativeY = 3, PositiveZ = 4, NegativeZ = 5 }
+
+    public class Texture : Object
+    {
+        FilterMode filter = FilterMode.Bilinear;
+        TextureWrapMode wrap = TextureWrapMode.Repeat;
+        public virtual int width { get { return 0; } set { throw new NotSupportedException(); } }
+        public virtual int mipmapCount { get { return 1; } }
+        public virtual bool isReadable { get { return true; } }
+        public FilterMode filterMode { get { return filter; } set { filter = value; } }
+        public TextureWrapMode wrapMode { get { return wrap; } set { wrap = value; } }
+    }
+
+    public sealed class Cubemap : Texture
+    {
+        readonly int size, mips;
+        readonly TextureFormat textureFormat;
+        readonly ushort[][] halves;   // [level * 6 + face]: RGBAHalf texels, 4 halves each (the only format modelled)
+        bool readable = true;
+        /// <summary>Stand-in only: Apply calls so far.</summary>
+        public int StandInApplies;
+
+        // Cubemap(int width, TextureFormat format, int mipCount): UnityCsReference 2020.3, Texture.cs
+        public Cubemap(int width, TextureFormat format, int mipCount)
+        {
+            if (format != TextureFormat.RGBAHalf) throw new NotSupportedException("the stand-in models RGBAHalf cube maps only");
+            int full = 0;
+            for (int n = width; n >= 1; n >>= 1) full++;
+            if (width <= 0 || mipCount < 1 || mipCount > full) throw new UnityException("Failed to create texture because of invalid parameters.");
+            size = width; mips = mipCount; textureFormat = format;
+            halves = new ushort[mips * 6][];
+            for (int m = 0; m < mips; m++)
+                for (int f = 0; f < 6; f++)
+                {
+                    int n = Math.Max(1, width >> m);
+                    halves[m * 6 + f] = new ushort[4 * n * n];
+                }
+        }
+
+        public override int width { get { return size; } set { throw new NotSupportedException(); } }
+        public int height { get { return size; } }
+        public override int mipmapCount { get { return mips; } }
+        public override bool isReadable { get { return readable; } }
+        public TextureFormat format { get { return textureFormat; } }
+
+        // Unity's GetPixelData returns a view of the texture's CPU copy (no managed allocation).
+        public Unity.Collections.NativeArray<T> GetPixelData<T>(int mipLevel, CubemapFace face) where T : struct
+        {
+            if (!readable) throw new UnityException("Texture is not readable");
+            if (mipLevel < 0 || mipLevel >= mips || face < CubemapFace.PositiveX || face > CubemapFace.NegativeZ)
+                throw new ArgumentException("invalid mip level or face");
+            var data = halves[mipLevel * 6 + (int)face] as T[];
+            if (data == null) throw new ArgumentException("the stand-in's RGBAHalf data is read as ushort");
+            return new Unity.Collections.NativeArray<T>(data);
+        }
+
+        // As in UnityCsReference 2020.3 (Texture.cs:840-847): Marshal.SizeOf(data[0]) boxes an element, so
+        // this overload allocates on every call (the package uses GetPixelData instead).
+        public void SetPixelData<T>(T[] data, int mipLevel, CubemapFace face, int sourceDataStartIndex = 0)
+        {
+            if (data == null || data.Length == 0) throw new UnityException("No texture data provided to SetPixelData.");
+            int elementSize = System.Runtime.InteropServices.Marshal.SizeOf(data[0]);
+            var dst = halves[mipLevel * 6 + (int)face];
+            if (elementSize != 2 || data.Length - sourceDataStartIndex < dst.Length) throw new UnityException("SetPixelData: wrong size");
+            Array.Copy(data, sourceDataStartIndex, dst, 0, dst.Length);
+        }
+
+        public void Apply(bool updateMipmaps, bool makeNoLongerReadable)
+        {
+            if (!readable) throw new UnityException("Texture is not readable");
+            StandInApplies++;
+            if (makeNoLongerReadable) readable = false;
+        }
+
+        /// <summary>Stand-in only: the texels of a level and face (RGBA halves, rows top first).</summary>
+        public ushort[] StandInTexels(int mipLevel, CubemapFace face) { return halves[mipLevel * 6 + (int)face]; }
+    }
+
+    public class UnityException : Exception { public UnityException(string message) : base(message) { } }
+
+    public sealed class ReflectionProbe : Behaviour
+    {
+        Rendering.ReflectionProbeMode probeMode = Rendering.ReflectionProbeMode.Baked;
+        Texture customTexture;
+        public Rendering.ReflectionProbeMode mode { get { return probeMode; } set { probeMode = value; } }
+        public Texture customBakedTexture { get { return customTexture; } set { customTexture = value; } }
     }
 
     public enum TextAnchor
@@ -508,6 +611,10 @@ namespace UnityEngine
     public sealed class AddComponentMenu : Attribute { public AddComponentMenu(string menuName) { } }
     [AttributeUsage(AttributeTargets.Class, Inherited = false)]
     public sealed class DisallowMultipleComponent : Attribute { }
+    [AttributeUsage(AttributeTargets.Class, AllowMultiple = true)]
+    public sealed class RequireComponent : Attribute { public RequireComponent(Type requiredComponent) { } }
+    [AttributeUsage(AttributeTargets.Class)]
+    public class DefaultExecutionOrder : Attribute { public DefaultExecutionOrder(int order) { } }
     [AttributeUsage(AttributeTargets.Class, AllowMultiple = false)]
     public sealed class HelpURLAttribute : Attribute { public HelpURLAttribute(string url) { } }
 }
@@ -515,6 +622,10 @@ namespace UnityEngine
 namespace UnityEngine.Rendering
 {
     public enum AmbientMode { Skybox = 0, Trilight = 1, Flat = 3, Custom = 4 }
+
+    public enum DefaultReflectionMode { Skybox = 0, Custom = 1 }
+
+    public enum ReflectionProbeMode { Baked = 0, Realtime = 1, Custom = 2 }
 
     public enum LightProbeUsage { Off = 0, BlendProbes = 1, UseProxyVolume = 2, CustomProvided = 4 }
 
@@ -569,6 +680,29 @@ namespace UnityEngine.Rendering
             if (rgb < 0 || rgb > 2 || coefficient < 0 || coefficient > 8)
                 throw new IndexOutOfRangeException("Invalid index!");
             return rgb * 9 + coefficient;
+        }
+    }
+}
+
+namespace Unity.Collections
+{
+    // A view of native memory in Unity; here a view of a managed array (what Cubemap.GetPixelData hands out).
+    public struct NativeArray<T> where T : struct
+    {
+        readonly T[] buffer;
+        internal NativeArray(T[] buffer) { this.buffer = buffer; }
+        public int Length { get { return buffer == null ? 0 : buffer.Length; } }
+        public bool IsCreated { get { return buffer != null; } }
+        public T this[int index] { get { return buffer[index]; } set { buffer[index] = value; } }
+
+        // NativeArray<T>.Copy(T[] src, int srcIndex, NativeArray<T> dst, int dstIndex, int length):
+        // UnityCsReference 2020.3, Runtime/Export/NativeArray/NativeArray.cs:462 (pins src, MemCpy).
+        public static void Copy(T[] src, int srcIndex, NativeArray<T> dst, int dstIndex, int length)
+        {
+            if (src == null) throw new ArgumentNullException("src");
+            if (length < 0 || srcIndex < 0 || srcIndex + length > src.Length || dstIndex < 0 || dstIndex + length > dst.Length)
+                throw new ArgumentOutOfRangeException("length", "copy out of range");
+            Array.Copy(src, srcIndex, dst.buffer, dstIndex, length);
         }
     }
 }

@@ -65,7 +65,8 @@ namespace Shlight.Lighting
         Sh9Client client;
         // the settings the running client was made with (compared field by field: no garbage per frame)
         string usedUrl, usedToken, usedProbe;
-        bool usedTokenInQuery;
+        bool usedTokenInQuery, usedEnvironment;
+        bool receiveEnvironment;
         float usedMaxHz, usedStaleAfter;
         readonly ConcurrentQueue<string> logQueue = new ConcurrentQueue<string>();
         readonly Sh9LightingValues values = new Sh9LightingValues();
@@ -125,6 +126,14 @@ namespace Shlight.Lighting
         public bool DriveAmbientProbe { get { return driveAmbientProbe; } set { driveAmbientProbe = value; } }
         /// <summary>The Directional Light driven from the server's first light (null: none).</summary>
         public Light DirectionalLight { get { return directionalLight; } set { directionalLight = value; } }
+        /// <summary>Also receive the reflection cube (set by SH9Reflections; changing it reconnects).</summary>
+        public bool ReceiveEnvironment { get { return receiveEnvironment; } set { receiveEnvironment = value; } }
+        /// <summary>The newest reflection cube received (null until the first, or without ReceiveEnvironment).</summary>
+        public Sh9EnvironmentSnapshot LatestEnvironment { get { return client == null ? null : client.LatestEnvironment; } }
+        /// <summary>The orientation the lighting is turned by: this transform's rotation (Follow Transform
+        /// Rotation) or identity. SH9Reflections bakes the cube with the same one.</summary>
+        public Quaternion ProbeRotation { get { return followTransformRotation ? transform.rotation : Quaternion.identity; } }
+        public bool FollowTransformRotation { get { return followTransformRotation; } set { followTransformRotation = value; } }
         /// <summary>True while <see cref="DirectionalLight"/> shows a light the server split off.</summary>
         public bool LightActive { get { return lightDriven; } }
 
@@ -174,7 +183,7 @@ namespace Shlight.Lighting
         {
             Disconnect();
             usedUrl = serverUrl; usedToken = token; usedTokenInQuery = tokenInQuery; usedProbe = probe;
-            usedMaxHz = maxHz; usedStaleAfter = staleAfterSeconds;
+            usedMaxHz = maxHz; usedStaleAfter = staleAfterSeconds; usedEnvironment = receiveEnvironment;
             appliedVersion = -1; // versions restart with each client
             try
             {
@@ -186,6 +195,7 @@ namespace Shlight.Lighting
                     Probe = probe,
                     MaxHz = maxHz,
                     StaleAfterSeconds = staleAfterSeconds,
+                    Environment = receiveEnvironment,
                 });
             }
             catch (ArgumentException e)
@@ -208,7 +218,8 @@ namespace Shlight.Lighting
         bool SettingsChanged()
         {
             return usedUrl != serverUrl || usedToken != token || usedTokenInQuery != tokenInQuery ||
-                   usedProbe != probe || usedMaxHz != maxHz || usedStaleAfter != staleAfterSeconds;
+                   usedProbe != probe || usedMaxHz != maxHz || usedStaleAfter != staleAfterSeconds ||
+                   usedEnvironment != receiveEnvironment;
         }
 
         static Sh9LightColorSpace CurrentLightColorSpace()
@@ -227,7 +238,7 @@ namespace Shlight.Lighting
                 if (logToConsole) Debug.Log("[SH9] " + line, this);
 
             Sh9Snapshot snap = client == null ? null : client.Latest;
-            Quaternion rotation = followTransformRotation ? transform.rotation : Quaternion.identity;
+            Quaternion rotation = ProbeRotation;
             Light light = UsableLight();
             Sh9LightColorSpace colorSpace = CurrentLightColorSpace();
             if (snap != null)

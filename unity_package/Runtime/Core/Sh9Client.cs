@@ -53,11 +53,14 @@ namespace Shlight.Lighting
         /// connection); 0 disables it.</summary>
         public double ReceiveTimeoutSeconds = 30;
         public int MaxMessageBytes = 1 << 20;
+        /// <summary>Also subscribe to the reflection cube (docs/contract.md §12): <see cref="Sh9Client.LatestEnvironment"/>.
+        /// Messages up to <see cref="Sh9Client.EnvironmentMaxBytes"/> are then accepted (a 256² cube is 4.2 MB).</summary>
+        public bool Environment;
 
         public Sh9ClientOptions Clone() { return (Sh9ClientOptions)MemberwiseClone(); }
     }
 
-    public sealed class Sh9Client : IDisposable
+    public sealed partial class Sh9Client : IDisposable
     {
         readonly Sh9ClientOptions options;
         readonly object gate = new object();
@@ -333,7 +336,8 @@ namespace Shlight.Lighting
                     Emit("connected to " + Uri.GetLeftPart(UriPartial.Path));
                     if (!string.IsNullOrEmpty(options.Probe) || options.MaxHz > 0)
                         await SendTextAsync(ws, Sh9Protocol.SubscribeMessage(
-                            string.IsNullOrEmpty(options.Probe) ? "default" : options.Probe, options.MaxHz), ct)
+                            string.IsNullOrEmpty(options.Probe) ? "default" : options.Probe, options.MaxHz,
+                            options.Environment), ct)
                             .ConfigureAwait(false);
                     gotData = await ReceiveLoopAsync(ws, ct).ConfigureAwait(false);
                 }
@@ -549,9 +553,14 @@ namespace Shlight.Lighting
                             return gotData;
                         }
                         message.Write(buffer, 0, r.Count);
-                        if (message.Length > options.MaxMessageBytes)
-                            throw new InvalidDataException("message larger than " + options.MaxMessageBytes + " bytes");
+                        if (message.Length > MessageLimit)
+                            throw new InvalidDataException("message larger than " + MessageLimit + " bytes");
                     } while (!r.EndOfMessage);
+                    if (r.MessageType == WebSocketMessageType.Binary)
+                    {
+                        HandleBinary(message.GetBuffer(), (int)message.Length);
+                        continue;
+                    }
                     if (r.MessageType != WebSocketMessageType.Text) continue;
                     string text = Encoding.UTF8.GetString(message.GetBuffer(), 0, (int)message.Length);
                     if (Handle(text)) gotData = true;
@@ -604,6 +613,9 @@ namespace Shlight.Lighting
                     return false;
                 case Sh9MessageKind.Error:
                     SetError("server error: " + parsed.Error);
+                    return false;
+                case Sh9MessageKind.Environment:
+                    pendingEnvironment = parsed.Environment;   // its KTX2 comes as the next (binary) frame
                     return false;
                 case Sh9MessageKind.Sh9:
                     if (!string.IsNullOrEmpty(options.Probe) && parsed.Sh9.Probe != options.Probe)

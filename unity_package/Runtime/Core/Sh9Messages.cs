@@ -5,7 +5,7 @@ using System.Collections.Generic;
 
 namespace Shlight.Lighting
 {
-    public enum Sh9MessageKind { Sh9, Hello, Error, Unknown }
+    public enum Sh9MessageKind { Sh9, Hello, Error, Unknown, Environment }
 
     /// <summary>One "sh9" coefficient message, exactly as sent (right-handed, +Y-up frame).</summary>
     public sealed class Sh9Message
@@ -54,6 +54,9 @@ namespace Shlight.Lighting
         public bool HasLightSplit { get { return Lights > 0 && AmbientMatrices != null; } }
 
         internal static readonly double[] EmptyNumbers = new double[0];
+        /// <summary>The marker registration of docs/contract.md §13 (null until the server knows it).</summary>
+        public Sh9Registration Registration;
+
         /// <summary>Every field of the message as parsed (numbers are double, arrays List&lt;object&gt;).</summary>
         public Dictionary<string, object> Fields;
     }
@@ -65,6 +68,14 @@ namespace Shlight.Lighting
         public string Provider;
         public string Frame;
         public string[] Probes;
+    }
+
+    /// <summary>The JSON half of a cube update (docs/contract.md §12, Transport).</summary>
+    public sealed class Sh9EnvironmentAnnouncement
+    {
+        public string Probe, Encoding, Frame;
+        public long Seq, Sh9Seq, ByteLength;
+        public int Size;
     }
 
     /// <summary>An "error" message (bad token, unknown probe, ...).</summary>
@@ -86,6 +97,9 @@ namespace Shlight.Lighting
         public Sh9Message Sh9;
         public Sh9Hello Hello;
         public Sh9Error Error;
+        /// <summary>An "environment" message: a binary frame of <see cref="Sh9EnvironmentAnnouncement.ByteLength"/>
+        /// bytes (the KTX2 cube) follows at once.</summary>
+        public Sh9EnvironmentAnnouncement Environment;
         /// <summary>The "type" field for Unknown messages.</summary>
         public string Type;
     }
@@ -122,6 +136,19 @@ namespace Shlight.Lighting
                         Detail = GetString(obj, "detail", "")
                     };
                     break;
+                case "environment":
+                    result.Kind = Sh9MessageKind.Environment;
+                    result.Environment = new Sh9EnvironmentAnnouncement
+                    {
+                        Probe = GetString(obj, "probe", "default"),
+                        Seq = (long)GetNumber(obj, "seq", -1),
+                        Sh9Seq = (long)GetNumber(obj, "sh9_seq", -1),
+                        Size = (int)GetNumber(obj, "size", 0),
+                        ByteLength = (long)GetNumber(obj, "byte_length", -1),
+                        Encoding = GetString(obj, "encoding", "ktx2"),
+                        Frame = GetString(obj, "frame", Sh9Message.WireFrame),
+                    };
+                    break;
                 default:
                     result.Kind = Sh9MessageKind.Unknown;
                     break;
@@ -156,6 +183,7 @@ namespace Shlight.Lighting
                 m.MatricesDerived = true;
             }
             ParseLights(obj, m);
+            m.Registration = Sh9Registration.Parse(obj);
             return m;
         }
 
@@ -234,8 +262,16 @@ namespace Shlight.Lighting
         /// <summary>The subscribe request: {"type":"subscribe","probe":...,"max_hz":...}.</summary>
         public static string SubscribeMessage(string probe, double maxHz)
         {
+            return SubscribeMessage(probe, maxHz, false);
+        }
+
+        /// <summary>The subscribe request; with <paramref name="environment"/> also "environment": true
+        /// (docs/contract.md §12: the reflection cube as an "environment" message and a binary KTX2 frame).</summary>
+        public static string SubscribeMessage(string probe, double maxHz, bool environment)
+        {
             string text = "{\"type\":\"subscribe\",\"probe\":" + MiniJson.Quote(probe ?? "default");
             if (maxHz > 0) text += ",\"max_hz\":" + MiniJson.Number(maxHz);
+            if (environment) text += ",\"environment\":true";
             return text + "}";
         }
 
