@@ -181,3 +181,14 @@ def test_light_probe_projections_make_the_same_cube(projection):
     got = compute_environment(frame, size=16, projection=projection)
     for x, y in zip(got.mips, want.mips):
         assert rel_rms(x, y) < 0.03
+
+
+@pytest.mark.parametrize("projection,w,h", [("equirect", 1920, 960), ("dual-fisheye", 1280, 720)])
+def test_8bit_frames_decoded_band_by_band_equal_the_whole_frame(projection, w, h):
+    """The integer path linearises and shrinks the frame in bands; the result is that of
+    the whole decoded frame."""
+    frame = np.random.default_rng(1).integers(0, 256, (h, w, 3), dtype=np.uint8)
+    proj = EnvironmentProjector(w, h, projection, size=8)
+    whole = proj.project_linear(proj.decode(proj._prepare(frame), {}))
+    for x, y in zip(proj.project(frame).mips, whole.mips):
+        np.testing.assert_allclose(x, y, rtol=1e-6)

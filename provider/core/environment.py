@@ -54,7 +54,7 @@ SUBPIXELS = 4
 #: Largest pyramid level the prefilter reads, and largest face it evaluates directly.
 PREFILTER_MAX_SOURCE, PREFILTER_MAX_FACE = 64, 32
 #: Work pixels whose light above the rest is prefiltered exactly (a sun, a lamp).
-BRIGHT_PIXELS = 256
+BRIGHT_PIXELS = 64
 
 
 @dataclass
@@ -168,9 +168,8 @@ class EnvironmentProjector(FrameDecoder):
         except (NotImplementedError, ProjectionError):
             return full, None
 
-    def _subpixel_samples(self, p: Projection):
+    def _subpixel_samples(self, p: Projection, q: int = SUBPIXELS):
         """Directions (P, 3), solid angles (P,) and pixel index (P,) of q×q sub-pixels."""
-        q = SUBPIXELS
         if isinstance(p, Equirect):   # exact: φ uniform, ∫ sin θ dθ per sub-row
             cols = (np.arange(p.width * q) + 0.5) / (p.width * q)
             edges = np.linspace(0, math.pi, p.height * q + 1)
@@ -208,13 +207,19 @@ class EnvironmentProjector(FrameDecoder):
         return d.reshape(-1, 3)[keep], w.reshape(-1)[keep], pix.reshape(-1)[keep]
 
     def _build_overlap(self, p: Projection) -> None:
-        d, w, pix = self._subpixel_samples(p)
-        if self.rotation is not None:
-            d = d @ self.rotation.T
         n = self.base
-        face, i, j, _, _ = cubemap.direction_to_texel(d, n)
-        texel = cubemap.flat_index(face, i, j, n)
         ntex = 6 * n * n
+        q = SUBPIXELS
+        while True:     # a frame coarser than the base cube: finer sub-pixels reach every texel
+            d, w, pix = self._subpixel_samples(p, q)
+            if self.rotation is not None:
+                d = d @ self.rotation.T
+            face, i, j, _, _ = cubemap.direction_to_texel(d, n)
+            texel = cubemap.flat_index(face, i, j, n)
+            seen = np.bincount(texel, minlength=ntex) > 0
+            if seen.all() or q >= 4 * SUBPIXELS or w.sum() < 4 * math.pi * 0.999:
+                break
+            q *= 2
         key = pix.astype(np.int64) * ntex + texel
         uniq, inv = np.unique(key, return_inverse=True)
         weight = np.bincount(inv, weights=w)
@@ -303,9 +308,11 @@ class EnvironmentProjector(FrameDecoder):
         frame = self._prepare(frame)
         k = exposure_scale(exposure_s, gain, stats)
         integer = frame.dtype in (np.uint8, np.uint16)
-        lin = self.decode(frame, stats)
         scale = (1.0 if integer else self.exposure) * (1.0 if k is None else k)
-        result = self.project_linear(lin, scale)
+        if integer and self._crop is not None:   # decode and shrink band by band, in cache
+            result = self._project_work(self._decode_work(frame), scale)
+        else:
+            result = self.project_linear(self.decode(frame, stats), scale)
         stats["radiometry"] = self.radiometry if integer else "linear"
         stats["coverage_sr"] = self.coverage
         stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
@@ -319,6 +326,22 @@ class EnvironmentProjector(FrameDecoder):
             cw, ch = self._crop
             lin = cv2.resize(lin[:ch, :cw], (self._work.width, self._work.height),
                              interpolation=cv2.INTER_AREA)
+        return self._project_work(lin, scale)
+
+    def _decode_work(self, frame: np.ndarray) -> np.ndarray:
+        """The work image of an integer frame: linearised and area-averaged band by band
+        (each band's float copy stays in cache; the same numbers as the whole frame)."""
+        cw, ch = self._crop
+        f = ch // self._work.height
+        rows = max(1, 32 // f) * f
+        out = np.empty((self._work.height, self._work.width, 3), np.float32)
+        for r0 in range(0, ch, rows):
+            band = self._linearise(frame[r0:min(r0 + rows, ch), :cw])
+            out[r0 // f:(r0 + band.shape[0]) // f] = cv2.resize(
+                band, (self._work.width, band.shape[0] // f), interpolation=cv2.INTER_AREA)
+        return out
+
+    def _project_work(self, lin: np.ndarray, scale: float) -> EnvironmentResult:
         px = np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
         if scale != 1.0:
             px = px * np.float32(scale)
@@ -362,6 +385,7 @@ class EnvironmentProjector(FrameDecoder):
                          for c in range(3)], axis=1).astype(np.float32)
 
     def _pyramid(self, base: np.ndarray) -> list:
+        """The base cube and its exact 2×2 solid-angle pools (:func:`cubemap.pool`)."""
         levels = [base.reshape(6, self.base, self.base, 3)]
         for a in range(1, len(self.levels)):
             levels.append(cubemap.pool(levels[-1], self._omega[a - 1], self._omega[a]))
