@@ -16,6 +16,10 @@ log = logging.getLogger("shlight.server")
 
 #: Subscription to every probe.
 ALL = "*"
+#: With a rate cap, a message that comes at most this fraction of the cap's interval early
+#: goes at once (a source at the cap's rate jitters: holding its messages would delay each
+#: by up to a frame and skip some); one that comes earlier waits for its turn.
+RATE_JITTER = 0.4
 
 
 def text_frame(payload: bytes) -> bytes:
@@ -96,7 +100,7 @@ class ClientSession:
             return False
         if self.max_hz > 0:
             now = asyncio.get_running_loop().time()
-            if self._next_send.get(probe, 0.0) > now:
+            if self._next_send.get(probe, 0.0) - now > RATE_JITTER / self.max_hz:
                 return False
             self._next_send[probe] = self._next_after(probe, now)
         transport.write(frame)
@@ -105,10 +109,13 @@ class ClientSession:
         return True
 
     def _next_after(self, probe: str, now: float) -> float:
-        """When the probe's next message may go (at most max_hz on average, tolerating
-        jitter down to half a period)."""
+        """The probe's next turn after a message sent at ``now``: one interval (1/max_hz)
+        after this turn, so that at most max_hz go on average (a message up to RATE_JITTER
+        of an interval early still goes); after a pause, one interval after ``now`` less
+        that tolerance, so that no burst follows a pause."""
         interval = 1.0 / self.max_hz
-        return max(self._next_send.get(probe, now) + interval, now + 0.5 * interval)
+        return max(self._next_send.get(probe, now) + interval,
+                   now + (1.0 - RATE_JITTER) * interval)
 
     def forget(self, probe: str) -> None:
         self._slots.pop(probe, None)
@@ -133,8 +140,8 @@ class ClientSession:
                         continue
                     now = loop.time()
                     wait = self._next_send.get(probe, 0.0) - now
-                    if wait > 0:
-                        self._wake_in(loop, wait)
+                    if self.max_hz > 0 and wait > RATE_JITTER / self.max_hz:
+                        self._wake_in(loop, wait)      # too early: wait for its turn
                         continue
                     self._slots[probe] = None
                     await self._send(text)
