@@ -17,10 +17,8 @@ machine: see the load average reported with the figures.
 """
 from __future__ import annotations
 
-import json
 import threading
 import time
-from pathlib import Path
 
 from .common import cpu_seconds, stop
 
@@ -160,30 +158,3 @@ def markdown(rows: list[dict], fps: float, load: str) -> list[str]:
                      f"{r['latency_p99_ms']:.1f} | {r['server_cpu']:.2f} | "
                      f"{r['server_rss_mib']:.0f} | {flood} |")
     return lines
-
-
-def main(argv=None) -> int:
-    """``python -m provider.bench.faults --out DIR [--counts 1000,2000] [--seconds 3]``."""
-    import argparse
-    from . import server
-    p = argparse.ArgumentParser(prog="python -m provider.bench.faults", description=__doc__)
-    p.add_argument("--out", default="bench-results")
-    p.add_argument("--counts", default="1000,2000")
-    p.add_argument("--seconds", type=float, default=3.0)
-    p.add_argument("--fps", type=float, default=30.0)
-    args = p.parse_args(argv)
-    server_cpus, client_cpus = server._pick_cpus()
-    rows = measure_faults(server._start_server, server._pct, args.fps,
-                          [int(c) for c in args.counts.split(",")], args.seconds, server_cpus,
-                          client_cpus)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "server_faults.json").write_text(json.dumps(rows, indent=2) + "\n")
-    (out / "server_faults.md").write_text(
-        "\n".join(markdown(rows, args.fps, server._loadavg())) + "\n")
-    return 0
-
-
-if __name__ == "__main__":
-    import sys
-    sys.exit(main())

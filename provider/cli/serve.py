@@ -78,6 +78,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                           "its subdomains; '*': any). Others get HTTP 421 (DNS rebinding)")
     net.add_argument("--max-clients", type=int, default=500,
                      help="default 500 (fewer if the open-files limit cannot hold them)")
+    net.add_argument("--client-max-rate", type=float, default=20.0, metavar="MSGS",
+                     help="messages a second a client may send, after a burst of 2.5 s worth "
+                          "(pings included); beyond it they are dropped, and a client that "
+                          "goes on is closed with 1008 (default 20)")
     net.add_argument("--max-message-bytes", type=int, default=4096,
                      help="larger client messages close the connection with 1009 (default 4096)")
     net.add_argument("--send-timeout", type=float, default=10.0,
@@ -226,7 +230,11 @@ def build_server(args):
                       max_message_bytes=args.max_message_bytes, send_timeout=args.send_timeout,
                       max_hz=args.max_hz, deflate=args.deflate,
                       tls=server_context(args.tls_cert, args.tls_key),
-                      allowed_hosts=tuple(args.allow_host))
+                      allowed_hosts=tuple(args.allow_host),
+                      client_frame_rate=args.client_max_rate,
+                      client_frame_burst=max(2.5 * args.client_max_rate, 10.0))
+    if not 0 < s.client_frame_rate < math.inf:
+        raise InputError(f"--client-max-rate {s.client_frame_rate}: out of range (> 0)")
     if not (0 <= s.port <= 65535):
         raise InputError(f"--port {s.port}: out of range")
     if (s.max_clients < 1 or s.max_message_bytes < 256 or not 0 < s.send_timeout < math.inf
