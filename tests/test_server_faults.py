@@ -238,24 +238,33 @@ def test_a_client_under_its_budget_is_answered_in_full():
 
 # ---- the rate cap ------------------------------------------------------------------------------------
 
-def _seqs(url: str, n: int) -> list[int]:
-    with connect(url) as ws:
+def _steady_seqs(srv, hz: float, n: int) -> tuple[list[int], int]:
+    """(seqs of ``n`` messages to a client with ``max_hz=hz``, after a warm-up of 20; how
+    many of those ``n`` waited for their turn)."""
+    with connect(srv.url + f"?max_hz={hz}") as ws:
         recv_json(ws)
-        recv_until(ws, sh9)                      # the latest, sent on connecting
-        return [recv_until(ws, sh9)["seq"] for _ in range(n)]
+        for _ in range(20):                      # past the burst of connecting
+            recv_until(ws, sh9)
+        held = srv.call(lambda: srv.server.counters.messages_held)
+        seqs = [recv_until(ws, sh9)["seq"] for _ in range(n)]
+        return seqs, srv.call(lambda: srv.server.counters.messages_held) - held
 
 
 def test_max_hz_at_the_source_rate_skips_nothing_and_below_it_is_even():
+    """A cap at (or above) the source's rate passes its messages as they come, although the
+    frames jitter (a loaded machine: a few may bunch up); below it, the newest every
+    30/hz frames."""
     with ServerThread("--source", "demo", "--fps", "30", "--change-threshold", "0") as srv:
-        # at the source's rate (and above): every message, none held back
         for hz in (30, 45):
-            seqs = _seqs(srv.url + f"?max_hz={hz}", 60)
+            seqs, held = _steady_seqs(srv, hz, 60)
             gaps = np.diff(seqs)
-            assert np.count_nonzero(gaps != 1) <= 1, (hz, gaps)
-        # below it: the newest message every 30/hz frames, evenly
-        seqs = _seqs(srv.url + "?max_hz=10", 20)
+            assert np.count_nonzero(gaps == 1) >= 0.9 * len(gaps), (hz, gaps)
+            # and they went as they came: a few may wait after a burst of the source, none
+            # for good (a cap that locks onto the frames' phase holds every one of them)
+            assert held <= 6, (hz, held)
+        seqs, _ = _steady_seqs(srv, 10, 20)
         gaps = np.diff(seqs)
-        assert statistics.median(gaps) == 3 and gaps.min() >= 2, gaps
+        assert statistics.median(gaps) == 3 and np.count_nonzero(gaps == 1) <= 2, gaps
 
 
 # ---- the open-files limit --------------------------------------------------------------------

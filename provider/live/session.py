@@ -16,10 +16,17 @@ log = logging.getLogger("shlight.server")
 
 #: Subscription to every probe.
 ALL = "*"
-#: With a rate cap, a message that comes at most this fraction of the cap's interval early
-#: goes at once (a source at the cap's rate jitters: holding its messages would delay each
-#: by up to a frame and skip some); one that comes earlier waits for its turn.
-RATE_JITTER = 0.4
+#: The rate cap (max_hz) is a token bucket per client and probe: a message takes a token,
+#: the bucket holds 1 + RATE_SLACK and refills at max_hz × (1 + RATE_MARGIN). The slack lets
+#: a source at the cap's rate through although its frames jitter (a frame may come up to
+#: RATE_SLACK of an interval early); the margin heals what a burst took (two frames close
+#: together after a stall): at exactly max_hz, one message too many would delay every later
+#: one for good. So no message of a source at the cap's rate waits for long, and none is
+#: skipped. A faster source is held to max_hz (+ RATE_MARGIN) on average, its messages evenly
+#: spaced (never closer than RATE_SPACING of an interval), each the newest when it goes.
+RATE_SLACK = 0.5
+RATE_MARGIN = 0.1
+RATE_SPACING = 0.5
 
 
 def text_frame(payload: bytes) -> bytes:
@@ -45,6 +52,7 @@ class Counters:
     messages_skipped: int = 0       # replaced by a newer one before a slow client took it
     client_errors: int = 0          # malformed client messages answered with an error
     stalled_clients: int = 0        # disconnected because they stopped reading
+    messages_held: int = 0          # waited for their turn under a client's max_hz
     rejected: collections.Counter = field(default_factory=collections.Counter)
 
 
@@ -69,7 +77,9 @@ class ClientSession:
         self.sent = 0
         self._slots: dict[str, bytes] = {}
         self._replies: collections.deque = collections.deque(maxlen=16)
-        self._next_send: dict[str, float] = {}
+        self._tokens: dict[str, tuple[float, float]] = {}   # probe -> (tokens, at loop time)
+        self._last_sent: dict[str, float] = {}              # probe -> loop time
+        self._unmetered: set[str] = set()   # probes whose pending message skips the budget
         self._wake = asyncio.Event()
         self._timer: asyncio.TimerHandle | None = None
         # Frames may be written straight to the socket (see offer) unless this connection
@@ -82,13 +92,19 @@ class ClientSession:
         ``frame`` (``text_frame(text)``, shared by all clients) is written to the socket at
         once when nothing else waits for this client and its socket has taken everything
         so far: the common case, with no task switch per client. Otherwise the message
-        takes the slot and the writer task sends it (send timeout, latest only).
+        takes the slot and the writer task sends it (send timeout, latest only). Without
+        ``frame`` (the latest message, offered on subscribing) it goes at once, whatever
+        the ``max_hz`` budget holds: a client's first lighting never waits.
         """
         if frame is not None and self._direct and self._write_now(probe, frame):
             return
         if self._slots.get(probe) is not None:
             self.counters.messages_skipped += 1
         self._slots[probe] = text
+        if frame is None:
+            self._unmetered.add(probe)
+        else:
+            self._unmetered.discard(probe)
         self._wake.set()
 
     def _write_now(self, probe: str, frame: bytes) -> bool:
@@ -98,24 +114,31 @@ class ClientSession:
         transport = ws.transport
         if ws.protocol.state is not State.OPEN or transport.get_write_buffer_size():
             return False
-        if self.max_hz > 0:
-            now = asyncio.get_running_loop().time()
-            if self._next_send.get(probe, 0.0) - now > RATE_JITTER / self.max_hz:
-                return False
-            self._next_send[probe] = self._next_after(probe, now)
+        if self.max_hz > 0 and self._rate_wait(probe, asyncio.get_running_loop().time()):
+            self.counters.messages_held += 1
+            return False
         transport.write(frame)
         self.sent += 1
         self.counters.messages_sent += 1
         return True
 
-    def _next_after(self, probe: str, now: float) -> float:
-        """The probe's next turn after a message sent at ``now``: one interval (1/max_hz)
-        after this turn, so that at most max_hz go on average (a message up to RATE_JITTER
-        of an interval early still goes); after a pause, one interval after ``now`` less
-        that tolerance, so that no burst follows a pause."""
-        interval = 1.0 / self.max_hz
-        return max(self._next_send.get(probe, now) + interval,
-                   now + (1.0 - RATE_JITTER) * interval)
+    def _rate_wait(self, probe: str, now: float, force: bool = False) -> float:
+        """0 if a message of ``probe`` may go at ``now`` (loop time; its token is taken),
+        else the seconds until it may (see RATE_SLACK). ``force``: it goes anyway, taking
+        what tokens there are."""
+        if self.max_hz <= 0:
+            return 0.0
+        full = 1.0 + RATE_SLACK
+        tokens, at = self._tokens.get(probe, (full, now))
+        tokens = min(full, tokens + (now - at) * self.max_hz * (1.0 + RATE_MARGIN))
+        self._tokens[probe] = (tokens, now)
+        wait = max((1.0 - tokens) / (self.max_hz * (1.0 + RATE_MARGIN)),
+                   self._last_sent.get(probe, -1e9) + RATE_SPACING / self.max_hz - now)
+        if wait > 0 and not force:
+            return wait
+        self._tokens[probe] = (max(tokens - 1.0, 0.0), now)
+        self._last_sent[probe] = now
+        return 0.0
 
     def forget(self, probe: str) -> None:
         self._slots.pop(probe, None)
@@ -138,15 +161,13 @@ class ClientSession:
                     text = self._slots.get(probe)
                     if text is None:
                         continue
-                    now = loop.time()
-                    wait = self._next_send.get(probe, 0.0) - now
-                    if self.max_hz > 0 and wait > RATE_JITTER / self.max_hz:
+                    wait = self._rate_wait(probe, loop.time(), force=probe in self._unmetered)
+                    self._unmetered.discard(probe)
+                    if wait > 0:
                         self._wake_in(loop, wait)      # too early: wait for its turn
                         continue
                     self._slots[probe] = None
                     await self._send(text)
-                    if self.max_hz > 0:
-                        self._next_send[probe] = self._next_after(probe, now)
         except ConnectionClosed:
             pass
         except asyncio.CancelledError:

@@ -63,6 +63,9 @@ def limits_health(server) -> dict:
 def limits_metrics(server, m: "MetricsText") -> None:
     """The per-client budgets' counters and the probe tasks' state, for /metrics."""
     c = server.limit_counters
+    m.add("shlight_messages_held_total", "counter",
+          "Messages that waited for their turn under a client's max_hz.",
+          server.counters.messages_held)
     m.add("shlight_max_clients", "gauge", "Clients the server holds at most (open files "
           "limit included).", server.max_clients)
     m.add("shlight_client_messages_dropped_total", "counter",
