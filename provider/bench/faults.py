@@ -81,18 +81,34 @@ class Flooder:
         self.thread.join(10)
 
 
-def _row(gen, pid: int, seconds: float, fps: float, pct) -> dict:
+def held_messages(port: int) -> float:
+    """The server's shlight_messages_held_total (messages that waited under max_hz)."""
+    import urllib.request
+    try:
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/metrics", timeout=10) as resp:
+            for line in resp.read().decode().splitlines():
+                if line.startswith("shlight_messages_held_total "):
+                    return float(line.split()[1])
+    except OSError:
+        pass
+    return float("nan")
+
+
+def _row(gen, pid: int, port: int, seconds: float, fps: float, pct) -> dict:
     time.sleep(1.0 + gen.clients / 1000)      # settle: the handshakes' backlog is served
+    held0 = held_messages(port)
     cpu0, t0 = cpu_seconds(pid), time.monotonic()
     counts, lats, gen_cpu = gen.measure(seconds)
     cpu1, t1 = cpu_seconds(pid), time.monotonic()
+    held = held_messages(port) - held0
     rates = sorted(max(c, 0) / seconds for c in counts)
     return {"rate_median": round(pct(rates, 50), 2), "rate_p5": round(pct(rates, 5), 2),
             "latency_p50_ms": round(pct(lats, 50) * 1e3, 2),
             "latency_p99_ms": round(pct(lats, 99) * 1e3, 2),
             "server_cpu": round((cpu1 - cpu0) / max(t1 - t0 - 0.2, 1e-3), 3),
             "server_rss_mib": round(rss_mib(pid), 1), "loadgen_cpu": round(gen_cpu / seconds, 3),
-            "dropped": sum(1 for c in counts if c < 0)}
+            "dropped": sum(1 for c in counts if c < 0),
+            "held_fraction": round(held / max(sum(max(c, 0) for c in counts), 1), 4)}
 
 
 def measure_faults(start_server, pct, fps: float, counts, seconds: float, server_cpus,
@@ -115,13 +131,13 @@ def measure_faults(start_server, pct, fps: float, counts, seconds: float, server
                     continue
                 if mode == "flood":
                     with Flooder(f"ws://127.0.0.1:{port}/") as flood:
-                        row = _row(gen, proc.pid, seconds, fps, pct)
+                        row = _row(gen, proc.pid, port, seconds, fps, pct)
                     row.update(flooder_sent=flood.sent, flooder_pongs=flood.pongs,
                                flooder_closes=flood.closes,
                                flooder_close_codes={str(k): v for k, v in
                                                     flood.close_codes.items()})
                 else:
-                    row = _row(gen, proc.pid, seconds, fps, pct)
+                    row = _row(gen, proc.pid, port, seconds, fps, pct)
             finally:
                 if gen is not None:
                     gen.close()
@@ -134,8 +150,8 @@ def measure_faults(start_server, pct, fps: float, counts, seconds: float, server
             progress(f"  {n:5d} clients, {mode:9s}: {row['rate_median']:.1f} msg/s each "
                      f"(p5 {row['rate_p5']:.1f}), latency p50 {row['latency_p50_ms']:.1f} ms "
                      f"p99 {row['latency_p99_ms']:.1f} ms, server CPU "
-                     f"{row['server_cpu'] * 100:.0f} %, RSS {row['server_rss_mib']:.0f} MiB"
-                     f"{extra}")
+                     f"{row['server_cpu'] * 100:.0f} %, RSS {row['server_rss_mib']:.0f} MiB, "
+                     f"held {row['held_fraction'] * 100:.1f} %{extra}")
     return rows
 
 
@@ -147,8 +163,9 @@ def markdown(rows: list[dict], fps: float, load: str) -> list[str]:
              "time it is closed; `max_hz 30`: every client subscribes with `?max_hz=30`. "
              f"Load average at the end of the run: {load}.", "",
              "| clients | mode | msg/s per client (median) | p5 | latency p50 (ms) "
-             "| latency p99 (ms) | server CPU (core) | server RSS (MiB) | flooder |",
-             "|---:|:---|---:|---:|---:|---:|---:|---:|:---|"]
+             "| latency p99 (ms) | server CPU (core) | server RSS (MiB) | held by max_hz "
+             "| flooder |",
+             "|---:|:---|---:|---:|---:|---:|---:|---:|---:|:---|"]
     for r in rows:
         flood = (f"closed {r['flooder_closes']}× ({', '.join(f'{k}: {v}' for k, v in r['flooder_close_codes'].items())}), "
                  f"{r['flooder_pongs']} pongs / {r['flooder_sent']} pings"
@@ -156,5 +173,5 @@ def markdown(rows: list[dict], fps: float, load: str) -> list[str]:
         lines.append(f"| {r['clients']} | {r['mode']} | {r['rate_median']:.1f} | "
                      f"{r['rate_p5']:.1f} | {r['latency_p50_ms']:.1f} | "
                      f"{r['latency_p99_ms']:.1f} | {r['server_cpu']:.2f} | "
-                     f"{r['server_rss_mib']:.0f} | {flood} |")
+                     f"{r['server_rss_mib']:.0f} | {r['held_fraction'] * 100:.1f} % | {flood} |")
     return lines

@@ -383,7 +383,7 @@ class RepeatFilter(logging.Filter):
     before formatting); the next one let through says how many were held back. Lines
     below ``min_level`` always pass."""
 
-    def __init__(self, interval: float = 10.0, min_level: int = logging.INFO,
+    def __init__(self, interval: float = 10.0, min_level: int = logging.WARNING,
                  max_keys: int = 1024):
         super().__init__()
         self.interval, self.min_level, self.max_keys = interval, min_level, max_keys

@@ -26,7 +26,18 @@ ALL = "*"
 #: spaced (never closer than RATE_SPACING of an interval), each the newest when it goes.
 RATE_SLACK = 0.5
 RATE_MARGIN = 0.1
-RATE_SPACING = 0.5
+RATE_SPACING = 0.25
+
+#: The frame being fanned out and the loop time its fan-out began: the rate cap judges a
+#: message by when it was published, not by the client's place in the fan-out (with
+#: thousands of clients the last ones are offered it milliseconds after the first: jitter).
+_fanout: list = [None, 0.0]
+
+
+def _published_at(frame: bytes, loop) -> float:
+    if _fanout[0] is not frame:
+        _fanout[0], _fanout[1] = frame, loop.time()
+    return _fanout[1]
 
 
 def text_frame(payload: bytes) -> bytes:
@@ -80,6 +91,7 @@ class ClientSession:
         self._tokens: dict[str, tuple[float, float]] = {}   # probe -> (tokens, at loop time)
         self._last_sent: dict[str, float] = {}              # probe -> loop time
         self._unmetered: set[str] = set()   # probes whose pending message skips the budget
+        self._slot_at: dict[str, float] = {}  # probe -> when its pending message was published
         self._wake = asyncio.Event()
         self._timer: asyncio.TimerHandle | None = None
         # Frames may be written straight to the socket (see offer) unless this connection
@@ -101,6 +113,8 @@ class ClientSession:
         if self._slots.get(probe) is not None:
             self.counters.messages_skipped += 1
         self._slots[probe] = text
+        loop = asyncio.get_running_loop()
+        self._slot_at[probe] = loop.time() if frame is None else _published_at(frame, loop)
         if frame is None:
             self._unmetered.add(probe)
         else:
@@ -114,7 +128,8 @@ class ClientSession:
         transport = ws.transport
         if ws.protocol.state is not State.OPEN or transport.get_write_buffer_size():
             return False
-        if self.max_hz > 0 and self._rate_wait(probe, asyncio.get_running_loop().time()):
+        if self.max_hz > 0 and self._rate_wait(
+                probe, _published_at(frame, asyncio.get_running_loop())):
             self.counters.messages_held += 1
             return False
         transport.write(frame)
@@ -130,6 +145,7 @@ class ClientSession:
             return 0.0
         full = 1.0 + RATE_SLACK
         tokens, at = self._tokens.get(probe, (full, now))
+        now = max(now, at)          # a publish time may precede the writer's last look
         tokens = min(full, tokens + (now - at) * self.max_hz * (1.0 + RATE_MARGIN))
         self._tokens[probe] = (tokens, now)
         wait = max((1.0 - tokens) / (self.max_hz * (1.0 + RATE_MARGIN)),
@@ -139,6 +155,25 @@ class ClientSession:
         self._tokens[probe] = (max(tokens - 1.0, 0.0), now)
         self._last_sent[probe] = now
         return 0.0
+
+    def _may_send(self, probe: str, loop) -> bool:
+        """Whether the writer may send the probe's pending message now (its budget charged
+        at its publish time, or when its turn came: a writer running late charges no later
+        than that); if not, the writer is woken at its turn."""
+        if probe in self._unmetered or self.max_hz <= 0:
+            self._unmetered.discard(probe)
+            self._rate_wait(probe, loop.time(), force=True)
+            return True
+        at = self._slot_at.get(probe, loop.time())
+        wait = self._rate_wait(probe, at)
+        if wait <= 0:
+            return True
+        turn, now = at + wait, loop.time()
+        if now < turn:
+            self._wake_in(loop, turn - now)     # too early: wait for its turn
+            return False
+        self._rate_wait(probe, turn, force=True)
+        return True
 
     def forget(self, probe: str) -> None:
         self._slots.pop(probe, None)
@@ -161,10 +196,7 @@ class ClientSession:
                     text = self._slots.get(probe)
                     if text is None:
                         continue
-                    wait = self._rate_wait(probe, loop.time(), force=probe in self._unmetered)
-                    self._unmetered.discard(probe)
-                    if wait > 0:
-                        self._wake_in(loop, wait)      # too early: wait for its turn
+                    if not self._may_send(probe, loop):
                         continue
                     self._slots[probe] = None
                     await self._send(text)
