@@ -129,14 +129,15 @@ class ServerThread(_Loopback):
 class ServeProcess(_Loopback):
     """``shlight serve --port 0 ARGV`` as a subprocess; the bound port is read from its log."""
 
-    def __init__(self, *argv: str, env=None):
+    def __init__(self, *argv: str, env=None, preexec_fn=None):
         self.argv = [*SHLIGHT, "serve", "--port", "0", *argv]
         self.lines: list[str] = []
         self.port: int | None = None
         self._found = threading.Event()
         self.proc = subprocess.Popen(self.argv, cwd=ROOT, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True,
-                                     env={**os.environ, **(env or {})})
+                                     env={**os.environ, **(env or {})},
+                                     preexec_fn=preexec_fn)
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
 

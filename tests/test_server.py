@@ -550,7 +550,8 @@ def _expected_reply(message) -> str:
 
 
 def test_fuzzed_client_messages_get_answers_and_the_connection_survives():
-    with ServerThread("--source", BRIDGE, "--keepalive", "30") as srv:
+    with ServerThread("--source", BRIDGE, "--keepalive", "30",
+                      "--client-max-rate", "100000") as srv:     # answers, not budgets
         with connect(srv.url) as ws:
             recv_json(ws)
 

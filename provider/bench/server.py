@@ -14,7 +14,8 @@ A step *holds* when the median client gets ≥ 90 % of the source's frame rate a
 slowest 5 % get ≥ 75 %. The report gives the largest step that held and an estimate of
 the clients one core holds at 30 Hz from a straight-line fit of the server's CPU use
 against the client count (CPU = a + b·N, so N = (1 − a)/b). Written to
-``OUT/server.md`` and ``OUT/server.json``.
+``OUT/server.md`` and ``OUT/server.json``. Then :mod:`provider.bench.faults`: 1,000 and
+2,000 clients, plain, beside a flooding client, and with ``max_hz`` 30.
 
 Run alone: ``python -m provider.bench.server --out DIR [--quick]``.
 """
@@ -182,6 +183,9 @@ def _measure(out: Path, quick, fps, progress, server_cpus, client_cpus, steps=No
     from .mqtt_path import measure_mqtt
     mqtt = measure_mqtt(_start_server, cpu_seconds, fps, seconds, server_cpus, client_cpus,
                         progress, counts=(1,) if quick else (1, 100))
+    from .faults import measure_faults
+    faults = measure_faults(_start_server, _pct, fps, (200,) if quick else (1000, 2000),
+                            2.0 if quick else 3.0, server_cpus, client_cpus, progress)
     held = [r["clients"] for r in rows if r["holds"]]
     fit = _fit(rows)
     estimate = None
@@ -195,7 +199,7 @@ def _measure(out: Path, quick, fps, progress, server_cpus, client_cpus, steps=No
               "latency_p50_ms": base and base["latency_p50_ms"],
               "latency_p99_ms": base and base["latency_p99_ms"],
               "latency_at_clients": base and base["clients"], "quick": quick, "mqtt": mqtt,
-              "load": _loadavg()}
+              "load": _loadavg(), "faults": faults}
     out.mkdir(parents=True, exist_ok=True)
     (out / "server.json").write_text(json.dumps(result, indent=2) + "\n")
     lines = ["# Server: frame-to-client latency and clients per core", "",
@@ -237,6 +241,8 @@ def _measure(out: Path, quick, fps, progress, server_cpus, client_cpus, steps=No
                          f"{r['server_cpu']:.2f} | {r['broker_cpu']:.2f} |")
     else:
         lines.append(f"Skipped: {mqtt.get('skipped')}.")
+    from .faults import markdown as faults_markdown
+    lines += faults_markdown(faults, fps, result["load"])
     (out / "server.md").write_text("\n".join(lines) + "\n")
     progress(f"server: latency p50 {result['latency_p50_ms']} ms, p99 "
              f"{result['latency_p99_ms']} ms at {result['latency_at_clients']} clients; "

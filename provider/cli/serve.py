@@ -72,7 +72,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     net.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
                      help="extra browser Origin allowed to connect, e.g. "
                           "https://example.org ('*': any; the dashboard's own is always allowed)")
-    net.add_argument("--max-clients", type=int, default=500, help="default 500")
+    net.add_argument("--allow-host", action="append", default=[], metavar="NAME",
+                     help="a Host name clients may use beyond IP addresses, localhost and "
+                          "this machine's name, e.g. lights.example ('.example.org': it and "
+                          "its subdomains; '*': any). Others get HTTP 421 (DNS rebinding)")
+    net.add_argument("--max-clients", type=int, default=500,
+                     help="default 500 (fewer if the open-files limit cannot hold them)")
+    net.add_argument("--client-max-rate", type=float, default=20.0, metavar="MSGS",
+                     help="messages a second a client may send, after a burst of 2.5 s worth "
+                          "(pings included); beyond it they are dropped, and a client that "
+                          "goes on is closed with 1008 (default 20)")
     net.add_argument("--max-message-bytes", type=int, default=4096,
                      help="larger client messages close the connection with 1009 (default 4096)")
     net.add_argument("--send-timeout", type=float, default=10.0,
@@ -254,7 +263,12 @@ def build_server(args):
                       allowed_origins=tuple(args.allow_origin), max_clients=args.max_clients,
                       max_message_bytes=args.max_message_bytes, send_timeout=args.send_timeout,
                       max_hz=args.max_hz, deflate=args.deflate,
-                      tls=server_context(args.tls_cert, args.tls_key))
+                      tls=server_context(args.tls_cert, args.tls_key),
+                      allowed_hosts=tuple(args.allow_host),
+                      client_frame_rate=args.client_max_rate,
+                      client_frame_burst=max(2.5 * args.client_max_rate, 10.0))
+    if not 0 < s.client_frame_rate < math.inf:
+        raise InputError(f"--client-max-rate {s.client_frame_rate}: out of range (> 0)")
     if not (0 <= s.port <= 65535):
         raise InputError(f"--port {s.port}: out of range")
     if (s.max_clients < 1 or s.max_message_bytes < 256 or not 0 < s.send_timeout < math.inf
@@ -310,6 +324,8 @@ def run(args) -> int:
     logging.basicConfig(level=level, format="%(asctime)s %(levelname)-7s %(message)s",
                         datefmt="%H:%M:%S")
     logging.getLogger("shlight").setLevel(level)
+    from ..live.limits import install_repeat_filter
+    install_repeat_filter()     # identical warnings: once per 10 s, with a count
     if level > logging.DEBUG:
         logging.getLogger("websockets").setLevel(logging.WARNING)
     from ..live.server import serve_until_stopped

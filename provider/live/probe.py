@@ -28,6 +28,7 @@ path never waits for them.
 from __future__ import annotations
 
 import asyncio
+import collections
 import logging
 import time
 from dataclasses import dataclass
@@ -51,6 +52,11 @@ log = logging.getLogger("shlight.probe")
 #: scene, not the frame, and costs about a small resize and a 256-normal product, which an
 #: edge core should not pay 30 times a second. Messages in between carry the last value.
 ERROR_ESTIMATE_INTERVAL_S = 1.0
+#: Frame sizes whose projector (and light tracker) a probe keeps, least recently used
+#: first out: a source that keeps changing size must not grow memory without bound.
+PROJECTORS_KEPT = 4
+#: Files a probe lists as unreadable in /healthz (the newest kept).
+BAD_FILES_KEPT = 32
 
 
 @dataclass
@@ -90,9 +96,12 @@ class Probe:
         self.image_seq = 0
         self.frames_processed = 0
         self.frames_rejected = 0
+        self.loop_errors = 0            # unexpected errors the probe's loop survived
+        self.running = False            # the probe's task is running (see ProviderServer)
+        self.bad_files: dict[str, str] = {}   # unreadable input file -> why (until it changes)
         self.compute_ms = 0.0
         self.latency_s = 0.0            # capture → message of the newest frame
-        self._projectors: dict = {}
+        self._projectors: collections.OrderedDict = collections.OrderedDict()
         self._estimated_at = -1e9       # monotonic time of the last error estimate
         self._error_estimate: float | None = None
         self._trackers: dict = {}       # frame size -> LightTracker (lights="auto")
@@ -144,12 +153,17 @@ class Probe:
                 finally:
                     timer.cancel()
                 self._wake.clear()
-                frame = self.capture.take()
-                while frame is not None:   # a bracket's slots may be waiting side by side
-                    await self._process(frame)
-                    self._maybe_publish(time.time())
+                try:
                     frame = self.capture.take()
-                self._maybe_publish(time.time())
+                    while frame is not None:   # a bracket's slots may be waiting side by side
+                        await self._process(frame)
+                        self._maybe_publish(time.time())
+                        frame = self.capture.take()
+                    self._maybe_publish(time.time())
+                except asyncio.CancelledError:
+                    raise
+                except Exception as exc:  # noqa: BLE001 - the probe lives on, whatever it is
+                    self._loop_error(exc)
         finally:
             if self.registrar is not None:
                 self.registrar.close()
@@ -157,10 +171,28 @@ class Probe:
             if self.environment is not None:
                 await asyncio.to_thread(self.environment.stop)
 
+    def _loop_error(self, exc: Exception) -> None:
+        """An error no frame check caught (a bug): counted, said (once per 10 s with its
+        traceback), shown in /healthz; the loop goes on with the next frame."""
+        self.loop_errors += 1
+        self.error = f"{type(exc).__name__}: {exc}"
+        now = time.monotonic()
+        if now - self._last_error_log > 10.0:
+            self._last_error_log = now
+            log.error("probe %s: unexpected error (%d so far); going on", self.name,
+                      self.loop_errors, exc_info=exc)
+
     async def _process(self, frame: Frame) -> None:
+        info = frame.info or {}
+        self._note_file(info)
+        if info.get("rejected"):
+            self._rejected(str(info["rejected"]))   # the source read it and found it bad
+            return
         try:
             if frame.lighting is not None:
                 result = frame.lighting
+                # relayed lighting: everything it carries must make a valid message
+                coefficient_message(result, probe=self.name, time=frame.time)
             else:
                 result = await asyncio.to_thread(self._project, frame)
         except _AlreadySaid as exc:
@@ -188,6 +220,21 @@ class Probe:
         if self.registrar is not None:     # a time check here; detection in its own thread
             self.registrar.offer(frame)
 
+    def _note_file(self, info: dict) -> None:
+        """Keep the list of unreadable input files (Frame.info ``path`` and ``rejected`` or
+        ``bad_file``) for /healthz: a file leaves it once it is read fine."""
+        path = info.get("path")
+        if path is None:
+            return
+        reason = info.get("rejected") or info.get("bad_file")
+        if reason:
+            self.bad_files.pop(path, None)
+            self.bad_files[path] = str(reason)
+            while len(self.bad_files) > BAD_FILES_KEPT:
+                self.bad_files.pop(next(iter(self.bad_files)))
+        else:
+            self.bad_files.pop(path, None)
+
     def _project(self, frame: Frame) -> SH9Result:
         """Worker thread: decode if needed, build the projector once per size, project."""
         image = frame.decoded()
@@ -201,11 +248,13 @@ class Probe:
         if projector is None and self.engine_options.get("ball") == "auto":
             self._locate_ball(key, image)   # raises until a frame shows the ball
         if projector is None:
-            if len(self._projectors) >= 4:   # a source that keeps changing size
-                self._projectors.clear()
-                self._trackers.clear()
+            while len(self._projectors) >= PROJECTORS_KEPT:   # a source that changes size
+                old, _ = self._projectors.popitem(last=False)
+                self._trackers.pop(old, None)
             projector = self._projectors[key] = self._build_projector(*key)
             self._estimated_at = -1e9
+        else:
+            self._projectors.move_to_end(key)
         if isinstance(projector, InputError):
             raise _AlreadySaid(str(projector))
         info = frame.info or {}
@@ -333,7 +382,10 @@ class Probe:
         self._fresh = False
         self.gate.mark_sent(lighting.coefficients, now, light_model(lighting))
         self.latest_message, self.latest_text = msg, text
-        self.publish(self.name, text)
+        try:
+            self.publish(self.name, text)
+        except Exception as exc:  # noqa: BLE001 - a destination's bug stops no probe
+            self._loop_error(exc)
 
     # -- for /healthz and /metrics ------------------------------------------------------------
     def health(self) -> dict:
@@ -344,7 +396,8 @@ class Probe:
                   "age_s": round(now - self._frame_time, 3) if self._lighting else None,
                   "fps": round(self.capture.fps, 2), "compute_ms": round(self.compute_ms, 3),
                   "frames": self.frames_processed, "frames_rejected": self.frames_rejected,
-                  "reconnects": self.capture.reconnects}
+                  "reconnects": self.capture.reconnects, "running": self.running,
+                  "loop_errors": self.loop_errors, "bad_files": dict(self.bad_files)}
         if self.environment is not None:
             health["environment"] = self.environment.health()
         return health

@@ -62,10 +62,17 @@ Client → server (all optional; a plain client just listens):
   (KTX2; :mod:`provider.live.environment_fanout`, docs/contract.md §12).
 
 A client message larger than ``--max-message-bytes`` closes the connection with code
-1009. A client that does not read for ``--send-timeout`` seconds is disconnected.
+1009. A client that does not read for ``--send-timeout`` seconds is disconnected. Each
+client has a budget (:mod:`provider.live.limits`): 20 frames a second after a burst of 50
+(messages, pings and pongs alike; beyond it messages are dropped, and 50 more close the
+connection with code 1008) and 4 × ``--max-message-bytes`` bytes a second (beyond it the
+socket is not read until the budget allows).
 
 HTTP (same port; the token is needed as for WebSockets, except for ``/healthz`` and ``/static/``)
 -------------------------------------------------------------------------------------------------
+GET and HEAD only (else 405; a request with a body: 400). A ``Host`` that is not an IP
+address, ``localhost``, this machine's name or an ``--allow-host`` name gets 421 (DNS
+rebinding), on every path and the WebSocket alike.
 ``/`` the dashboard, ``/healthz`` (JSON; status ``ok`` or ``degraded``),
 ``/latest.json?probe=NAME[&to=FORMAT]`` (the latest sh9 message, or its export;
 an unknown format: HTTP 400), ``/environment.ktx2?probe=NAME`` (with ``--environment``: the
@@ -76,7 +83,6 @@ from __future__ import annotations
 
 import asyncio
 import hmac
-import http
 import json
 import logging
 import math
@@ -85,11 +91,10 @@ import signal
 import socket
 import ssl
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from urllib.parse import parse_qs, urlsplit
 
 from websockets.asyncio.server import ServerConnection, serve
-from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed
 from websockets.frames import CloseCode
 from websockets.http11 import Request, Response
@@ -100,6 +105,9 @@ from . import status
 from .environment_fanout import EnvironmentFanout
 from .dashboard import DASHBOARD_CSP, PUBLIC_FILES, PUBLIC_HEADERS, static_file, thumbnail_jpeg
 from .export import FORMATS, NATIVE, ExportCache, check_format
+from .limits import (BudgetedConnection, HostCheck, LimitCounters, _peer, early_refusal,
+                     fit_open_files)
+from .replies import _json_error, _response
 from .message import FRAME, SCHEMA_VERSION, dumps
 from .probe import Probe
 from .session import ALL, ClientSession, Counters, text_frame
@@ -125,6 +133,10 @@ class ServeSettings:
     max_hz: float = 0.0             # cap on every client's rate (0: none)
     deflate: bool = False           # permessage-deflate (costs CPU per client and message)
     tls: ssl.SSLContext | None = None   # wss:// and https:// (provider.live.tls)
+    allowed_hosts: tuple[str, ...] = ()  # Host names answered beyond the local ones (limits)
+    client_frame_rate: float = 20.0     # frames per second a client may send (then 1008)...
+    client_frame_burst: float = 50.0    # ...after a burst of this many
+    client_byte_rate: float = 0.0       # bytes per second a client may send (0: 4 messages)
 
 
 class ProviderServer:
@@ -161,13 +173,20 @@ class ProviderServer:
         self._thumbnails: dict[str, tuple[int, bytes]] = {}
         self.exports = ExportCache()
         self._allowed_origins = {o.rstrip("/").lower() for o in self.settings.allowed_origins}
+        self.host_check = HostCheck(self.settings.host, self.settings.allowed_hosts)
+        self.limit_counters = LimitCounters()
+        self.max_clients = self.settings.max_clients     # lowered by start() to what fits
+        self.open_files_limit: int | None = None
+        self._stopping = False
 
     # -- lifecycle ----------------------------------------------------------------------------
     async def start(self) -> None:
         s = self.settings
+        self.open_files_limit, self.max_clients = fit_open_files(s.max_clients)
         try:
             self._server = await serve(
                 self._handler, s.host, s.port, process_request=self._process_request,
+                create_connection=BudgetedConnection.factory(s, self.limit_counters),
                 max_size=s.max_message_bytes, max_queue=4, write_limit=1 << 15,
                 compression="deflate" if s.deflate else None, close_timeout=2,
                 ping_interval=20, ping_timeout=20, server_header=f"shlight/{__version__}",
@@ -180,6 +199,7 @@ class ProviderServer:
                        for p in self.probes.values()]
 
     async def stop(self) -> None:
+        self._stopping = True
         if self._server is not None:
             self._server.close()
             try:
@@ -205,12 +225,20 @@ class ProviderServer:
         return self._server.sockets[0].getsockname()[1]
 
     async def _run_probe(self, probe: Probe) -> None:
+        probe.running = True
         try:
             await probe.run()
         except asyncio.CancelledError:
             raise
-        except Exception:  # pragma: no cover - Probe.run handles frame errors itself
+        except Exception as exc:  # noqa: BLE001 - Probe.run survives frame errors itself
             log.exception("probe %s: stopped by an unexpected error", probe.name)
+            probe.error = f"{type(exc).__name__}: {exc}"
+        finally:
+            probe.running = False
+            if not self._stopping:          # not a shutdown: say so in /healthz, /metrics
+                probe.state = "stopped"
+                log.error("probe %s: stopped; clients get no more lighting from it",
+                          probe.name)
 
     # -- fan-out --------------------------------------------------------------------------------
     def publish(self, probe: str, text: bytes) -> None:
@@ -260,7 +288,7 @@ class ProviderServer:
 
     # -- WebSocket connections --------------------------------------------------------------------
     async def _handler(self, ws: ServerConnection) -> None:
-        if len(self.clients) >= self.settings.max_clients:   # raced past process_request
+        if len(self.clients) >= self.max_clients:   # raced past process_request
             self.counters.rejected["too_many_clients"] += 1
             await ws.close(CloseCode.TRY_AGAIN_LATER, "too many clients")
             return
@@ -387,6 +415,19 @@ class ProviderServer:
             _strip_default_port(parts.netloc, parts.scheme) == _strip_default_port(host, parts.scheme)
 
     async def _process_request(self, connection: ServerConnection, request: Request):
+        # A Host not answered (421), a method other than GET/HEAD (405), more connections
+        # than the open-files limit holds (503): provider.live.limits. HEAD: no body.
+        refusal = early_refusal(request, self.host_check, len(self._server.handler_tasks),
+                                self.max_clients)
+        if refusal is not None:
+            status, reason, text, headers = refusal
+            self.counters.rejected[reason] += 1
+            log.warning("refused %s: %s", _peer(connection), text)
+            return _response(status, f"{text}\n".encode(), "text/plain; charset=utf-8", headers)
+        response = await self._answer(connection, request)
+        return replace(response, body=b"") if request.method == "HEAD" and response else response
+
+    async def _answer(self, connection: ServerConnection, request: Request):
         parts = urlsplit(request.path)
         path, query = parts.path, parse_qs(parts.query)
         upgrade = "websocket" in request.headers.get("Upgrade", "").lower()
@@ -428,7 +469,7 @@ class ProviderServer:
         except InputError as exc:
             self.counters.rejected["unknown_format"] += 1
             return _response(400, f"{exc}\n".encode(), "text/plain; charset=utf-8")
-        if len(self.clients) >= self.settings.max_clients:
+        if len(self.clients) >= self.max_clients:
             self.counters.rejected["too_many_clients"] += 1
             log.warning("refused %s: %d clients connected (--max-clients)", _peer(connection),
                         len(self.clients))
@@ -497,28 +538,6 @@ def _finite_number(x) -> bool:
 def _strip_default_port(netloc: str, scheme: str) -> str:
     default = {"http": ":80", "https": ":443"}.get(scheme, "")
     return netloc[: -len(default)] if default and netloc.endswith(default) else netloc
-
-
-def _peer(connection) -> str:
-    addr = connection.remote_address or ("?", 0)
-    return f"{addr[0]}:{addr[1]}"
-
-
-def _response(status: int, body: bytes, content_type: str, headers=()) -> Response:
-    h = Headers()
-    h["Content-Type"] = content_type
-    h["Content-Length"] = str(len(body))
-    h["Cache-Control"] = "no-store"
-    h["X-Content-Type-Options"] = "nosniff"
-    h["Connection"] = "close"
-    for k, v in headers:
-        h[k] = v
-    return Response(status, http.HTTPStatus(status).phrase, h, body)
-
-
-def _json_error(status: int, code: str, detail: str) -> Response:
-    body = dumps({"type": "error", "error": code, "detail": detail}).encode()
-    return _response(status, body, "application/json")
 
 
 def _lan_address() -> str | None:

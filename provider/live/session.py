@@ -16,6 +16,28 @@ log = logging.getLogger("shlight.server")
 
 #: Subscription to every probe.
 ALL = "*"
+#: The rate cap (max_hz) is a token bucket per client and probe: a message takes a token,
+#: the bucket holds 1 + RATE_SLACK and refills at max_hz × (1 + RATE_MARGIN). The slack lets
+#: a source at the cap's rate through although its frames jitter (a frame may come up to
+#: RATE_SLACK of an interval early); the margin heals what a burst took (two frames close
+#: together after a stall): at exactly max_hz, one message too many would delay every later
+#: one for good. So no message of a source at the cap's rate waits for long, and none is
+#: skipped. A faster source is held to max_hz (+ RATE_MARGIN) on average, its messages evenly
+#: spaced (never closer than RATE_SPACING of an interval), each the newest when it goes.
+RATE_SLACK = 0.5
+RATE_MARGIN = 0.1
+RATE_SPACING = 0.25
+
+#: The frame being fanned out and the loop time its fan-out began: the rate cap judges a
+#: message by when it was published, not by the client's place in the fan-out (with
+#: thousands of clients the last ones are offered it milliseconds after the first: jitter).
+_fanout: list = [None, 0.0]
+
+
+def _published_at(frame: bytes, loop) -> float:
+    if _fanout[0] is not frame:
+        _fanout[0], _fanout[1] = frame, loop.time()
+    return _fanout[1]
 
 
 def text_frame(payload: bytes) -> bytes:
@@ -48,6 +70,7 @@ class Counters:
     messages_skipped: int = 0       # replaced by a newer one before a slow client took it
     client_errors: int = 0          # malformed client messages answered with an error
     stalled_clients: int = 0        # disconnected because they stopped reading
+    messages_held: int = 0          # waited for their turn under a client's max_hz
     rejected: collections.Counter = field(default_factory=collections.Counter)
 
 
@@ -72,7 +95,10 @@ class ClientSession:
         self.sent = 0
         self._slots: dict[str, bytes] = {}
         self._replies: collections.deque = collections.deque(maxlen=16)
-        self._next_send: dict[str, float] = {}
+        self._tokens: dict[str, tuple[float, float]] = {}   # probe -> (tokens, at loop time)
+        self._last_sent: dict[str, float] = {}              # probe -> loop time
+        self._unmetered: set[str] = set()   # probes whose pending message skips the budget
+        self._slot_at: dict[str, float] = {}  # probe -> when its pending message was published
         self._wake = asyncio.Event()
         self._timer: asyncio.TimerHandle | None = None
         # Frames may be written straight to the socket (see offer) unless this connection
@@ -91,13 +117,21 @@ class ClientSession:
         ``frame`` (``text_frame(text)``, shared by all clients) is written to the socket at
         once when nothing else waits for this client and its socket has taken everything
         so far: the common case, with no task switch per client. Otherwise the message
-        takes the slot and the writer task sends it (send timeout, latest only).
+        takes the slot and the writer task sends it (send timeout, latest only). Without
+        ``frame`` (the latest message, offered on subscribing) it goes at once, whatever
+        the ``max_hz`` budget holds: a client's first lighting never waits.
         """
         if frame is not None and self._direct and self._write_now(probe, frame):
             return
         if self._slots.get(probe) is not None:
             self.counters.messages_skipped += 1
         self._slots[probe] = text
+        loop = asyncio.get_running_loop()
+        self._slot_at[probe] = loop.time() if frame is None else _published_at(frame, loop)
+        if frame is None:
+            self._unmetered.add(probe)
+        else:
+            self._unmetered.discard(probe)
         self._wake.set()
 
     def offer_environment(self, probe: str, text: bytes, data: bytes,
@@ -122,21 +156,52 @@ class ClientSession:
         transport = ws.transport
         if ws.protocol.state is not State.OPEN or transport.get_write_buffer_size():
             return False
-        if self.max_hz > 0 and not pair:   # cubes come at --environment-hz already
-            now = asyncio.get_running_loop().time()
-            if self._next_send.get(probe, 0.0) > now:
-                return False
-            self._next_send[probe] = self._next_after(probe, now)
+        if self.max_hz > 0 and not pair and self._rate_wait(   # cubes: --environment-hz
+                probe, _published_at(frame, asyncio.get_running_loop())):
+            self.counters.messages_held += 1
+            return False
         transport.write(frame)
         self.sent += 1 + pair
         self.counters.messages_sent += 1 + pair
         return True
 
-    def _next_after(self, probe: str, now: float) -> float:
-        """When the probe's next message may go (at most max_hz on average, tolerating
-        jitter down to half a period)."""
-        interval = 1.0 / self.max_hz
-        return max(self._next_send.get(probe, now) + interval, now + 0.5 * interval)
+    def _rate_wait(self, probe: str, now: float, force: bool = False) -> float:
+        """0 if a message of ``probe`` may go at ``now`` (loop time; its token is taken),
+        else the seconds until it may (see RATE_SLACK). ``force``: it goes anyway, taking
+        what tokens there are."""
+        if self.max_hz <= 0:
+            return 0.0
+        full = 1.0 + RATE_SLACK
+        tokens, at = self._tokens.get(probe, (full, now))
+        now = max(now, at)          # a publish time may precede the writer's last look
+        tokens = min(full, tokens + (now - at) * self.max_hz * (1.0 + RATE_MARGIN))
+        self._tokens[probe] = (tokens, now)
+        wait = max((1.0 - tokens) / (self.max_hz * (1.0 + RATE_MARGIN)),
+                   self._last_sent.get(probe, -1e9) + RATE_SPACING / self.max_hz - now)
+        if wait > 0 and not force:
+            return wait
+        self._tokens[probe] = (max(tokens - 1.0, 0.0), now)
+        self._last_sent[probe] = now
+        return 0.0
+
+    def _may_send(self, probe: str, loop) -> bool:
+        """Whether the writer may send the probe's pending message now (its budget charged
+        at its publish time, or when its turn came: a writer running late charges no later
+        than that); if not, the writer is woken at its turn."""
+        if probe in self._unmetered or self.max_hz <= 0:
+            self._unmetered.discard(probe)
+            self._rate_wait(probe, loop.time(), force=True)
+            return True
+        at = self._slot_at.get(probe, loop.time())
+        wait = self._rate_wait(probe, at)
+        if wait <= 0:
+            return True
+        turn, now = at + wait, loop.time()
+        if now < turn:
+            self._wake_in(loop, turn - now)     # too early: wait for its turn
+            return False
+        self._rate_wait(probe, turn, force=True)
+        return True
 
     def forget(self, probe: str) -> None:
         self._slots.pop(probe, None)
@@ -160,15 +225,10 @@ class ClientSession:
                     text = self._slots.get(probe)
                     if text is None:
                         continue
-                    now = loop.time()
-                    wait = self._next_send.get(probe, 0.0) - now
-                    if wait > 0:
-                        self._wake_in(loop, wait)
+                    if not self._may_send(probe, loop):
                         continue
                     self._slots[probe] = None
                     await self._send(text)
-                    if self.max_hz > 0:
-                        self._next_send[probe] = self._next_after(probe, now)
                 for probe in list(self._cubes):
                     pair = self._cubes.get(probe)
                     if pair is None:

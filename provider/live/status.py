@@ -45,6 +45,7 @@ def health(server) -> dict:
     health = {"status": "ok" if ok else "degraded", "provider": f"shlight {__version__}",
               "uptime_s": round(time.time() - server.started_at, 3),
               "clients": len(server.clients), "probes": probes}
+    health.update(limits_health(server))
     for publisher in server.publishers:        # e.g. "mqtt": {"state": "connected", ...}
         health[publisher.kind] = publisher.health()
         if health[publisher.kind]["state"] != "connected":
@@ -52,6 +53,36 @@ def health(server) -> dict:
     if server.environment.probes:              # shlight serve --environment
         health["environment"] = server.environment.health()
     return health
+
+def limits_health(server) -> dict:
+    """What the server holds at most (provider.live.limits): the effective max_clients,
+    below the one asked for when the open-files limit cannot hold that many."""
+    return {"max_clients": server.max_clients,
+            "max_clients_requested": server.settings.max_clients,
+            "open_files_limit": server.open_files_limit}
+
+
+def limits_metrics(server, m: "MetricsText") -> None:
+    """The per-client budgets' counters and the probe tasks' state, for /metrics."""
+    c = server.limit_counters
+    m.add("shlight_messages_held_total", "counter",
+          "Messages that waited for their turn under a client's max_hz.",
+          server.counters.messages_held)
+    m.add("shlight_max_clients", "gauge", "Clients the server holds at most (open files "
+          "limit included).", server.max_clients)
+    m.add("shlight_client_messages_dropped_total", "counter",
+          "Client messages dropped past their budget.", c.frames_dropped)
+    m.add("shlight_client_policy_closes_total", "counter",
+          "Clients closed (1008) for sending far past their budget.", c.policy_closes)
+    m.add("shlight_client_throttled_reads_total", "counter",
+          "Times a client's socket was left unread for sending too many bytes.",
+          c.throttled_reads)
+    m.add("shlight_probe_running", "gauge", "1 while the probe's task runs.",
+          [({"probe": p.name}, 1 if p.running else 0) for p in server.probes.values()])
+    m.add("shlight_probe_loop_errors_total", "counter",
+          "Unexpected errors the probe survived.",
+          [({"probe": p.name}, p.loop_errors) for p in server.probes.values()])
+
 
 def metrics(server) -> str:
     """The /metrics text (Prometheus exposition format)."""
@@ -96,6 +127,7 @@ def metrics(server) -> str:
           per(lambda p: p.capture.reconnects))
     m.add("shlight_probe_subscribers", "gauge", "Clients subscribed to the probe.",
           per(lambda p: len(server._subscribers[p.name])))
+    limits_metrics(server, m)
     for publisher in server.publishers:
         publisher.add_metrics(m)
     server.environment.add_metrics(m)

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import json
+import math
+import time
 import urllib.parse
 
 import numpy as np
@@ -16,6 +18,43 @@ _RELAY_STATS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate
                 "light_error", "sh9_error", "light_candidates",
                 "radiometry", "response", "exposure_s", "gain", "exposures_s",
                 "clipped_light_fraction")
+
+
+#: The type each relayed optional field must have (docs/contract.md §3, §9, §10).
+_NUMBER, _INT, _STRING, _BOOL, _NUMBERS = "number", "integer", "string", "boolean", "numbers"
+_RELAY_TYPES = {**{k: _NUMBER for k in ("compute_ms", "clipped_fraction", "order_error",
+                                        "error_estimate", "coverage_sr",
+                                        "negative_energy_fraction", "window_cutoff",
+                                        "light_error", "sh9_error", "exposure_s", "gain",
+                                        "clipped_light_fraction")},
+                **{k: _INT for k in ("negative_pixels", "nonfinite_pixels", "order",
+                                     "light_candidates")},
+                "radiometry": _STRING, "response": _STRING, "ringing": _BOOL,
+                "min_irradiance": _NUMBERS, "exposures_s": _NUMBERS}
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def relayed_stats(msg: dict) -> dict:
+    """The optional fields of an upstream message that this provider passes on, each
+    checked against its type; ValueError names the first malformed one."""
+    stats = {}
+    for k in _RELAY_STATS:
+        if k not in msg:
+            continue
+        v, kind = msg[k], _RELAY_TYPES[k]
+        ok = (_is_number(v) if kind == _NUMBER else
+              isinstance(v, int) and not isinstance(v, bool) and abs(v) < 1 << 53
+              if kind == _INT else
+              isinstance(v, str) and len(v) <= 200 if kind == _STRING else
+              isinstance(v, bool) if kind == _BOOL else
+              isinstance(v, list) and len(v) <= 64 and all(map(_is_number, v)))
+        if not ok:
+            raise ValueError(f"field {k!r} is not a valid {kind}: {str(v)[:40]!r}")
+        stats[k] = v
+    return stats
 
 
 def relayed_lights(msg: dict):
@@ -92,10 +131,18 @@ class RelaySource(Source):
                 coeffs = np.asarray(msg["coefficients"], np.float64).reshape(9, 3)
                 mats = np.asarray(msg["matrices"], np.float64).reshape(3, 4, 4)
                 t = float(msg["time"])
+                if not (math.isfinite(t) and np.all(np.isfinite(coeffs))
+                        and np.all(np.isfinite(mats))):
+                    raise ValueError("non-finite numbers")
                 lights, ambient = relayed_lights(msg)
-            except (KeyError, TypeError, ValueError):
-                raise SourceError("upstream sent a malformed sh9 message") from None
-            stats = {k: msg[k] for k in _RELAY_STATS if k in msg}
+                stats = relayed_stats(msg)
+            except (KeyError, TypeError, ValueError, OverflowError) as exc:
+                # One bad message is one rejected frame (counted by the probe); the
+                # connection and the messages after it are fine.
+                reason = str(exc)[:120] if not isinstance(exc, KeyError) else f"no {exc}"
+                return Frame(None, time.time(), info={
+                    "upstream_seq": msg.get("seq"),
+                    "rejected": f"upstream sent a malformed sh9 message ({reason})"})
             return Frame(None, t, lighting=SH9Result(coeffs, mats, stats, lights, ambient),
                          info={"upstream_seq": msg.get("seq")})
 
