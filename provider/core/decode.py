@@ -31,6 +31,19 @@ def _count_pixels(mask: np.ndarray) -> int:
     return int(cv2.countNonZero(cv2.max(cv2.max(planes[0], planes[1]), planes[2])))
 
 
+def image_array(image) -> np.ndarray:
+    """An image given as an array or a path (read with :func:`~provider.core.images.read_image`)
+    as a non-empty array, else :class:`InputError` in one line."""
+    if isinstance(image, (str, bytes)) or hasattr(image, "__fspath__"):
+        from .images import read_image
+        image = read_image(image)
+    if not isinstance(image, np.ndarray):
+        raise InputError(f"expected an image array or a path, got {type(image).__name__}")
+    if image.size == 0 or image.ndim < 2:
+        raise InputError(f"empty image (shape {image.shape})")
+    return image
+
+
 class FrameDecoder:
     """Checks frames of one size and decodes them to linear float32 radiance.
 

@@ -38,7 +38,7 @@ from .projections import Equirect, Projection, ProjectionError, make_projection
 from . import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from .engine_options import check_options, exposure_scale
 from .float_clean import FloatCleaner
-from .decode import FrameDecoder, _count_pixels, srgb_to_linear  # noqa: F401 (re-exported)
+from .decode import FrameDecoder, _count_pixels, image_array, srgb_to_linear  # noqa: F401
 
 
 @dataclass
@@ -465,13 +465,7 @@ def compute_sh9(image, projection: str = "equirect", **options) -> SH9Result:
     :class:`SH9Projector`; ``error_estimate`` defaults to True here. Projectors are cached
     per (size, projection, options), so calling this per frame is cheap after the first.
     """
-    if isinstance(image, (str, bytes)) or hasattr(image, "__fspath__"):
-        from .images import read_image
-        image = read_image(image)
-    if not isinstance(image, np.ndarray):
-        raise InputError(f"expected an image array or a path, got {type(image).__name__}")
-    if image.size == 0 or image.ndim < 2:
-        raise InputError(f"empty image (shape {image.shape})")
+    image = image_array(image)
     options.setdefault("error_estimate", True)
     key = (image.shape[1], image.shape[0], projection, _freeze(options))
     projector = _PROJECTOR_CACHE.get(key)

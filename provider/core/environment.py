@@ -36,7 +36,7 @@ import numpy as np
 
 from . import cubemap, prefilter
 from . import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
-from .decode import FrameDecoder
+from .decode import FrameDecoder, image_array
 from .engine_options import check_options, exposure_scale
 from .errors import InputError
 from .projections import Equirect, Projection, ProjectionError, make_projection
@@ -424,14 +424,8 @@ def compute_environment(image, size: int = 32, projection: str = "equirect",
 
     Options are those of :func:`~provider.core.engine.compute_sh9` (SH9-only ones ignored).
     Projectors are cached per (size, projection, options), a few at a time."""
-    if isinstance(image, (str, bytes)) or hasattr(image, "__fspath__"):
-        from .images import read_image
-        image = read_image(image)
-    if not isinstance(image, np.ndarray):
-        raise InputError(f"expected an image array or a path, got {type(image).__name__}")
-    if image.size == 0 or image.ndim < 2:
-        raise InputError(f"empty image (shape {image.shape})")
     from .engine import _freeze
+    image = image_array(image)
     key = (image.shape[1], image.shape[0], size, projection, _freeze(options))
     projector = _CACHE.pop(key, None)
     if projector is None:
