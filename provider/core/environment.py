@@ -387,10 +387,15 @@ class EnvironmentProjector(FrameDecoder):
                          for c in range(3)], axis=1).astype(np.float32)
 
     def _pyramid(self, base: np.ndarray) -> list:
-        """The base cube and its exact 2×2 solid-angle pools (:func:`cubemap.pool`)."""
+        """The base cube and its exact 2×2 solid-angle pools (as :func:`cubemap.pool`, with
+        each texel's share of its parent's solid angle precomputed in float32)."""
+        if not hasattr(self, "_shares"):
+            self._shares = [
+                (self._omega[a - 1] / self._omega[a].repeat(2, axis=1).repeat(2, axis=2))
+                .astype(np.float32)[..., None] for a in range(1, len(self.levels))]
         levels = [base.reshape(6, self.base, self.base, 3)]
-        for a in range(1, len(self.levels)):
-            levels.append(cubemap.pool(levels[-1], self._omega[a - 1], self._omega[a]))
+        for share, n in zip(self._shares, self.levels[1:]):
+            levels.append((levels[-1] * share).reshape(6, n, 2, n, 2, 3).sum(axis=(2, 4)))
         return levels
 
     def _bright_split(self, px: np.ndarray):
