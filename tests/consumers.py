@@ -124,6 +124,69 @@ def babylon_gltf(light, gltf_normals, handedness="left") -> np.ndarray:
     return _poly(pre, v) * inten
 
 
+def babylon_gltf_cube(light, images) -> list:
+    """The cube Babylon.js builds from an EXT_lights_image_based light: per mip, (6, n, n, 3)
+    in texture storage order (face +X −X +Y −Y +Z −Z, row 0 = t = 0). Each image's bytes
+    (EXT_lights_image_based.pure.ts:92-107; data URIs, glTFLoader.pure.ts:2781-2819) decoded as
+    a texture with invertY (environmentTextureTools.pure.ts:610-621: the image's bottom row
+    becomes storage row 0), then fromRGBD = pow(rgb, 2.2) / a (helperFunctions.ts:105,
+    rgbdDecode.fragment.ts:10)."""
+    import base64
+
+    import cv2
+    mips = []
+    for k, faces in enumerate(light["specularImages"]):
+        assert len(faces) == 6
+        out = []
+        for index in faces:
+            uri = images[index]["uri"]
+            assert uri.startswith("data:image/png;base64,")
+            raw = np.frombuffer(base64.b64decode(uri.split(",", 1)[1]), np.uint8)
+            bgra = cv2.imdecode(raw, cv2.IMREAD_UNCHANGED)
+            assert bgra is not None and bgra.ndim == 3 and bgra.shape[2] == 4, "RGBD needs alpha"
+            rgba = bgra[..., [2, 1, 0, 3]].astype(np.float64) / 255.0
+            rgba = rgba[::-1]                                   # invertY
+            out.append(rgba[..., :3] ** 2.2 / rgba[..., 3:4])
+        mips.append(np.stack(out))
+        assert mips[-1].shape[1] == light["specularImageSize"] >> k
+    return mips
+
+
+def babylon_lookup(gltf_directions, handedness="left") -> np.ndarray:
+    """The vector Babylon.js looks its environment cube up with for a glTF-frame reflection
+    direction: the root node's (x, y, z) → (−x, y, z) in a left-handed scene
+    (glTFLoader.pure.ts:762-768), the lookup's z negated in a right-handed one
+    (materialHelper.functions.ts:931, pbrBlockReflection.ts:39-41)."""
+    d = np.asarray(gltf_directions, float)
+    return d * (np.array([-1.0, 1.0, 1.0]) if handedness == "left" else np.array([1.0, 1.0, -1.0]))
+
+
+def babylon_lod(roughness, size, mips) -> np.ndarray:
+    """The PBR shader's reflection LOD: log2(size · α) · lodGenerationScale, α = roughness² +
+    5e-4 (pbrHelperFunctions.ts:4, 9-10; pbrIBLFunctions.ts:5; pbrBlockReflection.ts:92-95),
+    lodGenerationScale = (mips − 1)/log2(size) (EXT_lights_image_based.pure.ts:147)."""
+    alpha = np.asarray(roughness, float) ** 2 + 0.0005
+    return np.log2(size * alpha) * (mips - 1) / math.log2(size)
+
+
+def babylon_sample(cube_mips, lookup, lod) -> np.ndarray:
+    """textureLod(cube, lookup, lod): nearest texel on each level (the OpenGL face table,
+    tests/reference_cube.py), linear between the two levels around lod, clamped to the levels
+    given. lookup (N, 3), lod scalar or (N,)."""
+    import reference_cube as ref
+    lookup = np.asarray(lookup, float)
+    lod = np.clip(np.broadcast_to(np.asarray(lod, float), lookup.shape[:1]), 0,
+                  len(cube_mips) - 1)
+    lo = np.floor(lod).astype(int)
+    hi = np.minimum(lo + 1, len(cube_mips) - 1)
+    w = (lod - lo)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):     # np.choose evaluates every face
+        at = [m.reshape(-1, 3)[ref.texel_of(lookup, m.shape[1])] for m in cube_mips]
+    pick = np.stack(at)                                             # (levels, N, 3)
+    n = np.arange(lookup.shape[0])
+    return pick[lo, n] * (1 - w) + pick[hi, n] * w
+
+
 def babylon_webxr(sh27, babylon_normals) -> np.ndarray:
     """Babylon.js WebXRLightEstimation.pure.ts:399-402: updateFromFloatsArray → harmonics kept
     by updateFromHarmonics (sphericalPolynomial.pure.ts:430-431) → preScaledHarmonics → the SH

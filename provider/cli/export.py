@@ -1,10 +1,16 @@
 """``shlight export IMAGE --to FORMAT``: one image's lighting in another engine's layout
-(the same input as ``compute``: images, FRAME@SECONDS brackets, the engine options)."""
+(the same input as ``compute``: images, FRAME@SECONDS brackets, the engine options).
+
+``--to gltf`` also makes the reflection cube for ``EXT_lights_image_based``'s
+``specularImages`` (its mips at Babylon.js's roughness, :mod:`provider.core.gltf_ibl`), and
+``--to arcore`` the 16² cube of ``acquireEnvironmentalHdrCubeMap``; ``--no-cube`` skips it."""
 from __future__ import annotations
 
 from .compute import add_input_arguments, print_json, wire_message
 
 _PHASED = ("arcore", "openxr-android")
+#: Formats that carry a reflection cube, and the face size each gets by default.
+CUBE_FORMATS = {"gltf": 32, "arcore": 16}
 
 
 def add_arguments(p) -> None:
@@ -18,6 +24,12 @@ def add_arguments(p) -> None:
     g.add_argument("--no-condon-shortley", action="store_true",
                    help="arcore, openxr-android: no Condon-Shortley phase (the archived ARCore "
                         "Unity SDK's reading) instead of Google's maintained Android sample's")
+    c = p.add_argument_group("the reflection cube (gltf specularImages, arcore cube map)")
+    c.add_argument("--cube-size", type=int, default=None, metavar="N",
+                   help="gltf: edge of mip 0 (specularImageSize), a power of two from 8 to "
+                        "256 (default 32); arcore: always 16, ARCore's size")
+    c.add_argument("--no-cube", action="store_true",
+                   help="SH only: no cube (gltf then lists specularImages as missing)")
     add_input_arguments(p)
 
 
@@ -33,5 +45,36 @@ def run(args) -> int:
         if args.to not in _PHASED:
             raise InputError("--no-condon-shortley applies to --to arcore or openxr-android only")
         options["condon_shortley"] = False
-    print_json(export_message(wire_message(args, "export"), args.to, **options), args.pretty)
+    if args.cube_size is not None and args.to != "gltf":
+        raise InputError("--cube-size applies to --to gltf only (ARCore's cube is 16²)")
+    message = wire_message(args, "export")
+    if args.to in CUBE_FORMATS and not args.no_cube:
+        options["environment"] = cube_mips(args, args.cube_size or CUBE_FORMATS[args.to])
+    print_json(export_message(message, args.to, **options), args.pretty)
     return 0
+
+
+def cube_mips(args, size: int) -> list:
+    """The reflection cube of the command line's input (a bracket: its median exposure, as
+    ``serve --environment`` does), with the same engine options as the coefficients, so the
+    two carry the same units and rotation; for gltf prefiltered at Babylon's roughness."""
+    from ..core.environment import EnvironmentProjector
+    from ..core.gltf_ibl import babylon_roughness
+    from ..live.environment import check_size, cube_options
+    from .compute import locate_ball_note
+    from .feedback import say
+    from .frames import read_frames
+    from .options import engine_options
+    size = check_size(size)
+    images, times, _ = read_frames(args.image, need_times=len(args.image) > 1)
+    k = sorted(range(len(images)), key=lambda i: times[i] or 0.0)[len(images) // 2]
+    options = engine_options(args)
+    if options.get("ball") == "auto":
+        options = locate_ball_note(options, images[k], "export")
+    extra = {"mip_roughness": babylon_roughness(size)} if args.to == "gltf" else {}
+    projector = EnvironmentProjector(images[k].shape[1], images[k].shape[0], args.projection,
+                                     size=size, **cube_options(options), **extra)
+    for warning in projector.warnings:
+        say("export", "warning", f"cube: {warning}")
+    mips = projector.project(images[k], exposure_s=times[k]).mips
+    return mips if args.to == "gltf" else mips[:1]

@@ -117,9 +117,13 @@ NOTES = {
     "arcore": {
         "layout": "'sphericalHarmonics': " + _INTERLEAVED + " (ArLightEstimate_getEnvironmental"
                   "HdrAmbientSphericalHarmonics, arcore_c_api.h:5854-5869); "
-                  "'mainLightDirection' [x, y, z]; 'mainLightIntensity' [r, g, b]",
+                  "'mainLightDirection' [x, y, z]; 'mainLightIntensity' [r, g, b]; from "
+                  "shlight export: 'environmentalHdrCubeMap' {size 16, format, faces, images: "
+                  "6 base64 strings of little-endian RGBA halves, rows from t = 0}",
         "usage": "in place of the ARCore calls: ambient SH (main light excluded), "
-                 "getEnvironmentalHdrMainLightDirection / Intensity",
+                 "getEnvironmentalHdrMainLightDirection / Intensity, and "
+                 "acquireEnvironmentalHdrCubeMap's six images (glTexImage2D(GL_TEXTURE_CUBE_"
+                 "MAP_POSITIVE_X + i, 0, GL_RGBA16F, 16, 16, 0, GL_RGBA, GL_HALF_FLOAT, bytes))",
         "description": "ARCore documents no basis, phase or frame for its 27 numbers. Google's "
                        "maintained Android sample (and Filament, sceneview, Godot) multiply them "
                        "by Condon-Shortley-signed factors: raw ARCore = radiance SH with "
@@ -130,20 +134,36 @@ NOTES = {
                        "--no-condon-shortley gives the Unity SDK's reading. The main light is "
                        "removed from the SH (ARCore's SH is ambient); direction toward the light, "
                        "intensity = RGB irradiance on a surface facing it. With no light: "
-                       "ARCore's no-estimate values ([0, 1, 0], [0, 0, 0]).",
+                       "ARCore's no-estimate values ([0, 1, 0], [0, 0, 0]). The cube map IS "
+                       "documented: six AIMAGE_FORMAT_RGBA_FP16 images laid out as "
+                       "GL_RGBA16F, linear, in the order GL_TEXTURE_CUBE_MAP_POSITIVE_X ... "
+                       "NEGATIVE_Z (arcore_c_api.h:5876-5892); Google's sample uploads them "
+                       "unflipped and looks them up with the world reflection vector, at 16 "
+                       "x 16: our layout unchanged (radiance, main light included, as "
+                       "E(SH) + E(main light) = E(cube) in ARCore).",
         "sources": [
             "arcore-android-sdk libraries/include/arcore_c_api.h:5825-5869",
             "arcore-android-sdk samples/hello_ar_java/.../HelloArActivity.java:98-110, 799-835",
             "arcore-android-sdk samples/hello_ar_java/.../shaders/environmental_hdr.frag:117-177",
             "arcore-unity-sdk LightEstimateApi.cs:125-159 (the disagreeing reading)",
+            "arcore-android-sdk libraries/include/arcore_c_api.h:5876-5892 (the cube map)",
+            "arcore-android-sdk samples/hello_ar_java/.../SpecularCubemapFilter.java:236-274; "
+            "HelloArActivity.java:115 (16 x 16); environmental_hdr.frag:22-26, 156-158, 214-215",
         ],
     },
     "gltf": {
         "layout": "'light': an EXT_lights_image_based light object; 'irradianceCoefficients' "
-                  "9 x [r, g, b] (" + COEFFICIENT_ORDER + ")",
-        "usage": "put 'light' (after adding specularImages and specularImageSize) into "
-                 "extensions.EXT_lights_image_based.lights of the asset and reference it from "
-                 "a scene's extensions.EXT_lights_image_based.light",
+                  "9 x [r, g, b] (" + COEFFICIENT_ORDER + "); with a cube: 'specularImages' "
+                  "K x 6 indices into 'images' (mip-major, faces +X -X +Y -Y +Z -Z; each a "
+                  "4-channel RGBD PNG data URI, rows bottom-up as Babylon uploads them), "
+                  "'specularImageSize' (mip 0's edge), 'specular_roughness' (the roughness "
+                  "each mip is prefiltered at), 'document' (a glTF 2.0 asset with only the light)",
+        "usage": "save 'document' as a .gltf and load it into a Babylon.js scene (it becomes "
+                 "scene.environmentTexture), or put 'light' into extensions."
+                 "EXT_lights_image_based.lights of your asset (its image indices offset by the "
+                 "asset's image count, 'images' appended) and reference it from a scene's "
+                 "extensions.EXT_lights_image_based.light. Without a cube (the live "
+                 "/latest.json?to=gltf, or --no-cube) 'missing_required' lists what is absent",
         "description": "The extension gives no basis, phase or frame for the coefficients. This "
                        "export follows its main consumer, Babylon.js: irradiance SH (A_l L) in "
                        "Babylon's Condon-Shortley basis, in Babylon's environment frame, "
@@ -151,19 +171,38 @@ NOTES = {
                        "A default (left-handed) Babylon scene loads glTF through a root node "
                        "that mirrors x; a right-handed scene negates z at the lookup: the two "
                        "differ by a 180-degree turn about +Y (--babylon-handedness). "
-                       "The extension ALSO REQUIRES 'specularImages' (prefiltered specular "
-                       "cube-map mip levels, radiance in lux) and 'specularImageSize' "
-                       "(light.schema.json:63-67); this export does not provide them, so "
-                       "'light' is not a conforming EXT_lights_image_based light until they "
-                       "are added. Lights are given as KHR_lights_punctual directional lights "
-                       "(intensity in lux = irradiance for calibrated input).",
+                       "The extension also requires 'specularImages' and "
+                       "'specularImageSize' (light.schema.json:63-67): shlight export makes "
+                       "them from the same image (same units and rotation as the SH), in "
+                       "Babylon's reading: RGBD PNGs (pow(rgb, 2.2)/alpha, 0 to 255 in the "
+                       "cube's units, brighter texels clipped and counted in "
+                       "'specular_clipped_texels'; intensity stays 1 because Babylon applies it "
+                       "to the SH twice), faces turned into the lookup frame of the chosen "
+                       "scene handedness, and mip k of K GGX-prefiltered at alpha = "
+                       "size^(k/(K-1) - 1), the roughness Babylon's LOD formula reads it at "
+                       "(mip 0 unfiltered). The extension's README says the mips map evenly "
+                       "to roughness 0..1; Babylon, its reader, does not, and this follows "
+                       "Babylon. Without a cube the export lists 'missing_required' and "
+                       "'light' is not a conforming light. Lights are given as "
+                       "KHR_lights_punctual directional lights (intensity in lux = irradiance "
+                       "for calibrated input).",
         "sources": [
             "glTF extensions/2.0/Vendor/EXT_lights_image_based/README.md:28, 53-79, 118-127",
             "glTF extensions/2.0/Vendor/EXT_lights_image_based/schema/light.schema.json:8-67",
             "Babylon.js loaders/src/glTF/2.0/Extensions/EXT_lights_image_based.pure.ts:117-148",
             "Babylon.js core/src/Maths/sphericalPolynomial.pure.ts:45-57, 241-255, 342-350, 430-431",
             "Babylon.js loaders/src/glTF/2.0/glTFLoader.pure.ts:762-768 (root node)",
-            "Babylon.js core/src/Materials/materialHelper.functions.ts:305, 931",
+            "Babylon.js core/src/Materials/materialHelper.functions.ts:305, 353, 931",
+            "glTF extensions/2.0/Vendor/EXT_lights_image_based/README.md:30-49, 53-70, 83-97",
+            "Babylon.js loaders/src/glTF/2.0/Extensions/EXT_lights_image_based.pure.ts:92-148 "
+            "(images, lodGenerationScale = (mips - 1)/log2(size))",
+            "Babylon.js core/src/Misc/environmentTextureTools.pure.ts:610-637, 730-810, 903-927 "
+            "(RGBD decode, invertY, missing levels black)",
+            "Babylon.js core/src/Shaders/ShadersInclude/helperFunctions.ts:104-105 (toRGBD, fromRGBD)",
+            "Babylon.js core/src/Shaders/ShadersInclude/pbrIBLFunctions.ts:5, pbrBlockReflection.ts:"
+            "37-43, 92-95, pbrHelperFunctions.ts:4, 9-10 (LOD from roughness)",
+            "Babylon.js core/src/Materials/Textures/Filtering/hdrFiltering.ts:127-130 "
+            "(alpha of each mip)",
         ],
     },
     "openxr-android": {
@@ -178,7 +217,13 @@ NOTES = {
                        "fixing the phase; this export follows ARCore's Condon-Shortley reading, "
                        "which Godot's OpenXR vendors plugin applies to this data "
                        "(--no-condon-shortley: the literal R&H signs). Direction toward the "
-                       "light, intensity = RGB irradiance. With no light: state INVALID.",
+                       "light, intensity = RGB irradiance. With no light: state INVALID. "
+                       "No cube map: XR_ANDROID_light_estimation (the registry's, 1.1.62) has "
+                       "none; the cube-map extension XR_ANDROID_light_estimation_cubemap "
+                       "(revision 1, 2025-08-06) is published by Android only, outside the "
+                       "Khronos registry, and the parts read here do not state its faces' "
+                       "orientation or frame, so no layout is exported for it; use the arcore "
+                       "cube (ARCore's documented one) or /environment.ktx2.",
         "sources": [
             "OpenXR-Docs specification/sources/chapters/extensions/android/"
             "android_light_estimation.adoc:186-187, 261-335, 388-394",

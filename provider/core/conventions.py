@@ -305,7 +305,7 @@ def _unity(L, lights, ambient):
     return out
 
 
-def _arcore(L, lights, ambient, condon_shortley):
+def _arcore(L, lights, ambient, condon_shortley, environment=None):
     """The 27 numbers of ArLightEstimate_getEnvironmentalHdrAmbientSphericalHarmonics.
 
     Layout [r0, g0, b0, ..., r8, g8, b8] (arcore_c_api.h:5854-5869). Google's maintained
@@ -329,10 +329,32 @@ def _arcore(L, lights, ambient, condon_shortley):
     out["sphericalHarmonics"] = _f((sign * shc).reshape(-1))
     out["mainLightDirection"] = _f(d)
     out["mainLightIntensity"] = _f(e)
+    if environment is not None:
+        out["environmentalHdrCubeMap"] = _arcore_cube(environment[0])
     return out
 
 
-def _gltf(L, lights, ambient, babylon_handedness):
+def _arcore_cube(radiance) -> dict:
+    """``ArLightEstimate_acquireEnvironmentalHdrCubemap``'s six images: faces in GL order
+    +X −X +Y −Y +Z −Z, each an RGBA_FP16 image laid out as GL_RGBA16F (arcore_c_api.h:5876-
+    5892), uploaded row 0 first to GL_TEXTURE_CUBE_MAP_POSITIVE_X + i and looked up with the
+    world reflection vector (hello_ar_java SpecularCubemapFilter.java:265-274,
+    environmental_hdr.frag:156-158, 214-215): our layout unchanged, radiance including the
+    main light (environmental_hdr.frag:22-26), 16² in Google's sample (HelloArActivity.java:115;
+    SpecularCubemapFilter.java:256-263 refuses other sizes). Base64 of little-endian halves."""
+    import base64
+    cube = np.asarray(radiance, np.float32)
+    if cube.ndim != 4 or cube.shape[0] != 6 or cube.shape[1] != cube.shape[2] or cube.shape[3] != 3:
+        raise InputError(f"the ARCore cube must be (6, n, n, 3), got {cube.shape}")
+    rgba = np.ones(cube.shape[:3] + (4,), np.float32)
+    rgba[..., :3] = np.clip(cube, 0.0, 65504.0)
+    half = rgba.astype("<f2")
+    return {"size": int(cube.shape[1]), "format": "AIMAGE_FORMAT_RGBA_FP16",
+            "faces": ["+X", "-X", "+Y", "-Y", "+Z", "-Z"],
+            "images": [base64.b64encode(half[f].tobytes()).decode("ascii") for f in range(6)]}
+
+
+def _gltf(L, lights, ambient, babylon_handedness, environment=None):
     """glTF ``EXT_lights_image_based`` light (its diffuse part), as Babylon.js reads it.
 
     irradianceCoefficients 9×3 (README.md:75-79, light.schema.json:26-39) = irradiance SH
@@ -343,7 +365,10 @@ def _gltf(L, lights, ambient, babylon_handedness):
     via the root node (glTFLoader.pure.ts:762-768), c = CS·MX·Â·L; right-handed: the lookup
     z is negated (materialHelper.functions.ts:931), c = CS·MZ·Â·L. intensity is always
     written: Babylon multiplies by it unguarded (EXT_lights_image_based.pure.ts:141). The
-    extension also requires specularImages and specularImageSize (light.schema.json:63-67).
+    extension also requires specularImages and specularImageSize (light.schema.json:63-67):
+    given ``environment`` (the cube's mips prefiltered at
+    :func:`provider.core.gltf_ibl.babylon_roughness`), RGBD PNG faces in Babylon's lookup
+    frame (:mod:`provider.core.gltf_ibl`), else ``missing_required``.
     Lights: KHR_lights_punctual directional (shines along the node's −Z; ``node_rotation``
     takes +Z to the toward-light vector), intensity in lux = E⊥.
     """
@@ -361,10 +386,22 @@ def _gltf(L, lights, ambient, babylon_handedness):
                                 "with the normal's z negated at the lookup"))
     out["light"] = {"name": "shlight", "intensity": 1.0, "rotation": [0.0, 0.0, 0.0, 1.0],
                     "irradianceCoefficients": _f(sign * L)}
-    out["missing_required"] = ["specularImages", "specularImageSize"]
-    out["warning"] = ("EXT_lights_image_based also requires 'specularImages' (prefiltered "
-                      "specular cube-map mip levels) and 'specularImageSize'; this export does "
-                      "not provide them, so 'light' is not a valid light until they are added")
+    if environment is not None:
+        from . import gltf_ibl
+        spec = gltf_ibl.specular_images(environment, babylon_handedness)
+        out["light"]["specularImageSize"] = spec["specularImageSize"]
+        out["light"]["specularImages"] = spec["specularImages"]
+        out["images"] = spec["images"]
+        out["specular_roughness"] = gltf_ibl.babylon_roughness(spec["specularImageSize"],
+                                                               len(spec["specularImages"]))
+        out["specular_clipped_texels"] = spec["specular_clipped_texels"]
+        out["document"] = gltf_ibl.document(out["light"], out["images"])
+    else:
+        out["missing_required"] = ["specularImages", "specularImageSize"]
+        out["warning"] = ("EXT_lights_image_based also requires 'specularImages' (prefiltered "
+                          "specular cube-map mip levels) and 'specularImageSize'; this export "
+                          "does not provide them, so 'light' is not a valid light until they "
+                          "are added")
     if lights:
         out["irradianceCoefficientsAmbient"] = _f(sign * _sh_keeping(L, lights, ambient, keep=()))
         out["KHR_lights_punctual"] = [
@@ -404,13 +441,16 @@ def _openxr_android(L, lights, ambient, condon_shortley):
 
 
 def export(coefficients, fmt: str, *, lights=None, ambient=None, babylon_handedness: str = "left",
-           condon_shortley: bool = True) -> dict:
+           condon_shortley: bool = True, environment=None) -> dict:
     """Our (9, 3) radiance SH9 (and optional lights) in ``fmt``'s layout (one of FORMATS).
 
     ``lights``: (direction toward the light, RGB irradiance) pairs in our frame;
     ``ambient``: the (9, 3) SH of everything but ``lights`` (derived when omitted).
     ``babylon_handedness`` ('left' | 'right') applies to gltf; ``condon_shortley`` to arcore
-    and openxr-android. Returns a JSON-ready dict (module docstring).
+    and openxr-android. ``environment``: the reflection cube's mips (our layout, same
+    units), for gltf prefiltered at :func:`provider.core.gltf_ibl.babylon_roughness` (its
+    ``specularImages``), for arcore mip 0 (``environmentalHdrCubeMap``, 16² in ARCore);
+    ignored by the other formats. Returns a JSON-ready dict (module docstring).
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; formats: {', '.join(FORMATS)}")
@@ -425,7 +465,7 @@ def export(coefficients, fmt: str, *, lights=None, ambient=None, babylon_handedn
     if fmt == "unity":
         return _unity(L, lights, ambient)
     if fmt == "arcore":
-        return _arcore(L, lights, ambient, bool(condon_shortley))
+        return _arcore(L, lights, ambient, bool(condon_shortley), environment)
     if fmt == "gltf":
-        return _gltf(L, lights, ambient, babylon_handedness)
+        return _gltf(L, lights, ambient, babylon_handedness, environment)
     return _openxr_android(L, lights, ambient, bool(condon_shortley))

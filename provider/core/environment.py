@@ -112,10 +112,15 @@ class EnvironmentProjector(FrameDecoder):
     encoding, exposure, rotation, response, **projection_options
         As :class:`~provider.core.engine.SH9Projector`; ``rotation`` (camera → world) turns
         the cube as it turns the coefficients. SH9-only options are accepted and ignored.
+    mip_roughness : sequence of float, optional
+        Perceptual roughness of each mip (one per mip, mip 0 must be 0: the radiance), for a
+        consumer that reads its mips at other roughnesses than k/(K−1) (Babylon.js:
+        :func:`provider.core.gltf_ibl.babylon_roughness`). Default k/(K−1).
     """
 
     def __init__(self, width: int, height: int, projection="equirect", *, size: int = 32,
-                 encoding="auto", exposure=1.0, rotation=None, response=None, **options):
+                 encoding="auto", exposure=1.0, rotation=None, response=None,
+                 mip_roughness=None, **options):
         for key in SH9_ONLY:
             options.pop(key, None)
         try:
@@ -134,7 +139,7 @@ class EnvironmentProjector(FrameDecoder):
         self.window = getattr(full, "window", None)
         self.rotation = None if rotation is None else np.asarray(rotation, np.float64)
         self.sizes = cubemap.mip_sizes(self.size)
-        self.roughness = [k / (len(self.sizes) - 1) for k in range(len(self.sizes))]
+        self.roughness = _check_roughness(mip_roughness, len(self.sizes))
         # The finest level: 64² for 16² and 32² cubes (the narrow lobe of mip 1 needs it),
         # 4× the size for 8², the size itself beyond.
         self.base = min(4 * self.size, 64) if self.size <= 32 else self.size
@@ -413,6 +418,22 @@ class EnvironmentProjector(FrameDecoder):
         keep = (cap / lum[bright])[:, None]
         excess = (px[bright] * (1 - keep)).astype(np.float64)
         return bright, excess, None
+
+
+def _check_roughness(mip_roughness, mips: int) -> list:
+    """The roughness of each of ``mips`` mips: k/(K−1) by default, else the given list
+    (InputError unless it has one finite value in [0, 1] per mip, 0 first, non-decreasing)."""
+    if mip_roughness is None:
+        return [k / (mips - 1) for k in range(mips)]
+    try:
+        r = [float(x) for x in mip_roughness]
+    except (TypeError, ValueError):
+        raise InputError("mip_roughness must be a list of numbers") from None
+    if len(r) != mips or r[0] != 0.0 or not all(math.isfinite(x) and 0 <= x <= 1 for x in r) \
+            or any(b < a for a, b in zip(r, r[1:])):
+        raise InputError(f"mip_roughness must hold {mips} non-decreasing values in [0, 1], "
+                         f"the first 0 (mip 0 is the radiance), got {mip_roughness!r}")
+    return r
 
 
 def _upsample_face(face: np.ndarray, size: int) -> np.ndarray:

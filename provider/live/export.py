@@ -41,7 +41,8 @@ def export_message(message: dict, fmt: str, **options) -> dict:
 
     The lights are the message's own docs/contract.md §10 fields (every ``sh9`` message carries
     them). ``options``: ``babylon_handedness`` (gltf), ``condon_shortley`` (arcore,
-    openxr-android); see :func:`provider.core.conventions.export`.
+    openxr-android), ``environment`` (the reflection cube's mips: gltf ``specularImages``,
+    arcore ``environmentalHdrCubeMap``); see :func:`provider.core.conventions.export`.
     """
     lights, ambient = lights_from_fields(message)
     out = {"type": "export", "version": SCHEMA_VERSION}
