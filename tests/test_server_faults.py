@@ -475,3 +475,19 @@ def test_head_other_methods_and_bodies():
         answer = _raw_http(srv.port, b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n"
                                      b"Transfer-Encoding: chunked\r\n\r\n0\r\n\r\n")
         assert answer.startswith(b"HTTP/1.1 400"), answer[:40]
+
+
+def test_a_tls_hello_on_the_plain_port_is_answered_at_once():
+    """wss:// to a server without TLS: the head of a TLS handshake is not HTTP, so the
+    server answers (400) without waiting for a header block that never comes; clients then
+    say "does not serve wss://" instead of timing out."""
+    import socket
+    import ssl
+    with ServerThread("--source", BRIDGE) as srv:
+        port = int(srv.url.rsplit(":", 1)[1].strip("/"))
+        ctx = ssl.create_default_context()
+        ctx.check_hostname, ctx.verify_mode = False, ssl.CERT_NONE
+        with socket.create_connection(("127.0.0.1", port), timeout=5) as raw:
+            with pytest.raises((ssl.SSLError, OSError)) as err:
+                ctx.wrap_socket(raw, server_hostname="localhost")
+        assert not isinstance(err.value, TimeoutError), "the server waited for a head"

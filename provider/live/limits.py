@@ -219,7 +219,10 @@ class _RequestCheckingProtocol(ServerProtocol):
     def parse(self):
         if self.state is State.CONNECTING:
             buffer = self.reader.buffer
-            while b"\r\n\r\n" not in buffer and len(buffer) < 16384 and not self.reader.eof:
+            # Wait for the whole head, unless it is not HTTP at all (a TLS ClientHello on a
+            # plain port): websockets' own parser answers that at once.
+            while (b"\r\n\r\n" not in buffer and len(buffer) < 16384 and not self.reader.eof
+                   and (not buffer or bytes(buffer[:1]).isalpha())):
                 yield
             head = bytes(buffer[: buffer.find(b"\r\n\r\n") + 2])
             if head and _BODY_HEADER.search(head):
