@@ -192,3 +192,46 @@ def test_8bit_frames_decoded_band_by_band_equal_the_whole_frame(projection, w, h
     whole = proj.project_linear(proj.decode(proj._prepare(frame), {}))
     for x, y in zip(proj.project(frame).mips, whole.mips):
         np.testing.assert_allclose(x, y, rtol=1e-6)
+
+
+@pytest.mark.parametrize("projection,w,h", [("equirect", 1920, 960), ("equirect", 512, 256),
+                                            ("dual-fisheye", 1280, 720)])
+def test_one_decode_feeds_sh9_and_the_cube(projection, w, h):
+    """SH9's pass over an 8-bit frame fills the cube's work image on its way (work=...): the
+    cube made from it is the cube of the frame, and SH9's result is unchanged."""
+    from provider.core.engine import SH9Projector
+    frame = np.random.default_rng(2).integers(0, 256, (h, w, 3), dtype=np.uint8)
+    sh9 = SH9Projector(w, h, projection)
+    env = EnvironmentProjector(w, h, projection, size=16)
+    work = env.new_work(sh9)
+    shared = sh9.project(frame, work=work)
+    np.testing.assert_array_equal(shared.coefficients, sh9.project(frame).coefficients)
+    assert work.complete
+    cube = env.project(frame, work=work)
+    assert cube.stats["shared_decode"]
+    for x, y in zip(cube.mips, env.project(frame).mips):
+        np.testing.assert_allclose(x, y, rtol=1e-6)
+    # a decoder with another table cannot fill it; a float frame leaves it incomplete
+    assert env.new_work(SH9Projector(w, h, projection, exposure=2.0)) is None
+    half = env.new_work(sh9)
+    sh9.project(frame.astype(np.float32) / 255, work=half)
+    assert not half.complete
+
+
+def test_environment_bench_reports_cost_error_and_bytes(tmp_path, hdri):
+    """`shlight bench --sections environment`'s pieces on a small case: the table has the
+    cost ratios (alone and sharing SH9's decode), the errors against brute force and the
+    bytes, and a plot is written."""
+    from provider.bench import environment as bench
+    from provider.bench.environment_transport import markdown, transport_bytes
+    images = {"lab": clean(hdri("lab"))}
+    cost = bench.costs(images, sizes=(8,), repeat=1)
+    err = bench.errors(images, sizes=(8,))
+    assert cost[0]["ratio"] > 0 and cost[0]["shared_ratio"] > 0 and cost[0]["nnz"] > 0
+    assert err[0]["mip0_median"] < 0.01 and max(e for _, e in err[0]["mips"]) < 0.03
+    assert err[0]["cube_irradiance"] <= err[0]["sh9_irradiance"]
+    traffic = transport_bytes((8,))
+    bench._write(tmp_path, cost, err, traffic, markdown(traffic))
+    text = (tmp_path / "environment.md").read_text()
+    assert "| 8² |" in text and "| lab |" in text and "| 4,936 |" in text   # KTX2 bytes, 8²
+    assert (tmp_path / "environment.png").stat().st_size > 10_000

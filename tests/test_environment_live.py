@@ -251,6 +251,33 @@ def test_subscribing_before_the_first_frame_gets_the_first_cube():
             assert http_get(srv.http + "/environment.ktx2")[0] == 200
 
 
+def test_8bit_cubes_reuse_the_sh9_pass_decode():
+    """A changing 8-bit stream: when a cube is due, SH9's decoding pass also fills the cube's
+    work image, and the cube is made from it (counted in /healthz), one decode for both."""
+    import threading
+    frames = [jpeg_panorama(256, lamp=True), jpeg_panorama(256, value=(90, 110, 140))]
+    with MjpegCamera(frames[0], fps=15) as camera:
+        stop = threading.Event()
+
+        def flip():
+            i = 0
+            while not stop.wait(0.2):
+                i += 1
+                camera.frame = frames[i % 2]
+        flipper = threading.Thread(target=flip, daemon=True)
+        flipper.start()
+        try:
+            with ServerThread("--source", camera.url, "--environment", "--environment-size",
+                              "16", "--environment-hz", "4", "--change-threshold", "0") as srv:
+                poll(lambda: health(srv.http)["probes"]["default"]["environment"]
+                     ["shared_decode"] >= 2, timeout=30, what="cubes from SH9's decode")
+                env = health(srv.http)["probes"]["default"]["environment"]
+                assert env["errors"] == 0 and env["updates"] >= env["shared_decode"]
+        finally:
+            stop.set()
+            flipper.join(5)
+
+
 @pytest.mark.parametrize("args, says", [
     (["--environment-size", "48"], "power of two from 8 to 256"),
     (["--environment-size", "512"], "power of two from 8 to 256"),

@@ -224,7 +224,8 @@ class SH9Projector(FrameDecoder):
             out[k] += const * partial[ri, ci]
         return out
 
-    def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None):
+    def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None,
+                       work=None):
         """Linearise (counting bad samples) and project; returns the (9, 3) float64
         coefficients, the fast path's small frame (or None), the linear frame the lights read
         (the full linear frame, the fused detection copy, or None) and the L00 of the clipped
@@ -243,6 +244,8 @@ class SH9Projector(FrameDecoder):
                     band = frame[r0:r0 + self.BAND_ROWS]
                     lin = self._linearise(band, lut)
                     self._accumulate(lin, r0, acc)
+                    if work is not None and lut is None:   # the reflection cube's share
+                        work.add_band(lin, r0)
                     if mid is not None:
                         self._extractor.reduce_band(lin, r0, mid)
                     if self._weights is None:
@@ -292,9 +295,14 @@ class SH9Projector(FrameDecoder):
 
     def project(self, frame: np.ndarray, error_estimate: bool | None = None,
                 tracker=None, *, exposure_s: float | None = None,
-                gain: float = 1.0) -> SH9Result:
+                gain: float = 1.0, work=None) -> SH9Result:
         """Coefficients, matrices and statistics of one frame (``error_estimate``: whether
         to estimate SH9's error on this frame; None: as the projector was built).
+
+        ``work``: a :class:`~provider.core.environment.WorkImage`
+        (``EnvironmentProjector.new_work(this projector)``) that the decoding pass of an 8- or
+        16-bit frame fills on its way, so that the reflection cube of the same frame needs no
+        second decode (left incomplete by float frames and ``downsample`` > 1).
 
         With ``lights="auto"`` the result also holds ``lights`` and ``ambient_coefficients``;
         ``tracker`` (a :class:`~provider.core.lights_tracking.LightTracker`, owned by the
@@ -325,7 +333,7 @@ class SH9Projector(FrameDecoder):
         stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
         frame = self._prepare(frame)
         k = exposure_scale(exposure_s, gain, stats)
-        coeffs, small, light_input, clipped = self._project_frame(frame, stats)
+        coeffs, small, light_input, clipped = self._project_frame(frame, stats, work=work)
         if k is not None:
             coeffs, clipped = coeffs * k, clipped * k
         integer = frame.dtype in (np.uint8, np.uint16)

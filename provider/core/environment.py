@@ -306,17 +306,23 @@ class EnvironmentProjector(FrameDecoder):
 
     # -- per frame ------------------------------------------------------------------------
     def project(self, frame: np.ndarray, *, exposure_s: float | None = None,
-                gain: float = 1.0) -> EnvironmentResult:
+                gain: float = 1.0, work: "WorkImage | None" = None) -> EnvironmentResult:
         """The cube of one frame (the frame contract of :mod:`provider.core.engine`).
 
-        ``exposure_s`` and ``gain`` divide the radiance as they divide the coefficients."""
+        ``exposure_s`` and ``gain`` divide the radiance as they divide the coefficients.
+        ``work``: this frame's :class:`WorkImage`, filled by the pass that decoded it already
+        (:meth:`~provider.core.engine.SH9Projector.project`'s ``work``): the frame is then
+        not decoded again. An incomplete one is ignored."""
         t0 = time.perf_counter()
         stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
         frame = self._prepare(frame)
         k = exposure_scale(exposure_s, gain, stats)
         integer = frame.dtype in (np.uint8, np.uint16)
         scale = (1.0 if integer else self.exposure) * (1.0 if k is None else k)
-        if integer and self._crop is not None:   # decode and shrink band by band, in cache
+        if integer and work is not None and work.complete and work.projector is self:
+            result = self._project_work(work.array, scale)
+            stats["shared_decode"] = True
+        elif integer and self._crop is not None:   # decode and shrink band by band, in cache
             result = self._project_work(self._decode_work(frame), scale)
         else:
             result = self.project_linear(self.decode(frame, stats), scale)
@@ -334,6 +340,22 @@ class EnvironmentProjector(FrameDecoder):
             lin = cv2.resize(lin[:ch, :cw], (self._work.width, self._work.height),
                              interpolation=cv2.INTER_AREA)
         return self._project_work(lin, scale)
+
+    def new_work(self, decoder: FrameDecoder | None = None,
+                 band_rows: int = 32) -> "WorkImage | None":
+        """An empty :class:`WorkImage` for ``decoder``'s band-by-band pass over an integer
+        frame (bands of ``band_rows`` rows), or None where its bands cannot make this
+        projector's work image: another table (encoding, exposure, response) or bands that
+        do not fall on the work image's blocks."""
+        if decoder is not None and (
+                (decoder.width, decoder.height) != (self.width, self.height)
+                or decoder.encoding != self.encoding or decoder.exposure != self.exposure
+                or decoder.response is not self.response
+                or getattr(decoder, "window", None) != self.window):
+            return None
+        if self._crop is not None and band_rows % (self._crop[1] // self._work.height):
+            return None
+        return WorkImage(self)
 
     def _decode_work(self, frame: np.ndarray) -> np.ndarray:
         """The work image of an integer frame: linearised and area-averaged band by band
@@ -361,8 +383,12 @@ class EnvironmentProjector(FrameDecoder):
         if self._prefilter is not None:
             bright, excess, rest = self._bright_split(px)
             if bright is not None:   # the pyramid the operator reads keeps the smooth rest
-                sel = np.isin(self._pix, bright)
-                pos = np.searchsorted(bright, self._pix[sel])
+                # the overlap's entries are sorted by pixel: each bright pixel's run of them
+                lo = np.searchsorted(self._pix, bright)
+                hi = np.searchsorted(self._pix, bright, side="right")
+                pos = np.repeat(np.arange(bright.size), hi - lo)
+                sel = np.arange(pos.size) - np.repeat(np.cumsum(hi - lo) - (hi - lo), hi - lo) \
+                    + np.repeat(lo, hi - lo)
                 base = base - self._overlap(excess, pos, self._val[sel], self._tex[sel])
             levels = self._pyramid(base)[self._source_first:]
             pyramid = np.concatenate([lv.reshape(-1, 3) for lv in levels])
@@ -399,8 +425,10 @@ class EnvironmentProjector(FrameDecoder):
                 (self._omega[a - 1] / self._omega[a].repeat(2, axis=1).repeat(2, axis=2))
                 .astype(np.float32)[..., None] for a in range(1, len(self.levels))]
         levels = [base.reshape(6, self.base, self.base, 3)]
-        for share, n in zip(self._shares, self.levels[1:]):
-            levels.append((levels[-1] * share).reshape(6, n, 2, n, 2, 3).sum(axis=(2, 4)))
+        for share in self._shares:     # pairs of rows, then pairs of columns (plain adds)
+            w = levels[-1] * share
+            rows = w[:, 0::2] + w[:, 1::2]
+            levels.append(rows[:, :, 0::2] + rows[:, :, 1::2])
         return levels
 
     def _bright_split(self, px: np.ndarray):
@@ -434,6 +462,41 @@ def _check_roughness(mip_roughness, mips: int) -> list:
         raise InputError(f"mip_roughness must hold {mips} non-decreasing values in [0, 1], "
                          f"the first 0 (mip 0 is the radiance), got {mip_roughness!r}")
     return r
+
+
+class WorkImage:
+    """The work image of one integer frame, filled band by band by a pass that decodes the
+    frame anyway (SH9's: :meth:`~provider.core.engine.SH9Projector.project`'s ``work``), so
+    that the frame is decoded once for both products. Made by
+    :meth:`EnvironmentProjector.new_work`; bands must come in order from row 0."""
+
+    def __init__(self, projector: EnvironmentProjector):
+        self.projector = projector
+        w = projector._work
+        self.array = np.empty((w.height, w.width, 3), np.float32)
+        self.rows = 0                   # frame rows received, in order
+        self.complete = False
+
+    def add_band(self, lin: np.ndarray, r0: int) -> None:
+        """Linear float32 rows ``[r0, r0 + len(lin))`` of the frame (after its window)."""
+        if r0 != self.rows:             # out of order: this work image is not usable
+            self.rows = -1
+            return
+        n = lin.shape[0]
+        self.rows += n
+        crop = self.projector._crop
+        if crop is None:
+            self.array[r0:r0 + n] = lin
+            self.complete = self.rows >= self.array.shape[0]
+            return
+        cw, ch = crop
+        f = ch // self.array.shape[0]
+        stop = min(r0 + n, ch)
+        if stop > r0:
+            self.array[r0 // f:stop // f] = cv2.resize(
+                lin[:stop - r0, :cw], (self.array.shape[1], (stop - r0) // f),
+                interpolation=cv2.INTER_AREA)
+        self.complete = self.rows >= ch
 
 
 def _upsample_face(face: np.ndarray, size: int) -> np.ndarray:

@@ -21,6 +21,8 @@ import threading
 import time
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from .. import __version__
 from ..core.errors import InputError
 from .ktx2 import encode_cube
@@ -30,6 +32,8 @@ log = logging.getLogger("shlight.environment")
 
 #: Edge sizes a cube may have (powers of two, as the core requires).
 SIZES = tuple(1 << k for k in range(3, 9))       # 8 .. 256
+#: How long a due cube waits for the frame whose decode the SH9 pass shared (seconds).
+WORK_WAIT_S = 0.25
 DEFAULT_SIZE = 32
 DEFAULT_HZ = 1.0
 MAX_HZ = 30.0
@@ -186,7 +190,11 @@ class EnvironmentWorker:
         self.encode_ms = 0.0
         self.bytes = 0                  # the last cube's KTX2 length
         self.latest: EnvironmentCube | None = None
-        self._pending = None            # (frame, sh9_seq)
+        self._pending = None            # (frame, sh9_seq, work image or None)
+        self._next_at = 0.0             # monotonic time the next cube may be made
+        self._work_at = -1e9            # when a work image was last handed out
+        self.shared = 0                 # cubes made from the SH9 pass's decode
+        self._integer_frames = False    # the source's frames are 8/16-bit (can be shared)
         self._cond = threading.Condition()
         self._stopping = False
         self._thread: threading.Thread | None = None
@@ -210,13 +218,33 @@ class EnvironmentWorker:
         if self._thread is not None:
             self._thread.join(timeout)
 
-    def offer(self, frame, sh9_seq: int) -> None:
-        """The frame of a changed sh9 message (seq ``sh9_seq``): it replaces any frame
-        still waiting; never blocks."""
+    def work_for(self, image, decoder):
+        """A :class:`~provider.core.environment.WorkImage` for the SH9 pass (``decoder``, its
+        projector) to fill while it decodes ``image`` anyway, so that the cube of this frame
+        needs no second decode; None unless a cube may be due (at most ``hz`` a second) and
+        the cube's projector for this frame size is built. Called from the probe's worker
+        thread; never blocks."""
+        now = time.monotonic()
+        self._integer_frames = image.dtype in (np.uint8, np.uint16)
+        if not self._integer_frames or now < self._next_at \
+                or self._work_at >= self._next_at:      # one per period, no more
+            return None
+        projector = self._projectors.get((image.shape[1], image.shape[0]))
+        if projector is None or isinstance(projector, InputError):
+            return None
+        work = projector.new_work(decoder, getattr(decoder, "BAND_ROWS", 32))
+        if work is not None:
+            self._work_at = now
+        return work
+
+    def offer(self, frame, sh9_seq: int, work=None) -> None:
+        """The frame of a changed sh9 message (seq ``sh9_seq``; ``work``: its work image
+        from :meth:`work_for`, if the SH9 pass filled one): it replaces any frame still
+        waiting; never blocks."""
         with self._cond:
             if self._pending is not None:
                 self.replaced += 1
-            self._pending = (frame, sh9_seq)
+            self._pending = (frame, sh9_seq, work)
             self.offered += 1
             self._cond.notify()
 
@@ -230,20 +258,20 @@ class EnvironmentWorker:
             os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 10)
         except (AttributeError, OSError):
             pass
-        next_at = 0.0
         while True:
             with self._cond:
-                while not self._stopping and (self._pending is None
-                                              or time.monotonic() < next_at):
-                    wait = None if self._pending is None else next_at - time.monotonic()
-                    self._cond.wait(wait)
+                while not self._stopping:
+                    wait = self._wait_s(time.monotonic())
+                    if wait <= 0:
+                        break
+                    self._cond.wait(None if wait == math.inf else wait)
                 if self._stopping:
                     return
-                frame, sh9_seq = self._pending
+                frame, sh9_seq, work = self._pending
                 self._pending = None
-            next_at = time.monotonic() + 1.0 / self.hz
+            self._next_at = time.monotonic() + 1.0 / self.hz
             try:
-                cube = self._make(frame, sh9_seq)
+                cube = self._make(frame, sh9_seq, work)
             except Exception as exc:  # noqa: BLE001 - the thread never dies on a bad frame
                 self._failed(str(exc) if isinstance(exc, InputError)
                              else f"{type(exc).__name__}: {exc}")
@@ -255,7 +283,20 @@ class EnvironmentWorker:
             except RuntimeError:        # the event loop is closed: shutting down
                 return
 
-    def _make(self, frame, sh9_seq: int) -> EnvironmentCube | None:
+    def _wait_s(self, now: float) -> float:
+        """Seconds until the pending frame should be taken (inf: none is pending). With an
+        8/16-bit source, a due frame without a work image waits a moment (WORK_WAIT_S) for a
+        frame whose decode the SH9 pass shares, then goes anyway (the cube decodes it)."""
+        if self._pending is None:
+            return math.inf
+        if now < self._next_at:
+            return self._next_at - now
+        if self._pending[2] is None and self._integer_frames and self._projectors:
+            since = self._work_at if self._work_at >= self._next_at else self._next_at
+            return since + WORK_WAIT_S - now
+        return 0.0
+
+    def _make(self, frame, sh9_seq: int, work=None) -> EnvironmentCube | None:
         image = frame.decoded()         # decoded already by the SH9 path: no second decode
         key = (image.shape[1], image.shape[0])
         projector = self._projectors.get(key)
@@ -268,7 +309,8 @@ class EnvironmentWorker:
         info = frame.info or {}
         t0 = time.perf_counter()
         result = projector.project(image, exposure_s=info.get("exposure_s"),
-                                   gain=info.get("gain", 1.0))
+                                   gain=info.get("gain", 1.0), work=work)
+        self.shared += bool(result.stats.get("shared_decode"))
         compute_ms = (time.perf_counter() - t0) * 1e3
         cube = encode_environment(result, probe=self.probe, seq=self.updates, sh9_seq=sh9_seq,
                                   time_s=frame.time, exposure=self.exposure,
@@ -309,4 +351,5 @@ class EnvironmentWorker:
                 "sh9_seq": latest.sh9_seq if latest else None,
                 "bytes": self.bytes, "compute_ms": round(self.compute_ms, 3),
                 "encode_ms": round(self.encode_ms, 3), "offered": self.offered,
-                "replaced": self.replaced, "errors": self.errors, "error": self.error}
+                "replaced": self.replaced, "shared_decode": self.shared,
+                "errors": self.errors, "error": self.error}

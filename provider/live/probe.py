@@ -122,6 +122,8 @@ class Probe:
             name, projection, self.engine_options, size=environment.size, hz=environment.hz,
             deliver=lambda cube: self.publish_environment(cube))
         self._environment_frame: Frame | None = None
+        self._environment_work = None   # its work image, when SH9's pass filled one
+        self._work = None               # the work image of the frame being projected
         #: A :class:`~provider.live.registration.Registrar` (``--marker``), or None.
         self.registrar = None
 
@@ -217,6 +219,7 @@ class Probe:
             self.image, self.image_seq = frame.image, self.image_seq + 1
             if feeds_cube(frame):
                 self._environment_frame = frame
+                self._environment_work, self._work = self._work, None
         if self.registrar is not None:     # a time check here; detection in its own thread
             self.registrar.offer(frame)
 
@@ -237,6 +240,7 @@ class Probe:
 
     def _project(self, frame: Frame) -> SH9Result:
         """Worker thread: decode if needed, build the projector once per size, project."""
+        self._work = None
         image = frame.decoded()
         if image.ndim < 2:
             raise InputError(f"frame of shape {image.shape}")
@@ -274,8 +278,13 @@ class Probe:
             tracker = self._trackers.setdefault(key, LightTracker())
         now = time.monotonic()
         estimate = now - self._estimated_at >= ERROR_ESTIMATE_INTERVAL_S
+        # When a cube may be due, SH9's decoding pass also fills the cube's work image (one
+        # decode for both products; at most --environment-hz times a second).
+        self._work = (self.environment.work_for(image, projector)
+                      if self.environment is not None else None)
         result = projector.project(image, error_estimate=estimate, tracker=tracker,
-                                   exposure_s=info.get("exposure_s"), gain=info.get("gain", 1.0))
+                                   exposure_s=info.get("exposure_s"), gain=info.get("gain", 1.0),
+                                   work=self._work)
         if estimate:
             self._estimated_at, self._error_estimate = now, result.stats.get("error_estimate")
         elif self._error_estimate is not None:
@@ -376,8 +385,9 @@ class Probe:
         text = dumps(msg).encode()
         if changed and not stale and self._environment_frame is not None \
                 and self.environment is not None:
-            self.environment.offer(self._environment_frame, self.seq)   # never waits
-            self._environment_frame = None
+            self.environment.offer(self._environment_frame, self.seq,    # never waits
+                                   self._environment_work)
+            self._environment_frame = self._environment_work = None
         self.seq += 1
         self._fresh = False
         self.gate.mark_sent(lighting.coefficients, now, light_model(lighting))
