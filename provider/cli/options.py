@@ -109,6 +109,24 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
     add_probe_arguments(g)
 
 
+def fisheye_calibration(path: str) -> dict:
+    """``{"K": 3×3, "D": 4}`` of an OpenCV fisheye calibration file, as float arrays for the
+    projection (InputError in one line for a file that is not one)."""
+    import numpy as np
+    try:
+        with open(path) as f:
+            cal = json.load(f)
+        return {"K": np.asarray(cal["K"], float), "D": np.asarray(cal["D"], float)}
+    except UnicodeDecodeError:
+        raise InputError(f"cannot use calibration {path}: not a JSON text "
+                         "file ({\"K\": 3x3, \"D\": 4})") from None
+    except KeyError as exc:
+        raise InputError(f"cannot use calibration {path}: no {exc} "
+                         "({\"K\": 3x3, \"D\": 4})") from None
+    except (OSError, ValueError, TypeError) as exc:
+        raise InputError(f"cannot use calibration {path}: {exc}") from None
+
+
 def engine_options(args) -> dict:
     """Translate parsed arguments into :class:`~provider.core.engine.SH9Projector` options."""
     from ..core.engine_options import check_options
@@ -151,19 +169,7 @@ def engine_options(args) -> dict:
         if args.radius is not None:
             opts["radius"] = args.radius
         if args.calibration:
-            try:
-                with open(args.calibration) as f:
-                    cal = json.load(f)
-                import numpy as np
-                opts["K"], opts["D"] = np.asarray(cal["K"], float), np.asarray(cal["D"], float)
-            except UnicodeDecodeError:
-                raise InputError(f"cannot use calibration {args.calibration}: not a JSON text "
-                                 "file ({\"K\": 3x3, \"D\": 4})") from None
-            except KeyError as exc:
-                raise InputError(f"cannot use calibration {args.calibration}: no {exc} "
-                                 "({\"K\": 3x3, \"D\": 4})") from None
-            except (OSError, ValueError, TypeError) as exc:
-                raise InputError(f"cannot use calibration {args.calibration}: {exc}") from None
+            opts.update(fisheye_calibration(args.calibration))
     elif args.projection == "dual-fisheye" and args.fov is not None:
         opts["fov_deg"] = args.fov
     elif args.projection in ("mirrorball", "angular"):

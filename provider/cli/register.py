@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 
 from ..core.errors import InputError
-from .options import finite_float
+from .options import finite_float, fisheye_calibration
 
 EPILOG = """\
 prints JSON: rotation (9 numbers, row-major: R_camera<-marker, its columns the marker's x, y, z
@@ -75,13 +75,7 @@ def projection_options(args) -> dict:
     if args.radius is not None:
         opts["radius"] = args.radius
     if args.calibration:
-        import numpy as np
-        try:
-            with open(args.calibration) as f:
-                cal = json.load(f)
-            opts["K"], opts["D"] = np.asarray(cal["K"], float), np.asarray(cal["D"], float)
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            raise InputError(f"cannot use calibration {args.calibration}: {exc}") from None
+        opts.update(fisheye_calibration(args.calibration))
     return opts
 
 
