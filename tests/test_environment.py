@@ -30,6 +30,14 @@ def test_texel_layout_is_the_contract_table(n):
     assert cubemap.texel_solid_angles(n).sum() == pytest.approx(4 * math.pi, rel=1e-12)
 
 
+def test_pooling_is_the_exact_solid_angle_weighted_mean():
+    fine = np.random.default_rng(4).random((6, 16, 16, 3)).astype(np.float32)
+    omega_fine, omega = cubemap.texel_solid_angles(16), cubemap.texel_solid_angles(8)
+    coarse = cubemap.pool(fine, cubemap.pool_shares(omega_fine, omega))
+    want = (fine * omega_fine[..., None]).reshape(6, 8, 2, 8, 2, 3).sum(axis=(2, 4))
+    np.testing.assert_allclose(coarse, want / omega[..., None], rtol=1e-5)
+
+
 def test_face_order_and_orientation_named_directions():
     # the centre of +X looks along +X; on +Y, row 0 (t = 0) is toward -Z; on +Z, column 0 is -X
     d = cubemap.texel_directions(2)

@@ -105,16 +105,20 @@ def flat_index(face, i, j, n: int) -> np.ndarray:
     return (np.asarray(face) * n + i) * n + j
 
 
-def pool(cube: np.ndarray, omega_fine: np.ndarray, omega_coarse: np.ndarray) -> np.ndarray:
-    """Solid-angle-weighted 2×2 mean: (6, 2n, 2n, C) radiance → (6, n, n, C).
+def pool_shares(omega_fine: np.ndarray, omega_coarse: np.ndarray) -> np.ndarray:
+    """(6, 2n, 2n, 1) float32: each fine texel's share of its parent's solid angle, from the
+    texels' solid angles (:func:`texel_solid_angles`) of the two levels; computed once."""
+    parent = omega_coarse.repeat(2, axis=1).repeat(2, axis=2)
+    return (omega_fine / parent).astype(np.float32)[..., None]
 
-    ``omega_fine`` (6, 2n, 2n) and ``omega_coarse`` (6, n, n) are the texels' solid angles
-    (:func:`texel_solid_angles`): the result is the exact mean over each coarse texel."""
-    f, n2 = cube.shape[0], cube.shape[1]
-    n = n2 // 2
-    weighted = cube * omega_fine[..., None]
-    summed = weighted.reshape(f, n, 2, n, 2, -1).sum(axis=(2, 4))
-    return (summed / omega_coarse[..., None]).astype(cube.dtype)
+
+def pool(cube: np.ndarray, shares: np.ndarray) -> np.ndarray:
+    """Solid-angle-weighted 2×2 mean: (6, 2n, 2n, C) radiance → (6, n, n, C), the exact mean
+    over each coarse texel (``shares``: :func:`pool_shares`). Pairs of rows, then pairs of
+    columns, as plain adds (numpy's multi-axis sum is several times slower here)."""
+    w = cube * shares
+    rows = w[:, 0::2] + w[:, 1::2]
+    return rows[:, :, 0::2] + rows[:, :, 1::2]
 
 
 def check_size(size) -> int:

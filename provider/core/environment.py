@@ -92,11 +92,6 @@ class EnvironmentResult:
         out = cos @ self.mips[0].reshape(-1, 3).astype(np.float64)
         return out.reshape(normals.shape[:-1] + (3,))
 
-    @property
-    def nbytes_rgba16f(self) -> int:
-        """Bytes of the whole chain as RGBA16F (the transport's format)."""
-        return sum(m.shape[0] * m.shape[1] * m.shape[2] * 8 for m in self.mips)
-
 
 class EnvironmentProjector(FrameDecoder):
     """Makes reflection cubes from frames of one size and projection.
@@ -145,6 +140,8 @@ class EnvironmentProjector(FrameDecoder):
         self.base = min(4 * self.size, 64) if self.size <= 32 else self.size
         self.levels = cubemap.mip_sizes(self.base)
         self._omega = [cubemap.texel_solid_angles(n) for n in self.levels]
+        self._shares = [cubemap.pool_shares(fine, coarse)
+                        for fine, coarse in zip(self._omega, self._omega[1:])]
         self._work, self._crop = self._work_geometry(full)
         self._build_overlap(self._work)
         if not self.coverage > 0:
@@ -360,15 +357,12 @@ class EnvironmentProjector(FrameDecoder):
     def _decode_work(self, frame: np.ndarray) -> np.ndarray:
         """The work image of an integer frame: linearised and area-averaged band by band
         (each band's float copy stays in cache; the same numbers as the whole frame)."""
-        cw, ch = self._crop
-        f = ch // self._work.height
+        work = WorkImage(self)
+        f = self._crop[1] // self._work.height
         rows = max(1, 32 // f) * f
-        out = np.empty((self._work.height, self._work.width, 3), np.float32)
-        for r0 in range(0, ch, rows):
-            band = self._linearise(frame[r0:min(r0 + rows, ch), :cw])
-            out[r0 // f:(r0 + band.shape[0]) // f] = cv2.resize(
-                band, (self._work.width, band.shape[0] // f), interpolation=cv2.INTER_AREA)
-        return out
+        for r0 in range(0, self._crop[1], rows):
+            work.add_band(self._linearise(frame[r0:r0 + rows]), r0)
+        return work.array
 
     def _project_work(self, lin: np.ndarray, scale: float) -> EnvironmentResult:
         px = np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
@@ -381,7 +375,7 @@ class EnvironmentProjector(FrameDecoder):
         mip0 = self._pyramid(base)[self.levels.index(self.size)]
         mips = [mip0]
         if self._prefilter is not None:
-            bright, excess, rest = self._bright_split(px)
+            bright, excess = self._bright_split(px)
             if bright is not None:   # the pyramid the operator reads keeps the smooth rest
                 # the overlap's entries are sorted by pixel: each bright pixel's run of them
                 lo = np.searchsorted(self._pix, bright)
@@ -418,34 +412,27 @@ class EnvironmentProjector(FrameDecoder):
                          for c in range(3)], axis=1).astype(np.float32)
 
     def _pyramid(self, base: np.ndarray) -> list:
-        """The base cube and its exact 2×2 solid-angle pools (as :func:`cubemap.pool`, with
-        each texel's share of its parent's solid angle precomputed in float32)."""
-        if not hasattr(self, "_shares"):
-            self._shares = [
-                (self._omega[a - 1] / self._omega[a].repeat(2, axis=1).repeat(2, axis=2))
-                .astype(np.float32)[..., None] for a in range(1, len(self.levels))]
+        """The base cube and its exact 2×2 solid-angle pools (:func:`cubemap.pool`)."""
         levels = [base.reshape(6, self.base, self.base, 3)]
-        for share in self._shares:     # pairs of rows, then pairs of columns (plain adds)
-            w = levels[-1] * share
-            rows = w[:, 0::2] + w[:, 1::2]
-            levels.append(rows[:, :, 0::2] + rows[:, :, 1::2])
+        for share in self._shares:
+            levels.append(cubemap.pool(levels[-1], share))
         return levels
 
     def _bright_split(self, px: np.ndarray):
         """The brightest work pixels' light above the next one's luminance, sent to the
         prefiltered mips exactly from their own directions instead of through the pyramid's
         texels: a sun is a delta that no texel-sized quadrature gets right. Returns the
-        (sorted) pixel indices, their excess radiance (K, 3) and the capped rest, or Nones."""
+        (sorted) pixel indices and their excess radiance (K, 3), or Nones."""
         lum = px @ np.array([0.2126, 0.7152, 0.0722], np.float32)
         k = min(BRIGHT_PIXELS, lum.size - 1)
         top = np.argpartition(lum, lum.size - k - 1)[lum.size - k - 1:]
         cap = lum[top].min()
         bright = np.sort(top[lum[top] > cap])
         if bright.size == 0 or not cap >= 0:
-            return None, None, None
+            return None, None
         keep = (cap / lum[bright])[:, None]
         excess = (px[bright] * (1 - keep)).astype(np.float64)
-        return bright, excess, None
+        return bright, excess
 
 
 def _check_roughness(mip_roughness, mips: int) -> list:
