@@ -44,9 +44,6 @@ FILTER = ("mip 0: radiance, the solid-angle mean over each texel; mip k > 0: GGX
           "radiance (split sum, n = v = r, alpha = roughness^2); lod = roughness * (mips - 1)")
 
 #: Engine options that only the SH9 path has (the cube takes the input options).
-_SH9_ONLY = ("order", "order_budget", "dering", "lights", "max_lights", "error_estimate")
-
-
 def check_size(size) -> int:
     """``size`` if it is a power of two from 8 to 256, else :class:`InputError` (one line)."""
     from ..core.cubemap import check_size as core_check
@@ -69,7 +66,8 @@ def check_hz(hz) -> float:
 def cube_options(engine_options: dict) -> dict:
     """The engine options that apply to the cube (input decoding, exposure, rotation,
     projection geometry), without the SH9-only ones."""
-    return {k: v for k, v in engine_options.items() if k not in _SH9_ONLY}
+    from ..core.environment import SH9_ONLY
+    return {k: v for k, v in engine_options.items() if k not in SH9_ONLY}
 
 
 def feeds_cube(frame) -> bool:
