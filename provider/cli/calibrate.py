@@ -153,6 +153,13 @@ def quality_lines(response) -> list[str]:
                         else "")
                      + " (scores, lower is better: " + ", ".join(
                          f"{k} {v:.3f}" for k, v in fit["candidates"].items()) + ")")
+        if fit.get("beats_srgb") is False:
+            worse = [name for name, _, _ in CODE_RANGES if q["curve"][name]["pairs"] >= 50
+                     and (q["curve"][name]["median"] > q["srgb"][name]["median"]
+                          or q["curve"][name]["p90"] > q["srgb"][name]["p90"])]
+            lines.append("warning: no fit explains these frames at least as well as sRGB "
+                         "in every code range (worse in: " + ", ".join(worse) + "); check "
+                         "that the frames are one static view and the times are right")
     return lines
 
 

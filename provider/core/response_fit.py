@@ -13,8 +13,15 @@ included. That is the number :func:`fit_response` minimises:
   so thousands of samples cost milliseconds; its smoothness lambda chosen among a few by the
   disagreement on all the pixels (not the samples); OpenCV's Robertson and OpenCV's own
   Debevec solved beside it, and the curve that explains the frames best kept;
-* codes with too little data (the *trusted range* is the rest) continued by a monotone
-  log-linear extrapolation from the trusted edge instead of whatever the solve left there.
+* a robust fit on *all* the pixel pairs beside it (:func:`_pairs_l1`: the sum of
+  ``|ln g(z_a) − ln g(z_b) − ln(t_a/t_b)|`` minimised by reweighted least squares, the
+  measure's own terms), which pairs no curve can explain (film fog: one code at twice the
+  exposure) cannot pull as they pull a least-squares fit;
+* codes with too little data, or explained worse than the rest (the *trusted range* is the
+  rest), continued by a monotone extrapolation from the trusted edge (or from a few fixed
+  codes below it) instead of whatever the solve left there;
+* among all these, a curve at least as good as sRGB in every code range is preferred: a
+  calibration must not explain the frames worse than the assumption it replaces.
 """
 from __future__ import annotations
 
@@ -28,6 +35,10 @@ CODE_RANGES = (("toe", 1, 15), ("shadows", 16, 63), ("mid-tones", 64, 191),
                ("highlights", 192, 239), ("shoulder", 240, 254))
 #: The smoothness weights tried (times the data weight per code, see :func:`_debevec`).
 LAMBDAS = (30.0, 100.0, 300.0, 1000.0, 3000.0)
+#: The smoothness weights of the robust fit on all pixel pairs (:func:`_pairs_l1`).
+L1_LAMBDAS = (100.0, 300.0, 1000.0)
+#: Codes the toe is also extrapolated from, below the trusted range's own first code.
+TOE_CUTS = (16, 24, 32, 48)
 #: Pixel pairs a code needs (per channel) to be inside the trusted range.
 TRUST_SUPPORT = 20
 _MAX_PIXELS = 120_000
@@ -204,6 +215,38 @@ def _debevec(z: np.ndarray, lnt: np.ndarray, lam: float) -> np.ndarray:
     return np.linalg.solve(H, b)
 
 
+def _second_differences() -> np.ndarray:
+    d = np.zeros((254, 256))
+    k = np.arange(254)
+    d[k, k], d[k, k + 1], d[k, k + 2] = 1.0, -2.0, 1.0
+    return d.T @ d
+
+
+def _pairs_l1(pairs: list, lam: float, iterations: int = 30) -> np.ndarray:
+    """(256, 3) inverse response minimising Σ n·|ln g(z_a) − ln g(z_b) − ln(t_a/t_b)| over
+    every pixel pair of :func:`pair_histograms` (the disagreement's own terms, so its
+    median rather than its mean), plus ``lam`` × the mean weight per code × the squared
+    second differences of ln g; iteratively reweighted least squares from sRGB, g(128) = 1.
+    Codes no pair holds follow the smoothness."""
+    smooth = _second_differences()
+    out = np.empty((256, 3))
+    for c in range(3):
+        za, zb, dl, n = pairs[c]
+        n = n.astype(np.float64)
+        x = np.log(np.maximum(_SRGB, 1e-7))
+        x -= x[128]
+        for _ in range(iterations):
+            w = n / np.maximum(np.abs(x[za] - x[zb] - dl), 1e-3)
+            cross = np.bincount(za * 256 + zb, w, 65536).reshape(256, 256)
+            H = np.diag(np.bincount(za, w, 256) + np.bincount(zb, w, 256)) - cross - cross.T
+            b = np.bincount(za, w * dl, 256) - np.bincount(zb, w * dl, 256)
+            H += lam * w.sum() / 256 * smooth
+            H[128, 128] += 1e6 * w.sum()
+            x = np.linalg.solve(H, b)
+        out[:, c] = np.exp(x - x[128])
+    return out
+
+
 def _smooth_pixels(frames, times) -> np.ndarray:
     """Per pixel of :func:`_pixels`: whether the middle exposure is locally flat there."""
     mid = frames[int(np.argsort(times)[len(times) // 2])]
@@ -257,11 +300,13 @@ def trusted_codes(table: np.ndarray, pairs: list) -> tuple[int, int]:
 def fit_response(frames, times, samples: int = 1000, lambdas=LAMBDAS,
                  others: dict | None = None, beside: dict | None = None):
     """The (256, 3) inverse response that explains ``frames`` best (any scale), with what
-    was tried: ``(table, info)``; ``info``: ``method``, ``lambda`` (Debevec's, or None),
-    ``samples``, ``trusted`` (lo, hi), ``candidates`` {name: score}. ``others``: more
-    candidate tables by name (OpenCV's Debevec); ``beside``: tables scored and reported
-    but never chosen (OpenCV's Robertson: on a simulated camera it explains the frames
-    better than the true curve does while 5 % off it, so the score cannot choose it)."""
+    was tried: ``(table, info)``; ``info``: ``method``, ``lambda`` (Debevec's or the robust
+    fit's, or None), ``samples``, ``trusted`` (lo, hi), ``extrapolated``, ``candidates``
+    {name: score}, ``beats_srgb`` (whether the curve is at least as good as sRGB in every
+    code range with data). ``others``: more candidate tables by name (OpenCV's Debevec);
+    ``beside``: tables scored and reported but never chosen (OpenCV's Robertson: on a
+    simulated camera it explains the frames better than the true curve does while 5 % off
+    it, so the score cannot choose it)."""
     times = np.asarray(times, np.float64)
     codes = _pixels(frames)
     lnt = np.log(times)
@@ -274,20 +319,27 @@ def fit_response(frames, times, samples: int = 1000, lambdas=LAMBDAS,
             pick = _choose_samples(codes, times, c, samples, smooth)
             table[:, c] = np.exp(_debevec(codes[:, pick, c].T.astype(np.int64), lnt, lam))
         candidates[("debevec", lam)] = _monotone(table)
+    for lam in L1_LAMBDAS:
+        candidates[("pairs-l1", lam)] = _monotone(_pairs_l1(pairs, lam))
     for name, table in (others or {}).items():
         candidates[(name, None)] = _monotone(table)
-    scores = {k: score(disagreement(t, codes, times, pairs)) for k, t in candidates.items()}
-    # the two best fits with their untrusted codes (toe, shoulder or both) extrapolated
+    reports = {k: disagreement(t, codes, times, pairs) for k, t in candidates.items()}
+    # the best fits with their untrusted codes (toe, shoulder or both) extrapolated; the toe
+    # also from a few fixed codes below the trusted range (film's fog ends it gradually)
     trusted = {}
-    for base in sorted(scores, key=scores.get)[:2]:
+    for base in sorted(reports, key=lambda k: score(reports[k]))[:3]:
         lo, hi = trusted[base] = trusted_codes(candidates[base], pairs)
+        cuts = [("toe", lo, 255), ("shoulder", 0, hi), ("toe and shoulder", lo, hi)]
+        cuts += [(f"toe from {cut}", cut, 255) for cut in TOE_CUTS if cut < lo]
         for shape in ("log-linear", "srgb"):
-            for name, a, b in (("toe", lo, 255), ("shoulder", 0, hi),
-                               ("toe and shoulder", lo, hi)):
+            for name, a, b in cuts:
                 key = base + (f"{name} ({shape})",)
                 candidates[key] = extrapolate(candidates[base], a, b, shape=shape)
-                scores[key] = score(disagreement(candidates[key], codes, times, pairs))
-    best = min(scores, key=scores.get)
+                reports[key] = disagreement(candidates[key], codes, times, pairs)
+    srgb = disagreement(_SRGB[:, None].repeat(3, 1), codes, times, pairs)
+    scores = {k: score(r) for k, r in reports.items()}
+    good = [k for k, r in reports.items() if _as_good(r, srgb)]
+    best = min(good or scores, key=scores.get)
     reported = {}
     for (m, lam, *extra), s in scores.items():
         reported[f"{m}" + (f" lambda {lam:g}" if lam is not None else "")
@@ -297,8 +349,17 @@ def fit_response(frames, times, samples: int = 1000, lambdas=LAMBDAS,
             _monotone(table), codes, times, pairs)), 5)
     info = {"method": best[0], "lambda": best[1], "samples": int(samples),
             "trusted": [int(v) for v in trusted.get(best[:2], next(iter(trusted.values())))],
-            "extrapolated": best[2] if len(best) > 2 else None, "candidates": reported}
+            "extrapolated": best[2] if len(best) > 2 else None, "candidates": reported,
+            "beats_srgb": best in good}
     return candidates[best], info
+
+
+def _as_good(report: dict, srgb: dict) -> bool:
+    """Whether a curve's disagreement is at most sRGB's, median and 90th percentile, in every
+    code range with data."""
+    return all(r["pairs"] < 50 or (r["median"] <= srgb[n]["median"] + 1e-9
+                                   and r["p90"] <= srgb[n]["p90"] + 1e-9)
+               for n, r in report.items())
 
 
 def _monotone(table: np.ndarray) -> np.ndarray:
