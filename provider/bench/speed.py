@@ -71,6 +71,8 @@ def bench_speed(hdri, out: Path, args):
                                  ratio=ms / floor, floor_ms=floor, err_max=max(errs),
                                  err_mean=float(np.mean(errs)),
                                  err_hdr=float(np.max(errs_hdr)) if dtype == "uint8" else None))
+            if dtype == "float32":
+                rows += _dirty_float_rows(frames, w, h, floor, cycles)
             if dtype == "uint8":
                 _progress(f"bench {w}×{h} uint8 paper pipeline")
                 ms = _median_ms_cycling(paper_pipeline, images, cycles)
@@ -80,6 +82,37 @@ def bench_speed(hdri, out: Path, args):
                                  ms=ms, ratio=ms / floor, floor_ms=floor, err_max=max(errs),
                                  err_mean=float(np.mean(errs)), err_hdr=float(np.max(errs_hdr))))
     _write_speed(rows, out, panoramas, args)
+
+
+def _dirty_float_rows(frames, w, h, floor, cycles):
+    """The exact float path on frames with 0.1 % bad samples (scattered, so every band of
+    rows holds some: the worst case for the band-by-band clean-up): NaN, or half +inf and
+    half negative. Error against the exact projection of the frame with them zeroed."""
+    import numpy as np
+    from ..core import sh
+    from ..core.engine import SH9Projector
+    proj = SH9Projector(w, h)
+    rows = []
+    for label, values in (("exact, 0.1 % NaN samples", (np.nan,)),
+                          ("exact, 0.1 % +inf / negative samples", (np.inf, -0.5))):
+        _progress(f"bench {w}×{h} float32 {label}")
+        rng = np.random.default_rng(7)
+        dirty, refs = [], []
+        for _, f, _, _ in frames:
+            d = f.copy()
+            idx = rng.choice(d.size, d.size // 1000, replace=False)
+            for k, v in enumerate(values):
+                d.flat[idx[k::len(values)]] = v
+            clean = d.copy()
+            clean.flat[idx] = 0
+            dirty.append(d)
+            refs.append(_exact_float64(clean))
+        ms = _median_ms_cycling(proj.project, dirty, cycles)
+        errs = [sh.irradiance_error(proj.project(d).coefficients, r) for d, r in zip(dirty, refs)]
+        rows.append(dict(size=f"{w}×{h}", dtype="float32", path=label, ms=ms, ratio=ms / floor,
+                         floor_ms=floor, err_max=max(errs), err_mean=float(np.mean(errs)),
+                         err_hdr=None))
+    return rows
 
 
 def _write_speed(rows, out, panoramas, args):
