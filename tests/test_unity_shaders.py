@@ -7,8 +7,9 @@ variant Unity would build for it: the pass's own multi_compile keywords, GPU ins
 stereo path (none, single-pass, single-pass instanced on D3D11 as on HoloLens, multiview on Vulkan
 as on Quest) and, for the colour passes, both colour spaces. The includes are the stand-ins in
 tests/unity_stubs, which define the stereo and instancing macros the way Unity's do (a pass that
-forgets UNITY_VERTEX_OUTPUT_STEREO does not compile, as in Unity), and Unity's own CGIncludes where
-SHLIGHT_UNITY_CGINCLUDES names them (VERSION=DIR pairs separated by ':', e.g.
+forgets UNITY_VERTEX_OUTPUT_STEREO does not compile, as in Unity), Unity's own 2019.4.1 CGIncludes
+(the six files the shader reaches, MIT, in tests/data/unity_cgincludes_2019.4), and any other
+version's where SHLIGHT_UNITY_CGINCLUDES names them (VERSION=DIR pairs separated by ':', e.g.
 2022.3=/path/to/builtin_shaders/CGIncludes; Unity publishes them as "Built-in shaders").
 
 Beyond compiling, from the SPIR-V (spirv-cross reflection, spirv-opt):
@@ -209,7 +210,9 @@ def layer_depends_on_instance_id(spv: Path) -> bool:
 
 
 def _include_sets():
-    sets = [("stand-in", [STUBS], (202030, 202230))]
+    sets = [("stand-in", [STUBS], (202030, 202230)),
+            # Unity's own 2019.4.1 (MIT; the six files the shader reaches; see the folder's README)
+            ("2019.4", [ROOT / "tests" / "data" / "unity_cgincludes_2019.4"], (201940,))]
     for item in filter(None, os.environ.get("SHLIGHT_UNITY_CGINCLUDES", "").split(":")):
         version, _, folder = item.partition("=")
         major, minor = version.split(".")[:2]
@@ -365,7 +368,8 @@ def test_missing_stereo_step_is_caught(tmp_path, token, includes):
 
 
 def test_all_variants_compile_with_unity_includes(tmp_path):
-    """The same matrix against Unity's own CGIncludes, for each version in SHLIGHT_UNITY_CGINCLUDES."""
+    """The same matrix against Unity's own CGIncludes: 2019.4.1's (in tests/data, MIT) and each
+    version named in SHLIGHT_UNITY_CGINCLUDES."""
     sets = [(name, dirs, versions) for name, (dirs, versions) in INCLUDE_SETS.items() if name != "stand-in"]
     if not sets:
         pytest.skip("SHLIGHT_UNITY_CGINCLUDES not set (VERSION=DIR[:VERSION=DIR...], DIR = the CGIncludes "
