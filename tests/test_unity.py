@@ -268,7 +268,9 @@ def test_mrtk_ambient_helper(build_dir):
     report = json.loads(r.stdout.strip().splitlines()[-1])
     assert r.returncode == 0 and not report["failures"], json.dumps(report, indent=1)
     assert {"mrtk2_switched_on", "mrtk3_switched_on", "others_untouched", "unlit_reported", "light_probes_off",
-            "restored", "scope_whole_scene", "static_helper"} <= set(report["checks"])
+            "restored", "scope_whole_scene", "static_helper", "reflections_opt_in", "reflections_switched_on",
+            "reflections_others_untouched", "reflections_counts", "reflections_faint_reported", "reflections_restored",
+            "reflections_static_helper", "mrtk2_lod_curve"} <= set(report["checks"])
 
 
 def test_mrtk_shader_names_match_their_sources():
@@ -285,6 +287,14 @@ def test_mrtk_shader_names_match_their_sources():
         "Graphics Tools/Non-SRP/Standard CanvasNonSrp": ("_SphericalHarmonics", "_SPHERICAL_HARMONICS", "GraphicsToolsLit"),
     }
     assert 'GraphicsToolsLit = { "_DIRECTIONAL_LIGHT", "_DISTANT_LIGHT" }' in text
+    # the "Reflections" toggle: MRTK2 MixedRealityStandard.shader line 31 and GraphicsToolsStandard*.shader
+    # line 40 both read `[Toggle(_REFLECTIONS)] _Reflections("Reflections", Float) = 0.0`
+    assert 'ReflectionsProperty = "_Reflections"' in text and 'ReflectionsKeyword = "_REFLECTIONS"' in text
+    models = re.findall(r'new Sh9AmbientSwitch\("([^"]+)",[^;]*?Sh9MrtkReflectionModel\.(\w+)\)', text, re.S)
+    assert dict(models) == {"Mixed Reality Toolkit/Standard": "Mrtk2", "Graphics Tools/Standard": "GraphicsTools",
+                            "Graphics Tools/Non-SRP/StandardNonSrp": "GraphicsTools",
+                            "Graphics Tools/Standard Canvas": "GraphicsTools",
+                            "Graphics Tools/Non-SRP/Standard CanvasNonSrp": "GraphicsTools"}
 
 
 def test_core_has_no_unity_dependency(build_dir):

@@ -269,7 +269,17 @@ def _irradiance(matrices, n) -> np.ndarray:
 
 #: For each marker-axes convention of the tracker's Transform: the local axes of the printed
 #: marker's out-of-face normal and its printed up (Sh9MarkerAxes).
-MARKER_AXES = {0: ((0, 0, -1), (0, 1, 0)), 1: ((0, 1, 0), (0, 0, 1))}
+MARKER_AXES = {0: ((0, 0, -1), (0, 1, 0)), 1: ((0, 1, 0), (0, 0, 1)), 2: ((0, 0, 1), (0, -1, 0))}
+QR_SIDE = 0.2   # MicrosoftQrCode: the Transform sits on the code's top-left corner
+
+
+def _tracked_centre(case) -> np.ndarray:
+    """Where the marker's centre is for a tracked Transform case: its position, or for a Microsoft QR
+    code (origin at the top-left corner, +X printed right, +Y printed down) position + Q·(s/2, s/2, 0)."""
+    p = np.array(case["p"], float)
+    if case["axes"] == 2:
+        p = p + _unity_matrix(case["q"]) @ np.array([case["side"] / 2, case["side"] / 2, 0.0])
+    return p
 
 
 def test_registration_lights_the_sphere_from_the_markers_side(registration_exe, tmp_path):
@@ -301,17 +311,19 @@ def test_registration_lights_the_sphere_from_the_markers_side(registration_exe, 
             q = rng.normal(size=4)
             q /= np.linalg.norm(q)
             rot = _unity_matrix(q)
-            cases.append({"q": q.tolist(), "p": rng.normal(size=3).tolist(), "axes": axes})
+            cases.append({"q": q.tolist(), "p": rng.normal(size=3).tolist(), "axes": axes, "side": QR_SIDE})
             expect.append((rot @ local_normal, rot @ local_up))
         for _ in range(3):                                         # LookRotation from the physical axes
             normal, up = _random_rotation(rng)[:, :2].T
             if axes == 0:
                 rot = _look_rotation(-normal, up)                  # the quad looks along −normal... its +Z
-            else:
+            elif axes == 1:
                 rot = _look_rotation(up, normal)                   # +Z = printed up, +Y = normal
+            else:
+                rot = _look_rotation(normal, -up)                  # QR: +Z = normal, +Y = printed down
             q = _matrix_to_quaternion(rot)
             assert np.allclose(_unity_matrix(q), rot)
-            cases.append({"q": q, "p": [0.5, 1.0, 2.0], "axes": axes})
+            cases.append({"q": q, "p": [0.5, 1.0, 2.0], "axes": axes, "side": QR_SIDE})
             expect.append((normal, up))
     job = tmp_path / "job.json"
     job.write_text(json.dumps({"message": json.dumps(message), "cases": cases}))
@@ -334,7 +346,7 @@ def test_registration_lights_the_sphere_from_the_markers_side(registration_exe, 
         # where the camera is: the marker seen from there, in the probe's frame, is S·p_camera
         rot_u = np.array(out["rotation"]).reshape(3, 3)
         assert np.allclose(rot_u, _unity_matrix(out["quaternion"]), atol=1e-9)
-        seen = rot_u.T @ (np.array(case["p"]) - np.array(out["camera"]))
+        seen = rot_u.T @ (_tracked_centre(case) - np.array(out["camera"]))
         assert np.allclose(seen, S3 @ p_cm, atol=1e-9)
     # the cube of the first case, turned by the same rotation: bright toward the marker's face
     levels = read_unity_cube(tmp_path / "unity.bin", 64)
@@ -347,6 +359,70 @@ def test_registration_lights_the_sphere_from_the_markers_side(registration_exe, 
     print(f"\nregistration: {len(cases)} marker poses lit from the marker's side; cube's bright cap "
           f"{angle:.2f}° from the marker's face normal")
     assert angle < 1
+
+
+#: How each tracker reports one physical marker in Unity's world (printed right r, printed up u, face
+#: normal n, centre c), as its documentation says (sources: unity_package/README.md §15):
+#: (Sh9MarkerAxes, local +X, local +Y, local +Z, the Transform's origin).
+TRACKERS = {
+    "quad": (0, lambda r, u, n: (r, u, -n), lambda c, r, u, s: c),
+    # AR Foundation ARTrackedImage (ARCore: "The Y-axis points perpendicular out of the image. The X-axis
+    # points from left to right on the image, and the Z-axis points from bottom to top"), Vuforia (+Y up)
+    "ar_foundation": (1, lambda r, u, n: (r, n, u), lambda c, r, u, s: c),
+    "vuforia": (1, lambda r, u, n: (r, n, u), lambda c, r, u, s: c),
+    # Microsoft QR: origin at the top-left corner, Z out of the paper (left-handed), so +Y = printed down
+    "microsoft_qr": (2, lambda r, u, n: (r, -u, n), lambda c, r, u, s: c - r * s / 2 + u * s / 2),
+}
+
+
+def test_each_trackers_marker_pose_gives_the_camera_where_it_is(registration_exe, tmp_path):
+    """One physical scene: a 20 cm marker on a wall 2 m in front of the user, facing them (printed up =
+    world up), and the 360° camera 1 m to the side, turned 30° and tilted 10°. The provider's
+    R_camera←marker / position (wire frame, OpenCV axes) are made from that scene; each tracker's pose
+    of the same marker is built from its documented axes and origin (not from the package's code).
+    With the matching Marker Axes, every tracker must give back the camera's true rotation and
+    position in Unity's world; the wrong convention must not."""
+    def rot_y(deg):
+        a = math.radians(deg)
+        return np.array([[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]])
+
+    def rot_x(deg):
+        a = math.radians(deg)
+        return np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
+
+    # Unity world (left-handed, +Y up); the user at the origin looks along +Z at the marker
+    r, u, n = np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, -1.0])
+    centre = np.array([0.0, 1.5, 2.0])
+    cam_rot_u = rot_y(30) @ rot_x(10)                  # R_world←camera in Unity
+    cam_pos = np.array([1.0, 1.2, 0.3])
+    # the provider's measurement, right-handed wire frame: R_world←marker = S·[r u n], R_wc = S·R_U·S
+    r_wm = S3 @ np.stack([r, u, n], 1)
+    r_wc = S3 @ cam_rot_u @ S3
+    r_cm = r_wc.T @ r_wm
+    p_cm = r_wc.T @ (S3 @ (centre - cam_pos))
+    message = {"type": "sh9", "version": 1, "coefficients": [0.1] * 27,
+               "registration": {"marker": "qr", "marker_id": "x", "rotation": r_cm.reshape(-1).tolist(),
+                                "position": p_cm.tolist()}}
+    cases, names = [], []
+    for name, (axes, local_axes, origin) in TRACKERS.items():
+        rot = np.stack(local_axes(r, u, n), 1)
+        assert np.isclose(np.linalg.det(rot), 1), name     # a Unity Transform's rotation
+        for use in sorted({axes, 0, 1, 2}):                 # the matching convention, then the others
+            cases.append({"q": _matrix_to_quaternion(rot), "p": origin(centre, r, u, QR_SIDE).tolist(),
+                          "axes": use, "side": QR_SIDE})
+            names.append((name, use == axes))
+    job = tmp_path / "job.json"
+    job.write_text(json.dumps({"message": json.dumps(message), "cases": cases}))
+    rc, lines = _run(registration_exe, job)
+    assert rc == 0 and len(lines) == len(cases), lines
+    for (name, matching), out in zip(names, lines):
+        rot_u = np.array(out["rotation"]).reshape(3, 3)
+        err = math.degrees(math.acos(np.clip((np.trace(rot_u.T @ cam_rot_u) - 1) / 2, -1, 1)))
+        moved = np.linalg.norm(np.array(out["camera"]) - cam_pos)
+        if matching:
+            assert err < 1e-6 and moved < 1e-9, (name, err, moved)
+        else:
+            assert err > 45, (name, err)                  # a wrong convention is 90° or 180° off, never close
 
 
 def test_registration_that_is_not_a_rotation_is_refused(registration_exe, tmp_path):

@@ -48,17 +48,21 @@ static class RegistrationTest
         Sh9Registration reg = parsed.Sh9.Registration;
         var values = new Sh9LightingValues();
         double[] rotation = new double[9], q = new double[4], camera = new double[3], scratch = new double[27];
+        double[] centre = new double[3];
         bool first = true;
         foreach (object c in (List<object>)job["cases"])
         {
             var cs = (Dictionary<string, object>)c;
             double[] mq = Array(cs["q"]), mp = Array(cs["p"]);
             var axes = (Sh9MarkerAxes)(int)(double)cs["axes"];
+            object sideRaw;
+            double side = cs.TryGetValue("side", out sideRaw) ? (double)sideRaw : 0.0;
             long allocated = 0;
             for (int pass = 0; pass < 2; pass++)        // the second pass is measured
             {
                 long before = GC.GetAllocatedBytesForCurrentThread();
-                Sh9RegistrationMath.ProbeRotation(mq[0], mq[1], mq[2], mq[3], mp, axes, reg.Rotation, reg.Position,
+                Sh9RegistrationMath.MarkerCentre(mq[0], mq[1], mq[2], mq[3], mp, axes, side, centre);
+                Sh9RegistrationMath.ProbeRotation(mq[0], mq[1], mq[2], mq[3], centre, axes, reg.Rotation, reg.Position,
                                                   rotation, q, camera, scratch);
                 values.Set(snapshot, q[0], q[1], q[2], q[3], 1.0, false);
                 allocated = GC.GetAllocatedBytesForCurrentThread() - before;

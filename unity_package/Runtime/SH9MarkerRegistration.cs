@@ -1,7 +1,8 @@
 // Registration (docs/contract.md §13): places the 360° camera in the headset's world from a printed
 // marker that both see. The provider measures the marker in the camera (the "registration" of each
 // sh9 message); your tracker (HoloLens QR tracking, AR Foundation image tracking, Vuforia, OpenXR
-// marker tracking, ...) moves a Transform to the marker in Unity's world. This component turns the
+// marker tracking, ...) moves a Transform to the marker in Unity's world; Marker Axes says which of its
+// local axes are the printed marker's (per tracker: README §15, Runtime/Core/Sh9Registration.cs). This component turns the
 // SH9LightingClient's transform so that the lighting (coefficients, Directional Light, reflection
 // cube) arrives from the directions it came from in the room:
 //   R_world←camera = R_world←marker · R_camera←markerᵀ   (right-handed; Unity: S·R·S, S = diag(1, 1, −1)).
@@ -21,6 +22,9 @@ namespace Shlight.Lighting
         [SerializeField] Transform marker;
         [Tooltip("Which local axes of that Transform are the printed marker's right, up and out-of-the-face directions.")]
         [SerializeField] Sh9MarkerAxes markerAxes = Sh9MarkerAxes.QuadFacingMinusZ;
+        [Tooltip("Microsoft QR codes only: the code's side in metres (QRCode.PhysicalSideLength). Their origin is the " +
+                 "top-left corner; this moves it to the centre the provider measures (position only).")]
+        [SerializeField] float markerSideMetres = 0f;
         [Tooltip("Use the server's registration only when its marker_id is this (empty: any).")]
         [SerializeField] string markerId = "";
         [Tooltip("Also move the client's transform to where the camera is (for gizmos; the lighting needs only the rotation).")]
@@ -30,12 +34,15 @@ namespace Shlight.Lighting
         readonly double[] quaternion = new double[4];
         readonly double[] cameraPosition = new double[3];
         readonly double[] markerPosition = new double[3];
+        readonly double[] markerCentre = new double[3];
         readonly double[] scratch = new double[27];
         Sh9Registration manual;
 
         public Transform Marker { get { return marker; } set { marker = value; } }
         public SH9LightingClient LightingClient { get { return lightingClient; } set { lightingClient = value; } }
         public Sh9MarkerAxes MarkerAxes { get { return markerAxes; } set { markerAxes = value; } }
+        /// <summary>The QR code's side in metres for <see cref="Sh9MarkerAxes.MicrosoftQrCode"/> (corner → centre).</summary>
+        public float MarkerSideMetres { get { return markerSideMetres; } set { markerSideMetres = value; } }
         /// <summary>True once a registration has oriented the lighting.</summary>
         public bool Registered { get; private set; }
         /// <summary>The registration used last (the server's, or the one given to <see cref="UseRegistration"/>).</summary>
@@ -62,7 +69,8 @@ namespace Shlight.Lighting
             Quaternion q = marker.rotation;
             Vector3 p = marker.position;
             markerPosition[0] = p.x; markerPosition[1] = p.y; markerPosition[2] = p.z;
-            Sh9RegistrationMath.ProbeRotation(q.x, q.y, q.z, q.w, markerPosition, markerAxes, reg.Rotation, reg.Position,
+            Sh9RegistrationMath.MarkerCentre(q.x, q.y, q.z, q.w, markerPosition, markerAxes, markerSideMetres, markerCentre);
+            Sh9RegistrationMath.ProbeRotation(q.x, q.y, q.z, q.w, markerCentre, markerAxes, reg.Rotation, reg.Position,
                                               unityRotation, quaternion, cameraPosition, scratch);
             Transform t = client.transform;
             t.rotation = new Quaternion((float)quaternion[0], (float)quaternion[1], (float)quaternion[2], (float)quaternion[3]);

@@ -3,7 +3,10 @@
 // Tools/Standard" (and their Canvas / Non-SRP versions) ignore the ambient probe unless each
 // material's "Spherical Harmonics" toggle is on, and it is off by default (names and sources:
 // Runtime/Core/Sh9MrtkShaders.cs). Optionally also makes renderers take the ambient probe instead of
-// baked light probes (a renderer that blends light probes never sees the ambient probe).
+// baked light probes (a renderer that blends light probes never sees the ambient probe), and, opt-in
+// (Also Reflections), switches on each MRTK material's "Reflections" option, without which these
+// shaders never sample unity_SpecCube0, i.e. never show the room cube SH9Reflections gives Unity
+// (sources and how each shader reads the cube: Runtime/Core/Sh9MrtkShaders.cs).
 //
 // The materials changed are shared assets: everything is put back in OnDisable (leaving Play mode
 // included), so the project's materials are not left modified.
@@ -30,9 +33,14 @@ namespace Shlight.Lighting
         [Tooltip("Also set each renderer's Light Probes to Off, so that it gets the ambient probe rather than " +
                  "baked light probes (only matters in scenes with baked light probes).")]
         [SerializeField] bool ambientProbeInsteadOfLightProbes = true;
+        [Tooltip("Also switch on each MRTK material's \"Reflections\" option, so that it reflects the scene's " +
+                 "reflection cube (unity_SpecCube0: SH9Reflections' room cube). MRTK2 mixes it by min(Smoothness, " +
+                 "Metallic): materials of Metallic 0 show it only faintly (listed in the report).")]
+        [SerializeField] bool alsoReflections = false;
         [SerializeField] bool logReport = true;
 
-        struct SavedMaterial { public Material Material; public Sh9AmbientSwitch Switch; public bool HadProperty; public float Value; public bool Keyword; }
+        struct SavedToggle { public bool Changed, HadProperty, Keyword; public float Value; }
+        struct SavedMaterial { public Material Material; public Sh9AmbientSwitch Switch; public SavedToggle SH, Reflections; }
         struct SavedRenderer { public Renderer Renderer; public LightProbeUsage Usage; }
 
         readonly List<SavedMaterial> savedMaterials = new List<SavedMaterial>();
@@ -49,6 +57,14 @@ namespace Shlight.Lighting
         public int MaterialsUnlit { get; private set; }
         /// <summary>Renderers switched from light probes to the ambient probe.</summary>
         public int RenderersSwitched { get; private set; }
+        /// <summary>MRTK materials whose "Reflections" option this component switched on (Also Reflections).</summary>
+        public int ReflectionsSwitched { get; private set; }
+        /// <summary>MRTK materials that already had "Reflections" on (Also Reflections).</summary>
+        public int ReflectionsAlreadyOn { get; private set; }
+        /// <summary>MRTK2 materials (no channel map) of Metallic 0: MRTK2 mixes the reflection by
+        /// min(Smoothness, Metallic), so they show it only as 10% with the Directional Light on and not at all
+        /// without (listed in <see cref="LastReport"/>).</summary>
+        public int ReflectionsFaint { get; private set; }
         /// <summary>What the last Apply did, in words.</summary>
         public string LastReport { get; private set; }
 
@@ -58,6 +74,8 @@ namespace Shlight.Lighting
             get { return ambientProbeInsteadOfLightProbes; }
             set { ambientProbeInsteadOfLightProbes = value; }
         }
+        /// <summary>Also switch on the materials' "Reflections" option (takes effect at the next Apply).</summary>
+        public bool AlsoReflections { get { return alsoReflections; } set { alsoReflections = value; } }
 
         void OnEnable() { Apply(); }
 
@@ -74,6 +92,7 @@ namespace Shlight.Lighting
         public void Apply(Renderer[] renderers)
         {
             var unlit = new List<string>();
+            var faint = new List<string>();
             foreach (Renderer r in renderers)
             {
                 if (r == null) continue;
@@ -82,22 +101,31 @@ namespace Shlight.Lighting
                     if (m == null || !seen.Add(m)) continue;
                     Sh9AmbientSwitch sw = Sh9MrtkShaders.Find(m.shader == null ? null : m.shader.name);
                     if (sw == null) continue;
-                    bool hasProperty = m.HasProperty(sw.Property);
-                    var saved = new SavedMaterial
-                    {
-                        Material = m, Switch = sw, HadProperty = hasProperty,
-                        Value = hasProperty ? m.GetFloat(sw.Property) : 0f, Keyword = m.IsKeywordEnabled(sw.Keyword),
-                    };
-                    if (saved.Keyword && (!hasProperty || saved.Value >= 0.5f))
-                    {
-                        MaterialsAlreadyOn++;
-                    }
+                    var saved = new SavedMaterial { Material = m, Switch = sw, SH = Save(m, sw.Property, sw.Keyword) };
+                    if (IsOn(saved.SH)) MaterialsAlreadyOn++;
                     else
                     {
-                        savedMaterials.Add(saved);
+                        saved.SH.Changed = true;
                         EnableSphericalHarmonics(m);
                         MaterialsSwitched++;
                     }
+                    if (alsoReflections)
+                    {
+                        saved.Reflections = Save(m, sw.ReflectionsProperty, sw.ReflectionsKeyword);
+                        if (IsOn(saved.Reflections)) ReflectionsAlreadyOn++;
+                        else
+                        {
+                            saved.Reflections.Changed = true;
+                            EnableReflections(m);
+                            ReflectionsSwitched++;
+                        }
+                        if (Faint(m, sw))
+                        {
+                            ReflectionsFaint++;
+                            faint.Add(m.name);
+                        }
+                    }
+                    if (saved.SH.Changed || saved.Reflections.Changed) savedMaterials.Add(saved);
                     if (!Shows(m, sw))
                     {
                         MaterialsUnlit++;
@@ -115,7 +143,11 @@ namespace Shlight.Lighting
                          MaterialsAlreadyOn + " already on; " + RenderersSwitched + " renderer(s) moved from light " +
                          "probes to the ambient probe" +
                          (unlit.Count > 0 ? "; no effect on unlit MRTK3 material(s) (set Light Mode to Lit Directional): " +
-                                            string.Join(", ", unlit.ToArray()) : "");
+                                            string.Join(", ", unlit.ToArray()) : "") +
+                         (alsoReflections ? "; reflections switched on in " + ReflectionsSwitched + " MRTK material(s), " +
+                                            ReflectionsAlreadyOn + " already on" : "") +
+                         (faint.Count > 0 ? "; MRTK2 material(s) of Metallic 0 reflect only faintly (MRTK2 mixes the " +
+                                            "reflection by min(Smoothness, Metallic)): " + string.Join(", ", faint.ToArray()) : "");
             if (logReport) Debug.Log("[SH9] " + LastReport, this);
         }
 
@@ -134,6 +166,42 @@ namespace Shlight.Lighting
             return true;
         }
 
+        /// <summary>
+        /// Turn on one material's "Reflections" option (its float property and keyword), without which MRTK2's
+        /// and Graphics Tools' Standard shaders never sample unity_SpecCube0. False (nothing changed) when the
+        /// material's shader is not one MRTK shader this package knows.
+        /// </summary>
+        public static bool EnableReflections(Material material)
+        {
+            if (material == null) return false;
+            Sh9AmbientSwitch sw = Sh9MrtkShaders.Find(material.shader == null ? null : material.shader.name);
+            if (sw == null) return false;
+            if (material.HasProperty(sw.ReflectionsProperty)) material.SetFloat(sw.ReflectionsProperty, 1f);
+            material.EnableKeyword(sw.ReflectionsKeyword);
+            return true;
+        }
+
+        static SavedToggle Save(Material m, string property, string keyword)
+        {
+            bool has = m.HasProperty(property);
+            return new SavedToggle { HadProperty = has, Value = has ? m.GetFloat(property) : 0f, Keyword = m.IsKeywordEnabled(keyword) };
+        }
+
+        static bool IsOn(SavedToggle s) { return s.Keyword && (!s.HadProperty || s.Value >= 0.5f); }
+
+        static void Put(Material m, SavedToggle s, string property, string keyword)
+        {
+            if (!s.Changed) return;
+            if (s.HadProperty) m.SetFloat(property, s.Value);
+            if (!s.Keyword) m.DisableKeyword(keyword);
+        }
+
+        static bool Faint(Material m, Sh9AmbientSwitch sw)
+        {
+            return sw.Reflection == Sh9MrtkReflectionModel.Mrtk2 && !m.IsKeywordEnabled("_CHANNEL_MAP") &&
+                   m.HasProperty("_Metallic") && m.GetFloat("_Metallic") <= 0f;
+        }
+
         static bool Shows(Material m, Sh9AmbientSwitch sw)
         {
             if (sw.NeedsOneOf.Length == 0) return true;
@@ -147,8 +215,8 @@ namespace Shlight.Lighting
             foreach (SavedMaterial s in savedMaterials)
             {
                 if (s.Material == null) continue;
-                if (s.HadProperty) s.Material.SetFloat(s.Switch.Property, s.Value);
-                if (!s.Keyword) s.Material.DisableKeyword(s.Switch.Keyword);
+                Put(s.Material, s.SH, s.Switch.Property, s.Switch.Keyword);
+                Put(s.Material, s.Reflections, s.Switch.ReflectionsProperty, s.Switch.ReflectionsKeyword);
             }
             foreach (SavedRenderer s in savedRenderers)
                 if (s.Renderer != null) s.Renderer.lightProbeUsage = s.Usage;
@@ -157,6 +225,7 @@ namespace Shlight.Lighting
             seen.Clear();
             seenRenderers.Clear();
             MaterialsSwitched = MaterialsAlreadyOn = MaterialsUnlit = RenderersSwitched = 0;
+            ReflectionsSwitched = ReflectionsAlreadyOn = ReflectionsFaint = 0;
         }
     }
 }

@@ -11,6 +11,13 @@
 // OpenCV axes in the Transform's local axes (the tracker's convention, Sh9MarkerAxes): for a
 // Unity quad-like marker (+X printed right, +Y printed up, the printed face toward local −Z) C = S,
 // giving the S·R·S of the contract.
+//
+// Which convention each tracker reports (read at its source; unity_package/README.md §15 cites them):
+//   AR Foundation ARTrackedImage (ARCore, ARKit): ImageInXZPlane, origin at the image's centre;
+//   Vuforia image targets: +Y is the target's normal in Unity ("Other targets are left-handed and Y up");
+//     with +X = printed right that is ImageInXZPlane (the top's direction is not stated there);
+//   Microsoft QR codes (Microsoft.MixedReality.QR through a SpatialGraphNode): MicrosoftQrCode, origin at
+//     the code's top-left corner (MarkerCentre moves it to the centre the provider measures).
 using System;
 using System.Collections.Generic;
 
@@ -27,6 +34,12 @@ namespace Shlight.Lighting
         /// top edge), +Y = out of the printed face (the convention of image targets that lie in the
         /// XZ plane with +Y as their normal; check your tracker's documentation).</summary>
         ImageInXZPlane = 1,
+        /// <summary>Microsoft's QR code frame in Unity (Microsoft.MixedReality.QR located through a
+        /// SpatialGraphNode): origin at the code's top-left corner, +X = printed right, +Y = printed DOWN,
+        /// +Z = out of the printed face (learn.microsoft.com "QR code tracking" for Unity: "the Z-axis points
+        /// out of the paper and is left-handed"; microsoft/MixedReality-QRCode-Sample QRCode.cs:81 centres its
+        /// cube at (+side/2, +side/2, 0)).</summary>
+        MicrosoftQrCode = 2,
     }
 
     /// <summary>The "registration" of an sh9 message (immutable).</summary>
@@ -92,7 +105,32 @@ namespace Shlight.Lighting
         {
             Array.Clear(c, 0, 9);
             if (axes == Sh9MarkerAxes.ImageInXZPlane) { c[0] = 1; c[5] = 1; c[7] = 1; }   // x→X, y→Z, z→Y
+            else if (axes == Sh9MarkerAxes.MicrosoftQrCode) { c[0] = 1; c[4] = -1; c[8] = 1; } // x→X, y→−Y, z→Z
             else { c[0] = 1; c[4] = 1; c[8] = -1; }                                          // x→X, y→Y, z→−Z
+        }
+
+        /// <summary>
+        /// The marker's centre (what the provider's position refers to) in Unity's world, into
+        /// <paramref name="centre"/> (3), from the tracked Transform's rotation (qx, qy, qz, qw) and position
+        /// <paramref name="trackedPosition"/>: the same point, except for <see cref="Sh9MarkerAxes.MicrosoftQrCode"/>,
+        /// whose origin is the code's top-left corner: centre = position + Q·(side/2, side/2, 0) (local +X is
+        /// printed right, +Y printed down), <paramref name="sideMetres"/> the code's side (QRCode.PhysicalSideLength).
+        /// Allocates nothing.
+        /// </summary>
+        public static void MarkerCentre(double qx, double qy, double qz, double qw, double[] trackedPosition,
+                                        Sh9MarkerAxes axes, double sideMetres, double[] centre)
+        {
+            centre[0] = trackedPosition[0]; centre[1] = trackedPosition[1]; centre[2] = trackedPosition[2];
+            if (axes != Sh9MarkerAxes.MicrosoftQrCode || !(sideMetres > 0)) return;
+            double n = Math.Sqrt(qx * qx + qy * qy + qz * qz + qw * qw);
+            if (!(n > 1e-12)) { qx = qy = qz = 0; qw = 1; n = 1; }
+            qx /= n; qy /= n; qz /= n; qw /= n;
+            double vx = sideMetres / 2, vy = sideMetres / 2, vz = 0;
+            // v' = v + 2w(q×v) + 2q×(q×v)
+            double tx = 2 * (qy * vz - qz * vy), ty = 2 * (qz * vx - qx * vz), tz = 2 * (qx * vy - qy * vx);
+            centre[0] += vx + qw * tx + (qy * tz - qz * ty);
+            centre[1] += vy + qw * ty + (qz * tx - qx * tz);
+            centre[2] += vz + qw * tz + (qx * ty - qy * tx);
         }
 
         /// <summary>
