@@ -103,6 +103,22 @@ def test_a_new_cube_changes_the_served_images():
         assert pushed["format"] == "gltf" and "missing_required" not in pushed
 
 
+def test_a_client_with_to_gltf_gets_the_cube_once_it_is_encoded():
+    """A still scene (no new sh9 message for 60 s): a client that connects with ?to=gltf gets
+    the export at once, and again (same seq) with the cube once its thread has encoded it."""
+    with ServerThread("--source", PANORAMA, "--environment", "--keepalive", "60") as srv:
+        poll(lambda: srv.server.probes["default"].environment.latest, what="the first cube",
+             timeout=60)
+        with connect(srv.url + "?to=gltf") as ws:
+            first = recv_until(ws, lambda m: m.get("type") == "export", what="an export")
+            assert "environment_seq" not in first and "being encoded" in first["cube_note"]
+            full = recv_until(ws, lambda m: m.get("type") == "export" and "environment_seq" in m,
+                              timeout=60, what="the export with the cube")
+    VALIDATOR.validate(full)
+    assert full["seq"] == first["seq"] and "missing_required" not in full
+    assert len(full["light"]["specularImages"]) == 5
+
+
 @pytest.mark.parametrize("fmt", ["gltf", "arcore"])
 def test_without_environment_the_export_says_why_it_has_no_cube(fmt):
     with ServerThread("--source", PANORAMA, "--keepalive", "60") as srv:
