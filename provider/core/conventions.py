@@ -503,7 +503,8 @@ def export(coefficients, fmt: str, *, lights=None, ambient=None, babylon_handedn
     and openxr-android. ``environment``: the reflection cube's mips (our layout, same
     units), for gltf prefiltered at :func:`provider.core.gltf_ibl.babylon_roughness` (its
     ``specularImages``), for arcore mip 0 (``environmentalHdrCubeMap``, 16² in ARCore);
-    or that part already encoded (:func:`encode_cube`); ignored by the other formats. Returns a JSON-ready dict (module docstring).
+    or that part already encoded (:func:`encode_cube`); ignored by the other formats.
+    Returns a JSON-ready dict (module docstring).
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; formats: {', '.join(FORMATS)}")

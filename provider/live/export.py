@@ -130,6 +130,8 @@ def cube_for(fmt: str, environment, probe: str):
         return (latest.seq, encoded), None
     reason = latest.export_errors.get(fmt)
     if reason:
-        return None, f"no {field}: the {fmt} cube failed: {reason}"
+        return None, (f"no {field}: the {fmt} cube failed: {reason}"
+                      + (" (shlight serve --environment-size sets the cube's size)"
+                         if fmt == "arcore" else ""))
     return None, (f"no {field} yet: the {fmt} cube of reflection cube {latest.seq} is being "
                   f"encoded (from now on with every cube); ask again")
