@@ -288,3 +288,48 @@ def test_serve_environment_follows_rotate(tmp_path):
     coefficients = json.loads(body)["coefficients"]
     for channel in range(3):
         assert sh_direction(coefficients, channel) @ cube_direction(mips[0], channel) > 0.98
+
+
+# ---- the live path: a twin projector at Babylon's roughness, the cube encoded once -----------
+
+def test_a_twin_at_babylons_roughness_is_the_projector_made_for_it_and_shares_its_work_image():
+    """EnvironmentProjector.at_roughness (what serve --environment uses for gltf): the same
+    mips as a projector built with mip_roughness, from the work image the cube's own
+    projector hands the SH9 pass (so the live glTF cube needs no second decode)."""
+    from provider.core.engine import SH9Projector
+    img = (np.clip(lobe(AXES["+x"], 128, 64), 0, 1) * 255).astype(np.uint8)
+    cube = EnvironmentProjector(128, 64, size=16)
+    twin = cube.at_roughness(gltf_ibl.babylon_roughness(16))
+    made = babylon_mips(img, size=16)
+    assert twin.roughness == made.roughness != cube.roughness
+    sh9 = SH9Projector(128, 64)
+    work = cube.new_work(sh9)
+    sh9.project(img, work=work)
+    shared = twin.project(img, work=work)
+    assert shared.stats.get("shared_decode") is True
+    for a, b in zip(shared.mips, made.mips):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)
+    np.testing.assert_array_equal(shared.mips[0], cube.project(img).mips[0])
+
+
+def test_an_encoded_cube_is_the_export_of_its_mips():
+    env = babylon_mips(lobe(AXES["-z"]), size=16)
+    once = cv.encode_cube("gltf", env.mips)
+    assert cv.export(np.zeros((9, 3)), "gltf", environment=once) == \
+        cv.export(np.zeros((9, 3)), "gltf", environment=env.mips)
+    with pytest.raises(InputError, match="cannot serve a gltf export"):
+        cv.export(np.zeros((9, 3)), "gltf", babylon_handedness="right", environment=once)
+    # arcore: mip 0 pooled exactly to ARCore's 16² from a finer cube; a coarser one refused
+    fine = EnvironmentProjector(256, 128, size=32).project(lobe(AXES["-z"])).mips
+    coarse = EnvironmentProjector(256, 128, size=16).project(lobe(AXES["-z"])).mips
+    assert cv.encode_cube("arcore", fine).fields["size"] == 16
+    np.testing.assert_allclose(_halves(cv.encode_cube("arcore", fine)),
+                               _halves(cv.encode_cube("arcore", coarse)), rtol=2e-3, atol=1e-6)
+    tiny = EnvironmentProjector(64, 32, size=8).project(lobe(AXES["-z"], 64, 32)).mips
+    with pytest.raises(InputError, match="too coarse"):
+        cv.encode_cube("arcore", tiny)
+
+
+def _halves(encoded):
+    return np.stack([np.frombuffer(base64.b64decode(s), "<f2") for s in encoded.fields["images"]]
+                    ).astype(np.float32)

@@ -112,6 +112,8 @@ def test_websocket_to_and_latest_json(plus_x_panorama):
                 VALIDATOR.validate(ex)
                 status, _, native = http_get(srv.http + "/latest.json")
                 want = export_message(json.loads(native), fmt)
+                # the live formats with a cube say why it has none here (no --environment)
+                assert ("--environment" in ex.pop("cube_note", "")) == (fmt in cv.CUBE_FORMATS)
                 assert json.dumps(want, sort_keys=True) == json.dumps(ex, sort_keys=True)
             status, _, body = http_get(srv.http + "/latest.json?to=sh9")
             assert status == 200 and json.loads(body)["type"] == "sh9"

@@ -44,10 +44,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
-from . import sh
+from . import cubemap, sh
 from .convention_notes import BASES, NOTES
 from .errors import InputError
 
@@ -67,6 +68,11 @@ MIRROR_X = np.array([1, 1, 1, -1, -1, 1, 1, -1, 1], dtype=np.float64)
 #: Unity's per-coefficient factors |Y_i|·Â_l/π = 0.282095, 0.325735 ×3, 0.273137 ×2,
 #: 0.078848, 0.273137, 0.136569 (docs/contract.md §7's k without its signs).
 UNITY_FACTORS = BASIS_CONSTANTS * A_HAT / math.pi
+
+#: Formats whose export carries the reflection cube (gltf specularImages, arcore
+#: environmentalHdrCubeMap), and the edge of ARCore's cube (HelloArActivity.java:115).
+CUBE_FORMATS = ("gltf", "arcore")
+ARCORE_CUBE_SIZE = 16
 
 _REC709 = np.array([0.2126, 0.7152, 0.0722])
 _TO_UNITY = np.array([1.0, 1.0, -1.0])          # ours (x, y, z) -> Unity (x, y, -z)
@@ -330,7 +336,9 @@ def _arcore(L, lights, ambient, condon_shortley, environment=None):
     out["mainLightDirection"] = _f(d)
     out["mainLightIntensity"] = _f(e)
     if environment is not None:
-        out["environmentalHdrCubeMap"] = _arcore_cube(environment[0])
+        out["environmentalHdrCubeMap"] = (_encoded(environment, "arcore").fields
+                                          if isinstance(environment, EncodedCube)
+                                          else _arcore_cube(environment[0]))
     return out
 
 
@@ -352,6 +360,41 @@ def _arcore_cube(radiance) -> dict:
     return {"size": int(cube.shape[1]), "format": "AIMAGE_FORMAT_RGBA_FP16",
             "faces": ["+X", "-X", "+Y", "-Y", "+Z", "-Z"],
             "images": [base64.b64encode(half[f].tobytes()).decode("ascii") for f in range(6)]}
+
+
+@dataclass(frozen=True)
+class EncodedCube:
+    """The cube part of a format's export, encoded once (PNG or float16 bytes; the costly
+    part) and reused by the exports of every message until the cube changes: pass it as
+    :func:`export`'s ``environment``. Made by :func:`encode_cube`."""
+
+    fmt: str
+    fields: dict
+    babylon_handedness: str = "left"
+
+
+def encode_cube(fmt: str, mips, *, babylon_handedness: str = "left") -> EncodedCube:
+    """The cube part of ``fmt``'s export (one of :data:`CUBE_FORMATS`) from a cube's mips
+    (our layout, (6, n_k, n_k, 3) each): gltf: every mip, already prefiltered at
+    :func:`provider.core.gltf_ibl.babylon_roughness`, as RGBD PNG faces; arcore: the radiance
+    (mip 0) at ARCore's 16², pooled exactly (solid-angle means) from a finer cube (a coarser
+    one: InputError), as float16 faces."""
+    if fmt == "gltf":
+        from . import gltf_ibl
+        return EncodedCube(fmt, gltf_ibl.specular_images(mips, babylon_handedness),
+                           babylon_handedness)
+    if fmt == "arcore":
+        radiance = np.asarray(mips[0], np.float32)
+        n = radiance.shape[1] if radiance.ndim == 4 else 0
+        if n < ARCORE_CUBE_SIZE:
+            raise InputError(f"ARCore's cube is {ARCORE_CUBE_SIZE}²; a {n}² cube is too coarse "
+                             f"(make it {ARCORE_CUBE_SIZE} or more)")
+        while n > ARCORE_CUBE_SIZE:
+            radiance = cubemap.pool(radiance, cubemap.pool_shares(
+                cubemap.texel_solid_angles(n), cubemap.texel_solid_angles(n // 2)))
+            n //= 2
+        return EncodedCube(fmt, _arcore_cube(radiance))
+    raise InputError(f"format {fmt!r} carries no cube; those that do: {', '.join(CUBE_FORMATS)}")
 
 
 def _gltf(L, lights, ambient, babylon_handedness, environment=None):
@@ -388,7 +431,9 @@ def _gltf(L, lights, ambient, babylon_handedness, environment=None):
                     "irradianceCoefficients": _f(sign * L)}
     if environment is not None:
         from . import gltf_ibl
-        spec = gltf_ibl.specular_images(environment, babylon_handedness)
+        spec = (_encoded(environment, "gltf", babylon_handedness).fields
+                if isinstance(environment, EncodedCube)
+                else gltf_ibl.specular_images(environment, babylon_handedness))
         out["light"]["specularImageSize"] = spec["specularImageSize"]
         out["light"]["specularImages"] = spec["specularImages"]
         out["images"] = spec["images"]
@@ -409,6 +454,14 @@ def _gltf(L, lights, ambient, babylon_handedness, environment=None):
              "intensity": float(e.max()), "node_rotation": _f(_quat_from_to([0.0, 0.0, 1.0], d))}
             for d, e in lights]
     return out
+
+
+def _encoded(cube: EncodedCube, fmt: str, babylon_handedness: str = "left") -> EncodedCube:
+    """``cube`` if it was encoded for ``fmt`` (and, for gltf, this handedness)."""
+    if cube.fmt != fmt or (fmt == "gltf" and cube.babylon_handedness != babylon_handedness):
+        raise InputError(f"a cube encoded for {cube.fmt} ({cube.babylon_handedness}) cannot "
+                         f"serve a {fmt} export ({babylon_handedness})")
+    return cube
 
 
 def _openxr_android(L, lights, ambient, condon_shortley):
@@ -450,7 +503,8 @@ def export(coefficients, fmt: str, *, lights=None, ambient=None, babylon_handedn
     and openxr-android. ``environment``: the reflection cube's mips (our layout, same
     units), for gltf prefiltered at :func:`provider.core.gltf_ibl.babylon_roughness` (its
     ``specularImages``), for arcore mip 0 (``environmentalHdrCubeMap``, 16² in ARCore);
-    ignored by the other formats. Returns a JSON-ready dict (module docstring).
+    or that part already encoded (:func:`encode_cube`); ignored by the other formats.
+    Returns a JSON-ready dict (module docstring).
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; formats: {', '.join(FORMATS)}")

@@ -27,6 +27,7 @@ divide the same way), so the cube and SH9 describe the same light.
 """
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -296,6 +297,22 @@ class EnvironmentProjector(FrameDecoder):
                                                     np.concatenate(vals), (offset, geom.total))
                            if rows else None)
 
+    def at_roughness(self, mip_roughness) -> "EnvironmentProjector":
+        """A projector of the same frames, geometry and options whose mips are prefiltered at
+        ``mip_roughness`` instead (one per mip, 0 first; Babylon.js:
+        :func:`provider.core.gltf_ibl.babylon_roughness`): it shares this one's work image,
+        overlap and pyramid (mip 0 is the same), builds only its own prefilter operator, and
+        accepts this one's :class:`WorkImage`."""
+        twin = copy.copy(self)
+        twin.roughness = _check_roughness(mip_roughness, len(self.sizes))
+        twin._build_prefilter()
+        return twin
+
+    def _same_geometry(self, other) -> bool:
+        """Whether ``other`` makes the same work image (itself, or an :meth:`at_roughness`
+        twin of it)."""
+        return other is self or other._overlap_op is self._overlap_op
+
     @property
     def nnz(self) -> int:
         """Non-zeros of the per-frame operators (overlap + prefilter): the per-frame cost."""
@@ -316,7 +333,7 @@ class EnvironmentProjector(FrameDecoder):
         k = exposure_scale(exposure_s, gain, stats)
         integer = frame.dtype in (np.uint8, np.uint16)
         scale = (1.0 if integer else self.exposure) * (1.0 if k is None else k)
-        if integer and work is not None and work.complete and work.projector is self:
+        if integer and work is not None and work.complete and self._same_geometry(work.projector):
             result = self._project_work(work.array, scale)
             stats["shared_decode"] = True
         elif integer and self._crop is not None:   # decode and shrink band by band, in cache

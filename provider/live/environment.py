@@ -10,9 +10,19 @@ projects it with :class:`provider.core.environment.EnvironmentProjector` (built 
 size), encodes it and hands an :class:`EnvironmentCube` back to the event loop. Frames offered
 meanwhile are replaced, never queued. The thread runs at a lower scheduling priority (nice
 +10 where the OS allows it), so that on a busy edge core the cube yields to SH9.
+
+Exports that carry the cube (``/latest.json?to=gltf|arcore``, a client's ``to``;
+:mod:`.export`): once someone asks (:meth:`EnvironmentWorker.want`), the thread also encodes
+the cube in that format with every cube it makes, for :data:`EXPORT_IDLE_S` after the last
+request, and for the latest cube at once if it lacks it: gltf's mips re-prefiltered at
+Babylon.js's roughness from the same work image (:meth:`~provider.core.environment.
+EnvironmentProjector.at_roughness`), then RGBD PNG; arcore's 16² float16 faces. Encoded once
+per cube (:class:`~provider.core.conventions.EncodedCube`, ``EnvironmentCube.exports``), in
+this thread, never per request nor on the event loop.
 """
 from __future__ import annotations
 
+import asyncio
 import json
 import logging
 import math
@@ -24,6 +34,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import __version__
+from ..core.conventions import CUBE_FORMATS
+from ..core.conventions import encode_cube as encode_export_cube
 from ..core.errors import InputError
 from .ktx2 import encode_cube
 from .message import FRAME, SCHEMA_VERSION, UNITS, dumps
@@ -34,6 +46,9 @@ log = logging.getLogger("shlight.environment")
 SIZES = tuple(1 << k for k in range(3, 9))       # 8 .. 256
 #: How long a due cube waits for the frame whose decode the SH9 pass shared (seconds).
 WORK_WAIT_S = 0.25
+#: How long a format's cube stays wanted after its last request (seconds): the cube of an
+#: export that nobody asks for is not encoded.
+EXPORT_IDLE_S = 60.0
 DEFAULT_SIZE = 32
 DEFAULT_HZ = 1.0
 MAX_HZ = 30.0
@@ -140,6 +155,10 @@ class EnvironmentCube:
     compute_ms: float = 0.0
     encode_ms: float = 0.0
     time: float = field(default_factory=time.time)
+    #: format -> :class:`~provider.core.conventions.EncodedCube` (exports that carry the cube),
+    #: and format -> why it could not be encoded; filled by the worker, read on the event loop
+    exports: dict = field(default_factory=dict)
+    export_errors: dict = field(default_factory=dict)
 
 
 def encode_environment(result, *, probe: str, seq: int, sh9_seq: int | None, time_s: float,
@@ -199,6 +218,15 @@ class EnvironmentWorker:
         self._loop = None
         self._projectors: dict = {}
         self._last_error_log = -1e9
+        # exports that carry the cube (see the module docstring)
+        self.exported = lambda cube: None   # called on the event loop when a cube gains one
+        self.export_ms: dict = {}           # format -> the last encoding's ms (re-prefilter too)
+        self.encoded: dict = {}             # format -> cubes encoded in it
+        self._wanted: dict = {}             # format -> monotonic time it was last asked for
+        self._made = None                   # thread: (cube, frame, mips) of the last cube made
+        self._made_formats: set = set()     # thread: formats encoded (or failed) for it
+        self._twins: dict = {}              # frame size -> projector at Babylon's roughness
+        self._waiters: list = []            # event loop: (format, future) of export_ready
 
     # -- event loop side ---------------------------------------------------------------------
     def start(self, loop) -> None:
@@ -246,9 +274,54 @@ class EnvironmentWorker:
             self.offered += 1
             self._cond.notify()
 
+    def want(self, fmt: str) -> None:
+        """Someone asked for ``fmt``'s export (one of CUBE_FORMATS): its cube is encoded with
+        every cube for the next EXPORT_IDLE_S, and for the latest cube now if it lacks it.
+        Never blocks."""
+        with self._cond:
+            self._wanted[fmt] = time.monotonic()
+            latest = self.latest
+            if latest is None or (fmt not in latest.exports and fmt not in latest.export_errors):
+                self._cond.notify()
+
+    async def export_ready(self, fmt: str, timeout: float) -> None:
+        """Ask for ``fmt`` (:meth:`want`) and wait, at most ``timeout`` seconds and without
+        blocking the event loop, until the latest cube carries it (or failed to)."""
+        self.want(fmt)
+        if self._has_export(self.latest, fmt):
+            return
+        waiter = (fmt, asyncio.get_running_loop().create_future())
+        self._waiters.append(waiter)
+        try:
+            await asyncio.wait_for(waiter[1], timeout)
+        except asyncio.TimeoutError:
+            pass
+        finally:
+            if waiter in self._waiters:
+                self._waiters.remove(waiter)
+
+    @staticmethod
+    def _has_export(cube, fmt: str) -> bool:
+        return cube is not None and (fmt in cube.exports or fmt in cube.export_errors)
+
     def _arrived(self, cube: EnvironmentCube) -> None:
         self.latest = cube
         self.deliver(cube)
+        self._wake(cube)
+
+    def _attach(self, cube: EnvironmentCube, exports: dict, errors: dict) -> None:
+        """Exports encoded for a cube after it was delivered (event loop)."""
+        cube.exports.update(exports)
+        cube.export_errors.update(errors)
+        if cube is self.latest:
+            self._wake(cube)
+            self.exported(cube)
+
+    def _wake(self, cube: EnvironmentCube) -> None:
+        for waiter in [w for w in self._waiters if self._has_export(cube, w[0])]:
+            self._waiters.remove(waiter)
+            if not waiter[1].done():
+                waiter[1].set_result(None)
 
     # -- the thread --------------------------------------------------------------------------
     def _run(self) -> None:
@@ -257,16 +330,31 @@ class EnvironmentWorker:
         except (AttributeError, OSError):
             pass
         while True:
+            missing = []
             with self._cond:
                 while not self._stopping:
-                    wait = self._wait_s(time.monotonic())
+                    now = time.monotonic()
+                    wait = self._wait_s(now)
                     if wait <= 0:
+                        break
+                    missing = self._missing_exports(now)
+                    if missing:         # the latest cube lacks an export someone asked for
                         break
                     self._cond.wait(None if wait == math.inf else wait)
                 if self._stopping:
                     return
-                frame, sh9_seq, work = self._pending
-                self._pending = None
+                if not missing:
+                    frame, sh9_seq, work = self._pending
+                    self._pending = None
+            if missing:
+                cube, frame, mips = self._made
+                self._made_formats.update(missing)
+                exports, errors = self._encode_exports(missing, frame, mips)
+                try:
+                    self._loop.call_soon_threadsafe(self._attach, cube, exports, errors)
+                except RuntimeError:    # the event loop is closed: shutting down
+                    return
+                continue
             self._next_at = time.monotonic() + 1.0 / self.hz
             try:
                 cube = self._make(frame, sh9_seq, work)
@@ -301,6 +389,7 @@ class EnvironmentWorker:
         if projector is None:
             if len(self._projectors) >= 4:
                 self._projectors.clear()
+                self._twins.clear()
             projector = self._projectors[key] = self._build(*key)
         if isinstance(projector, InputError):
             return None                 # said once when it was built
@@ -317,7 +406,61 @@ class EnvironmentWorker:
         self.updates += 1
         self.compute_ms, self.encode_ms, self.bytes = compute_ms, cube.encode_ms, len(cube.ktx2)
         self.error = ""
+        with self._cond:
+            formats = self._wanted_formats(time.monotonic())
+        self._made, self._made_formats = (cube, frame, result.mips), set(formats)
+        exports, errors = self._encode_exports(formats, frame, result.mips, work)
+        cube.exports.update(exports)    # not handed to the event loop yet
+        cube.export_errors.update(errors)
         return cube
+
+    # -- exports that carry the cube (the thread) ---------------------------------------------
+    def _wanted_formats(self, now: float) -> list:
+        return [f for f, t in self._wanted.items() if now - t < EXPORT_IDLE_S]
+
+    def _missing_exports(self, now: float) -> list:
+        """Formats asked for that the last cube made lacks (under the lock)."""
+        if self._made is None:
+            return []
+        return [f for f in self._wanted_formats(now) if f not in self._made_formats]
+
+    def _encode_exports(self, formats, frame, mips, work=None) -> tuple[dict, dict]:
+        """({format: EncodedCube}, {format: why not}) of one cube (``mips``, made from
+        ``frame``; ``work``: its work image, when the SH9 pass filled one)."""
+        exports, errors = {}, {}
+        for fmt in formats:
+            if fmt not in CUBE_FORMATS:
+                continue
+            t0 = time.perf_counter()
+            try:
+                if fmt == "gltf":       # the same frame's mips at Babylon's roughness
+                    image, info = frame.decoded(), frame.info or {}
+                    mips = self._twin(image).project(
+                        image, exposure_s=info.get("exposure_s"), gain=info.get("gain", 1.0),
+                        work=work).mips
+                exports[fmt] = encode_export_cube(fmt, mips)
+                self.encoded[fmt] = self.encoded.get(fmt, 0) + 1
+            except Exception as exc:  # noqa: BLE001 - the thread never dies on an export
+                errors[fmt] = str(exc) if isinstance(exc, InputError) \
+                    else f"{type(exc).__name__}: {exc}"
+                log.error("probe %s: no %s cube: %s", self.probe, fmt, errors[fmt])
+            self.export_ms[fmt] = (time.perf_counter() - t0) * 1e3
+        return exports, errors
+
+    def _twin(self, image):
+        """The projector of this frame size at Babylon.js's roughness (built once: it shares
+        the cube projector's geometry and builds only its prefilter operator)."""
+        from ..core.gltf_ibl import babylon_roughness
+        key = (image.shape[1], image.shape[0])
+        twin = self._twins.get(key)
+        if twin is None:
+            projector = self._projectors.get(key)
+            if projector is None or isinstance(projector, InputError):
+                raise InputError(f"no reflection cube for {key[0]}×{key[1]} frames")
+            if len(self._twins) >= 4:
+                self._twins.clear()
+            twin = self._twins[key] = projector.at_roughness(babylon_roughness(self.size))
+        return twin
 
     def _build(self, width: int, height: int):
         from ..core.environment import EnvironmentProjector
@@ -350,4 +493,7 @@ class EnvironmentWorker:
                 "bytes": self.bytes, "compute_ms": round(self.compute_ms, 3),
                 "encode_ms": round(self.encode_ms, 3), "offered": self.offered,
                 "replaced": self.replaced, "shared_decode": self.shared,
-                "errors": self.errors, "error": self.error}
+                "errors": self.errors, "error": self.error,
+                "exports": {f: {"encoded": self.encoded.get(f, 0), "encode_ms": round(ms, 3),
+                                "error": (latest.export_errors.get(f, "") if latest else "")}
+                            for f, ms in self.export_ms.items()}}

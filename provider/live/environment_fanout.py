@@ -32,6 +32,9 @@ class EnvironmentFanout:
         self.messages_sent = 0                        # (message, KTX2) pairs handed to clients
         self.bytes_sent = 0                           # their bytes (both frames' payloads)
         self.skipped = 0                              # replaced before a slow client took it
+        for p in server.probes.values():    # a cube that gains an export (gltf, arcore) later
+            if p.environment is not None:
+                p.environment.exported = self.exports_changed
 
     @property
     def probes(self) -> list[str]:
@@ -55,6 +58,20 @@ class EnvironmentFanout:
             offer = getattr(publisher, "offer_environment", None)
             if offer is not None:
                 offer(cube.probe, cube.ktx2)
+        if cube.exports or cube.export_errors:
+            self.exports_changed(cube)
+
+    def exports_changed(self, cube) -> None:
+        """The probe's exports that carry the cube (``to`` gltf, arcore) have a new cube: the
+        latest export, converted once per format, to each client that asked for one (the
+        same sh9 ``seq``, a new ``environment_seq``)."""
+        framed = {}
+        for client in self.server._subscribers.get(cube.probe, ()):
+            if client.to in cube.exports or client.to in cube.export_errors:
+                if client.to not in framed:
+                    framed[client.to] = self.server._latest(cube.probe, client.to)
+                if framed[client.to] is not None:
+                    client.offer(cube.probe, framed[client.to])
 
     def _offer(self, client: ClientSession, cube, frames: bytes | None = None) -> None:
         if client.offer_environment(cube.probe, cube.text, cube.ktx2, frames):

@@ -7,12 +7,18 @@ the engine produced them) into an ``export`` message: a short envelope (``type``
 :func:`provider.core.conventions.export` returns for the format (its payload and its
 self-description). :class:`ExportCache` converts a probe's message once per format, however
 many clients asked for it.
+
+Exports that carry the reflection cube (gltf ``specularImages``, arcore
+``environmentalHdrCubeMap``; :data:`~provider.core.conventions.CUBE_FORMATS`) take it from the
+probe's live cube (``shlight serve --environment``), already encoded by the cube's worker
+thread (:meth:`provider.live.environment.EnvironmentWorker.want`): the export then names the
+cube's ``environment_seq``; without one, ``cube_note`` says why there is none.
 """
 from __future__ import annotations
 
 import logging
 
-from ..core.conventions import FORMATS, export, lights_from_fields
+from ..core.conventions import CUBE_FORMATS, FORMATS, export, lights_from_fields
 from ..core.errors import InputError
 from .message import SCHEMA_VERSION, dumps
 
@@ -22,6 +28,12 @@ log = logging.getLogger("shlight.server")
 NATIVE = "sh9"
 
 _ENVELOPE = ("probe", "seq", "time", "stale", "age_s")
+#: Where a cube format's cube is: ``shlight serve --environment``.
+_CUBE_FIELD = {"gltf": "specularImages", "arcore": "environmentalHdrCubeMap"}
+#: How long a ``/latest.json?to=gltf|arcore`` waits for the live cube in that format when the
+#: latest cube lacks it (the first request: the re-prefilter's operator is built once); well
+#: under the opening handshake's timeout (websockets: 10 s), which HTTP requests share.
+EXPORT_WAIT_S = 5.0
 
 
 def check_format(fmt) -> str | None:
@@ -64,16 +76,26 @@ class ExportCache:
         self._failing: set[tuple[str, str]] = set()     # logged once until it works again
         self.conversions = 0
 
-    def text(self, message: dict | None, fmt: str) -> bytes | None:
-        """The export of ``message`` as UTF-8 JSON; None when there is nothing to send."""
+    def text(self, message: dict | None, fmt: str, environment=None) -> bytes | None:
+        """The export of ``message`` as UTF-8 JSON; None when there is nothing to send.
+        ``environment``: the probe's :class:`~provider.live.environment.EnvironmentWorker`
+        (None without ``--environment``), whose latest cube the cube formats carry."""
         if message is None:
             return None
-        key, seq = (message.get("probe", ""), fmt), message.get("seq")
+        cube, note = cube_for(fmt, environment, message.get("probe", ""))
+        key = (message.get("probe", ""), fmt)
+        # converted again for a new message, or a new cube (its seq), or a new note
+        seq = (message.get("seq"), cube and (cube[0], id(cube[1])), note)
         cached = self._texts.get(key)
         if cached is not None and cached[0] == seq:
             return cached[1]
         try:
-            text = dumps(export_message(message, fmt)).encode()
+            out = export_message(message, fmt, **({"environment": cube[1]} if cube else {}))
+            if cube:
+                out["environment_seq"] = cube[0]
+            elif note:
+                out["cube_note"] = note
+            text = dumps(out).encode()
             self._failing.discard(key)
         except (InputError, ValueError) as exc:   # e.g. malformed light fields from a relay
             if key not in self._failing:
@@ -84,3 +106,32 @@ class ExportCache:
         self.conversions += 1
         self._texts[key] = (seq, text)
         return text
+
+
+def cube_for(fmt: str, environment, probe: str):
+    """((cube seq, EncodedCube) or None, note) for an export of ``fmt`` from ``probe``, whose
+    :class:`~provider.live.environment.EnvironmentWorker` is ``environment`` (or None): the
+    note says why there is no cube (None: the format has no cube, or it has one)."""
+    if fmt not in CUBE_FORMATS:
+        return None, None
+    field = _CUBE_FIELD[fmt]
+    if environment is None:
+        return None, (f"no {field}: probe {probe} makes no reflection cube; start the "
+                      f"server with --environment (shlight serve --environment) for the "
+                      f"live cube in this export")
+    environment.want(fmt)
+    latest = environment.latest
+    if latest is None:
+        return None, (f"no {field} yet: probe {probe} has made no reflection cube yet "
+                      f"(at most --environment-hz a second, when its lighting changes); "
+                      f"ask again")
+    encoded = latest.exports.get(fmt)
+    if encoded is not None:
+        return (latest.seq, encoded), None
+    reason = latest.export_errors.get(fmt)
+    if reason:
+        return None, (f"no {field}: the {fmt} cube failed: {reason}"
+                      + (" (shlight serve --environment-size sets the cube's size)"
+                         if fmt == "arcore" else ""))
+    return None, (f"no {field} yet: the {fmt} cube of reflection cube {latest.seq} is being "
+                  f"encoded (from now on with every cube); ask again")

@@ -104,7 +104,7 @@ from ..core.errors import InputError
 from . import status
 from .environment_fanout import EnvironmentFanout
 from .dashboard import DASHBOARD_CSP, PUBLIC_FILES, PUBLIC_HEADERS, static_file, thumbnail_jpeg
-from .export import FORMATS, NATIVE, ExportCache, check_format
+from .export import CUBE_FORMATS, EXPORT_WAIT_S, FORMATS, NATIVE, ExportCache, check_format
 from .limits import (BudgetedConnection, HostCheck, LimitCounters, _peer, early_refusal,
                      fit_open_files)
 from .replies import _json_error, _response
@@ -259,7 +259,8 @@ class ProviderServer:
     def _latest(self, probe: str, to: str | None) -> bytes | None:
         """The probe's latest message, in the layout ``to`` (None: the sh9 message)."""
         p = self.probes[probe]
-        return p.latest_text if to is None else self.exports.text(p.latest_message, to)
+        return p.latest_text if to is None else self.exports.text(p.latest_message, to,
+                                                                 p.environment)
 
     def _subscribe(self, client: ClientSession, probe: str | None, max_hz: float | None,
                    to: str | None = ...) -> None:
@@ -500,6 +501,10 @@ class ProviderServer:
                     to = check_format(query.get("to", [None])[0])
                 except InputError as exc:
                     return _json_error(400, "unknown_format", str(exc))
+                if to in CUBE_FORMATS and probe.environment is not None:
+                    # the live cube in this format, encoded by the cube's thread (a first
+                    # request waits for it, without blocking the loop; later ones find it)
+                    await probe.environment.export_ready(to, EXPORT_WAIT_S)
                 latest = self._latest(name, to)
                 if latest is None:
                     return _json_error(503, "no_lighting_yet", f"probe {name} has no lighting yet")
