@@ -1,0 +1,132 @@
+"""The docs pictures of each reflection consumer (README "Reflections", issue 20.7): a mirror, a
+glossy and a rough sphere as the consumer shows them (top row) above the provider's own
+reference for the same spheres (bottom row).
+
+Every sphere is a white metal (F0 = 1) seen from our +Z by an orthographic camera (±1.05, as
+tests/envtools.py SETUP's three.js camera): pixel (row i, column j) of a size² tile is
+x = (j + ½)/size·2.1 − 1.05, y = 1.05 − (i + ½)/size·2.1, normal (x, y, √(1 − x² − y²)),
+V = +Z, R = reflect(−V, N), all in the wire frame (right-handed, +Y up).
+
+The reference: the provider's prefiltered radiance PF(R, ρ) (its own chain read at
+lod ρ·(mips − 1), seamless and trilinear, :class:`provider.verify.cubemap.CubeSampler`), which
+is what a white metal with energy compensation (F0 = 1, single + multiple scattering = 1, as
+three's MeshStandardMaterial) shows; the harness pictures show the consumer's PF the same
+way. Display: linear →
+sRGB, clipped at 1, no tone mapping (as the three.js pictures). Written to docs/ only when
+SHLIGHT_DOCS_SCREENSHOT is set (tests/test_three_environment.py's pattern).
+
+:func:`gl_prefiltered` reads a consumer's own cube texels through the repo's OpenGL harness
+(shaders/ibl.glsl's ``shlight_prefiltered_radiance`` on a real cube texture, Mesa EGL):
+``textureLod(cube, lookup(R), lod)`` at the lod the consumer computes for ρ.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from provider.verify import cubemap, ibl
+from provider.verify.render import srgb_encode
+
+ROOT = Path(__file__).resolve().parent.parent
+#: Perceptual roughness of the mirror, glossy and rough spheres (as docs/three_environment_*.png).
+ROUGHNESS = (0.0, 0.35, 0.75)
+#: Tile edge in pixels and the orthographic camera's half extent.
+SIZE, EXTENT = 160, 1.05
+LABEL_HEIGHT = 22
+
+
+def wanted() -> bool:
+    """Whether this run writes the docs pictures."""
+    return bool(os.environ.get("SHLIGHT_DOCS_SCREENSHOT"))
+
+
+def ortho_sphere(size: int = SIZE):
+    """(normals (S, S, 3), mask (S, S)) of the unit sphere seen from +Z (module docstring)."""
+    c = ((np.arange(size) + 0.5) / size * 2 - 1) * EXTENT
+    y, x = np.meshgrid(-c, c, indexing="ij")
+    r2 = x * x + y * y
+    mask = r2 < 1.0
+    n = np.stack([x, y, np.sqrt(np.maximum(1 - r2, 0))], -1)
+    return n, mask
+
+
+def reflections(normals) -> np.ndarray:
+    """R = reflect(−V, N) with V = +Z, (…, 3)."""
+    return 2 * normals[..., 2:3] * normals - np.array([0, 0, 1.0])
+
+
+def provider_reference(mips, roughness: float, size: int = SIZE):
+    """(linear image (S, S, 3), mask): the provider's PF(R, ρ) on the sphere."""
+    n, mask = ortho_sphere(size)
+    img = np.zeros((size, size, 3))
+    img[mask] = cubemap.sample(mips, reflections(n[mask]), roughness * (len(mips) - 1))[:, :3]
+    return img, mask
+
+
+def gl_prefiltered(ctx, levels, lookup: np.ndarray, lod_of, size: int = SIZE):
+    """Per roughness of :data:`ROUGHNESS`: (PF read by the GPU (S, S, 3), mask), from the cube
+    ``levels`` ((6, n, n, ≥3), the consumer's own face order and rows) uploaded as RGBA32F,
+    looked up toward ``lookup`` · R (a diagonal mirror, the consumer's frame) at lod
+    ``lod_of(ρ)``, through shaders/ibl.glsl's ``shlight_prefiltered_radiance``."""
+    n, mask = ortho_sphere(size)
+    S = np.diag(np.asarray(lookup, np.float64))
+    nn, vv = n[mask] @ S, np.broadcast_to(np.array([0, 0, 1.0]) @ S, n[mask].shape)
+    evaluator = ibl.IblEvaluator(ctx, "glsl")
+    cube = cubemap.upload_cube(ctx, [lv[..., :3] for lv in levels], "f4")
+    out = []
+    try:
+        for rough in ROUGHNESS:
+            # the shader's lod is its roughness · (mips − 1): hand it the consumer's lod that way
+            r_lod = np.full(len(nn), lod_of(rough) / (len(levels) - 1))
+            got = evaluator.evaluate(cube, len(levels), np.zeros((3, 4, 4)), nn, vv,
+                                     np.zeros_like(nn), np.zeros_like(nn), r_lod)
+            img = np.zeros((size, size, 3))
+            img[mask] = got["prefiltered"]
+            out.append((img, mask))
+    finally:
+        cube.release()
+    return out
+
+
+def srgb_tile(linear, mask) -> np.ndarray:
+    """(S, S, 4) uint8 RGBA: sRGB, clipped, transparent outside the sphere."""
+    rgb = np.round(srgb_encode(linear) * 255).astype(np.uint8)
+    return np.dstack([rgb, np.where(mask, 255, 0).astype(np.uint8)])
+
+
+def _strip(text: str, width: int) -> np.ndarray:
+    strip = np.full((LABEL_HEIGHT, width, 4), 255, np.uint8)
+    cv2.putText(strip, text, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (40, 40, 40, 255), 1,
+                cv2.LINE_AA)
+    return strip
+
+
+def compose(rows) -> np.ndarray:
+    """``rows``: [(label, [RGBA tile per roughness])] → one RGBA picture, each row under its label."""
+    parts = []
+    for label, tiles in rows:
+        strip = np.hstack([np.asarray(t, np.uint8) for t in tiles])
+        parts += [_strip(label, strip.shape[1]), strip]
+    return np.vstack(parts)
+
+
+def write(name: str, picture: np.ndarray) -> Path:
+    """docs/NAME.png (RGBA on white, so the labels read on any page)."""
+    rgb = picture[..., :3].astype(np.float64)
+    a = picture[..., 3:].astype(np.float64) / 255
+    flat = np.round(rgb * a + 255 * (1 - a)).astype(np.uint8)
+    path = ROOT / "docs" / f"{name}.png"
+    assert cv2.imwrite(str(path), cv2.cvtColor(flat, cv2.COLOR_RGB2BGR),
+                       [cv2.IMWRITE_PNG_COMPRESSION, 9])
+    return path
+
+
+def relative_error(shown, reference, mask) -> np.ndarray:
+    """Per sphere pixel: max over channels |shown − reference| / max(|reference|, 5 % of its
+    largest value) (tests/test_three_environment.py's measure)."""
+    s, r = shown[mask], reference[mask]
+    err = np.abs(s - r).max(axis=1)
+    return err / np.maximum(np.abs(r).max(axis=1), 0.05 * np.abs(r).max())
