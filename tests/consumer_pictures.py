@@ -7,8 +7,8 @@ tests/envtools.py SETUP's three.js camera): pixel (row i, column j) of a size² 
 x = (j + ½)/size·2.1 − 1.05, y = 1.05 − (i + ½)/size·2.1, normal (x, y, √(1 − x² − y²)),
 V = +Z, R = reflect(−V, N), all in the wire frame (right-handed, +Y up).
 
-The reference: the provider's prefiltered radiance PF(R, ρ) (its own chain read at
-lod ρ·(mips − 1), seamless and trilinear, :class:`provider.verify.cubemap.CubeSampler`), which
+The reference: the prefiltered radiance PF(R, ρ) of the panorama, brute force at exactly ρ
+(:func:`provider_reference`), which
 is what a white metal with energy compensation (F0 = 1, single + multiple scattering = 1, as
 three's MeshStandardMaterial) shows; the harness pictures show the consumer's PF the same
 way. Display: linear →
@@ -27,6 +27,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+import reference_cube as ref
 from provider.verify import cubemap, ibl
 from provider.verify.render import srgb_encode
 
@@ -36,6 +37,8 @@ ROUGHNESS = (0.0, 0.35, 0.75)
 #: Tile edge in pixels and the orthographic camera's half extent.
 SIZE, EXTENT = 160, 1.05
 LABEL_HEIGHT = 22
+#: Face edge of the brute-force reference cube (texels of 3.75°).
+REFERENCE_CUBE = 24
 
 
 def wanted() -> bool:
@@ -58,11 +61,23 @@ def reflections(normals) -> np.ndarray:
     return 2 * normals[..., 2:3] * normals - np.array([0, 0, 1.0])
 
 
-def provider_reference(mips, roughness: float, size: int = SIZE):
-    """(linear image (S, S, 3), mask): the provider's PF(R, ρ) on the sphere."""
+def provider_reference(panorama: np.ndarray, roughness: float, size: int = SIZE):
+    """(linear image (S, S, 3), mask): PF(R, ρ) on the sphere. The mirror (ρ = 0): the
+    provider's 64² mip 0 (its radiance, :class:`provider.core.environment.EnvironmentProjector`);
+    ρ > 0: the brute-force GGX prefilter of the panorama (tests/reference_cube.py
+    ``prefiltered``, every pixel of a 256×128 area-resampled copy) at the texel centres of a
+    REFERENCE_CUBE² cube, read bilinear and seamless."""
     n, mask = ortho_sphere(size)
+    if roughness == 0:
+        from provider.core.environment import EnvironmentProjector
+        h, w = panorama.shape[:2]
+        mip = EnvironmentProjector(w, h, size=64).project(panorama).mips[0]
+    else:
+        small = cv2.resize(np.maximum(np.nan_to_num(panorama), 0), (256, 128),
+                           interpolation=cv2.INTER_AREA)
+        mip = ref.prefiltered(small, ref.cube_directions(REFERENCE_CUBE), roughness)
     img = np.zeros((size, size, 3))
-    img[mask] = cubemap.sample(mips, reflections(n[mask]), roughness * (len(mips) - 1))[:, :3]
+    img[mask] = cubemap.sample([mip], reflections(n[mask]), 0.0)[:, :3]
     return img, mask
 
 
