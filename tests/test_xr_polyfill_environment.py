@@ -13,6 +13,7 @@ import numpy as np
 import consumer_pictures as cp
 from browsertools import NEEDS_BROWSER, ROOT, PageHost, browser, page_of, three_version  # noqa: F401
 from envtools import json_rows, served_cube, write_caps
+from provider.core.images import read_image
 from provider.verify.cubemap import sample
 from servertools import ServeProcess
 from test_three_environment import _directions, _rel
@@ -156,7 +157,7 @@ def test_xr_estimated_light_spheres_read_the_providers_radiance(browser):
     reads from xrLight.environment equals the provider's prefiltered radiance PF at three's
     roughness toward three's direction (XR_TOL). SHLIGHT_DOCS_SCREENSHOT=1:
     docs/xr_polyfill_environment_bridge.png, three's mirror, glossy and rough spheres above
-    the provider's reference (tests/consumer_pictures.py)."""
+    the reference PF(R, ρ) (tests/consumer_pictures.py)."""
     pano = ROOT / "tests" / "data" / "hdri" / "bridge.exr"
     host = PageHost(APP_PAGE.replace("VERSION", three_version()))
     try:
@@ -187,9 +188,9 @@ def test_xr_estimated_light_spheres_read_the_providers_radiance(browser):
                     for r in cp.ROUGHNESS:
                         img = json_rows(page.evaluate(f"window.x.render({r}, 'shaded')"))
                         top.append(cp.srgb_tile(img[..., :3], img[..., 3] > 0))
-                        bottom.append(cp.srgb_tile(*cp.provider_reference(mips, r)))
+                        bottom.append(cp.srgb_tile(*cp.provider_reference(read_image(pano), r)))
                     cp.write("xr_polyfill_environment_bridge", cp.compose([
                         ("three.js r187 XREstimatedLight via the polyfill (Chromium)", top),
-                        ("the provider's reference: PF(R, roughness)", bottom)]))
+                        ("the reference: PF(R, roughness)", bottom)]))
     finally:
         host.close()
