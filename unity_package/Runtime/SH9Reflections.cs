@@ -25,7 +25,7 @@ namespace Shlight.Lighting
         [Tooltip("A Reflection Probe to drive (switched to Custom mode while enabled). Empty: the scene's " +
                  "default reflection (Lighting window → Environment Reflections) is set to Custom and driven.")]
         [SerializeField] ReflectionProbe reflectionProbe;
-        [Tooltip("Re-bake when the probe's rotation changes by more than this (degrees); a 64² cube's texel is about 1.4°.")]
+        [Tooltip("Re-bake when the probe's rotation changes by more than this (degrees); a 128² cube's texel is about 0.7°.")]
         [Range(0.05f, 10f)]
         [SerializeField] float rotationToleranceDegrees = 0.5f;
 

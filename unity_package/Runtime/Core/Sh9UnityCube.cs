@@ -42,10 +42,12 @@ namespace Shlight.Lighting
         public const int UnityLodSteps = 6;
         /// <summary>Levels of the Unity cube: 0 … <see cref="UnityLodSteps"/>.</summary>
         public const int Levels = UnityLodSteps + 1;
-        /// <summary>Smallest Unity face size: 2^6 keeps level 6 at 1×1.</summary>
-        public const int MinUnitySize = 1 << UnityLodSteps;
+        /// <summary>Smallest Unity face size: 2^7 keeps level 6 (roughness 1) at 2×2 and level 5 (0.68) at 4×4,
+        /// like Unity's own default 128 reflection probes and the provider's roughest mips (a 64² cube's 1×1
+        /// and 2×2 levels are too small for those lobes: a rough sphere was 18 % off, median, against 4 %).</summary>
+        public const int MinUnitySize = 2 << UnityLodSteps;
 
-        /// <summary>Face size of the Unity cube (max(provider size, 64)).</summary>
+        /// <summary>Face size of the Unity cube (max(provider size, 128)).</summary>
         public int Size { get; private set; }
         /// <summary>Level m, face F (Unity's CubemapFace order = the wire's order of names), rows top (t = 0)
         /// first, texels R G B A as IEEE halves (A = 1): the layout of Cubemap.SetPixelData for RGBAHalf.</summary>
