@@ -10,14 +10,11 @@ V = +Z, R = reflect(−V, N), all in the wire frame (right-handed, +Y up).
 The reference: the prefiltered radiance PF(R, ρ) of the panorama, brute force at exactly ρ
 (:func:`provider_reference`), which
 is what a white metal with energy compensation (F0 = 1, single + multiple scattering = 1, as
-three's MeshStandardMaterial) shows; the harness pictures show the consumer's PF the same
-way. Display: linear →
+three's MeshStandardMaterial) shows; the other consumers' pictures show the radiance they
+read the same way. Display: linear →
 sRGB, clipped at 1, no tone mapping (as the three.js pictures). Written to docs/ only when
 SHLIGHT_DOCS_SCREENSHOT is set (tests/test_three_environment.py's pattern).
 
-:func:`gl_prefiltered` reads a consumer's own cube texels through the repo's OpenGL harness
-(shaders/ibl.glsl's ``shlight_prefiltered_radiance`` on a real cube texture, Mesa EGL):
-``textureLod(cube, lookup(R), lod)`` at the lod the consumer computes for ρ.
 """
 from __future__ import annotations
 
@@ -28,7 +25,7 @@ import cv2
 import numpy as np
 
 import reference_cube as ref
-from provider.verify import cubemap, ibl
+from provider.verify import cubemap
 from provider.verify.render import srgb_encode
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -79,31 +76,6 @@ def provider_reference(panorama: np.ndarray, roughness: float, size: int = SIZE)
     img = np.zeros((size, size, 3))
     img[mask] = cubemap.sample([mip], reflections(n[mask]), 0.0)[:, :3]
     return img, mask
-
-
-def gl_prefiltered(ctx, levels, lookup: np.ndarray, lod_of, size: int = SIZE):
-    """Per roughness of :data:`ROUGHNESS`: (PF read by the GPU (S, S, 3), mask), from the cube
-    ``levels`` ((6, n, n, ≥3), the consumer's own face order and rows) uploaded as RGBA32F,
-    looked up toward ``lookup`` · R (a diagonal mirror, the consumer's frame) at lod
-    ``lod_of(ρ)``, through shaders/ibl.glsl's ``shlight_prefiltered_radiance``."""
-    n, mask = ortho_sphere(size)
-    S = np.diag(np.asarray(lookup, np.float64))
-    nn, vv = n[mask] @ S, np.broadcast_to(np.array([0, 0, 1.0]) @ S, n[mask].shape)
-    evaluator = ibl.IblEvaluator(ctx, "glsl")
-    cube = cubemap.upload_cube(ctx, [lv[..., :3] for lv in levels], "f4")
-    out = []
-    try:
-        for rough in ROUGHNESS:
-            # the shader's lod is its roughness · (mips − 1): hand it the consumer's lod that way
-            r_lod = np.full(len(nn), lod_of(rough) / (len(levels) - 1))
-            got = evaluator.evaluate(cube, len(levels), np.zeros((3, 4, 4)), nn, vv,
-                                     np.zeros_like(nn), np.zeros_like(nn), r_lod)
-            img = np.zeros((size, size, 3))
-            img[mask] = got["prefiltered"]
-            out.append((img, mask))
-    finally:
-        cube.release()
-    return out
 
 
 def srgb_tile(linear, mask) -> np.ndarray:

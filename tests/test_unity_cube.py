@@ -191,50 +191,6 @@ def test_unity_levels_hold_the_providers_radiance_at_unitys_roughness(cube_exe, 
     assert unity_level_roughness(6) == pytest.approx(1.0) and unity_level_roughness(0) == 0.0
 
 
-#: A sphere of roughness ρ rendered from Unity's baked levels (texCUBElod at Unity's lod, Unity's
-#: faces, through the GL harness) against the reference PF(R, ρ) (brute-force GGX at exactly ρ,
-#: tests/consumer_pictures.py) at the same pixels, on bridge: |Unity − PF| / |PF| (floor 5 % of
-#: the largest). Measured (median, 95th percentile), with the provider's own 32² chain read by
-#: its shaders (lod ρ·4) in brackets: ρ 0.35: 0.038, 0.187 (0.038, 0.185); ρ 0.75: 0.042, 0.280
-#: (0.023, 0.139): Unity reads 0.75 at lod 5.29, between level 5 (4×4, ρ 0.68) and level 6 (2×2,
-#: ρ 1). With a 64² cube (levels 5 and 6 at 2×2 and 1×1, before MinUnitySize became 128) the
-#: rough sphere was 0.179, 0.650.
-UNITY_SPHERE_TOL = {0.35: (0.045, 0.22), 0.75: (0.055, 0.33)}
-
-
-def test_unity_spheres_show_the_providers_radiance(cube_exe, ctx, tmp_path):
-    """The Cubemap texels the C# core bakes from the provider's bytes (bridge), read as Unity's
-    shaders read them (Unity's camera at −Z looking along +Z: our view from +Z; lookup in Unity's
-    left-handed frame, lod ρ(1.7 − 0.7ρ)·6) by a real cube texture in the GL harness: a glossy
-    and a rough sphere against the prefiltered radiance PF(R, ρ) pixel for pixel
-    (UNITY_SPHERE_TOL: the glossy one as closely as the provider's own chain, the rough one within
-    twice its error). SHLIGHT_DOCS_SCREENSHOT=1: docs/unity_environment_bridge.png, the mirror, glossy
-    and rough spheres above the reference (not Unity's renderer: Unity's conventions on the C#
-    core's bytes)."""
-    import consumer_pictures as cp
-    from provider.core.images import read_image
-    image = HDRI / "bridge.exr"
-    meta, levels = bake(cube_exe, _environment(image, tmp_path / "cube.ktx2"), tmp_path / "unity.bin")
-    panorama = read_image(image)
-    unity_lod = lambda rho: rho * (1.7 - 0.7 * rho) * 6                  # noqa: E731
-    shown = cp.gl_prefiltered(ctx, levels, np.diag(S3), unity_lod)
-    top, bottom = [], []
-    for rho, (img, mask) in zip(cp.ROUGHNESS, shown):
-        ref, _ = cp.provider_reference(panorama, rho)
-        rel = cp.relative_error(img, ref, mask)
-        print(f"\nUnity sphere, roughness {rho}: vs PF(R, roughness) median {np.median(rel):.4f} "
-              f"p95 {np.quantile(rel, 0.95):.4f} max {rel.max():.4f}")
-        if rho in UNITY_SPHERE_TOL:
-            median_tol, p95_tol = UNITY_SPHERE_TOL[rho]
-            assert np.median(rel) < median_tol and np.quantile(rel, 0.95) < p95_tol, rho
-        top.append(cp.srgb_tile(img, mask))
-        bottom.append(cp.srgb_tile(ref, mask))
-    if cp.wanted():
-        cp.write("unity_environment_bridge", cp.compose([
-            ("Unity's texCUBElod on the C# core's Cubemap (GL harness, not Unity)", top),
-            ("the reference: PF(R, roughness)", bottom)]))
-
-
 def test_rebake_allocates_nothing_and_halves_round_like_numpy(cube_exe, tmp_path):
     """A second bake of a cube of the same size allocates no managed memory (Mono's per-thread
     counter); Sh9Ktx2.FloatToHalf rounds as numpy's float16 does (nearest even, subnormals),

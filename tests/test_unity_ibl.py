@@ -182,3 +182,49 @@ def test_unitys_curve_is_what_the_bake_assumes(glossy, baked):
     assert worst < 1e-3               # the GPU's filter weights (measured 2e-6 on Mesa llvmpipe)
     assert worst_linear > 10 * worst
     assert math.isclose(unity_level_roughness(6), 1.0)
+
+
+#: A sphere of roughness ρ as Unity's Unity_GlossyEnvironment shows it from the baked cube (bridge,
+#: unrotated; Unity's camera at −Z looking along +Z: our view from +Z) against the reference PF(R, ρ)
+#: (brute-force GGX at exactly ρ, tests/consumer_pictures.py), pixel for pixel: |Unity − PF| / |PF|
+#: (floor 5 % of the largest). Measured (median, 95th percentile), with the provider's own 32² chain
+#: read by its shaders (lod ρ·4) in brackets: ρ 0.35: 0.038, 0.187 (0.038, 0.185); ρ 0.75: 0.042,
+#: 0.280 (0.023, 0.139): Unity reads 0.75 at lod 5.29, between level 5 (4×4, ρ 0.68) and level 6
+#: (2×2, ρ 1). With a 64² cube (levels 5 and 6 at 2×2 and 1×1, before MinUnitySize became 128) the
+#: rough sphere was 0.179, 0.650.
+UNITY_SPHERE_TOL = {0.35: (0.045, 0.22), 0.75: (0.055, 0.33)}
+
+
+def test_unitys_own_glossy_spheres_and_the_picture(glossy, cube_exe, tmp_path):
+    """A mirror, a glossy (0.35) and a rough (0.75) sphere: Unity_GlossyEnvironment on the Cubemap
+    the C# core bakes from the provider's bytes (bridge), toward each pixel's reflection in Unity's
+    frame, against the prefiltered radiance PF(R, ρ) (UNITY_SPHERE_TOL: the glossy one as close as
+    the provider's own chain, the rough one within twice its error). SHLIGHT_DOCS_SCREENSHOT=1:
+    docs/unity_environment_bridge.png, the spheres above the reference (not Unity's renderer:
+    Unity's own function on software OpenGL over the C# core's bytes)."""
+    import consumer_pictures as cp
+    from provider.core.images import read_image
+    glsl, refl = glossy
+    ctx = _gl_context()
+    image = HDRI / "bridge.exr"
+    meta, levels = bake(cube_exe, _environment(image, tmp_path / "cube.ktx2"), tmp_path / "unity.bin")
+    panorama = read_image(image)
+    n, mask = cp.ortho_sphere()
+    r_unity = cp.reflections(n[mask]) @ S3                  # our R with z negated: Unity's frame
+    top, bottom = [], []
+    for rho in cp.ROUGHNESS:
+        img = np.zeros(mask.shape + (3,))
+        img[mask] = run_unity_glossy(ctx, glsl, refl, levels, r_unity, np.full(len(r_unity), rho))
+        ref, _ = cp.provider_reference(panorama, rho)
+        rel = cp.relative_error(img, ref, mask)
+        print(f"\nUnity_GlossyEnvironment sphere, roughness {rho}: vs PF(R, roughness) median "
+              f"{np.median(rel):.4f} p95 {np.quantile(rel, 0.95):.4f}")
+        if rho in UNITY_SPHERE_TOL:
+            median_tol, p95_tol = UNITY_SPHERE_TOL[rho]
+            assert np.median(rel) < median_tol and np.quantile(rel, 0.95) < p95_tol, rho
+        top.append(cp.srgb_tile(img, mask))
+        bottom.append(cp.srgb_tile(ref, mask))
+    if cp.wanted():
+        cp.write("unity_environment_bridge", cp.compose([
+            ("Unity_GlossyEnvironment on the C# core's Cubemap (not Unity)", top),
+            ("the reference: PF(R, roughness)", bottom)]))
