@@ -25,12 +25,6 @@ def srgb_to_linear(v: np.ndarray) -> np.ndarray:
     return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
 
 
-def _count_pixels(mask: np.ndarray) -> int:
-    """Pixels of an (H, W, 3) uint8/bool mask with any channel set."""
-    planes = cv2.split(np.ascontiguousarray(mask, dtype=np.uint8))
-    return int(cv2.countNonZero(cv2.max(cv2.max(planes[0], planes[1]), planes[2])))
-
-
 def image_array(image) -> np.ndarray:
     """An image given as an array or a path (read with :func:`~provider.core.images.read_image`)
     as a non-empty array, else :class:`InputError` in one line."""

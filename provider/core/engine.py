@@ -38,7 +38,7 @@ from .projections import Equirect, Projection, ProjectionError, make_projection
 from . import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from .engine_options import check_options, exposure_scale
 from .float_clean import FloatCleaner
-from .decode import FrameDecoder, _count_pixels, image_array, srgb_to_linear  # noqa: F401
+from .decode import FrameDecoder, image_array, srgb_to_linear  # noqa: F401
 
 
 @dataclass

@@ -59,9 +59,9 @@ class FloatCleaner:
         return self._dirty(band, flat, total, lo)
 
     def _dirty(self, band: np.ndarray, flat: np.ndarray, total: float, lo) -> np.ndarray:
-        """A band with a bad sample: zero them (a copy), count them. A few whole-band cv2
-        passes (a NaN band costs about 5× a clean one to clean, the projection aside), no
-        per-sample Python."""
+        """A band with a bad sample: zero them (a copy), count them, in a few whole-band cv2
+        passes and no per-sample Python (``shlight bench --sections speed``: a 1920×960 frame
+        with 0.1 % NaN in every band costs 1.5× a clean one, projection included)."""
         if lo is None:                     # a NaN or an infinity somewhere
             bad = cv2.compare(np.isfinite(flat).view(np.uint8), 0, cv2.CMP_EQ)
             self.nonfinite += _pixels_set(bad, band.shape)

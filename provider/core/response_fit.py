@@ -206,9 +206,7 @@ def _debevec(z: np.ndarray, lnt: np.ndarray, lam: float) -> np.ndarray:
     np.add.at(U, (rows, z.ravel()), a.ravel())
     H -= U.T @ (U / s[:, None])
     b -= U.T @ ((a * lnt).sum(1) / s)
-    D = np.zeros((254, 256))
-    k = np.arange(254)
-    D[k, k], D[k, k + 1], D[k, k + 2] = 1.0, -2.0, 1.0
+    D = _second_differences()
     strength = lam * a.sum() / 256
     H += strength * D.T @ (w[1:255, None] ** 2 * D)
     H[128, 128] += 1e6 * max(strength, 1.0)                # g(128) = 0 (the scale)
@@ -216,10 +214,11 @@ def _debevec(z: np.ndarray, lnt: np.ndarray, lam: float) -> np.ndarray:
 
 
 def _second_differences() -> np.ndarray:
+    """(254, 256): row k is ln g(k) − 2 ln g(k+1) + ln g(k+2), the smoothness term's operator."""
     d = np.zeros((254, 256))
     k = np.arange(254)
     d[k, k], d[k, k + 1], d[k, k + 2] = 1.0, -2.0, 1.0
-    return d.T @ d
+    return d
 
 
 def _pairs_l1(pairs: list, lam: float, iterations: int = 30) -> np.ndarray:
@@ -228,7 +227,8 @@ def _pairs_l1(pairs: list, lam: float, iterations: int = 30) -> np.ndarray:
     median rather than its mean), plus ``lam`` × the mean weight per code × the squared
     second differences of ln g; iteratively reweighted least squares from sRGB, g(128) = 1.
     Codes no pair holds follow the smoothness."""
-    smooth = _second_differences()
+    d = _second_differences()
+    smooth = d.T @ d
     out = np.empty((256, 3))
     for c in range(3):
         za, zb, dl, n = pairs[c]
