@@ -3,7 +3,7 @@ glossy and a rough sphere as the consumer shows them (top row) above the provide
 reference for the same spheres (bottom row).
 
 Every sphere is a white metal (F0 = 1) seen from our +Z by an orthographic camera (±1.05, as
-tests/envtools.py SETUP's three.js camera): pixel (row i, column j) of a size² tile is
+tests/envtools.py SPHERE_VIEW's three.js camera): pixel (row i, column j) of a size² tile is
 x = (j + ½)/size·2.1 − 1.05, y = 1.05 − (i + ½)/size·2.1, normal (x, y, √(1 − x² − y²)),
 V = +Z, R = reflect(−V, N), all in the wire frame (right-handed, +Y up).
 

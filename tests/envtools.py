@@ -65,27 +65,19 @@ def served_cube(base: str, probe: str = "default") -> tuple[list[np.ndarray], in
 
 THREE_URL = "https://cdn.jsdelivr.net/npm/three@{version}/build/three.module.js"
 
-#: Sets up window.t: three.js, a WebGLRenderer, an orthographic camera looking down −Z (+X
-#: right, +Y up), a unit sphere, and connectEnvironment from the provider. render(kind,
-#: roughness) → RGBA floats of a float render target, row 0 at the top: kind "radiance" is
-#: three's own environment reading (lights_fragment_maps's getIBLRadiance, the prefiltered
-#: radiance its BRDF gets) with material.roughness in alpha; "normal" the geometry normal;
-#: "shaded" MeshStandardMaterial as it renders (metal, white). show(kind, roughness) draws
-#: into the canvas (sRGB, for pictures).
-SETUP = """async ([threeUrl, provider, extra]) => {
-  const THREE = await import(threeUrl);
-  const a = await import(provider + "/client-three.js");
-  const c = await import(provider + "/client.js");
-  const S = 200;
-  const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true, alpha: true });
-  renderer.setSize(S, S, false);
-  renderer.toneMapping = THREE.NoToneMapping;
-  document.body.appendChild(renderer.domElement);
-  const scene = new THREE.Scene();
+#: A JS function, pasted into a page's setup: sphereView(THREE, renderer, scene, S, segments)
+#: adds to ``scene`` a white metal sphere (MeshStandardMaterial) of radius 1, seen from +Z by
+#: an orthographic camera that frames it in S×S pixels (+X right, +Y up), and returns
+#: { camera, material, sphere, target, render, show }. render(kind = "shaded", roughness = 0)
+#: → RGBA floats of a float render target, rows from the top: kind "radiance" is three's own
+#: environment reading (lights_fragment_maps's getIBLRadiance, the prefiltered radiance its
+#: BRDF gets) with material.roughness in alpha; "normal" the geometry normal; "shaded" the
+#: material as it renders. show(kind, roughness) draws into the canvas (sRGB, for pictures).
+SPHERE_VIEW = """function sphereView(THREE, renderer, scene, S, segments) {
   const camera = new THREE.OrthographicCamera(-1.05, 1.05, 1.05, -1.05, 0.1, 10);
   camera.position.set(0, 0, 5);
   const material = new THREE.MeshStandardMaterial({ color: 0xffffff, metalness: 1, roughness: 0 });
-  const sphere = new THREE.Mesh(new THREE.SphereGeometry(1, 256, 128), material);
+  const sphere = new THREE.Mesh(new THREE.SphereGeometry(1, segments, segments / 2), material);
   scene.add(sphere);
   const target = new THREE.WebGLRenderTarget(S, S, { type: THREE.FloatType });
   let kind = "shaded";
@@ -96,8 +88,12 @@ SETUP = """async ([threeUrl, provider, extra]) => {
       "#include <opaque_fragment>", "gl_FragColor = vec4( geometryNormal, 1.0 );");
   };
   material.customProgramCacheKey = () => kind;
-  function render(k, roughness) {
-    kind = k; material.roughness = roughness; material.needsUpdate = true;
+  function use(k, roughness) {
+    if (k !== kind || roughness !== material.roughness) {
+      kind = k; material.roughness = roughness; material.needsUpdate = true; }
+  }
+  function render(k = "shaded", roughness = 0) {
+    use(k, roughness);
     renderer.setRenderTarget(target);
     renderer.setClearColor(0x000000, 0); renderer.clear();
     renderer.render(scene, camera);
@@ -108,16 +104,34 @@ SETUP = """async ([threeUrl, provider, extra]) => {
     for (let i = S - 1; i >= 0; i--) rows.push(Array.from(px.subarray(i * S * 4, (i + 1) * S * 4)));
     return rows;
   }
-  function show(k, roughness) {
-    kind = k; material.roughness = roughness; material.needsUpdate = true;
+  function show(k = "shaded", roughness = 0) {
+    use(k, roughness);
     renderer.setRenderTarget(null);
     renderer.render(scene, camera);
     return renderer.domElement.toDataURL("image/png");
   }
+  return { camera, material, sphere, target, render, show };
+}
+"""
+
+#: Sets up window.t: three.js, a WebGLRenderer and a :data:`SPHERE_VIEW` sphere under
+#: client-three.js's connectEnvironment (window.t.conn; window.cubes counts its cubes).
+SETUP = """async ([threeUrl, provider, extra]) => {
+  const THREE = await import(threeUrl);
+  const a = await import(provider + "/client-three.js");
+  const c = await import(provider + "/client.js");
+  const S = 200;
+  const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true, alpha: true });
+  renderer.setSize(S, S, false);
+  renderer.toneMapping = THREE.NoToneMapping;
+  document.body.appendChild(renderer.domElement);
+  const scene = new THREE.Scene();
+  """ + SPHERE_VIEW + """
+  const view = sphereView(THREE, renderer, scene, S, 256);
   window.cubes = 0;
   const conn = a.connectEnvironment(provider + "/", { THREE, scene, ...(extra || {}),
     onEnvironment: () => { window.cubes++; } });
-  window.t = { THREE, a, c, renderer, scene, camera, sphere, material, render, show, conn, S };
+  window.t = { THREE, a, c, renderer, scene, ...view, conn, S };
   return true;
 }"""
 

@@ -12,7 +12,7 @@ import numpy as np
 
 import consumer_pictures as cp
 from browsertools import NEEDS_BROWSER, ROOT, PageHost, browser, page_of, three_version  # noqa: F401
-from envtools import json_rows, served_cube, write_caps
+from envtools import SPHERE_VIEW, json_rows, served_cube, write_caps
 from provider.core.images import read_image
 from provider.verify.cubemap import sample
 from servertools import ServeProcess
@@ -39,34 +39,9 @@ SETUP = """async ([provider, yaw, size]) => {
   xrLight.addEventListener("estimationstart", () => { scene.environment = xrLight.environment; });
   renderer.xr.getSession = () => session;
   renderer.xr.dispatchEvent({ type: "sessionstart" });
-  const camera = new THREE.OrthographicCamera(-1.05, 1.05, 1.05, -1.05, 0.1, 10);
-  camera.position.set(0, 0, 5);
-  const material = new THREE.MeshStandardMaterial({ color: 0xffffff, metalness: 1, roughness: 0 });
-  scene.add(new THREE.Mesh(new THREE.SphereGeometry(1, 192, 96), material));
-  const S = size || 160;
-  const target = new THREE.WebGLRenderTarget(S, S, { type: THREE.FloatType });
-  // kind "shaded": the material as it renders; "radiance": three's own environment reading
-  // (getIBLRadiance) with material.roughness in alpha; "normal": the geometry normal
-  let kind = "shaded";
-  material.onBeforeCompile = (shader) => {
-    if (kind === "radiance") shader.fragmentShader = shader.fragmentShader.replace(
-      "#include <opaque_fragment>", "gl_FragColor = vec4( radiance, material.roughness );");
-    if (kind === "normal") shader.fragmentShader = shader.fragmentShader.replace(
-      "#include <opaque_fragment>", "gl_FragColor = vec4( geometryNormal, 1.0 );");
-  };
-  material.customProgramCacheKey = () => kind;
-  window.x = { renderer, session, xrLight, scene, camera, target, material, reflections: 0, probe: null,
-    render(roughness = 0, k = "shaded") {
-      if (k !== kind || roughness !== material.roughness) {
-        kind = k; material.roughness = roughness; material.needsUpdate = true; }
-      renderer.setRenderTarget(target); renderer.setClearColor(0x000000, 0); renderer.clear();
-      renderer.render(scene, camera);
-      const px = new Float32Array(S * S * 4);
-      renderer.readRenderTargetPixels(target, 0, 0, S, S, px);
-      renderer.setRenderTarget(null);
-      const rows = [];
-      for (let i = S - 1; i >= 0; i--) rows.push(Array.from(px.subarray(i * S * 4, (i + 1) * S * 4)));
-      return rows; } };
+  """ + SPHERE_VIEW + """
+  window.x = { renderer, session, xrLight, scene, reflections: 0, probe: null,
+    ...sphereView(THREE, renderer, scene, size || 160, 192) };
   return true;
 }"""
 
@@ -169,12 +144,12 @@ def test_xr_estimated_light_spheres_read_the_providers_radiance(browser):
                 page.evaluate(STAND_INS)
                 page.evaluate(SETUP, [proc.http, 0, cp.SIZE])
                 page.wait_for_function(RUN, timeout=30000, polling=100)
-                normals = json_rows(page.evaluate("window.x.render(0, 'normal')"))
+                normals = json_rows(page.evaluate("window.x.render('normal', 0)"))
                 inside = (normals[..., 3] > 0) & (np.linalg.norm(normals[..., :2], axis=-1) < 0.85)
                 n = normals[inside][:, :3]
                 n /= np.linalg.norm(n, axis=1, keepdims=True)
                 for roughness, (median_tol, p95_tol) in XR_TOL.items():
-                    shown = json_rows(page.evaluate(f"window.x.render({roughness}, 'radiance')"))
+                    shown = json_rows(page.evaluate(f"window.x.render('radiance', {roughness})"))
                     rough = shown[inside][:, 3]
                     assert abs(np.median(rough) - roughness) < 0.03
                     d = _directions(n, rough)
@@ -186,7 +161,7 @@ def test_xr_estimated_light_spheres_read_the_providers_radiance(browser):
                 if cp.wanted():
                     top, bottom = [], []
                     for r in cp.ROUGHNESS:
-                        img = json_rows(page.evaluate(f"window.x.render({r}, 'shaded')"))
+                        img = json_rows(page.evaluate(f"window.x.render('shaded', {r})"))
                         top.append(cp.srgb_tile(img[..., :3], img[..., 3] > 0))
                         bottom.append(cp.srgb_tile(*cp.provider_reference(read_image(pano), r)))
                     cp.write("xr_polyfill_environment_bridge", cp.compose([
