@@ -298,7 +298,8 @@ def trusted_codes(table: np.ndarray, pairs: list) -> tuple[int, int]:
 
 
 def fit_response(frames, times, samples: int = 1000, lambdas=LAMBDAS,
-                 others: dict | None = None, beside: dict | None = None):
+                 others: dict | None = None, beside: dict | None = None,
+                 pairs: list | None = None):
     """The (256, 3) inverse response that explains ``frames`` best (any scale), with what
     was tried: ``(table, info)``; ``info``: ``method``, ``lambda`` (Debevec's or the robust
     fit's, or None), ``samples``, ``trusted`` (lo, hi), ``extrapolated``, ``candidates``
@@ -306,12 +307,14 @@ def fit_response(frames, times, samples: int = 1000, lambdas=LAMBDAS,
     code range with data). ``others``: more candidate tables by name (OpenCV's Debevec);
     ``beside``: tables scored and reported but never chosen (OpenCV's Robertson: on a
     simulated camera it explains the frames better than the true curve does while 5 % off
-    it, so the score cannot choose it)."""
+    it, so the score cannot choose it). ``pairs``: the frames' :func:`pair_histograms`,
+    where the caller has them already."""
     times = np.asarray(times, np.float64)
     codes = _pixels(frames)
     lnt = np.log(times)
     smooth = _smooth_pixels(frames, times)
-    pairs = pair_histograms(codes, times)
+    if pairs is None:
+        pairs = pair_histograms(codes, times)
     candidates = {}
     for lam in lambdas:
         table = np.empty((256, 3))
@@ -394,13 +397,14 @@ def calibrate_best(frames, times, *, samples: int = 1000, lambdas=LAMBDAS):
             if "failed" not in str(exc):
                 raise                      # bad input: the same words as calibrate's
     frames = [np.ascontiguousarray(f) for f in frames]
+    pairs = pair_histograms(_pixels(frames), times)     # once: the fit scores with them too
     table, info = fit_response(
         frames, times, samples=samples, lambdas=lambdas,
         others={"opencv-debevec": opencv["debevec"]} if "debevec" in opencv else {},
-        beside={"opencv-robertson": opencv["robertson"]} if "robertson" in opencv else {})
+        beside={"opencv-robertson": opencv["robertson"]} if "robertson" in opencv else {},
+        pairs=pairs)
     lo, hi = ANCHOR_WINDOW_8
     table = table * (ANCHOR_VALUE / np.exp(np.log(table[lo:hi + 1]).mean(axis=0)))
-    pairs = pair_histograms(_pixels(frames), times)
     mine = disagreement(table, None, times, pairs)
     srgb = disagreement(CameraResponse.srgb().table, None, times, pairs)
     if not any(r["pairs"] for r in mine.values()):
