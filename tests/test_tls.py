@@ -3,6 +3,7 @@ self-signed certificate, real clients that trust exactly that certificate, and o
 errors for every bad certificate or key."""
 from __future__ import annotations
 
+import asyncio
 import datetime
 import ipaddress
 import json
@@ -18,7 +19,27 @@ from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import NameOID
 
-from servertools import ServeProcess, connect, recv_json, recv_until, run_cli
+from servertools import ServeProcess, connect, poll, recv_until, run_cli
+
+HDRI = Path(__file__).parent / "data" / "hdri"
+
+
+def wss_lighting(url: str, trust: ssl.SSLContext, probe: str | None = None) -> tuple[dict, dict]:
+    """(hello, first fresh sh9 message) over wss://, with websockets' asyncio client: one
+    thread does the reads and the writes. (The threaded client reads in a thread of its
+    own while it writes its request, and OpenSSL forbids both at once on one connection:
+    now and then the request was lost and the handshake timed out.)"""
+    from websockets.asyncio.client import connect as aconnect
+
+    async def main():
+        async with aconnect(url, ssl=trust, open_timeout=10) as ws:
+            hello = json.loads(await asyncio.wait_for(ws.recv(), 10))
+            while True:
+                msg = json.loads(await asyncio.wait_for(ws.recv(), 20))
+                if msg.get("type") == "sh9" and not msg.get("stale") and \
+                        msg.get("probe") == (probe or msg.get("probe")):
+                    return hello, msg
+    return asyncio.run(main())
 
 
 def make_certificate(folder: Path, name: str = "server") -> tuple[Path, Path]:
@@ -57,11 +78,9 @@ def test_wss_and_https_with_a_self_signed_certificate(certs):
         assert f"dashboard: https://127.0.0.1:{proc.port}/" in proc.output
         trust = ssl.create_default_context(cafile=str(cert))
         url = f"wss://127.0.0.1:{proc.port}/?token=s3cret"
-        with connect(url, ssl=trust) as ws:
-            hello = recv_json(ws)
-            assert hello["type"] == "hello"
-            msg = recv_until(ws, lambda m: m["type"] == "sh9")
-            assert len(msg["coefficients"]) == 27 and msg["stale"] is False
+        hello, msg = wss_lighting(url, trust)
+        assert hello["type"] == "hello"
+        assert len(msg["coefficients"]) == 27 and msg["stale"] is False
         # https: the same routes, same token rules
         with urllib.request.urlopen(f"https://127.0.0.1:{proc.port}/latest.json?token=s3cret",
                                     context=trust, timeout=10) as resp:
@@ -84,6 +103,29 @@ def test_wss_and_https_with_a_self_signed_certificate(certs):
         assert not isinstance(plain.value, AssertionError)
         assert proc.proc.poll() is None and "Traceback" not in proc.output
     assert proc.proc.returncode == 0, proc.output
+
+
+def test_a_relay_reads_a_wss_upstream(certs):
+    """An edge device serving wss:// and a PC relaying it (``--probe pc=wss://...``, the
+    upstream's certificate trusted through SSL_CERT_FILE): the PC re-serves the edge's
+    coefficients exactly, and says why when it does not trust the certificate."""
+    _, (cert, key), (other_cert, _) = certs
+    bridge = str(HDRI / "bridge.exr")
+    with ServeProcess("--probe", f"edge={bridge}", "--tls-cert", str(cert), "--tls-key",
+                      str(key), "--token", "s3cret") as edge:
+        upstream = f"wss://127.0.0.1:{edge.port}/?token=s3cret&probe=edge"
+        _, want = wss_lighting(upstream, ssl.create_default_context(cafile=str(cert)))
+        with ServeProcess("--probe", f"pc={upstream}", env={"SSL_CERT_FILE": str(cert)}) as pc:
+            with connect(pc.url) as ws:
+                got = recv_until(ws, lambda m: m.get("type") == "sh9" and not m["stale"],
+                                 timeout=30)
+            assert got["source"] == "relay" and got["coefficients"] == want["coefficients"]
+        with ServeProcess("--probe", f"pc={upstream}", "--source-timeout", "2",
+                          env={"SSL_CERT_FILE": str(other_cert)}) as untrusted:
+            poll(lambda: "CERTIFICATE_VERIFY_FAILED" in untrusted.output, timeout=30,
+                 what="the relay to say it does not trust the upstream")
+            assert "s3cret" not in untrusted.output and "Traceback" not in untrusted.output
+    assert edge.proc.returncode == 0, edge.output
 
 
 def test_serve_help_lists_tls():

@@ -1,6 +1,7 @@
 """Relay: the coefficients of another ``shlight serve`` (edge device → PC → many headsets)."""
 from __future__ import annotations
 
+import asyncio
 import json
 import math
 import time
@@ -83,16 +84,49 @@ class RelaySource(Source):
         query = urllib.parse.parse_qs(urllib.parse.urlsplit(url).query)
         self.probe = query.get("probe", [None])[0]
         self._ws = None
+        # websockets' asyncio client on a loop of this source's own (the reading thread's):
+        # one thread does all reads and writes. The threaded client reads in a thread of
+        # its own while the caller writes, and OpenSSL forbids SSL_read and SSL_write on
+        # one connection at once: over wss:// a request could be lost (a handshake that
+        # times out now and then).
+        self._loop: asyncio.AbstractEventLoop | None = None     # made by the first _run
+        self._task: asyncio.Task | None = None
+
+    def _run(self, coro, timeout: float | None = None):
+        """Run ``coro`` on this source's loop, in the calling (reading) thread; raises
+        :class:`Interrupted` when :meth:`interrupt` cancels it."""
+        async def guarded():
+            self._task = asyncio.current_task()
+            if self._stop.is_set():
+                getattr(coro, "close", lambda: None)()     # never awaited: no warning
+                raise Interrupted()
+            return await asyncio.wait_for(coro, timeout) if timeout else await coro
+        if self._loop is None:
+            self._loop = asyncio.new_event_loop()
+        try:
+            return self._loop.run_until_complete(guarded())
+        except asyncio.CancelledError:
+            raise Interrupted() from None
+        finally:
+            self._task = None
+
+    def interrupt(self) -> None:
+        super().interrupt()
+        task = self._task
+        if task is not None and self._loop is not None:
+            try:
+                self._loop.call_soon_threadsafe(task.cancel)
+            except RuntimeError:        # the loop is closed: nothing to wake
+                pass
 
     def open(self) -> None:
-        from websockets.sync.client import connect
+        from websockets.asyncio.client import connect
         try:
-            ws = connect(self.url, open_timeout=self.options.timeout,
-                         close_timeout=1, compression=None, max_size=1 << 20,
-                         user_agent_header=USER_AGENT)
-            # Held open across read() calls, not in a with-block: enter it by hand (newer
-            # websockets warn about connect() used outside a context manager).
-            self._ws = ws.__enter__()
+            self._ws = self._run(connect(self.url, open_timeout=self.options.timeout,
+                                         close_timeout=1, compression=None, max_size=1 << 20,
+                                         user_agent_header=USER_AGENT))
+        except Interrupted:
+            raise
         except Exception as exc:  # noqa: BLE001 - refused, HTTP 401/404, timeout...
             raise SourceError(f"{redact(self.url)}: {exc}") from None
         hello = self._recv()
@@ -101,13 +135,23 @@ class RelaySource(Source):
         if self.probe is None:
             probes = hello.get("probes") or ["default"]
             self.probe = probes[0]
-        self._ws.send(json.dumps({"type": "subscribe", "probe": self.probe}))
+        self._send(json.dumps({"type": "subscribe", "probe": self.probe}))
+
+    def _send(self, text: str) -> None:
+        from websockets.exceptions import ConnectionClosed
+        try:
+            self._run(self._ws.send(text), self.options.timeout)
+        except (TimeoutError, asyncio.TimeoutError):
+            raise SourceError(f"upstream did not take a message in {self.options.timeout:g} s"
+                              ) from None
+        except ConnectionClosed as exc:
+            raise SourceError(f"upstream closed the connection ({exc})") from None
 
     def _recv(self) -> dict:
         from websockets.exceptions import ConnectionClosed
         try:
-            text = self._ws.recv(timeout=self.options.timeout)
-        except TimeoutError:
+            text = self._run(self._ws.recv(), self.options.timeout)
+        except (TimeoutError, asyncio.TimeoutError):
             raise SourceError(f"no message from upstream in {self.options.timeout:g} s") from None
         except ConnectionClosed as exc:
             raise SourceError(f"upstream closed the connection ({exc})") from None
@@ -147,5 +191,13 @@ class RelaySource(Source):
                          info={"upstream_seq": msg.get("seq")})
 
     def close(self) -> None:
-        if self._ws is not None:
-            self._ws.close()
+        if self._loop is None:
+            return
+        try:
+            if self._ws is not None:
+                self._loop.run_until_complete(self._ws.close())
+        except Exception:  # noqa: BLE001 - closing a connection that already failed
+            pass
+        finally:
+            self._ws = None
+            self._loop.close()
