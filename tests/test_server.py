@@ -772,6 +772,8 @@ def test_an_idle_socket_does_not_hold_shutdown():
     (["--probe", "a=demo", "--probe", "a=demo"], "unique"),
     (["--port", "99999"], "out of range"),
     (["--port", "abc"], "invalid int"),
+    (["--connect-rate", "-1"], "--connect-rate -1.0: out of range"),
+    (["--connect-rate", "nan"], "--connect-rate nan: out of range"),
     (["--source", "gopher://x"], "unknown source scheme"),
     (["--source", "/tmp/shlight-no-such-dir/*.exr"], "no image files"),
     (["--keepalive", "0"], "out of range"),

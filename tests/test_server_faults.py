@@ -226,6 +226,104 @@ def test_a_flooding_client_is_limited_and_the_others_untouched(kind):
         assert metric(srv.http, "shlight_client_policy_closes_total") == 1
 
 
+#: An address of this machine that --connect-rate limits (it exempts 127.0.0.1 and ::1).
+OTHER_ADDRESS = "127.0.0.2"
+
+
+def _from_other_address(port: int) -> socket.socket:
+    try:
+        return socket.create_connection(("127.0.0.1", port), timeout=10,
+                                        source_address=(OTHER_ADDRESS, 0))
+    except OSError as exc:
+        pytest.skip(f"cannot connect from {OTHER_ADDRESS} here (not Linux?): {exc}")
+
+
+def test_an_address_past_the_connect_rate_waits_its_turn_or_gets_429():
+    """A client that opens WebSocket connections faster than --connect-rate (after its
+    burst of 10) is held until its turn, at most 2 s and 4 at once, then let in or refused
+    with HTTP 429 and Retry-After, counted; its open connections, its plain HTTP requests
+    and other addresses are untouched. 127.0.0.1 (this machine's programs, a reverse
+    proxy) is never limited."""
+    import concurrent.futures
+    import contextlib
+    import http.client
+    from websockets.exceptions import InvalidStatus
+
+    def burst(proc, stack):
+        """The burst's 10 connections from 127.0.0.2, held open."""
+        held = [stack.enter_context(connect(proc.url, sock=_from_other_address(proc.port)))
+                for _ in range(10)]
+        for ws in held:
+            recv_json(ws)
+        return held
+
+    def attempt(proc, timeout=10):
+        """(seconds, the response of a refusal or None) of one handshake from 127.0.0.2."""
+        t0 = time.monotonic()
+        try:
+            with connect(proc.url, sock=_from_other_address(proc.port),
+                         open_timeout=timeout) as ws:
+                assert recv_json(ws)["type"] == "hello"
+            return time.monotonic() - t0, None
+        except InvalidStatus as exc:
+            return time.monotonic() - t0, exc.response
+
+    with ServeProcess("--source", "demo", "--connect-rate", "0.1") as proc, \
+            contextlib.ExitStack() as stack:
+        held = burst(proc, stack)
+        # the next one's turn is 10 s away: held for 2 s, then 429 with the rest to wait
+        seconds, refused = attempt(proc)
+        assert refused is not None and refused.status_code == 429 and seconds >= 1.9
+        assert 7 <= int(refused.headers["Retry-After"]) <= 9
+        assert b"too many WebSocket connections from 127.0.0.2" in refused.body
+        assert b"--connect-rate" in refused.body
+        # five at once: four are held, the fifth is refused without waiting
+        with concurrent.futures.ThreadPoolExecutor(5) as pool:
+            results = list(pool.map(lambda _: attempt(proc), range(5)))
+        assert all(r is not None and r.status_code == 429 for _, r in results)
+        assert sorted(s > 1.9 for s, _ in results) == [False, True, True, True, True]
+        assert metric(proc.http, "shlight_rejected_connections_total",
+                      reason="connect_rate") == 6
+        for _ in range(25):                  # loopback: never limited
+            with connect(proc.url) as ws:
+                assert recv_json(ws)["type"] == "hello"
+        recv_until(held[0], sh9)             # what it holds keeps its lighting
+        page = http.client.HTTPConnection("127.0.0.1", proc.port, timeout=10,
+                                          source_address=(OTHER_ADDRESS, 0))
+        page.request("GET", "/healthz")      # plain HTTP is not counted
+        assert page.getresponse().status == 200
+        page.close()
+        assert proc.proc.poll() is None and "Traceback" not in proc.output
+        assert "refused 127.0.0.2" in proc.output
+    # a turn within 2 s (2 s less the burst's own time): held, then let in
+    with ServeProcess("--source", "demo", "--connect-rate", "0.5") as proc, \
+            contextlib.ExitStack() as stack:
+        burst(proc, stack)
+        seconds, refused = attempt(proc)
+        assert refused is None and 0.5 <= seconds, seconds
+        assert b'reason="connect_rate"' not in http_get(proc.http + "/metrics")[2]
+
+
+def test_the_connect_rate_table_stays_small():
+    """Many addresses, each within its burst: the table forgets those whose bucket is full
+    again, and never holds more than its bound; exempt addresses are never in it."""
+    from provider.live.limits import ConnectRate
+    rate = ConnectRate(rate=2.0, burst=20.0, max_addresses=100)
+    t = 1000.0
+    for _ in range(20):
+        assert rate.retry_after("10.9.9.9", now=t) == 0.0
+    assert rate.retry_after("10.9.9.9", now=t) == pytest.approx(0.5)
+    assert rate.retry_after("10.9.9.9", now=t + 0.25) == pytest.approx(0.25)  # no lock-out
+    for i in range(5000):                   # one new address every 10 ms
+        t += 0.01
+        assert rate.retry_after(f"10.0.{i // 250}.{i % 250}", now=t) == 0.0
+        assert len(rate) <= 100
+        if i == 150:                        # pruned twice by now: the busy one is kept
+            assert "10.9.9.9" in rate._buckets and "10.0.0.0" not in rate._buckets
+    assert rate.retry_after("127.0.0.1", now=t) == 0.0 and "127.0.0.1" not in rate._buckets
+    assert ConnectRate(rate=0.0, burst=10.0).retry_after("10.0.0.1") == 0.0   # 0: no limit
+
+
 def test_a_client_under_its_budget_is_answered_in_full():
     with ServerThread("--source", BRIDGE) as srv, connect(srv.url) as ws:
         recv_json(ws)

@@ -6,7 +6,10 @@ For each client count (1,000 and 2,000; 200 with ``--quick``) a fresh ``shlight 
 
 * ``plain``: every client takes every message;
 * ``flood``: the same, plus one more client that sends ``{"type":"ping"}`` without pause
-  and, each time the server closes it (code 1008), connects again and goes on;
+  and, each time the server closes it (code 1008), connects again at once and goes on; it
+  connects from 127.0.0.2 (Linux), an address ``--connect-rate`` limits as it limits a LAN
+  client (429 beyond it: the flooder tries again at once);
+* ``flood, no --connect-rate``: the same flooder against ``--connect-rate 0``;
 * ``max_hz 30``: every client subscribes with ``?max_hz=30``, the source's own rate.
 
 Reported per row: messages per second per client (median, p5), frame-to-client latency
@@ -35,22 +38,43 @@ def rss_mib(pid: int) -> float:
     return float("nan")
 
 
-class Flooder:
-    """A client that sends JSON pings without pause, reconnecting whenever it is closed."""
+#: The flooder's address: loopback, but not one that ``--connect-rate`` exempts.
+FLOOD_SOURCE = "127.0.0.2"
 
-    def __init__(self, url: str):
-        self.url = url
-        self.sent = self.pongs = self.closes = 0
+
+class Flooder:
+    """A client that sends JSON pings without pause, reconnecting at once whenever it is
+    closed or refused, from ``source`` (an address of this machine; None: the default)."""
+
+    def __init__(self, url: str, source: str | None = FLOOD_SOURCE):
+        self.url, self.source = url, source
+        self.sent = self.pongs = self.closes = self.refusals = 0
         self.close_codes: dict = {}
         self._stop = threading.Event()
         self.thread = threading.Thread(target=self._run, daemon=True, name="flooder")
 
+    def _socket(self):
+        """A TCP connection to the server from ``source`` where this machine has it."""
+        import socket
+        from urllib.parse import urlsplit
+        parts = urlsplit(self.url)
+        try:
+            return socket.create_connection((parts.hostname, parts.port), timeout=10,
+                                            source_address=(self.source, 0) if self.source
+                                            else None)
+        except OSError:
+            if not self.source:
+                raise
+            self.source = None                  # not Linux: 127.0.0.2 is not this machine's
+            return self._socket()
+
     def _run(self) -> None:
-        from websockets.exceptions import ConnectionClosed
+        from websockets.exceptions import ConnectionClosed, InvalidStatus
         from websockets.sync.client import connect
         while not self._stop.is_set():
             try:
-                with connect(self.url, open_timeout=10, close_timeout=1, max_queue=None) as ws:
+                with connect(self.url, sock=self._socket(), open_timeout=10, close_timeout=1,
+                             max_queue=None) as ws:
                     try:
                         while not self._stop.is_set():
                             ws.send('{"type":"ping","id":1}')
@@ -61,7 +85,11 @@ class Flooder:
                         self.closes += 1
                         code = ws.protocol.close_rcvd.code if ws.protocol.close_rcvd else 1006
                         self.close_codes[code] = self.close_codes.get(code, 0) + 1
-            except Exception:  # noqa: BLE001 - refused, reset: try again shortly
+            except InvalidStatus as exc:     # 429 past --connect-rate: again, at once
+                self.refusals += 1
+                code = exc.response.status_code
+                self.close_codes[code] = self.close_codes.get(code, 0) + 1
+            except Exception:  # noqa: BLE001 - reset: try again shortly
                 self._stop.wait(0.05)
 
     def _drain(self, ws) -> None:
@@ -118,8 +146,9 @@ def measure_faults(start_server, pct, fps: float, counts, seconds: float, server
     from .loadgen import LoadGenerator
     rows = []
     for n in counts:
-        for mode in ("plain", "flood", "max_hz 30"):
-            proc, port = start_server(fps, server_cpus)
+        for mode in ("plain", "flood", "flood, no --connect-rate", "max_hz 30"):
+            proc, port = start_server(fps, server_cpus, ("--connect-rate", "0")
+                                      if mode.endswith("--connect-rate") else ())
             gen = None
             try:
                 path = "/?max_hz=30" if mode == "max_hz 30" else "/"
@@ -129,11 +158,12 @@ def measure_faults(start_server, pct, fps: float, counts, seconds: float, server
                 if gen.clients < n:
                     progress(f"  {mode}: only {gen.clients} of {n} clients connected")
                     continue
-                if mode == "flood":
+                if mode.startswith("flood"):
                     with Flooder(f"ws://127.0.0.1:{port}/") as flood:
                         row = _row(gen, proc.pid, port, seconds, fps, pct)
                     row.update(flooder_sent=flood.sent, flooder_pongs=flood.pongs,
-                               flooder_closes=flood.closes,
+                               flooder_closes=flood.closes, flooder_refusals=flood.refusals,
+                               flooder_source=flood.source or "127.0.0.1",
                                flooder_close_codes={str(k): v for k, v in
                                                     flood.close_codes.items()})
                 else:
@@ -144,10 +174,11 @@ def measure_faults(start_server, pct, fps: float, counts, seconds: float, server
                 stop(proc)
             row.update(clients=n, mode=mode, seconds=seconds)
             rows.append(row)
-            extra = (f"; flooder closed {row['flooder_closes']}× "
-                     f"({row['flooder_close_codes']}), {row['flooder_pongs']} pongs for "
-                     f"{row['flooder_sent']} pings" if mode == "flood" else "")
-            progress(f"  {n:5d} clients, {mode:9s}: {row['rate_median']:.1f} msg/s each "
+            extra = (f"; flooder closed {row['flooder_closes']}×, refused "
+                     f"{row['flooder_refusals']}× ({row['flooder_close_codes']}), "
+                     f"{row['flooder_pongs']} pongs for {row['flooder_sent']} pings"
+                     if mode.startswith("flood") else "")
+            progress(f"  {n:5d} clients, {mode}: {row['rate_median']:.1f} msg/s each "
                      f"(p5 {row['rate_p5']:.1f}), latency p50 {row['latency_p50_ms']:.1f} ms "
                      f"p99 {row['latency_p99_ms']:.1f} ms, server CPU "
                      f"{row['server_cpu'] * 100:.0f} %, RSS {row['server_rss_mib']:.0f} MiB, "
@@ -159,17 +190,21 @@ def markdown(rows: list[dict], fps: float, load: str) -> list[str]:
     """The section of server.md for these rows."""
     lines = ["", "## Many clients, a flooding client, a rate cap", "",
              f"A fresh `shlight serve` per row (demo source at {fps:g} fps, every frame sent); "
-             "`flood`: one more client sends JSON pings without pause and reconnects each "
-             "time it is closed; `max_hz 30`: every client subscribes with `?max_hz=30`. "
+             "`flood`: one more client sends JSON pings without pause and reconnects at "
+             "once each time it is closed or refused, from 127.0.0.2 (limited by "
+             "`--connect-rate` like a LAN client); `flood, no --connect-rate`: the same "
+             "against `--connect-rate 0`; `max_hz 30`: every client subscribes with "
+             "`?max_hz=30`. "
              f"Load average at the end of the run: {load}.", "",
              "| clients | mode | msg/s per client (median) | p5 | latency p50 (ms) "
              "| latency p99 (ms) | server CPU (core) | server RSS (MiB) | held by max_hz "
              "| flooder |",
              "|---:|:---|---:|---:|---:|---:|---:|---:|---:|:---|"]
     for r in rows:
-        flood = (f"closed {r['flooder_closes']}× ({', '.join(f'{k}: {v}' for k, v in r['flooder_close_codes'].items())}), "
+        flood = (f"closed {r['flooder_closes']}×, refused {r.get('flooder_refusals', 0)}× "
+                 f"({', '.join(f'{k}: {v}' for k, v in r['flooder_close_codes'].items())}), "
                  f"{r['flooder_pongs']} pongs / {r['flooder_sent']} pings"
-                 if r["mode"] == "flood" else "")
+                 if r["mode"].startswith("flood") else "")
         lines.append(f"| {r['clients']} | {r['mode']} | {r['rate_median']:.1f} | "
                      f"{r['rate_p5']:.1f} | {r['latency_p50_ms']:.1f} | "
                      f"{r['latency_p99_ms']:.1f} | {r['server_cpu']:.2f} | "

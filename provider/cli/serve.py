@@ -82,6 +82,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="messages a second a client may send, after a burst of 2.5 s worth "
                           "(pings included); beyond it they are dropped, and a client that "
                           "goes on is closed with 1008 (default 20)")
+    net.add_argument("--connect-rate", type=float, default=2.0, metavar="N",
+                     help="WebSocket connections a second one address may open, after a "
+                          "burst of 10 s worth (at least 10); beyond, a handshake waits "
+                          "its turn (at most 2 s, 4 at once), then HTTP 429 with "
+                          "Retry-After. 127.0.0.1 and ::1 are not limited; 0: no limit "
+                          "(default 2)")
     net.add_argument("--max-message-bytes", type=int, default=4096,
                      help="larger client messages close the connection with 1009 (default 4096)")
     net.add_argument("--send-timeout", type=float, default=10.0,
@@ -266,9 +272,13 @@ def build_server(args):
                       tls=server_context(args.tls_cert, args.tls_key),
                       allowed_hosts=tuple(args.allow_host),
                       client_frame_rate=args.client_max_rate,
-                      client_frame_burst=max(2.5 * args.client_max_rate, 10.0))
+                      client_frame_burst=max(2.5 * args.client_max_rate, 10.0),
+                      connect_rate=args.connect_rate,
+                      connect_burst=max(10.0 * args.connect_rate, 10.0))
     if not 0 < s.client_frame_rate < math.inf:
         raise InputError(f"--client-max-rate {s.client_frame_rate}: out of range (> 0)")
+    if not 0 <= s.connect_rate < math.inf:
+        raise InputError(f"--connect-rate {s.connect_rate}: out of range (>= 0; 0: no limit)")
     if not (0 <= s.port <= 65535):
         raise InputError(f"--port {s.port}: out of range")
     if (s.max_clients < 1 or s.max_message_bytes < 256 or not 0 < s.send_timeout < math.inf

@@ -9,6 +9,9 @@
   closed with code 1008 (policy violation). websockets' own limits stay in force as well:
   ``max_size`` (one message: close 1009) and ``max_queue`` (messages the handler has not
   taken yet: the socket is not read).
+* :class:`ConnectRate`: WebSocket handshakes per client address (a token bucket each):
+  a client that reconnects at once each time it is closed would otherwise cost the server
+  a handshake per attempt; beyond the rate it gets HTTP 429 with ``Retry-After``.
 * :class:`HostCheck`: the ``Host`` header allow-list against DNS rebinding (a page of
   ``evil.example`` whose name is made to resolve to 127.0.0.1 sends ``Host:
   evil.example``).
@@ -22,8 +25,10 @@ seconds unless said otherwise.
 """
 from __future__ import annotations
 
+import asyncio
 import ipaddress
 import logging
+import math
 import re
 import socket
 import time
@@ -41,10 +46,10 @@ class TokenBucket:
     """``rate`` tokens per second up to ``burst``; :meth:`take` may run into a debt of
     ``debt`` tokens (then it answers False)."""
 
-    def __init__(self, rate: float, burst: float, debt: float = 0.0):
+    def __init__(self, rate: float, burst: float, debt: float = 0.0, now: float | None = None):
         self.rate, self.burst, self.debt = float(rate), float(burst), float(debt)
         self.tokens = float(burst)
-        self._at = time.monotonic()
+        self._at = time.monotonic() if now is None else now
 
     def refill(self, now: float | None = None) -> float:
         """The tokens available now."""
@@ -78,6 +83,74 @@ class LimitCounters:
         self.frames_dropped = 0         # client messages dropped past the budget
         self.policy_closes = 0          # clients closed with 1008 for flooding
         self.throttled_reads = 0        # times a client's socket was left unread
+
+
+class ConnectRate:
+    """WebSocket handshakes one address may start: ``rate`` a second after a burst of
+    ``burst`` (a :class:`TokenBucket` per address; ``rate`` 0: no limit). 127.0.0.1 and ::1
+    are not limited: this machine's own programs (a reverse proxy, the bench's thousand
+    clients) connect from there, and a proxy limits its clients itself. Addresses whose
+    bucket is full again are forgotten once more than ``max_addresses`` are known, so the
+    table stays small under a scan of many addresses.
+
+    :meth:`admit` holds a handshake past the rate until the address's turn (a sleeping
+    coroutine: no CPU) instead of refusing it at once, so that a client which reconnects
+    at once each time it is refused waits its turn instead of costing a refusal per
+    round trip; past ``HOLD_MAX_S``, or beyond ``HOLD_PER_ADDRESS`` held at once, HTTP 429."""
+
+    EXEMPT = frozenset({"127.0.0.1", "::1", "::ffff:127.0.0.1"})
+    HOLD_MAX_S = 2.0
+    HOLD_PER_ADDRESS = 4
+
+    def __init__(self, rate: float, burst: float, max_addresses: int = 4096):
+        self.rate, self.burst, self.max_addresses = float(rate), float(burst), max_addresses
+        self._buckets: dict[str, TokenBucket] = {}
+        self._held: dict[str, int] = {}     # address -> handshakes held now
+
+    async def admit(self, address: str | None):
+        """None once ``address`` may go on with its WebSocket handshake (at once, or after
+        waiting its turn), else the refusal as :func:`early_refusal` gives it (429)."""
+        wait = self.retry_after(address)
+        held = self._held.get(address, 0)
+        if wait > 0 and held < self.HOLD_PER_ADDRESS:
+            self._held[address] = held + 1
+            try:
+                await asyncio.sleep(min(wait, self.HOLD_MAX_S))
+            finally:
+                if self._held[address] <= 1:
+                    del self._held[address]
+                else:
+                    self._held[address] -= 1
+            wait = self.retry_after(address)
+        if wait == 0:
+            return None
+        return (429, "connect_rate", f"too many WebSocket connections from {address} "
+                f"({self.rate:g} a second after {self.burst:g}; see --connect-rate): retry "
+                f"in {wait:.1f} s", [("Retry-After", str(max(1, math.ceil(wait))))])
+
+    def retry_after(self, address: str | None, now: float | None = None) -> float:
+        """0 if ``address`` may start a handshake now (and count it), else the seconds
+        until it may."""
+        if not self.rate or address is None or address in self.EXEMPT:
+            return 0.0
+        bucket = self._buckets.get(address)
+        if bucket is None:
+            if len(self._buckets) >= self.max_addresses:
+                self._forget_full(now)
+            bucket = self._buckets[address] = TokenBucket(self.rate, self.burst, now=now)
+        tokens = bucket.refill(now)        # a refused attempt takes nothing: no lock-out
+        if tokens >= 1.0:
+            bucket.tokens -= 1.0
+            return 0.0
+        return (1.0 - tokens) / self.rate
+
+    def _forget_full(self, now: float | None) -> None:
+        self._buckets = {a: b for a, b in self._buckets.items() if b.refill(now) < b.burst}
+        if len(self._buckets) >= self.max_addresses:   # all busy: start over, each limited
+            self._buckets.clear()
+
+    def __len__(self) -> int:
+        return len(self._buckets)
 
 
 class BudgetedConnection(ServerConnection):

@@ -105,8 +105,8 @@ from . import status
 from .environment_fanout import EnvironmentFanout
 from .dashboard import DASHBOARD_CSP, PUBLIC_FILES, PUBLIC_HEADERS, static_file, thumbnail_jpeg
 from .export import CUBE_FORMATS, EXPORT_WAIT_S, FORMATS, NATIVE, ExportCache, check_format
-from .limits import (BudgetedConnection, HostCheck, LimitCounters, _peer, early_refusal,
-                     fit_open_files)
+from .limits import (BudgetedConnection, ConnectRate, HostCheck, LimitCounters, _peer,
+                     early_refusal, fit_open_files)
 from .replies import _json_error, _response
 from .message import FRAME, SCHEMA_VERSION, dumps
 from .probe import Probe
@@ -137,6 +137,8 @@ class ServeSettings:
     client_frame_rate: float = 20.0     # frames per second a client may send (then 1008)...
     client_frame_burst: float = 50.0    # ...after a burst of this many
     client_byte_rate: float = 0.0       # bytes per second a client may send (0: 4 messages)
+    connect_rate: float = 2.0           # WebSocket handshakes a second per address (0: any)...
+    connect_burst: float = 20.0         # ...after a burst of this many (limits.ConnectRate)
 
 
 class ProviderServer:
@@ -175,6 +177,7 @@ class ProviderServer:
         self._allowed_origins = {o.rstrip("/").lower() for o in self.settings.allowed_origins}
         self.host_check = HostCheck(self.settings.host, self.settings.allowed_hosts)
         self.limit_counters = LimitCounters()
+        self.connect_rate = ConnectRate(self.settings.connect_rate, self.settings.connect_burst)
         self.max_clients = self.settings.max_clients     # lowered by start() to what fits
         self.open_files_limit: int | None = None
         self._stopping = False
@@ -417,9 +420,12 @@ class ProviderServer:
 
     async def _process_request(self, connection: ServerConnection, request: Request):
         # A Host not answered (421), a method other than GET/HEAD (405), more connections
-        # than the open-files limit holds (503): provider.live.limits. HEAD: no body.
+        # than the open-files limit holds (503), an address past --connect-rate (429):
+        # provider.live.limits. HEAD: no body.
         refusal = early_refusal(request, self.host_check, len(self._server.handler_tasks),
                                 self.max_clients)
+        if refusal is None and "websocket" in request.headers.get("Upgrade", "").lower():
+            refusal = await self.connect_rate.admit((connection.remote_address or (None,))[0])
         if refusal is not None:
             status, reason, text, headers = refusal
             self.counters.rejected[reason] += 1
