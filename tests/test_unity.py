@@ -26,8 +26,10 @@ import json
 import math
 import os
 import re
+import select
 import shutil
 import socket
+import ssl
 import subprocess
 import sys
 import threading
@@ -439,21 +441,44 @@ class _Relay:
         except OSError:
             client.close()
             return
-        pair = {"held": False, "socks": (client, upstream)}
+        # OpenSSL forbids SSL_read and SSL_write on one connection at once (the two pumps
+        # would: now and then bytes were lost): the TLS side's reads and writes take turns,
+        # and its reader waits for data outside its turn.
+        pair = {"held": False, "socks": (client, upstream),
+                "tls_turn": threading.Lock() if self.tls is not None else None}
         self.pairs.append(pair)
         for a, b in ((client, upstream), (upstream, client)):
             threading.Thread(target=self._pump, args=(a, b, pair), daemon=True).start()
 
     @staticmethod
     def _pump(a, b, pair):
+        turn = pair["tls_turn"]
+        a_turn = turn if a is pair["socks"][0] else None
+        b_turn = turn if b is pair["socks"][0] else None
         try:
             while True:
-                data = a.recv(65536)
+                if a_turn is not None:
+                    if not a.pending() and not select.select([a], [], [], 0.05)[0]:
+                        continue
+                    with a_turn:        # not blocking in its turn: a record that is not
+                        a.setblocking(False)    # data (a ticket) would hold the writer
+                        try:
+                            data = a.recv(65536)
+                        except ssl.SSLWantReadError:
+                            continue
+                        finally:
+                            a.setblocking(True)
+                else:
+                    data = a.recv(65536)
                 if not data:
                     break
                 if not pair["held"]:
-                    b.sendall(data)
-        except OSError:
+                    if b_turn is not None:
+                        with b_turn:
+                            b.sendall(data)
+                    else:
+                        b.sendall(data)
+        except (OSError, ValueError):          # ValueError: select on a closed socket
             pass
         if not pair["held"]:
             for sock in (a, b):
