@@ -204,6 +204,8 @@ def markdown(rows: list[dict], fps: float, load: str) -> list[str]:
         flood = (f"closed {r['flooder_closes']}×, refused {r.get('flooder_refusals', 0)}× "
                  f"({', '.join(f'{k}: {v}' for k, v in r['flooder_close_codes'].items())}), "
                  f"{r['flooder_pongs']} pongs / {r['flooder_sent']} pings"
+                 + ("; from 127.0.0.1, which --connect-rate does not limit (no 127.0.0.2 "
+                    "here)" if r.get("flooder_source") == "127.0.0.1" else "")
                  if r["mode"].startswith("flood") else "")
         lines.append(f"| {r['clients']} | {r['mode']} | {r['rate_median']:.1f} | "
                      f"{r['rate_p5']:.1f} | {r['latency_p50_ms']:.1f} | "
