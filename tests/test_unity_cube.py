@@ -468,7 +468,7 @@ def test_live_reflections_from_shlight_serve(reflections_exe, cube_exe, tmp_path
     rotation when registered), is given to Unity (RenderSettings Custom, or the probe in Custom mode) and
     taken back on disable; and the Updates allocate nothing in steady frames, upload frames included."""
     import urllib.request
-    from servertools import ServeProcess
+    from servertools import ServeProcess, http_get, poll
     image = _panorama(tmp_path / "room.pfm", [((1, 0.2, -0.3), 0.9, (20.0, 15.0, 8.0))], w=256, h=128)
     args = [] if target == "render-settings" else ["--probe"] if target == "reflection-probe" else []
     registration = None
@@ -480,6 +480,9 @@ def test_live_reflections_from_shlight_serve(reflections_exe, cube_exe, tmp_path
     with ServeProcess("--source", str(image), "--environment", "--environment-size", "32", "--fps", "10",
                       "--change-threshold", "0", "--environment-hz", "4") as server:
         _, mono = _mono_tools()
+        # the client's 6 s start once cubes flow (the first one waits for the projector)
+        poll(lambda: http_get(f"{server.http}/environment.ktx2?probe=default")[0] == 200,
+             timeout=90, what="the server's first cube")
         r = subprocess.run([mono, str(reflections_exe), server.url, "6", str(tmp_path / "unity.bin"), *args],
                            capture_output=True, text=True, timeout=120)
         assert r.returncode == 0, r.stderr[-3000:]
