@@ -24,7 +24,7 @@ from servertools import ServeProcess, connect, poll, recv_until, run_cli
 HDRI = Path(__file__).parent / "data" / "hdri"
 
 
-def wss_lighting(url: str, trust: ssl.SSLContext, probe: str | None = None) -> tuple[dict, dict]:
+def wss_lighting(url: str, trust: ssl.SSLContext) -> tuple[dict, dict]:
     """(hello, first fresh sh9 message) over wss://, with websockets' asyncio client: one
     thread does the reads and the writes. (The threaded client reads in a thread of its
     own while it writes its request, and OpenSSL forbids both at once on one connection:
@@ -36,8 +36,7 @@ def wss_lighting(url: str, trust: ssl.SSLContext, probe: str | None = None) -> t
             hello = json.loads(await asyncio.wait_for(ws.recv(), 10))
             while True:
                 msg = json.loads(await asyncio.wait_for(ws.recv(), 20))
-                if msg.get("type") == "sh9" and not msg.get("stale") and \
-                        msg.get("probe") == (probe or msg.get("probe")):
+                if msg.get("type") == "sh9" and not msg.get("stale"):
                     return hello, msg
     return asyncio.run(main())
 
