@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import os
 import time
-import urllib.request
 
 import jsonschema
 import pytest
@@ -176,24 +175,28 @@ def test_a_slow_client_gets_the_newest_cube_only():
     """A client that stops reading while ten 1 MB cubes are made (128² at up to 10 Hz: more
     than the 1 MiB message limit that websockets sets by default) is neither
     cut off nor flooded afterwards: it gets fewer cubes than were made, the newest last.
-    (The pause lasts until ten are made, however slow the machine; --send-timeout is long
-    enough for that.)"""
+    (The pause lasts until ten are made and the server has replaced one it could not send,
+    however slow the machine and however much the loopback's socket buffers hold: on one CI
+    machine they held all ten; --send-timeout is long enough for that.)"""
     with ServerThread("--fps", "20", "--environment", "--environment-hz", "10",
-                      "--environment-size", "128", "--send-timeout", "120") as srv, \
+                      "--environment-size", "128", "--send-timeout", "600") as srv, \
             connect(srv.url, max_queue=1, max_size=None) as ws:
         subscribe(ws, environment=True)
-        read_until(ws, lambda f: len(cubes(f)) >= 1, timeout=90)   # the 128² projector built
+        # the 128² projector: 3 s here, 85 s beside two CPU hogs (the cube thread runs at nice 10)
+        first = read_until(ws, lambda f: len(cubes(f)) >= 1, timeout=240)
         start = counts(srv)["cubes"]
-        poll(lambda: counts(srv)["cubes"] - start >= 10, timeout=100,   # not reading
-             what="ten cubes made")
+        skipped = srv.call(lambda: srv.server.environment.skipped)
+        poll(lambda: counts(srv)["cubes"] - start >= 10          # not reading
+             and srv.call(lambda: srv.server.environment.skipped) > skipped,
+             timeout=240, what="ten cubes made and one skipped")
         made = counts(srv)["cubes"] - start
         frames = read_until(ws, lambda f: len(cubes(f)) >= 2
                             and cubes(f)[-1][0]["seq"] >= start + made - 1, timeout=60)
-        received = [m["seq"] for m, _ in cubes(frames)]
+        received = [m["seq"] for m, _ in cubes(first) + cubes(frames)]
         assert made >= 10
-        assert len(received) < made, (received, made)    # skipped, not queued
-        assert srv.call(lambda: srv.server.environment.skipped) > 0
-        assert received == sorted(received)
+        assert received == sorted(set(received))
+        assert received[-1] >= start + made - 1                          # the newest last
+        assert len(received) < received[-1] - received[0] + 1, received  # skipped, not queued
 
 
 # ---- bad input: one clear error, the server keeps serving ---------------------------------------
