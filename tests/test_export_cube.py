@@ -312,6 +312,29 @@ def test_a_twin_at_babylons_roughness_is_the_projector_made_for_it_and_shares_it
     np.testing.assert_array_equal(shared.mips[0], cube.project(img).mips[0])
 
 
+def test_a_twin_refilters_the_cubes_pyramid_to_the_mips_it_would_project():
+    """What serve --environment does per cube for gltf: the twin's refilter of the cube's
+    result (the prefilter alone) gives the mips its own projection of the frame gives, sun
+    and all (the bright pixels' exact path); a result of another geometry is refused."""
+    sun = lobe(AXES["+y"], 256, 128)
+    sun[20, 40] = 1e4                          # a sun 10⁴× the sky: the bright-pixel path
+    cube = EnvironmentProjector(256, 128, size=32)
+    twin = cube.at_roughness(gltf_ibl.babylon_roughness(32))
+    made = cube.project(sun, exposure_s=0.5)
+    refiltered = twin.refilter(made)
+    projected = twin.project(sun, exposure_s=0.5)
+    assert len(refiltered.mips) == len(projected.mips) == len(made.mips)
+    for a, b in zip(refiltered.mips, projected.mips):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
+    assert refiltered.roughness == twin.roughness != made.roughness
+    assert refiltered.mips[0] is made.mips[0]
+    assert not np.allclose(refiltered.mips[2], made.mips[2])     # another roughness
+    assert refiltered.stats["exposure_s"] == 0.5 and refiltered.stats["compute_ms"] > 0
+    other = EnvironmentProjector(256, 128, size=32).project(sun)
+    with pytest.raises(ValueError, match="projector of this geometry"):
+        twin.refilter(other)
+
+
 def test_an_encoded_cube_is_the_export_of_its_mips():
     env = babylon_mips(lobe(AXES["-z"]), size=16)
     once = cv.encode_cube("gltf", env.mips)

@@ -73,11 +73,16 @@ class EnvironmentResult:
     stats : dict
         ``compute_ms``, ``coverage_sr``, ``negative_pixels``, ``nonfinite_pixels``,
         ``radiometry``, ``exposure_s``/``gain`` (when given).
+    prefilter_source : optional
+        What the prefiltered mips were made of (the frame's pyramid), kept so that
+        :meth:`EnvironmentProjector.refilter` can prefilter the same frame at another
+        roughness without projecting it again.
     """
 
     mips: list
     roughness: list
     stats: dict = field(default_factory=dict)
+    prefilter_source: object = field(default=None, repr=False, compare=False)
 
     @property
     def size(self) -> int:
@@ -302,7 +307,8 @@ class EnvironmentProjector(FrameDecoder):
         ``mip_roughness`` instead (one per mip, 0 first; Babylon.js:
         :func:`provider.core.gltf_ibl.babylon_roughness`): it shares this one's work image,
         overlap and pyramid (mip 0 is the same), builds only its own prefilter operator, and
-        accepts this one's :class:`WorkImage`."""
+        accepts this one's :class:`WorkImage`; its :meth:`refilter` turns this one's result
+        into its own with the prefilter alone."""
         twin = copy.copy(self)
         twin.roughness = _check_roughness(mip_roughness, len(self.sizes))
         twin._build_prefilter()
@@ -390,35 +396,62 @@ class EnvironmentProjector(FrameDecoder):
             fill = self._fill_weights @ px                     # (3,)
             base += self._fill_share[:, None] * fill[None, :].astype(np.float32)
         mip0 = self._pyramid(base)[self.levels.index(self.size)]
-        mips = [mip0]
-        if self._prefilter is not None:
-            bright, excess = self._bright_split(px)
-            if bright is not None:   # the pyramid the operator reads keeps the smooth rest
-                # the overlap's entries are sorted by pixel: each bright pixel's run of them
-                lo = np.searchsorted(self._pix, bright)
-                hi = np.searchsorted(self._pix, bright, side="right")
-                pos = np.repeat(np.arange(bright.size), hi - lo)
-                sel = np.arange(pos.size) - np.repeat(np.cumsum(hi - lo) - (hi - lo), hi - lo) \
-                    + np.repeat(lo, hi - lo)
-                base = base - self._overlap(excess, pos, self._val[sel], self._tex[sel])
-            levels = self._pyramid(base)[self._source_first:]
-            pyramid = np.concatenate([lv.reshape(-1, 3) for lv in levels])
-            filtered = self._prefilter.apply(pyramid)
-            for (a, b), size, out, norm in zip(self._mip_rows, self.sizes[1:], self._outputs,
-                                                self._norms):
-                n = min(size, PREFILTER_MAX_FACE)
-                mip = filtered[a:b]
-                if bright is not None:
-                    k = len(mips)
-                    kern = prefilter.ggx_weight(out[:, None, :], self._pix_dir[bright][None],
-                                                self.roughness[k] ** 2)
-                    kern *= self._pix_omega[bright][None, :] / norm[:, None]
-                    mip = mip + (kern @ excess).astype(np.float32)
-                mip = mip.reshape(6, n, n, 3)
-                if size != n:
-                    mip = np.stack([_upsample_face(f, size) for f in mip])
-                mips.append(mip)
-        return EnvironmentResult(mips, list(self.roughness), {})
+        if self._prefilter is None:
+            source = _PrefilterSource(self._overlap_op, mip0, None, None, None)
+            return EnvironmentResult([mip0], list(self.roughness), {}, source)
+        bright, excess = self._bright_split(px)
+        if bright is not None:   # the pyramid the operator reads keeps the smooth rest
+            # the overlap's entries are sorted by pixel: each bright pixel's run of them
+            lo = np.searchsorted(self._pix, bright)
+            hi = np.searchsorted(self._pix, bright, side="right")
+            pos = np.repeat(np.arange(bright.size), hi - lo)
+            sel = np.arange(pos.size) - np.repeat(np.cumsum(hi - lo) - (hi - lo), hi - lo) \
+                + np.repeat(lo, hi - lo)
+            base = base - self._overlap(excess, pos, self._val[sel], self._tex[sel])
+        levels = self._pyramid(base)[self._source_first:]
+        source = _PrefilterSource(self._overlap_op, mip0,
+                                  np.concatenate([lv.reshape(-1, 3) for lv in levels]),
+                                  bright, excess)
+        return EnvironmentResult(self._prefiltered(source), list(self.roughness), {}, source)
+
+    def refilter(self, result: EnvironmentResult) -> EnvironmentResult:
+        """The cube of the frame that ``result`` was made from, its mips prefiltered at this
+        projector's roughness: ``result`` is from a projector of the same geometry (this
+        one, or the one this is an :meth:`at_roughness` twin of). Only the prefilter runs:
+        the frame is not decoded, overlapped nor pooled again. ``stats`` are ``result``'s
+        with this call's ``compute_ms``."""
+        t0 = time.perf_counter()
+        source = result.prefilter_source
+        if source is None or source.geometry is not self._overlap_op:
+            raise ValueError("refilter needs a result made by a projector of this geometry "
+                             "(this one, or the one it is an at_roughness twin of)")
+        out = EnvironmentResult(self._prefiltered(source), list(self.roughness),
+                                dict(result.stats), source)
+        out.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
+        return out
+
+    def _prefiltered(self, source: "_PrefilterSource") -> list:
+        """[mip 0, prefiltered mips…] of one frame's pyramid (and its bright pixels)."""
+        mips = [source.mip0]
+        if self._prefilter is None:
+            return mips
+        bright, excess = source.bright, source.excess
+        filtered = self._prefilter.apply(source.pyramid)
+        for (a, b), size, out, norm in zip(self._mip_rows, self.sizes[1:], self._outputs,
+                                            self._norms):
+            n = min(size, PREFILTER_MAX_FACE)
+            mip = filtered[a:b]
+            if bright is not None:
+                k = len(mips)
+                kern = prefilter.ggx_weight(out[:, None, :], self._pix_dir[bright][None],
+                                            self.roughness[k] ** 2)
+                kern *= self._pix_omega[bright][None, :] / norm[:, None]
+                mip = mip + (kern @ excess).astype(np.float32)
+            mip = mip.reshape(6, n, n, 3)
+            if size != n:
+                mip = np.stack([_upsample_face(f, size) for f in mip])
+            mips.append(mip)
+        return mips
 
     def _overlap(self, px, pix, val, tex=None) -> np.ndarray:
         """(6·base², 3) float32: Σ val · px[pix] into texels ``tex`` (default: all entries)."""
@@ -450,6 +483,19 @@ class EnvironmentProjector(FrameDecoder):
         keep = (cap / lum[bright])[:, None]
         excess = (px[bright] * (1 - keep)).astype(np.float64)
         return bright, excess
+
+
+@dataclass(frozen=True)
+class _PrefilterSource:
+    """What a frame's prefiltered mips are made of, at any roughness: mip 0, the pyramid the
+    operator reads (levels from PREFILTER_MAX_SOURCE² down, bright pixels' excess taken out),
+    the bright pixels and their excess; ``geometry``: the overlap operator it was made by."""
+
+    geometry: object
+    mip0: np.ndarray
+    pyramid: np.ndarray
+    bright: np.ndarray | None
+    excess: np.ndarray | None
 
 
 def _check_roughness(mip_roughness, mips: int) -> list:

@@ -15,8 +15,10 @@ Exports that carry the cube (``/latest.json?to=gltf|arcore``, a client's ``to``;
 :mod:`.export`): once someone asks (:meth:`EnvironmentWorker.want`), the thread also encodes
 the cube in that format with every cube it makes, for :data:`EXPORT_IDLE_S` after the last
 request, and for the latest cube at once if it lacks it: gltf's mips re-prefiltered at
-Babylon.js's roughness from the same work image (:meth:`~provider.core.environment.
-EnvironmentProjector.at_roughness`), then RGBD PNG; arcore's 16² float16 faces. Encoded once
+Babylon.js's roughness from the cube's own pyramid (an :meth:`~provider.core.environment.
+EnvironmentProjector.at_roughness` twin's :meth:`~provider.core.environment.
+EnvironmentProjector.refilter`: only the prefilter runs again), then RGBD PNG; arcore's 16²
+float16 faces. Encoded once
 per cube (:class:`~provider.core.conventions.EncodedCube`, ``EnvironmentCube.exports``), in
 this thread, never per request nor on the event loop.
 """
@@ -223,7 +225,7 @@ class EnvironmentWorker:
         self.export_ms: dict = {}           # format -> the last encoding's ms (re-prefilter too)
         self.encoded: dict = {}             # format -> cubes encoded in it
         self._wanted: dict = {}             # format -> monotonic time it was last asked for
-        self._made = None                   # thread: (cube, frame, mips) of the last cube made
+        self._made = None                   # thread: (cube, frame, result) of the last cube made
         self._made_formats: set = set()     # thread: formats encoded (or failed) for it
         self._twins: dict = {}              # frame size -> projector at Babylon's roughness
         self._waiters: list = []            # event loop: (format, future) of export_ready
@@ -347,9 +349,9 @@ class EnvironmentWorker:
                     frame, sh9_seq, work = self._pending
                     self._pending = None
             if missing:
-                cube, frame, mips = self._made
+                cube, frame, result = self._made
                 self._made_formats.update(missing)
-                exports, errors = self._encode_exports(missing, frame, mips)
+                exports, errors = self._encode_exports(missing, frame, result)
                 try:
                     self._loop.call_soon_threadsafe(self._attach, cube, exports, errors)
                 except RuntimeError:    # the event loop is closed: shutting down
@@ -408,8 +410,8 @@ class EnvironmentWorker:
         self.error = ""
         with self._cond:
             formats = self._wanted_formats(time.monotonic())
-        self._made, self._made_formats = (cube, frame, result.mips), set(formats)
-        exports, errors = self._encode_exports(formats, frame, result.mips, work)
+        self._made, self._made_formats = (cube, frame, result), set(formats)
+        exports, errors = self._encode_exports(formats, frame, result)
         cube.exports.update(exports)    # not handed to the event loop yet
         cube.export_errors.update(errors)
         return cube
@@ -424,20 +426,18 @@ class EnvironmentWorker:
             return []
         return [f for f in self._wanted_formats(now) if f not in self._made_formats]
 
-    def _encode_exports(self, formats, frame, mips, work=None) -> tuple[dict, dict]:
-        """({format: EncodedCube}, {format: why not}) of one cube (``mips``, made from
-        ``frame``; ``work``: its work image, when the SH9 pass filled one)."""
+    def _encode_exports(self, formats, frame, result) -> tuple[dict, dict]:
+        """({format: EncodedCube}, {format: why not}) of one cube (``result``, the
+        :class:`~provider.core.environment.EnvironmentResult` made from ``frame``)."""
         exports, errors = {}, {}
         for fmt in formats:
             if fmt not in CUBE_FORMATS:
                 continue
             t0 = time.perf_counter()
             try:
-                if fmt == "gltf":       # the same frame's mips at Babylon's roughness
-                    image, info = frame.decoded(), frame.info or {}
-                    mips = self._twin(image).project(
-                        image, exposure_s=info.get("exposure_s"), gain=info.get("gain", 1.0),
-                        work=work).mips
+                mips = result.mips
+                if fmt == "gltf":       # the same frame's pyramid prefiltered at Babylon's
+                    mips = self._twin(frame.decoded()).refilter(result).mips   # roughness
                 exports[fmt] = encode_export_cube(fmt, mips)
                 self.encoded[fmt] = self.encoded.get(fmt, 0) + 1
             except Exception as exc:  # noqa: BLE001 - the thread never dies on an export
@@ -449,7 +449,8 @@ class EnvironmentWorker:
 
     def _twin(self, image):
         """The projector of this frame size at Babylon.js's roughness (built once: it shares
-        the cube projector's geometry and builds only its prefilter operator)."""
+        the cube projector's geometry and builds only its prefilter operator; it refilters
+        the cube's pyramid)."""
         from ..core.gltf_ibl import babylon_roughness
         key = (image.shape[1], image.shape[0])
         twin = self._twins.get(key)
