@@ -22,8 +22,25 @@ from __future__ import annotations
 
 import threading
 import time
+from typing import NamedTuple
 
 from .common import cpu_seconds, stop
+
+
+class FaultMode(NamedTuple):
+    """One row kind: its name in the table, the clients' path, whether the flooder runs,
+    and what the server is started with."""
+
+    name: str
+    path: str = "/"
+    flood: bool = False
+    server_args: tuple = ()
+
+
+#: The rows measured at each client count, in order (the module docstring says what each is).
+MODES = (FaultMode("plain"), FaultMode("flood", flood=True),
+         FaultMode("flood, no --connect-rate", flood=True, server_args=("--connect-rate", "0")),
+         FaultMode("max_hz 30", path="/?max_hz=30"))
 
 
 def rss_mib(pid: int) -> float:
@@ -49,7 +66,8 @@ class Flooder:
     def __init__(self, url: str, source: str | None = FLOOD_SOURCE):
         self.url, self.source = url, source
         self.sent = self.pongs = self.closes = self.refusals = 0
-        self.close_codes: dict = {}
+        self.close_codes: dict = {}         # WebSocket close code -> times closed with it
+        self.refusal_statuses: dict = {}    # HTTP status -> handshakes refused with it
         self._stop = threading.Event()
         self.thread = threading.Thread(target=self._run, daemon=True, name="flooder")
 
@@ -87,8 +105,8 @@ class Flooder:
                         self.close_codes[code] = self.close_codes.get(code, 0) + 1
             except InvalidStatus as exc:     # 429 past --connect-rate: again, at once
                 self.refusals += 1
-                code = exc.response.status_code
-                self.close_codes[code] = self.close_codes.get(code, 0) + 1
+                status = exc.response.status_code
+                self.refusal_statuses[status] = self.refusal_statuses.get(status, 0) + 1
             except Exception:  # noqa: BLE001 - reset: try again shortly
                 self._stop.wait(0.05)
 
@@ -146,44 +164,53 @@ def measure_faults(start_server, pct, fps: float, counts, seconds: float, server
     from .loadgen import LoadGenerator
     rows = []
     for n in counts:
-        for mode in ("plain", "flood", "flood, no --connect-rate", "max_hz 30"):
-            proc, port = start_server(fps, server_cpus, ("--connect-rate", "0")
-                                      if mode.endswith("--connect-rate") else ())
+        for mode in MODES:
+            proc, port = start_server(fps, server_cpus, mode.server_args)
             gen = None
             try:
-                path = "/?max_hz=30" if mode == "max_hz 30" else "/"
-                gen = LoadGenerator("127.0.0.1", port, path, procs=max(2, len(client_cpus or ())),
-                                    cpus=client_cpus)
+                gen = LoadGenerator("127.0.0.1", port, mode.path,
+                                    procs=max(2, len(client_cpus or ())), cpus=client_cpus)
                 gen.connect(n)
                 if gen.clients < n:
-                    progress(f"  {mode}: only {gen.clients} of {n} clients connected")
+                    progress(f"  {mode.name}: only {gen.clients} of {n} clients connected")
                     continue
-                if mode.startswith("flood"):
+                if mode.flood:
                     with Flooder(f"ws://127.0.0.1:{port}/") as flood:
                         row = _row(gen, proc.pid, port, seconds, fps, pct)
                     row.update(flooder_sent=flood.sent, flooder_pongs=flood.pongs,
                                flooder_closes=flood.closes, flooder_refusals=flood.refusals,
                                flooder_source=flood.source or "127.0.0.1",
                                flooder_close_codes={str(k): v for k, v in
-                                                    flood.close_codes.items()})
+                                                    flood.close_codes.items()},
+                               flooder_refusal_statuses={str(k): v for k, v in
+                                                         flood.refusal_statuses.items()})
                 else:
                     row = _row(gen, proc.pid, port, seconds, fps, pct)
             finally:
                 if gen is not None:
                     gen.close()
                 stop(proc)
-            row.update(clients=n, mode=mode, seconds=seconds)
+            row.update(clients=n, mode=mode.name, flood=mode.flood, seconds=seconds)
             rows.append(row)
-            extra = (f"; flooder closed {row['flooder_closes']}×, refused "
-                     f"{row['flooder_refusals']}× ({row['flooder_close_codes']}), "
-                     f"{row['flooder_pongs']} pongs for {row['flooder_sent']} pings"
-                     if mode.startswith("flood") else "")
-            progress(f"  {n:5d} clients, {mode}: {row['rate_median']:.1f} msg/s each "
+            extra = f"; flooder {flooder_summary(row)}" if mode.flood else ""
+            progress(f"  {n:5d} clients, {mode.name}: {row['rate_median']:.1f} msg/s each "
                      f"(p5 {row['rate_p5']:.1f}), latency p50 {row['latency_p50_ms']:.1f} ms "
                      f"p99 {row['latency_p99_ms']:.1f} ms, server CPU "
                      f"{row['server_cpu'] * 100:.0f} %, RSS {row['server_rss_mib']:.0f} MiB, "
                      f"held {row['held_fraction'] * 100:.1f} %{extra}")
     return rows
+
+
+def flooder_summary(row: dict) -> str:
+    """What the flooder of a ``flood`` row met: closes by WebSocket close code, refusals by
+    HTTP status, pongs for pings, and where it connected from when not 127.0.0.2."""
+    def by(counts: dict) -> str:
+        return f" ({', '.join(f'{k}: {v}' for k, v in counts.items())})" if counts else ""
+    return (f"closed {row['flooder_closes']}×{by(row['flooder_close_codes'])}, refused "
+            f"{row['flooder_refusals']}×{by(row['flooder_refusal_statuses'])}, "
+            f"{row['flooder_pongs']} pongs / {row['flooder_sent']} pings"
+            + ("; from 127.0.0.1, which --connect-rate does not limit (no 127.0.0.2 here)"
+               if row["flooder_source"] == "127.0.0.1" else ""))
 
 
 def markdown(rows: list[dict], fps: float, load: str) -> list[str]:
@@ -201,12 +228,7 @@ def markdown(rows: list[dict], fps: float, load: str) -> list[str]:
              "| flooder |",
              "|---:|:---|---:|---:|---:|---:|---:|---:|---:|:---|"]
     for r in rows:
-        flood = (f"closed {r['flooder_closes']}×, refused {r.get('flooder_refusals', 0)}× "
-                 f"({', '.join(f'{k}: {v}' for k, v in r['flooder_close_codes'].items())}), "
-                 f"{r['flooder_pongs']} pongs / {r['flooder_sent']} pings"
-                 + ("; from 127.0.0.1, which --connect-rate does not limit (no 127.0.0.2 "
-                    "here)" if r.get("flooder_source") == "127.0.0.1" else "")
-                 if r["mode"].startswith("flood") else "")
+        flood = flooder_summary(r) if r["flood"] else ""
         lines.append(f"| {r['clients']} | {r['mode']} | {r['rate_median']:.1f} | "
                      f"{r['rate_p5']:.1f} | {r['latency_p50_ms']:.1f} | "
                      f"{r['latency_p99_ms']:.1f} | {r['server_cpu']:.2f} | "
