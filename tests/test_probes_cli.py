@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 import pytest
 
-from provider.bench.probes import render_probe
+from provider.bench.probes import ball_in_room, render_probe, srgb8
 from provider.core import sh
 from provider.core.ball import locate_ball
 from provider.core.bracket import BracketProjector, project_bracket
@@ -31,27 +31,11 @@ def shlight(*args, timeout=120):
                           capture_output=True, text=True, timeout=timeout)
 
 
-def srgb8(linear):
-    v = np.clip(linear, 0, 1)
-    v = np.where(v <= 0.0031308, 12.92 * v, 1.055 * v ** (1 / 2.4) - 0.055)
-    return np.round(v * 255).astype(np.uint8)
-
-
 def webcam_frame(name="apartment", ball=BALL, size=(640, 480)):
     """A float frame: the room behind (the panorama's front, dimmed) with a chrome ball in
-    it, anti-aliased on its edge."""
+    it, anti-aliased on its edge (the bench's own composite); and the panorama."""
     hdr = np.maximum(load_hdri(name), 0)
-    w, h = size
-    back = cv2.resize(hdr[:, hdr.shape[1] // 4: 3 * hdr.shape[1] // 4], (w, h)) * 0.5
-    p = MirrorBall(w, h, center=ball[:2], radius=ball[2], crop=False)
-    img = render_probe(hdr, p)
-    cover = np.zeros((h, w))
-    py, px = np.mgrid[0:h, 0:w].astype(float)
-    for oy in (np.arange(4) + 0.5) / 4:
-        for ox in (np.arange(4) + 0.5) / 4:
-            cover += p.pixel_to_direction(px + ox, py + oy)[1]
-    cover = (cover / 16)[..., None]
-    return (cover * img + (1 - cover) * back).astype(np.float32), hdr
+    return ball_in_room(hdr, ball, size), hdr
 
 
 @pytest.fixture(scope="module")
@@ -72,6 +56,35 @@ def test_locate_ball_finds_the_circle_to_a_fraction_of_a_pixel(scene, ball, enco
     assert c.edge_points > 200 and c.edge_rms < 0.5
 
 
+@pytest.mark.parametrize("scene,ball,encode", [
+    ("lab", BALL, "float"), ("forest", (200.6, 260.2, 150.7), "srgb8"),
+    ("bridge", (400.2, 200.9, 90.2), "float")])
+def test_a_circle_that_is_off_says_it_is_weak(scene, ball, encode):
+    """Dark rooms and a ball against a background like it (lab, forest, bridge): the circle
+    may be off, but then it is weak (too few rays agree on its edge), never silently wrong;
+    `shlight bench --sections probes` counts this on every panorama."""
+    img, _ = webcam_frame(scene, ball)
+    if encode == "srgb8":
+        img = srgb8(img / np.percentile(img, 99))
+    c = locate_ball(img)
+    if max(math.hypot(c.x - ball[0], c.y - ball[1]), abs(c.radius - ball[2])) > 1.0:
+        assert c.weak and c.as_dict()["weak"] is True
+    assert "--ball X,Y,R" in c.weak_note() and str(c.edge_points) in c.weak_note()
+
+
+def test_locate_ball_command_warns_of_a_weak_circle(tmp_path):
+    img, _ = webcam_frame("lab", BALL)
+    path = tmp_path / "lab.hdr"
+    cv2.imwrite(str(path), img[..., ::-1])
+    p = shlight("locate-ball", path)
+    assert p.returncode == 0, p.stderr
+    out = json.loads(p.stdout)
+    assert out["weak"] is True and out["edge_points"] < 360
+    assert "shlight locate-ball: warning: only" in p.stderr and "--ball X,Y,R" in p.stderr
+    p = shlight("compute", path, "--projection", "mirrorball", "--ball", "auto")
+    assert p.returncode == 0 and "shlight compute: warning: only" in p.stderr
+
+
 def test_locate_ball_command_prints_the_circle_and_refuses_a_frame_without_one(frame, tmp_path):
     img, _ = frame
     path = tmp_path / "ball.png"
@@ -81,6 +94,7 @@ def test_locate_ball_command_prints_the_circle_and_refuses_a_frame_without_one(f
     out = json.loads(p.stdout)
     assert abs(out["x"] - BALL[0]) < 0.5 and abs(out["radius"] - BALL[2]) < 0.5
     assert out["width"] == 640 and len(out["ball"].split(",")) == 3
+    assert out["weak"] is False and "warning" not in p.stderr
     flat = tmp_path / "flat.png"
     cv2.imwrite(str(flat), np.full((240, 320, 3), 90, np.uint8))
     p = shlight("locate-ball", flat)
@@ -193,10 +207,12 @@ def test_lights_find_the_sun_in_a_ball_and_an_angular_map():
         assert float(np.dot(r.lights[0].direction, sun)) > math.cos(math.radians(3)), p.name
 
 
-def test_a_live_probe_with_ball_auto_finds_the_ball_then_keeps_its_projector(frame, tmp_path):
+def test_a_live_probe_with_ball_auto_finds_the_ball_then_keeps_its_projector(frame, tmp_path,
+                                                                           caplog):
     """``shlight serve --projection mirrorball --ball auto``: the probe locates the ball in
     the first frame that shows one, builds the projector for it once, and rejects a frame
-    without a ball in one clear line (the server lives on)."""
+    without a ball in one clear line (the server lives on); a circle few rays agree on is
+    used, with a warning in the log."""
     from provider.core.errors import InputError
     from provider.live.probe import Probe
     from provider.live.sources import Frame, SourceOptions, parse_source
@@ -214,3 +230,11 @@ def test_a_live_probe_with_ball_auto_finds_the_ball_then_keeps_its_projector(fra
     assert projector.window is not None
     probe._project(Frame(img, 2.0))
     assert probe._projectors[(640, 480)] is projector
+    assert "weak" not in caplog.text and "rays agree" not in caplog.text
+    # a faint rim: the probe serves it and says in the log that the circle may be off
+    dark, _ = webcam_frame("lab", BALL)
+    weak = Probe("lab", parse_source(str(path), SourceOptions()), projection="mirrorball",
+                 engine_options={"ball": "auto"})
+    weak._project(Frame(dark, 0.0))
+    warned = [r for r in caplog.records if r.levelname == "WARNING" and "rays agree" in r.message]
+    assert len(warned) == 1 and "probe lab: only" in warned[0].message

@@ -7,8 +7,9 @@ projection, and compared with the exact SH9 of the panorama itself: relative RMS
 irradiance error over the sphere of normals. Measured: against ball resolution (128 to
 1024 px across); with an unseen cone behind the ball (the grazing rim a real ball blurs);
 what the camera's own reflection costs, masked or not; and what reading a ball filmed by a
-pinhole camera at a finite distance as orthographic costs (the perspective correction).
-Written to ``probes.md`` and ``probes.png``.
+pinhole camera at a finite distance as orthographic costs (the perspective correction);
+and how well the ball is located in a webcam frame of the room (and whether a circle that is
+off says it is weak). Written to ``probes.md`` and ``probes.png``.
 """
 from __future__ import annotations
 
@@ -52,6 +53,69 @@ def render_probe(hdr: np.ndarray, projection, samples: int = 3, camera_deg: floa
             acc += np.where(valid[..., None], look, 0)
             count += valid
     return (acc / np.maximum(count, 1)[..., None]).astype(np.float32)
+
+
+#: Balls in a 640×480 webcam frame (x, y, radius in px) that the locating section places.
+LOCATE_BALLS = ((331.4, 212.7, 118.3), (200.6, 260.2, 150.7), (400.2, 200.9, 90.2))
+
+
+def ball_in_room(hdr: np.ndarray, ball=LOCATE_BALLS[0], size=(640, 480)) -> np.ndarray:
+    """A float32 webcam frame of ``size`` (W, H): the room in front of the camera (the
+    panorama's middle half, dimmed ×0.5) with an orthographic mirror ball ``ball`` (x, y,
+    radius px) in it reflecting the panorama, anti-aliased on its edge (4×4 coverage)."""
+    import cv2
+
+    from ..core.projections_probe import MirrorBall
+    hdr = np.maximum(hdr, 0)
+    w, h = size
+    back = cv2.resize(hdr[:, hdr.shape[1] // 4: 3 * hdr.shape[1] // 4], (w, h)) * 0.5
+    p = MirrorBall(w, h, center=ball[:2], radius=ball[2], crop=False)
+    img = render_probe(hdr, p)
+    cover = np.zeros((h, w))
+    py, px = np.mgrid[0:h, 0:w].astype(float)
+    for oy in (np.arange(4) + 0.5) / 4:
+        for ox in (np.arange(4) + 0.5) / 4:
+            cover += p.pixel_to_direction(px + ox, py + oy)[1]
+    cover = (cover / 16)[..., None]
+    return (cover * img + (1 - cover) * back).astype(np.float32)
+
+
+def srgb8(linear: np.ndarray) -> np.ndarray:
+    """8-bit sRGB of linear values, clipped to [0, 1] (a camera's JPEG, roughly)."""
+    v = np.clip(linear, 0, 1)
+    v = np.where(v <= 0.0031308, 12.92 * v, 1.055 * v ** (1 / 2.4) - 0.055)
+    return np.round(v * 255).astype(np.uint8)
+
+
+def locate_rows(panoramas) -> tuple[list, list]:
+    """``shlight locate-ball`` on each panorama's room with each of :data:`LOCATE_BALLS`,
+    as float and as 8-bit sRGB (exposed to its 99th percentile): the markdown lines, and
+    per frame (scene, radius, encoding, error px, edge points, weak)."""
+    from ..core.ball import EDGE_RAYS, locate_ball
+    found, lines = [], []
+    for name, hdr in panoramas:
+        _progress(f"bench probes: locating the ball in {name}")
+        for ball in LOCATE_BALLS:
+            frame = ball_in_room(hdr, ball)
+            for enc, img in (("float", frame),
+                             ("sRGB 8-bit", srgb8(frame / np.percentile(frame, 99)))):
+                c = locate_ball(img)
+                err = max(float(np.hypot(c.x - ball[0], c.y - ball[1])),
+                          abs(c.radius - ball[2]))
+                found.append((name, ball[2], enc, err, c.edge_points, c.weak))
+    lines.append("| scene | within 0.5 px | within 1 px | weak | off > 1 px, weak "
+                 "| off > 1 px, not weak | worst (px) |")
+    lines.append("|---|---:|---:|---:|---:|---:|---:|")
+    for name in [n for n, _ in panoramas] + ["all"]:
+        rows = [f for f in found if name in ("all", f[0])]
+        off = [f for f in rows if f[3] > 1.0]
+        lines.append(f"| {name} | {sum(f[3] <= 0.5 for f in rows)} of {len(rows)} | "
+                     f"{sum(f[3] <= 1.0 for f in rows)} | {sum(f[5] for f in rows)} | "
+                     f"{sum(f[5] for f in off)} | {sum(not f[5] for f in off)} | "
+                     f"{max(f[3] for f in rows):.1f} |")
+    lines += ["", f"Weak: fewer than half of the {EDGE_RAYS} rays agree on the edge "
+              "(`\"weak\": true` and a warning)."]
+    return lines, found
 
 
 def _error(projection, image, truth) -> float:
@@ -142,6 +206,13 @@ def bench_probes(hdri, out: Path, args):
             errs = [_error(p, shots[n], truth[n]) for n, _ in panoramas]
             curves.setdefault(f"distance-{label}", []).append((dist, float(np.mean(errs))))
             lines.append(_row(f"{dist} radii, {label}", errs))
+    lines += ["", "## Locating the ball (`shlight locate-ball`, `--ball auto`)", "",
+              "A 640×480 webcam frame of each room (the panorama's middle half, dimmed) with a "
+              "mirror ball reflecting the panorama, at three places and sizes "
+              f"({', '.join(f'r {b[2]:g} px' for b in LOCATE_BALLS)}), as float and as 8-bit "
+              "sRGB; the error is the larger of the centre's distance and the radius' error.",
+              ""]
+    lines += locate_rows(panoramas)[0]
     (out / "probes.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     _plot(curves, out / "probes.png")

@@ -67,6 +67,8 @@ def locate_ball_note(options: dict, image, command: str) -> dict:
     options, circle = resolve_ball(options, image)
     say(command, "note", f"ball found at x {circle.x:.1f}, y {circle.y:.1f}, radius "
                          f"{circle.radius:.1f} px (--ball {circle.as_dict()['ball']})")
+    if circle.weak:
+        say(command, "warning", circle.weak_note())
     return options
 
 

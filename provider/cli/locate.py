@@ -15,10 +15,13 @@ def run(args) -> int:
     from ..core.ball import locate_ball
     from ..core.errors import InputError
     from ..core.images import read_image
+    from .feedback import say
     if not 0 < args.min_radius < 0.55:
         raise InputError(f"--min-radius {args.min_radius:g}: a fraction in (0, 0.55)")
     image = read_image(args.image)
     circle = locate_ball(image, min_radius_fraction=args.min_radius)
+    if circle.weak:
+        say("locate-ball", "warning", circle.weak_note())
     print(json.dumps({**circle.as_dict(), "width": int(image.shape[1]),
                       "height": int(image.shape[0])}))
     return 0

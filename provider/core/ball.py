@@ -22,13 +22,18 @@ SEARCH_SIZE = 800
 CANDIDATES = 8
 #: Edge samples around the circle when refining it.
 EDGE_RAYS = 720
+#: A circle whose edge fewer rays than this agree with is *weak*: it may be off. On 54 balls
+#: rendered into rooms (``shlight bench --sections probes``), every circle more than 1 px off
+#: had fewer than half the rays; nearly every right one had more.
+WEAK_EDGE_POINTS = EDGE_RAYS // 2
 
 
 @dataclass
 class BallCircle:
     """A ball in a frame: centre ``x``, ``y`` and ``radius`` in pixels; ``edge_rms``: RMS
     distance (px) of the edge points kept from the fitted circle; ``edge_points``: how many
-    of the :data:`EDGE_RAYS` rays found an edge that fits."""
+    of the :data:`EDGE_RAYS` rays found an edge that fits; :attr:`weak` when fewer than
+    :data:`WEAK_EDGE_POINTS` did."""
 
     x: float
     y: float
@@ -36,10 +41,21 @@ class BallCircle:
     edge_rms: float = float("nan")
     edge_points: int = 0
 
+    @property
+    def weak(self) -> bool:
+        """Whether too few rays agree on this edge to trust it (check it, or give the circle)."""
+        return self.edge_points < WEAK_EDGE_POINTS
+
     def as_dict(self) -> dict:
         return {"x": round(self.x, 3), "y": round(self.y, 3), "radius": round(self.radius, 3),
                 "edge_rms_px": round(self.edge_rms, 3), "edge_points": self.edge_points,
-                "ball": f"{self.x:.2f},{self.y:.2f},{self.radius:.2f}"}
+                "weak": self.weak, "ball": f"{self.x:.2f},{self.y:.2f},{self.radius:.2f}"}
+
+    def weak_note(self) -> str:
+        """What to do about a :attr:`weak` circle, in one sentence."""
+        return (f"only {self.edge_points} of {EDGE_RAYS} rays agree on the ball's edge, so "
+                f"the circle may be off (a faint rim, a ball against a background like it): "
+                f"check it, or measure it and give --ball X,Y,R")
 
 
 def grey8(image: np.ndarray) -> np.ndarray:

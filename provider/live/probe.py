@@ -299,6 +299,8 @@ class Probe:
         self._ball_reconnects = self.capture.reconnects
         log.info("probe %s: ball found at x %.1f, y %.1f, radius %.1f px in %d×%d frames",
                  self.name, circle.x, circle.y, circle.radius, *key)
+        if circle.weak:
+            log.warning("probe %s: %s", self.name, circle.weak_note())
 
     def _build_projector(self, width: int, height: int):
         """The projector for frames of this size, or the InputError saying why there is
