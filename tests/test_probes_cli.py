@@ -238,3 +238,5 @@ def test_a_live_probe_with_ball_auto_finds_the_ball_then_keeps_its_projector(fra
     weak._project(Frame(dark, 0.0))
     warned = [r for r in caplog.records if r.levelname == "WARNING" and "rays agree" in r.message]
     assert len(warned) == 1 and "probe lab: only" in warned[0].message
+    assert weak.health()["ball"]["weak"] is True and weak.health()["ball"]["frame"] == [640, 480]
+    assert probe.health()["ball"]["weak"] is False

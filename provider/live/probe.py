@@ -108,6 +108,7 @@ class Probe:
         self._tracked_reconnects = 0
         self._ball_options: dict | None = None   # --ball auto: the options with the ball found
         self._ball_reconnects = 0
+        self.ball: dict | None = None            # --ball auto: the circle found, for /healthz
         self._brackets: dict = {}       # (size, slot exposures) -> BracketProjector
         self._lighting: SH9Result | None = None
         self._frame_time = 0.0          # unix time of the newest frame (the source's clock)
@@ -297,6 +298,7 @@ class Probe:
         from ..core.ball import resolve_ball
         self._ball_options, circle = resolve_ball(self.engine_options, image)
         self._ball_reconnects = self.capture.reconnects
+        self.ball = {**circle.as_dict(), "frame": [int(key[0]), int(key[1])]}
         log.info("probe %s: ball found at x %.1f, y %.1f, radius %.1f px in %d×%d frames",
                  self.name, circle.x, circle.y, circle.radius, *key)
         if circle.weak:
@@ -412,6 +414,8 @@ class Probe:
                   "loop_errors": self.loop_errors, "bad_files": dict(self.bad_files)}
         if self.environment is not None:
             health["environment"] = self.environment.health()
+        if self.ball is not None:       # --ball auto: where, and whether it may be off
+            health["ball"] = self.ball
         return health
 
 
