@@ -87,10 +87,10 @@ def srgb8(linear: np.ndarray) -> np.ndarray:
     return np.round(v * 255).astype(np.uint8)
 
 
-def locate_rows(panoramas) -> tuple[list, list]:
+def locate_rows(panoramas) -> list:
     """``shlight locate-ball`` on each panorama's room with each of :data:`LOCATE_BALLS`,
-    as float and as 8-bit sRGB (exposed to its 99th percentile): the markdown lines, and
-    per frame (scene, radius, encoding, error px, edge points, weak)."""
+    as float and as 8-bit sRGB (exposed to its 99th percentile): the markdown lines of the
+    table, per scene and over all."""
     from ..core.ball import EDGE_RAYS, locate_ball
     found, lines = [], []
     for name, hdr in panoramas:
@@ -115,7 +115,7 @@ def locate_rows(panoramas) -> tuple[list, list]:
                      f"{max(f[3] for f in rows):.1f} |")
     lines += ["", f"Weak: fewer than half of the {EDGE_RAYS} rays agree on the edge "
               "(`\"weak\": true` and a warning)."]
-    return lines, found
+    return lines
 
 
 def _error(projection, image, truth) -> float:
@@ -212,7 +212,7 @@ def bench_probes(hdri, out: Path, args):
               f"({', '.join(f'r {b[2]:g} px' for b in LOCATE_BALLS)}), as float and as 8-bit "
               "sRGB; the error is the larger of the centre's distance and the radius' error.",
               ""]
-    lines += locate_rows(panoramas)[0]
+    lines += locate_rows(panoramas)
     (out / "probes.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     _plot(curves, out / "probes.png")

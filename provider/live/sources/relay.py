@@ -201,3 +201,4 @@ class RelaySource(Source):
         finally:
             self._ws = None
             self._loop.close()
+            self._loop = None           # a later _run makes a new one; interrupt: nothing
