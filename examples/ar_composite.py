@@ -23,7 +23,7 @@ Frames (read this before changing a sign)
   So ``world = A · marker`` with ``A = [[1,0,0],[0,0,1],[0,-1,0]]``. Put the 360° camera
   with its front (panorama centre) facing the way the marker's top edge points, or give
   ``--probe-rotate YAW,PITCH,ROLL`` (degrees; the rotation taking probe directions to this
-  anchored frame, as :func:`provider.core.sh.rotation_from_euler`).
+  anchored frame, as :func:`provider.core.geometry.sh.rotation_from_euler`).
 * OpenCV camera: x right, y down, z forward. solvePnP gives ``X_cv = R·X_marker + t``.
 * OpenGL eye frame: x right, y up, z backward: ``X_gl = C·X_cv`` with ``C = diag(1,-1,-1)``.
 * The mesh is drawn in the OpenGL eye frame: model = C·[R|t]·Aᵀ·(object on the marker),
@@ -58,7 +58,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from example_common import (MESHES, LightingError, LitMeshRenderer, auto_exposure,  # noqa: E402
                             mesh_data, open_lighting, render)
-from provider.core.sh import rotate_matrices, rotation_from_euler  # noqa: E402
+from provider.core.geometry.sh import rotate_matrices, rotation_from_euler  # noqa: E402
 
 #: OpenCV camera (x right, y down, z forward) -> OpenGL eye (x right, y up, z backward).
 CV_TO_GL = np.diag([1.0, -1.0, -1.0])

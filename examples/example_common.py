@@ -28,7 +28,7 @@ if str(_ROOT) not in sys.path:
     sys.path.insert(0, str(_ROOT))
 
 from provider.verify import render  # noqa: E402
-from provider.core.sh import irradiance_matrices  # noqa: E402
+from provider.core.geometry.sh import irradiance_matrices  # noqa: E402
 
 
 class LightingError(RuntimeError):

@@ -23,13 +23,13 @@ __version__ = "0.1.0"
 # must not load numpy, so that `shlight --help` is instant and the command line can size
 # numpy's thread pools before numpy starts them (provider/cli/threads.py).
 _EXPORTS = {
-    "irradiance": "core.sh", "irradiance_matrices": "core.sh",
-    "rotate_coefficients": "core.sh", "rotate_matrices": "core.sh",
-    "SH9Projector": "core.engine", "SH9Result": "core.engine", "compute_sh9": "core.engine",
+    "irradiance": "core.geometry.sh", "irradiance_matrices": "core.geometry.sh",
+    "rotate_coefficients": "core.geometry.sh", "rotate_matrices": "core.geometry.sh",
+    "SH9Projector": "core.sh9.engine", "SH9Result": "core.sh9.engine", "compute_sh9": "core.sh9.engine",
     "InputError": "core.errors",
-    "EnvironmentProjector": "core.environment", "EnvironmentResult": "core.environment",
-    "compute_environment": "core.environment",
-    "find_marker": "core.registration", "MarkerPose": "core.registration",
+    "EnvironmentProjector": "core.reflections.environment", "EnvironmentResult": "core.reflections.environment",
+    "compute_environment": "core.reflections.environment",
+    "find_marker": "core.registration.pose", "MarkerPose": "core.registration.pose",
 }
 __all__ = sorted(_EXPORTS)
 

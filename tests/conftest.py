@@ -19,7 +19,7 @@ HDRI_NAMES = sorted(p.stem for p in HDRI_DIR.glob("*.exr"))
 
 def load_hdri(name: str):
     """(256, 512, 3) float32 linear RGB radiance of a bundled panorama."""
-    from provider.core.images import read_image
+    from provider.core.radiometry.images import read_image
     return read_image(HDRI_DIR / f"{name}.exr")
 
 

@@ -60,13 +60,13 @@ def reflections(normals) -> np.ndarray:
 
 def provider_reference(panorama: np.ndarray, roughness: float, size: int = SIZE):
     """(linear image (S, S, 3), mask): PF(R, ρ) on the sphere. The mirror (ρ = 0): the
-    provider's 64² mip 0 (its radiance, :class:`provider.core.environment.EnvironmentProjector`);
+    provider's 64² mip 0 (its radiance, :class:`provider.core.reflections.environment.EnvironmentProjector`);
     ρ > 0: the brute-force GGX prefilter of the panorama (tests/reference_cube.py
     ``prefiltered``, every pixel of a 256×128 area-resampled copy) at the texel centres of a
     REFERENCE_CUBE² cube, read bilinear and seamless."""
     n, mask = ortho_sphere(size)
     if roughness == 0:
-        from provider.core.environment import EnvironmentProjector
+        from provider.core.reflections.environment import EnvironmentProjector
         h, w = panorama.shape[:2]
         mip = EnvironmentProjector(w, h, size=64).project(panorama).mips[0]
     else:

@@ -1,8 +1,8 @@
 """How each consumer of `shlight export` evaluates what it gets, for the export tests.
 
 Each function re-implements one consumer's own evaluation from the source lines cited in its
-docstring (revisions: provider/core/convention_notes.py REVISIONS), independently of
-provider/core/conventions.py. three.js is not here: its own npm code runs in node
+docstring (revisions: provider/core/conventions/notes.py REVISIONS), independently of
+provider/core/conventions/formats.py. three.js is not here: its own npm code runs in node
 (tests/node/threejs_eval.mjs); Unity's ShadeSH9 also runs in C# (tests/csharp/ExportTest.cs).
 Every function returns what a white Lambertian surface shows (E/π) at the given normals, in
 the consumer's frame, RGB per normal.

@@ -43,7 +43,7 @@ def write_caps(path: Path, h: int = 256) -> None:
 
 def read_ktx2_cube(data: bytes) -> list[np.ndarray]:
     """The mips (6, n, n, 3) float32 of the provider's KTX2 file, read by the specification's
-    header and level index (independent of provider/live/ktx2.py's writer)."""
+    header and level index (independent of provider/live/reflections/ktx2.py's writer)."""
     assert data[:12] == bytes([0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A])
     vk, type_size, w, h, depth, layers, faces, levels, sc = struct.unpack_from("<9I", data, 12)
     assert (vk, type_size, faces, sc) == (97, 2, 6, 0) and w == h

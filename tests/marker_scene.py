@@ -1,6 +1,6 @@
 """The tests' own renderer: printed markers composited into the shared panoramas at known poses.
 
-Independent of the code under test (provider.core.sphere_views, provider.core.registration):
+Independent of the code under test (provider.core.geometry.sphere_views, provider.core.registration.pose):
 the scene is resampled into a projection through the projection's forward map only
 (``pixel_to_direction``, what the engine itself trusts), and the marker is ray-traced: each
 pixel's sub-pixel directions are intersected with the marker's plane and look up the printed
@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from provider.core.images import read_image
+from provider.core.radiometry.images import read_image
 
 HDRI = Path(__file__).resolve().parent / "data" / "hdri"
 

@@ -3,7 +3,7 @@ import math
 
 import numpy as np
 
-# Real SH basis, docs/contract.md §1, written out again so a slip in provider.core.sh cannot cancel out.
+# Real SH basis, docs/contract.md §1, written out again so a slip in provider.core.geometry.sh cannot cancel out.
 def basis(d):
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     return np.stack([

@@ -1,4 +1,4 @@
-"""The glTF export's reflection cube (EXT_lights_image_based, provider/core/gltf_ibl.py) loaded by
+"""The glTF export's reflection cube (EXT_lights_image_based, provider/core/reflections/gltf_ibl.py) loaded by
 the real Babylon.js (9.28, babylonjs + babylonjs-loaders from tests/node/node_modules) in headless
 Chromium: its glTF loader builds the scene's environmentTexture from the PNGs, and PBRMaterial
 spheres (metallic 1, white) seen from glTF +Z by an orthographic camera read it with Babylon's
@@ -26,10 +26,11 @@ import consumer_pictures as cp
 import consumers as cs
 from browsertools import NEEDS_BROWSER, ROOT, browser, page_of  # noqa: F401
 from envtools import write_caps
-from provider.core import conventions as cv, gltf_ibl
-from provider.core.engine import compute_sh9
-from provider.core.environment import EnvironmentProjector
-from provider.core.images import read_image
+from provider.core.conventions import formats as cv
+from provider.core.reflections import gltf_ibl
+from provider.core.sh9.engine import compute_sh9
+from provider.core.reflections.environment import EnvironmentProjector
+from provider.core.radiometry.images import read_image
 from provider.verify.cubemap import CubeSampler
 
 BABYLON = ROOT / "tests" / "node" / "node_modules" / "babylonjs" / "babylon.js"

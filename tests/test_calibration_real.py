@@ -12,9 +12,10 @@ import cv2
 import numpy as np
 import pytest
 
-from provider.core.images import read_image
-from provider.core.response import CameraResponse
-from provider.core.response_fit import CODE_RANGES, calibrate_best, disagreement, extrapolate
+from provider.core.radiometry.images import read_image
+from provider.core.radiometry.response import CameraResponse
+from provider.core.radiometry.response_fit import (CODE_RANGES, calibrate_best, disagreement,
+                                                   extrapolate)
 
 from servertools import run_cli
 
@@ -71,7 +72,7 @@ def test_robust_fit_recovers_the_curve_despite_pixels_no_curve_explains():
     """The fit on all pixel pairs (``_pairs_l1``) recovers a known curve to within 1 % where
     a third of the view is film fog (one code whatever the exposure: no curve can explain
     those pairs, and a least-squares fit on them is pulled towards them)."""
-    from provider.core.response_fit import L1_LAMBDAS, _pairs_l1, pair_histograms
+    from provider.core.radiometry.response_fit import L1_LAMBDAS, _pairs_l1, pair_histograms
     rng = np.random.default_rng(2)
     radiance = np.exp(rng.uniform(-5, 2, (120, 160, 3)))
     times = np.array([1 / 8, 1 / 4, 1 / 2, 1, 2])

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import cv2
 
-from provider.live.message import coefficient_message, validate, load_schema
+from provider.live.wire.message import coefficient_message, validate, load_schema
 from provider import compute_sh9
 from conftest import HDRI_DIR
 
@@ -89,7 +89,7 @@ def test_schema_rejects_what_jsonutility_cannot_parse():
 
 
 def test_message_refuses_non_finite_numbers():
-    from provider.live.message import dumps
+    from provider.live.wire.message import dumps
     r = compute_sh9(np.ones((16, 32, 3), np.float32))
     r.coefficients[0, 0] = np.nan
     with pytest.raises(ValueError):

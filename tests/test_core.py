@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import provider
-from provider.core import sh
-from provider.core.engine import SH9Projector, InputError, compute_sh9, srgb_to_linear
-from provider.live.message import coefficient_message
+from provider.core.geometry import sh
+from provider.core.sh9.engine import SH9Projector, InputError, compute_sh9, srgb_to_linear
+from provider.live.wire.message import coefficient_message
 
 import reference as ref
 from conftest import HDRI_NAMES
@@ -203,9 +203,9 @@ def test_nonfinite_and_negative_pixels_are_zeroed_and_counted():
 
 
 def test_float_frames_are_cleaned_band_by_band_like_the_whole_frame():
-    """The clean-up inside the projection pass (provider.core.float_clean) gives the counts
+    """The clean-up inside the projection pass (provider.core.radiometry.float_clean) gives the counts
     and coefficients of cleaning the whole frame first, in every band, in every dtype."""
-    from provider.core.engine import SH9Projector
+    from provider.core.sh9.engine import SH9Projector
     rng = np.random.default_rng(3)
     img = rng.random((96, 192, 3)).astype(np.float32)
     img[rng.random((96, 192)) < 0.02, 1] = -0.25        # negatives in every band

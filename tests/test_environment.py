@@ -9,9 +9,9 @@ import pytest
 import reference_cube as ref
 from conftest import HDRI_NAMES
 from provider import InputError, compute_environment
-from provider.core import cubemap
-from provider.core.engine import compute_sh9
-from provider.core.environment import EnvironmentProjector
+from provider.core.geometry import cubemap
+from provider.core.sh9.engine import compute_sh9
+from provider.core.reflections.environment import EnvironmentProjector
 from reference import fibonacci, brute_irradiance, rel_rms
 
 
@@ -176,7 +176,7 @@ def test_wrong_frame_size_is_one_clear_error():
 @pytest.mark.parametrize("projection", ["angular", "mirrorball", "cross"])
 def test_light_probe_projections_make_the_same_cube(projection):
     """A chrome ball, an angular map or a cube cross of a scene gives that scene's cube."""
-    from provider.core.projections import make_projection
+    from provider.core.geometry.projections import make_projection
     from reference import render_equirect
     from test_projections_probe import render
     axis = np.array([0.6, 0.3, -0.74]) / np.linalg.norm([0.6, 0.3, -0.74])
@@ -207,7 +207,7 @@ def test_8bit_frames_decoded_band_by_band_equal_the_whole_frame(projection, w, h
 def test_one_decode_feeds_sh9_and_the_cube(projection, w, h):
     """SH9's pass over an 8-bit frame fills the cube's work image on its way (work=...): the
     cube made from it is the cube of the frame, and SH9's result is unchanged."""
-    from provider.core.engine import SH9Projector
+    from provider.core.sh9.engine import SH9Projector
     frame = np.random.default_rng(2).integers(0, 256, (h, w, 3), dtype=np.uint8)
     sh9 = SH9Projector(w, h, projection)
     env = EnvironmentProjector(w, h, projection, size=16)

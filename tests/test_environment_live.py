@@ -15,7 +15,7 @@ import time
 import jsonschema
 import pytest
 
-from provider.live.message import load_schema
+from provider.live.wire.message import load_schema
 
 from mqtttools import MOSQUITTO, Mosquitto, Subscriber
 from servertools import (MjpegCamera, ServerThread, ServeProcess, connect, health, http_get,
@@ -322,7 +322,7 @@ def test_a_bracket_feeds_the_cube_from_one_steady_slot():
     """Exposure brackets: only the slot of median exposure makes cubes (not one slot after
     another, which would make the cube's highlights flicker); plain frames always."""
     import numpy as np
-    from provider.live.environment import feeds_cube
+    from provider.live.reflections.cube import feeds_cube
     from provider.live.sources import Frame
     image = np.zeros((32, 64, 3), np.uint8)
     bracket = (1 / 60, 1 / 4000, 1 / 250, 1 / 1000, 1 / 15)      # median: 1/250, slot 2

@@ -217,7 +217,7 @@ def test_gl_projection_matches_opencv_pixels():
 
 def test_lighting_in_eye_is_irradiance_of_the_same_world_normal():
     """E_eye(C R Aᵀ n) = E_world(n): the rotation of the matrices matches the normals'."""
-    from provider.core.sh import irradiance_from_matrices
+    from provider.core.geometry.sh import irradiance_from_matrices
     M = compute_sh9(panorama((1.0, 0.0, 0.0))).matrices
     R, _ = true_pose(70, 40)
     Meye = ac.lighting_in_eye(M, R)
@@ -313,7 +313,7 @@ def test_left_right_halves_follow_the_light(gl):
 def test_probe_rotation_turns_the_room(gl):
     """--probe-rotate yaw 90 (counter-clockwise from above) takes the light at +X to -Z,
     the direction of the marker's top edge: away from the camera, up in the image."""
-    from provider.core.sh import rotation_from_euler
+    from provider.core.geometry.sh import rotation_from_euler
     _, out, rgba, (R, t) = composite(gl, 0, (1.0, 0, 0),
                                      probe_rotation=rotation_from_euler(90, 0, 0))
     offset, _ = bright_offset(out, rgba)

@@ -1,4 +1,4 @@
-"""Every export format proven with lights from one side only (provider/core/conventions.py).
+"""Every export format proven with lights from one side only (provider/core/conventions/formats.py).
 
 For each format: the SH9 of radiance (1, 0.5, 0.25) from the half sphere toward +X, +Y or −Z
 only, exported, then evaluated THE WAY ITS CONSUMER DOES (tests/consumers.py: Unity's
@@ -17,11 +17,12 @@ import numpy as np
 import pytest
 
 import consumers as cs
-from provider.core import conventions as cv, sh
-from provider.core.engine import SH9Result
+from provider.core.conventions import formats as cv
+from provider.core.geometry import sh
+from provider.core.sh9.engine import SH9Result
 from provider.core.errors import InputError
-from provider.live.export import ExportCache, check_format, export_message
-from provider.live.message import coefficient_message, load_schema
+from provider.live.wire.export import ExportCache, check_format, export_message
+from provider.live.wire.message import coefficient_message, load_schema
 from provider.verify import contract
 from provider.verify.export_vectors import (AXES, OBLIQUE_LIGHT, PROSE, export_normals,
                                             hemisphere_sh, white)

@@ -1,4 +1,4 @@
-"""The reflection cube in the export formats (provider/core/gltf_ibl.py, conventions.py),
+"""The reflection cube in the export formats (provider/core/reflections/gltf_ibl.py, conventions.py),
 each read the way its consumer reads it (tests/consumers.py: Babylon.js's EXT_lights_image_based
 loader and PBR lookup; ARCore's acquireEnvironmentalHdrCubeMap as Google's sample uploads it),
 and the cube following --rotate wherever the coefficients do (shlight environment, export,
@@ -21,11 +21,12 @@ import pytest
 import consumers as cs
 import reference_cube as ref
 from envtools import CAPS, read_ktx2_cube, served_cube, write_caps
-from provider.core import conventions as cv, gltf_ibl
-from provider.core.environment import EnvironmentProjector
+from provider.core.conventions import formats as cv
+from provider.core.reflections import gltf_ibl
+from provider.core.reflections.environment import EnvironmentProjector
 from provider.core.errors import InputError
-from provider.live.export import export_message
-from provider.live.message import load_schema
+from provider.live.wire.export import export_message
+from provider.live.wire.message import load_schema
 from servertools import ServerThread, http_get, run_cli
 
 VALIDATOR = jsonschema.Draft202012Validator(load_schema())
@@ -296,7 +297,7 @@ def test_a_twin_at_babylons_roughness_is_the_projector_made_for_it_and_shares_it
     """EnvironmentProjector.at_roughness (what serve --environment uses for gltf): the same
     mips as a projector built with mip_roughness, from the work image the cube's own
     projector hands the SH9 pass (so the live glTF cube needs no second decode)."""
-    from provider.core.engine import SH9Projector
+    from provider.core.sh9.engine import SH9Projector
     img = (np.clip(lobe(AXES["+x"], 128, 64), 0, 1) * 255).astype(np.uint8)
     cube = EnvironmentProjector(128, 64, size=16)
     twin = cube.at_roughness(gltf_ibl.babylon_roughness(16))

@@ -20,9 +20,9 @@ import pytest
 from websockets.exceptions import InvalidStatus
 
 import consumers as cs
-from provider.core import conventions as cv
-from provider.live.export import export_message
-from provider.live.message import load_schema
+from provider.core.conventions import formats as cv
+from provider.live.wire.export import export_message
+from provider.live.wire.message import load_schema
 from servertools import ServerThread, collect, connect, http_get, poll, recv_json, recv_until, run_cli
 
 VALIDATOR = jsonschema.Draft202012Validator(load_schema())

@@ -17,7 +17,7 @@ import pytest
 import consumers as cs
 import reference_cube as ref
 from conftest import HDRI_DIR
-from provider.live.message import load_schema
+from provider.live.wire.message import load_schema
 from servertools import ServerThread, connect, http_get, poll, recv_until, run_cli
 
 VALIDATOR = jsonschema.Draft202012Validator(load_schema())

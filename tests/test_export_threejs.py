@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 import consumers as cs
-from provider.core import conventions as cv, sh
+from provider.core.conventions import formats as cv
+from provider.core.geometry import sh
 from provider.verify import contract
 from provider.verify.export_vectors import AXES, OBLIQUE_LIGHT, hemisphere_sh, white
 

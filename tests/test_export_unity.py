@@ -66,7 +66,7 @@ def test_csharp_catches_a_sign_slip(export_exe, tmp_path):
                 for rgb in range(3):
                     for i in (2, 5, 7):
                         u[key][rgb * 9 + i] *= -1
-        from provider.core.conventions import unity_shader_constants
+        from provider.core.conventions.formats import unity_shader_constants
         import numpy as np
         u["shaderConstants"] = unity_shader_constants(np.reshape(u["sh"], (3, 9)).T).reshape(-1).tolist()
         if "sh_ambient" in u:

@@ -80,7 +80,7 @@ def test_texel_centres_follow_the_contract_table():
     assert np.allclose(s * n - 0.5, np.arange(n)[None, None, :])
     assert np.allclose(t * n - 0.5, np.arange(n)[None, :, None])
     try:
-        from provider.core.environment import texel_directions
+        from provider.core.reflections.environment import texel_directions
     except ImportError:
         return
     assert np.allclose(texel_directions(n), d, atol=1e-12)   # the lead's core agrees
@@ -350,7 +350,7 @@ def test_a_panorama_cube_agrees_with_the_panoramas_sh9():
     misses by over 30 %. (The nearest-lookup stand-in misses compact sources: 50 % on sky's
     sun; the provider's cube keeps their flux.)"""
     from provider import compute_sh9
-    from provider.core import sh
+    from provider.core.geometry import sh
     image = load_hdri("apartment")
     n = 64
     cube = cubemap.cube_from_equirect(image, n)[0].astype(np.float64)

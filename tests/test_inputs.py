@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from provider import InputError, SH9Projector, compute_sh9
-from provider.core.engine_options import check_options, precompute_note
-from provider.core.sh import rotation_from_euler
+from provider.core.options import check_options, precompute_note
+from provider.core.geometry.sh import rotation_from_euler
 
 from servertools import ServeProcess, health, poll, run_cli
 

@@ -28,8 +28,8 @@ ROOT = Path(__file__).resolve().parent.parent
 PACKAGE_DATA = ("provider/shaders/sh9_irradiance.glsl", "provider/shaders/sh9_irradiance.hlsl",
                 "provider/shaders/lit_diffuse.vert", "provider/shaders/lit_diffuse.frag",
                 "provider/shaders/contract_vectors.json", "provider/data/hdri/bridge.exr",
-                "provider/data/hdri/README.md", "provider/live/static/index.html",
-                "provider/live/sh9_message.schema.json",
+                "provider/data/hdri/README.md", "provider/live/server/static/index.html",
+                "provider/live/wire/sh9_message.schema.json",
                 "provider/shaders/ibl.glsl", "provider/shaders/ibl.hlsl")
 
 

@@ -4,7 +4,7 @@ example page (/xr.html) in a real headless Chromium against a live ``shlight ser
 three.js is the npm package installed by scripts/test.sh into tests/node/node_modules (not
 committed); the example page's CDN address for it is answered from that folder, so the
 test needs no network. Checked: what the page holds equals what the server sent; the
-client's maths (matrices, E(n), rotation) equals provider.core.sh; stale, reconnection;
+client's maths (matrices, E(n), rotation) equals provider.core.geometry.sh; stale, reconnection;
 and three.js's own SphericalHarmonics3.getIrradianceAt and its shader, fed through the
 adapter, light a surface from the side the light is on, with the magnitude ρE/π.
 """
@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 import provider
-from provider.core import sh
+from provider.core.geometry import sh
 
 from browsertools import (NEEDS_BROWSER, REFUSED, ROOT, PageHost, browser, canvas_rgba, f32,  # noqa: F401
                           page_of, sphere_row, srgb8, three_version, write_hemisphere)
@@ -181,7 +181,7 @@ def test_three_light_probe_one_sided_light(browser, tmp_path):
 
 def test_fixture_three_version_matches_the_example_page():
     """The page loads three.js r187 from a CDN; the test fixture pins the same version."""
-    page = (ROOT / "provider" / "live" / "static" / "xr.html").read_text()
+    page = (ROOT / "provider" / "live" / "server" / "static" / "xr.html").read_text()
     pinned = json.loads((ROOT / "tests" / "node" / "package.json").read_text())
     assert f'THREE_VERSION = "{pinned["dependencies"]["three"]}"' in page
     assert three_version() == pinned["dependencies"]["three"]

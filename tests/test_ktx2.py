@@ -1,5 +1,5 @@
 """The reflection cube's container (docs/contract.md §12, "Transport"): KTX 2.0, RGBA16F,
-a cube with all mips, written by provider.live.ktx2 and read back by readers we did not
+a cube with all mips, written by provider.live.reflections.ktx2 and read back by readers we did not
 write: the npm package ktx-parse and three.js's KTX2Loader, in node (tests/node). Every
 half float of every face of every mip is compared with the arrays of compute_environment;
 ``shlight environment IMAGE -o cube.ktx2`` writes the same file.
@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from provider.core.environment import compute_environment
+from provider.core.reflections.environment import compute_environment
 from provider.core.errors import InputError
-from provider.live.environment import encode_environment
-from provider.live.ktx2 import encode_cube
+from provider.live.reflections.cube import encode_environment
+from provider.live.reflections.ktx2 import encode_cube
 
 from servertools import ROOT, run_cli
 
@@ -190,7 +190,7 @@ def test_bench_bytes_per_update_are_those_of_a_real_cube(bridge_cube):
     """provider.bench.environment_transport (the environment bench's bytes): the KTX2 and
     WebSocket bytes of one update as the server sends them, and bytes/s at 1,000 clients."""
     from provider.bench.environment_transport import transport_bytes
-    from provider.live.session import binary_frame, text_frame
+    from provider.live.server.session import binary_frame, text_frame
     real = encode_environment(bridge_cube, probe="default", seq=123456, sh9_seq=1234567,
                               time_s=1.7e9, compute_ms=12.345)
     row, = transport_bytes((32,), subscribers=1000, hz=1.0)

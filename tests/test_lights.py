@@ -15,12 +15,12 @@ import pytest
 
 from provider.bench.common import _auto_exposure, _to_srgb8
 from provider.bench.scenes import fisheye_from_equirect
-from provider.core import sh
-from provider.core.engine import InputError, SH9Projector, compute_sh9
-from provider.core.lights import LightExtractor
-from provider.core.lights_tracking import LightTracker
-from provider.core.projections import Equirect, Fisheye
-from provider.live.message import coefficient_message, validate
+from provider.core.geometry import sh
+from provider.core.sh9.engine import InputError, SH9Projector, compute_sh9
+from provider.core.lights.extractor import LightExtractor
+from provider.core.lights.tracking import LightTracker
+from provider.core.geometry.projections import Equirect, Fisheye
+from provider.live.wire.message import coefficient_message, validate
 from provider.live.sources.demo import DemoSource
 
 import reference as ref
@@ -377,7 +377,7 @@ def test_the_tracker_starts_with_the_greedy_choice_and_resets(hdri):
 
 
 def test_the_extractor_works_on_its_own():
-    """provider.core.lights without the engine: stateless call on a linear frame."""
+    """provider.core.lights.extractor without the engine: stateless call on a linear frame."""
     image = ref.render_equirect(lambda d: 0.1 + (d[..., 1:2] > 0.995) * np.array([500.0] * 3),
                                 128, 64, supersample=2).astype(np.float32)
     c = SH9Projector(128, 64).project(image).coefficients

@@ -9,11 +9,11 @@ import jsonschema
 import numpy as np
 import pytest
 
-from provider.core import sh
-from provider.core.engine import SH9Result
-from provider.core.lights_analysis import Light
-from provider.live.message import load_schema
-from provider.live.temporal import ChangeGate, LightingFilter, light_model
+from provider.core.geometry import sh
+from provider.core.sh9.engine import SH9Result
+from provider.core.lights.analysis import Light
+from provider.live.wire.message import load_schema
+from provider.live.probe.temporal import ChangeGate, LightingFilter, light_model
 
 import reference as ref
 from servertools import ServerThread, connect, recv_json, recv_until, run_cli

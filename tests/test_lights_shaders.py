@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from provider.core import sh
+from provider.core.geometry import sh
 from provider.verify import contract, harness, lights
 
 import reference as ref

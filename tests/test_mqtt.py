@@ -13,7 +13,7 @@ import signal
 import jsonschema
 import pytest
 
-from provider.live.message import load_schema
+from provider.live.wire.message import load_schema
 
 from mqtttools import MOSQUITTO, MOSQUITTO_PASSWD, Mosquitto, PausableRelay, Subscriber
 from servertools import (ServeProcess, connect, health, http_get, poll, recv_json,

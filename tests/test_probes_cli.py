@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 from provider.bench.probes import ball_in_room, render_probe, srgb8
-from provider.core import sh
-from provider.core.ball import locate_ball
-from provider.core.bracket import BracketProjector, project_bracket
-from provider.core.engine import SH9Projector
-from provider.core.projections_probe import AngularMap, CubeCross, MirrorBall
-from provider.core.response import CameraResponse
-from provider.live.message import validate
+from provider.core.geometry import sh
+from provider.core.registration.ball import locate_ball
+from provider.core.radiometry.bracket import BracketProjector, project_bracket
+from provider.core.sh9.engine import SH9Projector
+from provider.core.geometry.projections_probe import AngularMap, CubeCross, MirrorBall
+from provider.core.radiometry.response import CameraResponse
+from provider.live.wire.message import validate
 
 from conftest import load_hdri
 
@@ -214,7 +214,7 @@ def test_a_live_probe_with_ball_auto_finds_the_ball_then_keeps_its_projector(fra
     without a ball in one clear line (the server lives on); a circle few rays agree on is
     used, with a warning in the log."""
     from provider.core.errors import InputError
-    from provider.live.probe import Probe
+    from provider.live.probe.pipeline import Probe
     from provider.live.sources import Frame, SourceOptions, parse_source
     img, hdr = frame
     path = tmp_path / "ball.hdr"

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st, HealthCheck
 
-from provider.core import sh
-from provider.core.engine import SH9Projector, InputError, compute_sh9
-from provider.core.projections import (CubeMap, DualFisheye, Equirect, Fisheye, make_projection,
-                                  ProjectionError)
+from provider.core.geometry import sh
+from provider.core.sh9.engine import SH9Projector, InputError, compute_sh9
+from provider.core.geometry.projections import (CubeMap, DualFisheye, Equirect, Fisheye,
+                                                make_projection, ProjectionError)
 
 import reference as ref
 

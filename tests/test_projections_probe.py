@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from provider.core import sh
-from provider.core.engine import InputError, SH9Projector
-from provider.core.projections import make_projection
-from provider.core.projections_probe import (AngularMap, CubeCross, MirrorBall,
-                                             ball_distance, cone_projection)
+from provider.core.geometry import sh
+from provider.core.sh9.engine import InputError, SH9Projector
+from provider.core.geometry.projections import make_projection
+from provider.core.geometry.projections_probe import (AngularMap, CubeCross, MirrorBall,
+                                                      ball_distance, cone_projection)
 
 import reference as ref
 from test_projections import equirect_reference, smooth_env

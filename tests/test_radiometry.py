@@ -1,5 +1,5 @@
 """The radiometric chain in the engine: a camera response instead of sRGB, exposure
-divided out, clipped light counted, and the live bracket (provider.core.bracket)."""
+divided out, clipped light counted, and the live bracket (provider.core.radiometry.bracket)."""
 from __future__ import annotations
 
 from functools import lru_cache
@@ -10,11 +10,11 @@ import pytest
 
 from provider import InputError
 from provider.bench.camera_sim import CameraSim, auto_exposure
-from provider.core import bracket as B
-from provider.core import sh
-from provider.core.engine import SH9Projector, compute_sh9
-from provider.core.projections import Fisheye
-from provider.core.response import CameraResponse
+from provider.core.radiometry import bracket as B
+from provider.core.geometry import sh
+from provider.core.sh9.engine import SH9Projector, compute_sh9
+from provider.core.geometry.projections import Fisheye
+from provider.core.radiometry.response import CameraResponse
 
 from conftest import load_hdri
 

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from provider.bench.camera_sim import CameraSim, auto_exposure
-from provider.core import sh
-from provider.core.engine import SH9Projector
-from provider.core.response import CameraResponse
-from provider.live.message import validate
+from provider.core.geometry import sh
+from provider.core.sh9.engine import SH9Projector
+from provider.core.radiometry.response import CameraResponse
+from provider.live.wire.message import validate
 
 from conftest import load_hdri
 

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from provider.bench.camera_sim import CameraSim, auto_exposure
-from provider.core import sh
-from provider.core.engine import SH9Projector
-from provider.live.capture import Capture
-from provider.live.message import validate
+from provider.core.geometry import sh
+from provider.core.sh9.engine import SH9Projector
+from provider.live.probe.capture import Capture
+from provider.live.wire.message import validate
 from provider.live.sources import Frame, SourceOptions, SourceSpec
 from provider.live.sources.base import Source
 

@@ -18,8 +18,8 @@ import pytest
 from marker_scene import (composite, marker_grid, qr_grid, random_pose, rotation_error_deg,
                           scene, to_srgb8)
 from provider.core.errors import InputError
-from provider.core.projections import make_projection
-from provider.core.registration import MarkerNotFound, find_marker, levelling_rotation
+from provider.core.geometry.projections import make_projection
+from provider.core.registration.pose import MarkerNotFound, find_marker, levelling_rotation
 
 MARKER = "aruco:DICT_4X4_50:7"
 SIZE = 0.2
@@ -154,7 +154,7 @@ def test_a_flat_marker_faces_up_once_a_tilted_still_is_levelled():
     img = composite(scene("lab", proj), proj, marker_grid(), R_cam, t_cam, SIZE)
     pose = find_marker(img, MARKER, SIZE)
     assert pose.rotation[:, 2] @ [0, 1, 0] < math.cos(math.radians(5))   # tilted as filmed
-    from provider.core.registration import levelled
+    from provider.core.registration.pose import levelled
     up = levelled(pose, level)
     assert rotation_error_deg(up.rotation, R_world) < 0.5 and up.levelled
 

@@ -14,9 +14,9 @@ import pytest
 from fakecams.osc_camera import FakeOscCamera
 from marker_scene import composite, marker_grid, random_pose, rotation_error_deg, scene, to_srgb8
 from provider.core.errors import InputError
-from provider.core.projections import make_projection
-from provider.live.message import validate
-from servertools import ServerThread, connect, recv_until
+from provider.core.geometry.projections import make_projection
+from provider.live.wire.message import validate
+from servertools import ServerThread, connect, health, metric, poll, recv_until
 
 MARKER = "aruco:DICT_4X4_50:7"
 
@@ -55,7 +55,10 @@ def test_every_message_carries_the_registration_once_known(tmp_path, still):
             assert rotation_error_deg(np.reshape(later["registration"]["rotation"], (3, 3)), R) < 1.0
 
 
-def test_a_source_without_the_marker_sends_lighting_without_registration(tmp_path):
+def test_a_source_without_the_marker_sends_lighting_without_registration(tmp_path, caplog):
+    """...and says so: one log line for the streak of misses, the misses in /healthz and
+    /metrics (before, a marker never found said nothing anywhere)."""
+    caplog.set_level("INFO", logger="shlight")
     proj = make_projection("equirect", 512, 256)
     rgb = to_srgb8(scene("lab", proj), 1.0)
     path = tmp_path / "empty.png"
@@ -67,7 +70,15 @@ def test_a_source_without_the_marker_sends_lighting_without_registration(tmp_pat
             for _ in range(6):
                 msg = recv_until(ws, lambda m: m.get("type") == "sh9", timeout=30)
                 assert "registration" not in msg
-        assert srv.server.probes["default"].registrar.misses >= 1   # it did look
+        registrar = srv.server.probes["default"].registrar
+        poll(lambda: registrar.misses >= 3, 60, what="three misses")     # it did look
+        reg = health(srv.http)["probes"]["default"]["registration"]
+        assert reg["found"] is False and reg["misses"] >= 3 and reg["missing"] >= 3
+        assert reg["marker"] == MARKER and reg["age_s"] is None
+        assert metric(srv.http, "shlight_registration_misses_total", probe="default") >= 3
+        assert metric(srv.http, "shlight_registration_found", probe="default") == 0
+    said = [r.getMessage() for r in caplog.records if "not found in the frame" in r.getMessage()]
+    assert len(said) == 1 and MARKER in said[0], said
 
 
 @pytest.mark.parametrize("argv,words", [

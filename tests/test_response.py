@@ -1,4 +1,4 @@
-"""The camera response and bracket maths (provider.core.response, provider.core.bracket)
+"""The camera response and bracket maths (provider.core.radiometry.response, provider.core.radiometry.bracket)
 with a simulated filmic camera (provider.bench.camera_sim) on the real panoramas.
 
 Tolerances are the measured values (``shlight bench --sections radiometry``) with a margin.
@@ -14,10 +14,10 @@ import pytest
 
 from provider import InputError
 from provider.bench.camera_sim import CameraSim, auto_exposure
-from provider.core import bracket as B
-from provider.core import response as R
-from provider.core import sh
-from provider.core.engine import SH9Projector
+from provider.core.radiometry import bracket as B
+from provider.core.radiometry import response as R
+from provider.core.geometry import sh
+from provider.core.sh9.engine import SH9Projector
 
 from conftest import load_hdri
 
@@ -60,7 +60,7 @@ def synthetic_scene(h=64, w=128, seed=0):
 # -- tables ------------------------------------------------------------------------------------
 
 def test_srgb_table_matches_engine():
-    from provider.core.engine import srgb_to_linear
+    from provider.core.sh9.engine import srgb_to_linear
     r = R.CameraResponse.srgb()
     assert r.bits == 8 and r.method == "srgb" and r.channels_identical
     np.testing.assert_allclose(r.table[:, 0], srgb_to_linear(np.arange(256) / 255), rtol=0)

@@ -21,7 +21,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 from websockets.exceptions import ConnectionClosed, InvalidStatus
 
-from provider.live.message import load_schema
+from provider.live.wire.message import load_schema
 
 from servertools import (MjpegCamera, ServeProcess, ServerThread, coefficients, collect,
                          connect, health, http_get, jpeg_panorama, metric, poll, recv_json,
@@ -265,7 +265,7 @@ def test_real_change_reaches_clients_at_once_despite_smoothing(tmp_path):
 
 def test_smoothing_calms_small_changes():
     """The other half of the filter: small changes are smoothed, large ones snap."""
-    from provider.live.temporal import ChangeGate, LightingFilter, lighting_change
+    from provider.live.probe.temporal import ChangeGate, LightingFilter, lighting_change
     rng = np.random.default_rng(1)
     base = rng.uniform(0.5, 1.0, (9, 3))
     mats = rng.uniform(0.5, 1.0, (3, 4, 4))
@@ -727,7 +727,7 @@ def test_a_probe_stops_when_cancelled_as_it_wakes():
     """Shutdown cancels each probe's task; a cancellation that arrives just as a new frame
     wakes the probe must still stop it (asyncio.wait_for before Python 3.12 swallows it,
     which hung `shlight serve` on SIGTERM now and then)."""
-    from provider.live.probe import Probe
+    from provider.live.probe.pipeline import Probe
     from provider.live.sources import parse_source
 
     async def main():

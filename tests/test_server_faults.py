@@ -307,7 +307,7 @@ def test_an_address_past_the_connect_rate_waits_its_turn_or_gets_429():
 def test_the_connect_rate_table_stays_small():
     """Many addresses, each within its burst: the table forgets those whose bucket is full
     again, and never holds more than its bound; exempt addresses are never in it."""
-    from provider.live.limits import ConnectRate
+    from provider.live.server.limits import ConnectRate
     rate = ConnectRate(rate=2.0, burst=20.0, max_addresses=100)
     t = 1000.0
     for _ in range(20):
@@ -509,7 +509,7 @@ def test_many_frame_sizes_keep_a_few_projectors(tmp_path):
 # ---- log lines -------------------------------------------------------------------------------------
 
 def test_identical_warnings_are_said_once_with_a_count():
-    from provider.live.limits import RepeatFilter
+    from provider.live.server.limits import RepeatFilter
     records = []
 
     class Keep(logging.Handler):
@@ -530,6 +530,21 @@ def test_identical_warnings_are_said_once_with_a_count():
         logger.warning("refused %s: missing or wrong token", "127.0.0.1:9")
         assert records[-1] == ("refused 127.0.0.1:9: missing or wrong token "
                                "(and 499 more like this in the last 0 s)")
+        flt.interval = 3600
+        # What a line is about keeps its own line: another probe, another file, another
+        # address (issue 33: probe b's failure never reached the log); counts do not.
+        logger.warning("probe %s: source failed: %s", "a", "no such camera")
+        logger.warning("probe %s: source failed: %s", "b", "no such camera")
+        logger.warning("probe %s: %s is corrupt", "a", "seq/0001.png")
+        logger.warning("probe %s: %s is corrupt", "a", "seq/0002.png")
+        logger.warning("refused %s: missing or wrong token", "192.168.1.7:4000")
+        for n in range(5):
+            logger.warning("refused %s: %d clients connected", "127.0.0.1:1", 500 + n)
+        assert records[-6:] == [
+            "probe a: source failed: no such camera", "probe b: source failed: no such camera",
+            "probe a: seq/0001.png is corrupt", "probe a: seq/0002.png is corrupt",
+            "refused 192.168.1.7:4000: missing or wrong token",
+            "refused 127.0.0.1:1: 500 clients connected"]
     finally:
         logger.removeHandler(handler)
 

@@ -1,7 +1,7 @@
 """The shipped GLSL and HLSL against the CPU, on a real headless OpenGL context (llvmpipe here).
 
 Every comparison renders E(n) through the shader (one fragment per normal, float32 targets)
-and checks it against float64 ñᵀMñ from provider.core.sh: see provider/verify/harness.py for the error
+and checks it against float64 ñᵀMñ from provider.core.geometry.sh: see provider/verify/harness.py for the error
 measure and its tolerance. No OpenGL is mocked. Without EGL the tests skip with the install
 hint (set SHLIGHT_REQUIRE_GL=1 to make that a failure); without glslangValidator/spirv-cross
 the HLSL tests skip likewise (SHLIGHT_REQUIRE_HLSL=1).
@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 import pytest
 
-from provider.core import sh
+from provider.core.geometry import sh
 from provider.verify import contract, harness
 from provider import compute_sh9
 

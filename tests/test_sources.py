@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from provider import InputError
-from provider.live.capture import Capture
+from provider.live.probe.capture import Capture
 from provider.live.sources import SourceError, SourceOptions, parse_source
 from provider.live.sources.http import MultipartJpegReader
 from provider.live.sources.theta import ThetaSource

@@ -204,7 +204,7 @@ def test_registration_from_a_marker_pose_turns_the_cube_and_the_sh(browser, tmp_
     (an XRRigidTransform-like quaternion, and a tracker with +Y as the marker's normal), with
     R_world←camera taking the room's +X to the world's +Y: the mirror sphere shows the red
     (+X) cap on top, and the SH turned by the same rotation sees at +Y what the room had at +X."""
-    from provider.core import sh
+    from provider.core.geometry import sh
     pano = tmp_path / "caps.hdr"
     write_caps(pano)
     R_cm = sh.rotation_from_euler(yaw_deg=35, pitch_deg=-20, roll_deg=10)

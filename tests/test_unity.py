@@ -2,7 +2,7 @@
 
 * The Unity-independent C# core is compiled with Mono's ``mcs`` and checked by
   tests/csharp/ContractTest.cs against the contract test vectors (shaders/contract_vectors.json)
-  and against vectors generated here from provider.core.sh.
+  and against vectors generated here from provider.core.geometry.sh.
 * The MonoBehaviour and the sample are compiled against tests/unity_stubs/UnityEngineStandIn.cs,
   a compile-only stand-in for UnityEngine (NOT Unity).
 * tests/csharp/LiveClient.cs (package code + stand-in, playing Unity's player loop) talks to a
@@ -104,7 +104,7 @@ def _run_contract(exe: Path, vectors: Path | None):
 
 def write_vectors(path: Path) -> None:
     """Vectors in exactly the shader harness's format (shaders/contract_vectors.json)."""
-    from provider.core import sh
+    from provider.core.geometry import sh
 
     def case(name, coeffs, rot=None):
         normals = np.vstack([np.eye(3), -np.eye(3), sh.fibonacci_sphere(58)])
@@ -159,7 +159,7 @@ def test_core_against_contract_vectors(contract_exe):
 
 
 def test_core_against_generated_vectors(contract_exe, tmp_path):
-    """The same checks on vectors generated here from provider.core.sh (always available)."""
+    """The same checks on vectors generated here from provider.core.geometry.sh (always available)."""
     path = tmp_path / "vectors.json"
     write_vectors(path)
     report = _run_contract(contract_exe, path)
@@ -199,8 +199,8 @@ def _print_agreement(label, report):
 
 
 def test_csharp_ambient_factors_match_the_python_constants():
-    """The k factors in Sh9Math.cs are basis constant × Â_l/π of provider.core.sh (docs/contract.md §7)."""
-    from provider.core import sh
+    """The k factors in Sh9Math.cs are basis constant × Â_l/π of provider.core.geometry.sh (docs/contract.md §7)."""
+    from provider.core.geometry import sh
     text = (PKG / "Runtime" / "Core" / "Sh9Math.cs").read_text()
     block = re.search(r"UnityAmbientFactors =\s*\{(.*?)\};", text, re.S).group(1)
     k = [float(v) for v in re.findall(r"^\s*([0-9.]+),", block, re.M)]
@@ -322,7 +322,7 @@ def _unity_coefficients(coefficients: np.ndarray) -> np.ndarray:
 
 def _ambient_from_coefficients(unity_coeffs: np.ndarray) -> np.ndarray:
     """SphericalHarmonicsL2 layout [9 * rgb + i] = k_i · L_i (Python side of the conversion)."""
-    from provider.core import sh
+    from provider.core.geometry import sh
     k = np.array([sh.C0, sh.C1, sh.C1, sh.C1, sh.C2, sh.C2, sh.C20, sh.C2, sh.C22]) * sh.A_HAT_PER_COEFF / math.pi
     return (k[:, None] * unity_coeffs).T.reshape(-1)
 
@@ -608,7 +608,7 @@ class _LiveClient:
 
 def _check_applied(ev: dict, *, rotation=None, intensity: float = 1.0):
     """What the client uploaded equals the Python conversion of the coefficients it received."""
-    from provider.core import sh
+    from provider.core.geometry import sh
     coeffs = np.array(ev["wire_coefficients"]).reshape(9, 3)
     wire_m = np.array(ev["wire_matrices"]).reshape(3, 4, 4)
     applied = np.array(ev["matrices"]).reshape(3, 4, 4)          # float32 read back from the stand-in
@@ -867,7 +867,7 @@ def test_live_client_drives_the_directional_light(live_exe, tmp_path):
     if "--lights" not in _serve_help():
         pytest.skip("`shlight serve --help` lists no --lights: the provider does not send lights yet "
                     "(needs `shlight serve --lights auto` adding docs/contract.md §10's fields to each sh9 message)")
-    from provider.core import sh
+    from provider.core.geometry import sh
     import cv2
     image = tmp_path / "sun.png"
     img = np.full((64, 128, 3), 20, np.uint8)

@@ -166,8 +166,8 @@ def test_unity_levels_hold_the_providers_radiance_at_unitys_roughness(cube_exe, 
     provider/verify's CubeSampler) toward that texel's direction at the roughness ρ_m Unity's shaders
     read there (ρ_m(1.7 − 0.7ρ_m)·6 = m), on a real panorama with the probe turned by a rotation:
     to the half floats' rounding."""
-    from provider.core.environment import compute_environment
-    from provider.core import sh
+    from provider.core.reflections.environment import compute_environment
+    from provider.core.geometry import sh
     image = HDRI / "bridge.exr"
     env = compute_environment(str(image), size=32)
     ktx = _environment(image, tmp_path / "cube.ktx2")
@@ -290,7 +290,7 @@ def test_registration_lights_the_sphere_from_the_markers_side(registration_exe, 
     marker's physical normal and up in Unity's world. Both Sh9MarkerAxes conventions; the message goes
     through the client's parser; the composition allocates nothing; the cube turns the same way."""
     from provider import compute_sh9
-    from provider.core.environment import compute_environment  # noqa: F401 (the cube: via the file)
+    from provider.core.reflections.environment import compute_environment  # noqa: F401 (the cube: via the file)
     rng = np.random.default_rng(21)
     r_cm = _random_rotation(rng)                       # R_camera←marker (wire, columns = marker axes)
     p_cm = r_cm @ np.array([0.0, 0.0, 1.3])            # 1.3 m in front of the marker
@@ -330,7 +330,7 @@ def test_registration_lights_the_sphere_from_the_markers_side(registration_exe, 
     ktx = _environment(pano, tmp_path / "cube.ktx2", 32)
     rc, lines = _run(registration_exe, job, ktx, tmp_path / "unity.bin")
     assert rc == 0 and len(lines) == len(cases), lines
-    from provider.core import sh
+    from provider.core.geometry import sh
     normals = sh.fibonacci_sphere(2000)
     for case, out, (normal, up) in zip(cases, lines, expect):
         assert out["alloc_bytes"] == 0
@@ -351,7 +351,7 @@ def test_registration_lights_the_sphere_from_the_markers_side(registration_exe, 
     # the cube of the first case, turned by the same rotation: bright toward the marker's face
     levels = read_unity_cube(tmp_path / "unity.bin", 128)
     d = texel_directions(128).reshape(-1, 3)
-    from provider.core.cubemap import texel_solid_angles
+    from provider.core.geometry.cubemap import texel_solid_angles
     inside = (levels[0][..., 0].reshape(-1) > 15) * texel_solid_angles(128).reshape(-1)   # the white cap
     centroid = (d * inside[:, None]).sum(0)
     centroid /= np.linalg.norm(centroid)

@@ -119,8 +119,8 @@ def glossy(tmp_path_factory):
 def baked(cube_exe, tmp_path_factory):
     """A real panorama (bridge: sky, sun, water), its provider cube (32², 5 mips) turned by a probe
     rotation, and the Unity cube the package bakes from the same file."""
-    from provider.core import sh
-    from provider.core.environment import compute_environment
+    from provider.core.geometry import sh
+    from provider.core.reflections.environment import compute_environment
     tmp = tmp_path_factory.mktemp("bake")
     image = HDRI / "bridge.exr"
     env = compute_environment(str(image), size=32)
@@ -203,7 +203,7 @@ def test_unitys_own_glossy_spheres_and_the_picture(glossy, cube_exe, tmp_path):
     docs/unity_environment_bridge.png, the spheres above the reference (not Unity's renderer:
     Unity's own function on software OpenGL over the C# core's bytes)."""
     import consumer_pictures as cp
-    from provider.core.images import read_image
+    from provider.core.radiometry.images import read_image
     glsl, refl = glossy
     ctx = _gl_context()
     image = HDRI / "bridge.exr"

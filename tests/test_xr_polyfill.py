@@ -18,7 +18,8 @@ import math
 import numpy as np
 
 import provider
-from provider.core import conventions as cv, sh
+from provider.core.conventions import formats as cv
+from provider.core.geometry import sh
 
 from browsertools import (NEEDS_BROWSER, REFUSED, PageHost, browser, canvas_rgba, f32,  # noqa: F401
                           page_of, sphere_row, srgb8, three_version, write_hemisphere)
@@ -428,7 +429,7 @@ def test_estimate_of_a_primary_light_turned_into_the_reference_space(browser, tm
     message = {"type": "sh9", "probe": "default", "seq": 7, "time": 1.5, "stale": False,
                "age_s": 0.0, "coefficients": L.reshape(-1).tolist(), "lights": 1,
                "light_directions": d.tolist(), "light_irradiance": e_perp.tolist()}
-    from provider.live.export import export_message
+    from provider.live.wire.export import export_message
     export = json.loads(json.dumps(export_message(message, "webxr")))
     R = sh.rotation_from_euler(yaw_deg=50, pitch_deg=-20, roll_deg=10)
     with ServeProcess("--source", str(pano)) as proc:

@@ -13,7 +13,7 @@ import numpy as np
 import consumer_pictures as cp
 from browsertools import NEEDS_BROWSER, ROOT, PageHost, browser, page_of, three_version  # noqa: F401
 from envtools import SPHERE_VIEW, json_rows, served_cube, write_caps
-from provider.core.images import read_image
+from provider.core.radiometry.images import read_image
 from provider.verify.cubemap import sample
 from servertools import ServeProcess
 from test_three_environment import _directions, _rel

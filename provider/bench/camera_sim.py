@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.response import CameraResponse
+from ..core.radiometry.response import CameraResponse
 
 MID_GREY = 0.18
 MID_CODE = 118  # ISO 12232 SOS: 18 % grey renders to sRGB code 118

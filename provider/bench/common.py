@@ -58,7 +58,7 @@ def _auto_exposure(hdr):
 def _exact_float64(frame, lut=None):
     """Float64 exact projection of an equirect frame (the error reference)."""
     import numpy as np
-    from ..core.projections import Equirect
+    from ..core.geometry.projections import Equirect
     h, w = frame.shape[:2]
     p = Equirect(w, h)
     rows, cols = p.row_integrals(), p.col_integrals()

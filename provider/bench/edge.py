@@ -45,7 +45,7 @@ def bench_edge(hdri, out: Path, args):
     import shutil
     import numpy as np
     import cv2
-    from ..core.engine import SH9Projector
+    from ..core.sh9.engine import SH9Projector
     repeat = 5 if args.quick else 50
     frame = np.random.default_rng(0).integers(0, 256, (480, 640, 3), dtype=np.uint8)
     floor = _median_ms(lambda: cv2.sumElems(frame), repeat)

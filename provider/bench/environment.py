@@ -38,7 +38,7 @@ def _equirect(width, height):
 
 def brute_prefiltered(image, directions, roughness, chunk=48):
     """Float64 PF over every pixel of an equirect ``image`` at unit ``directions`` (T, 3)."""
-    from ..core.prefilter import ggx_weight
+    from ..core.reflections.prefilter import ggx_weight
     h, w = image.shape[:2]
     d, omega = _equirect(w, h)
     l, om = d.reshape(-1, 3), omega.reshape(-1)
@@ -52,7 +52,7 @@ def brute_prefiltered(image, directions, roughness, chunk=48):
 
 def brute_texel_means(image, n, supersample=4):
     """Float64 solid-angle-weighted mean of an equirect ``image`` over each texel."""
-    from ..core import cubemap
+    from ..core.geometry import cubemap
     h, w = image.shape[:2]
     d, omega = _equirect(w * supersample, h * supersample)
     rows = np.arange(h * supersample) // supersample
@@ -73,9 +73,9 @@ def _rel_rms(a, b):
 def errors(images: dict, sizes=(16, 32, 64)) -> list[dict]:
     """Per (panorama, size): mip 0 median texel error, each mip's relative RMS, and the
     cube's and SH9's irradiance errors against brute force."""
-    from ..core import cubemap, sh
-    from ..core.engine import compute_sh9
-    from ..core.environment import compute_environment
+    from ..core.geometry import cubemap, sh
+    from ..core.sh9.engine import compute_sh9
+    from ..core.reflections.environment import compute_environment
     normals = sh.fibonacci_sphere(256)
     rows = []
     for name, img in images.items():
@@ -104,8 +104,8 @@ def errors(images: dict, sizes=(16, 32, 64)) -> list[dict]:
 def costs(images: dict, sizes=(16, 32, 64), repeat=5) -> list[dict]:
     """Cube update and SH9 path per 1920×960 8-bit frame, side by side, with the floor."""
     import cv2
-    from ..core.engine import SH9Projector
-    from ..core.environment import EnvironmentProjector
+    from ..core.sh9.engine import SH9Projector
+    from ..core.reflections.environment import EnvironmentProjector
     frames = []
     for img in list(images.values())[:4]:
         big = cv2.resize(np.maximum(img, 0), (1920, 960), interpolation=cv2.INTER_LINEAR)
@@ -150,7 +150,7 @@ def costs(images: dict, sizes=(16, 32, 64), repeat=5) -> list[dict]:
 
 
 def bench_environment(hdri: list, out: Path, args) -> None:
-    from ..core.images import read_image
+    from ..core.radiometry.images import read_image
     from .environment_transport import markdown, transport_bytes
     paths = list(hdri)
     images = {p.stem: np.where(np.isfinite(x := read_image(p)) & (x > 0), x, 0)

@@ -1,8 +1,8 @@
 """What the reflection cube costs on the wire (``shlight bench --sections environment``,
 issue 19 item 7): bytes per update and bytes per second at many subscribers.
 
-Measured on the real encoder (:func:`provider.live.environment.encode_environment`) and
-the real WebSocket framing of the server (:mod:`provider.live.session`): one update is the
+Measured on the real encoder (:func:`provider.live.reflections.cube.encode_environment`) and
+the real WebSocket framing of the server (:mod:`provider.live.server.session`): one update is the
 ``environment`` JSON text frame plus the binary frame of the KTX2 bytes, the same for every
 client (uncompressed RGBA16F: the size does not depend on the picture). MQTT carries the
 KTX2 bytes alone, once per update to the broker (the fan-out is the broker's).
@@ -14,8 +14,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..live.environment import SIZES, encode_environment
-from ..live.session import binary_frame, text_frame
+from ..live.reflections.cube import SIZES, encode_environment
+from ..live.server.session import binary_frame, text_frame
 
 
 def _mip_count(size: int) -> int:

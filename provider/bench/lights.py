@@ -46,8 +46,8 @@ def _spread(values) -> str:
 def _errors(E, T):
     """(relative RMS, max per-normal relative luminance error) of E against truth T."""
     import numpy as np
-    from ..core import sh
-    from ..core.lights import LUMA
+    from ..core.geometry import sh
+    from ..core.lights.extractor import LUMA
     EY, TY = E @ LUMA, T @ LUMA
     return sh.relative_rms(E, T), float(np.max(np.abs(EY - TY) / np.maximum(TY, 1e-30)))
 
@@ -55,11 +55,11 @@ def _errors(E, T):
 def bench_lights(hdri, out: Path, args):
     import cv2
     import numpy as np
-    from ..core import sh
-    from ..core.engine import SH9Projector
-    from ..core.images import read_image
-    from ..core.lights import LUMA
-    from ..core.projections import Equirect
+    from ..core.geometry import sh
+    from ..core.sh9.engine import SH9Projector
+    from ..core.radiometry.images import read_image
+    from ..core.lights.extractor import LUMA
+    from ..core.geometry.projections import Equirect
     from ..verify.pictures import brute_force_irradiance
     normals = sh.fibonacci_sphere(1024 if args.quick else 4096)
     repeat = max(3, args.repeat if not args.quick else 3)

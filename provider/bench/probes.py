@@ -65,7 +65,7 @@ def ball_in_room(hdr: np.ndarray, ball=LOCATE_BALLS[0], size=(640, 480)) -> np.n
     radius px) in it reflecting the panorama, anti-aliased on its edge (4×4 coverage)."""
     import cv2
 
-    from ..core.projections_probe import MirrorBall
+    from ..core.geometry.projections_probe import MirrorBall
     hdr = np.maximum(hdr, 0)
     w, h = size
     back = cv2.resize(hdr[:, hdr.shape[1] // 4: 3 * hdr.shape[1] // 4], (w, h)) * 0.5
@@ -91,7 +91,7 @@ def locate_rows(panoramas) -> list:
     """``shlight locate-ball`` on each panorama's room with each of :data:`LOCATE_BALLS`,
     as float and as 8-bit sRGB (exposed to its 99th percentile): the markdown lines of the
     table, per scene and over all."""
-    from ..core.ball import EDGE_RAYS, locate_ball
+    from ..core.registration.ball import EDGE_RAYS, locate_ball
     found, lines = [], []
     for name, hdr in panoramas:
         _progress(f"bench probes: locating the ball in {name}")
@@ -119,8 +119,8 @@ def locate_rows(panoramas) -> list:
 
 
 def _error(projection, image, truth) -> float:
-    from ..core import sh
-    from ..core.engine import SH9Projector
+    from ..core.geometry import sh
+    from ..core.sh9.engine import SH9Projector
     got = SH9Projector(projection.width, projection.height, projection).project(image)
     return sh.irradiance_error(got.coefficients, truth)
 
@@ -131,9 +131,9 @@ def _row(label, errs) -> str:
 
 
 def bench_probes(hdri, out: Path, args):
-    from ..core.engine import SH9Projector
-    from ..core.images import read_image
-    from ..core.projections_probe import AngularMap, MirrorBall
+    from ..core.sh9.engine import SH9Projector
+    from ..core.radiometry.images import read_image
+    from ..core.geometry.projections_probe import AngularMap, MirrorBall
     paths = list(hdri)[:3] if args.quick else list(hdri)
     panoramas = [(p.stem, read_image(p)) for p in paths]
     names = [n for n, _ in panoramas]

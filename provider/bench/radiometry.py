@@ -9,8 +9,8 @@ irradiance of the HDR panorama itself (relative RMS over the sphere of normals):
   curve ``calibrate()`` recovers from a 5-shot bracket of the same view;
 * brackets of 3, 5 and 7 shots 2 EV apart, merged with the calibrated curve (the exact hat
   merge of ``shlight compute FRAME@T ...``); 7 shots through the live path
-  (:class:`~provider.core.bracket.BracketProjector`); the live default
-  (:data:`~provider.core.bracket.DEFAULT_OFFSETS`), and, to choose that default, candidate
+  (:class:`~provider.core.radiometry.bracket.BracketProjector`); the live default
+  (:data:`~provider.core.radiometry.bracket.DEFAULT_OFFSETS`), and, to choose that default, candidate
   brackets through the live path.
 
 *Shape* is the error after the best single scale is fitted (the direction and contrast of
@@ -60,14 +60,14 @@ def _cameras(quick):
 
 def _errors(coeffs, truth):
     """(shape, absolute) relative RMS irradiance error."""
-    from ..core import sh
+    from ..core.geometry import sh
     E, T = sh.sphere_irradiance(coeffs), sh.sphere_irradiance(truth)
     s = float((E * T).sum() / max((E * E).sum(), 1e-300))
     return sh.relative_rms(s * E, T), sh.relative_rms(E, T)
 
 
 def _live(projector, frames, times):
-    from ..core.bracket import BracketProjector
+    from ..core.radiometry.bracket import BracketProjector
     bp = BracketProjector(projector, times)
     for i, (f, t) in enumerate(zip(frames, times)):
         result = bp.push(i, f, t)
@@ -77,9 +77,9 @@ def _live(projector, frames, times):
 def accuracy(name, hdr, cam):
     """One row: errors of every method, clipping, the calibration's curve error."""
     import numpy as np
-    from ..core.bracket import DEFAULT_OFFSETS, project_bracket
-    from ..core.engine import SH9Projector
-    from ..core.response import calibrate
+    from ..core.radiometry.bracket import DEFAULT_OFFSETS, project_bracket
+    from ..core.sh9.engine import SH9Projector
+    from ..core.radiometry.response import calibrate
     from .camera_sim import auto_exposure
     h, w = hdr.shape[:2]
     truth = SH9Projector(w, h).project(hdr).coefficients
@@ -126,11 +126,11 @@ def speed(panoramas, cam, sizes, cycles):
     """Per size: ms and median per-frame ratio to the single-frame sRGB path."""
     import cv2
     import numpy as np
-    from ..core.bracket import BracketProjector, project_bracket
-    from ..core.engine import SH9Projector
-    from ..core.response import calibrate
+    from ..core.radiometry.bracket import BracketProjector, project_bracket
+    from ..core.sh9.engine import SH9Projector
+    from ..core.radiometry.response import calibrate
     from .camera_sim import auto_exposure
-    from ..core.bracket import DEFAULT_OFFSETS
+    from ..core.radiometry.bracket import DEFAULT_OFFSETS
     evs = tuple(DEFAULT_OFFSETS)
     out = []
     for (w, h) in sizes:
@@ -186,7 +186,7 @@ def speed(panoramas, cam, sizes, cycles):
 
 def bench_radiometry(hdri, out: Path, args):
     import numpy as np
-    from ..core.images import read_image
+    from ..core.radiometry.images import read_image
     panoramas = [(p.stem, np.maximum(np.nan_to_num(read_image(p)), 0).astype(np.float32))
                  for p in hdri]
     if args.quick:
@@ -211,7 +211,7 @@ def _pct(x, digits=1):
 
 
 def _tables(rows, cost, args, cost_scene):
-    from ..core.bracket import DEFAULT_OFFSETS
+    from ..core.radiometry.bracket import DEFAULT_OFFSETS
     lines = ["# Radiometry: 8-bit frames against the HDR truth", "",
              f"Command: `shlight bench --sections radiometry{' --quick' if args.quick else ''}`. "
              "A simulated 8-bit camera (filmic curve, not sRGB; shot and read noise; auto "
@@ -284,7 +284,7 @@ def _calibrations(rows):
 def _choice(rows):
     """Candidate live brackets: worst and mean shape error over the scenes without a sun
     disc, and the sun scene, per camera."""
-    from ..core.bracket import DEFAULT_OFFSETS
+    from ..core.radiometry.bracket import DEFAULT_OFFSETS
     cams = list(rows)
     lines = ["## Choosing the live default", "",
              "Each candidate bracket through the live path (`shlight serve --bracket EVS`), "

@@ -7,7 +7,7 @@ import math
 import cv2
 import numpy as np
 
-from ..core.response import CameraResponse
+from ..core.radiometry.response import CameraResponse
 
 W, H = 800, 560
 LEFT, RIGHT, TOP, BOTTOM = 80, 30, 50, 60

@@ -24,10 +24,10 @@ def fisheye_from_equirect(hdr, projection):
 
 def bench_fill(hdri, out: Path, args):
     import numpy as np
-    from ..core import sh
-    from ..core.engine import SH9Projector
-    from ..core.images import read_image
-    from ..core.projections import Fisheye
+    from ..core.geometry import sh
+    from ..core.sh9.engine import SH9Projector
+    from ..core.radiometry.images import read_image
+    from ..core.geometry.projections import Fisheye
     panoramas = [(p.stem, read_image(p)) for p in hdri]
     models = [("zero", 0.0)] + [(m, a) for m in ("ground", "mirror") for a in (0.05, 0.1, 0.2, 0.3)]
     names = [n for n, _ in panoramas]
@@ -54,11 +54,11 @@ def bench_fill(hdri, out: Path, args):
 def bench_scenes(hdri, out: Path, args):
     """SH9 truncation, ringing, deringing cost and the order auto choice per panorama."""
     import numpy as np
-    from ..core import sh
-    from ..core.engine import SH9Projector
-    from ..core.images import read_image
+    from ..core.geometry import sh
+    from ..core.sh9.engine import SH9Projector
+    from ..core.radiometry.images import read_image
     from ..verify.pictures import brute_force_irradiance
-    from ..core.projections import Equirect
+    from ..core.geometry.projections import Equirect
     lines = ["# Real scenes: what SH9 misses, ringing, and what deringing costs", "",
              "Per panorama (512×256 float, provider/data/hdri). *Truncation*: relative RMS "
              "irradiance error of exact order-2 SH against brute-force irradiance "

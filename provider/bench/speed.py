@@ -14,8 +14,8 @@ def paper_pipeline(frame_u8):
     linearise and project with sin θ weights at pixel centres."""
     import cv2
     import numpy as np
-    from ..core import sh
-    from ..core.engine import srgb_to_linear
+    from ..core.geometry import sh
+    from ..core.sh9.engine import srgb_to_linear
     small = cv2.resize(frame_u8, (64, 48), interpolation=cv2.INTER_AREA)
     lin = srgb_to_linear(small / 255.0)
     h, w = 48, 64
@@ -32,9 +32,9 @@ def paper_pipeline(frame_u8):
 def bench_speed(hdri, out: Path, args):
     import cv2
     import numpy as np
-    from ..core import sh
-    from ..core.engine import SH9Projector, srgb_to_linear
-    from ..core.images import read_image
+    from ..core.geometry import sh
+    from ..core.sh9.engine import SH9Projector, srgb_to_linear
+    from ..core.radiometry.images import read_image
 
     sizes = [(640, 320), (1920, 960)] if args.quick else [(640, 320), (1920, 960), (3840, 1920)]
     repeat = 3 if args.quick else args.repeat
@@ -89,8 +89,8 @@ def _dirty_float_rows(frames, w, h, floor, cycles):
     rows holds some: the worst case for the band-by-band clean-up): NaN, or half +inf and
     half negative. Error against the exact projection of the frame with them zeroed."""
     import numpy as np
-    from ..core import sh
-    from ..core.engine import SH9Projector
+    from ..core.geometry import sh
+    from ..core.sh9.engine import SH9Projector
     proj = SH9Projector(w, h)
     rows = []
     for label, values in (("exact, 0.1 % NaN samples", (np.nan,)),

@@ -34,9 +34,9 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     from ..bench.response_plot import plot_response
     from ..core.errors import InputError
-    from ..core.response import DEBEVEC_LAMBDA, DEBEVEC_SAMPLES, calibrate
-    from ..core.response_fit import calibrate_best, disagreement
-    from ..live.camerafile import save_camera
+    from ..core.radiometry.response import DEBEVEC_LAMBDA, DEBEVEC_SAMPLES, calibrate
+    from ..core.radiometry.response_fit import calibrate_best, disagreement
+    from ..live.probe.camerafile import save_camera
     from .frames import read_frames
     check_arguments(args)
     print(f"reading {len(args.frames)} frames ...", file=sys.stderr, flush=True)
@@ -96,7 +96,7 @@ def check_frames(images, times, samples) -> None:
     """Frames that cannot give a curve: refused before calibrating."""
     import numpy as np
     from ..core.errors import InputError
-    from ..core.response import check_bracket
+    from ..core.radiometry.response import check_bracket
     images, times, bits = check_bracket(images, times)
     if bits != 8:
         raise InputError("calibration needs 8-bit frames (OpenCV's CalibrateDebevec/"
@@ -120,7 +120,7 @@ def check_frames(images, times, samples) -> None:
 
 
 def CameraResponseSRGB():
-    from ..core.response import CameraResponse
+    from ..core.radiometry.response import CameraResponse
     return CameraResponse.srgb().table
 
 
@@ -132,7 +132,7 @@ def quality_lines(response) -> list[str]:
     lines = ["how well the curve explains its frames (pixels well exposed in two neighbouring "
              "frames: disagreement of g(z)/t, median / 90th percentile):",
              "  codes        curve                sRGB            samples"]
-    from ..core.response_fit import CODE_RANGES
+    from ..core.radiometry.response_fit import CODE_RANGES
     for name, lo, hi in CODE_RANGES:
         c, s = q["curve"][name], q["srgb"][name]
         if not c["pairs"]:

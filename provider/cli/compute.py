@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 import os
 
-from .options import add_engine_arguments
+from .options import add_budget_argument, add_engine_arguments
 
 
 def add_input_arguments(p) -> None:
@@ -17,6 +17,7 @@ def add_input_arguments(p) -> None:
                         "view (8- or 16-bit): merged first (hat-weighted)")
     p.add_argument("--probe", default="default", help="probe name in the message")
     p.add_argument("--pretty", action="store_true", help="indent the JSON")
+    add_budget_argument(p, 0, "the command fails with one line (exit 2)")
     add_engine_arguments(p)
 
 
@@ -27,19 +28,20 @@ def add_arguments(p) -> None:
 def wire_message(args, command: str = "compute") -> dict:
     """The wire message of the command line's input: one image (with its exposure time, if
     given) or a bracket merged first; notes and progress on stderr."""
-    from ..core.bracket import project_bracket
-    from ..core.engine import SH9Projector
-    from ..core.engine_options import precompute_note
-    from ..live.message import coefficient_message
+    from ..core.radiometry.bracket import project_bracket
+    from ..core.sh9.engine import SH9Projector
+    from ..core.options import precompute_note
+    from ..live.wire.message import coefficient_message
     from .feedback import Progress, say
     from .frames import read_frames
     from .options import engine_options
     several = len(args.image) > 1
-    images, times, paths = read_frames(args.image, need_times=several)
+    images, times, paths = read_frames(args.image, need_times=several,
+                                       max_pixels=args.max_frame_pixels)
     options = engine_options(args)
     image = images[0]
     if several:
-        from ..core.response import check_bracket
+        from ..core.radiometry.response import check_bracket
         check_bracket(images, times)  # sizes, pixel types, times: one clear line each
     height, width = image.shape[:2]
     if options.get("ball") == "auto":
@@ -62,7 +64,7 @@ def wire_message(args, command: str = "compute") -> dict:
 
 def locate_ball_note(options: dict, image, command: str) -> dict:
     """``--ball auto``: the engine options with the ball found in ``image``, said on stderr."""
-    from ..core.ball import resolve_ball
+    from ..core.registration.ball import resolve_ball
     from .feedback import say
     options, circle = resolve_ball(options, image)
     say(command, "note", f"ball found at x {circle.x:.1f}, y {circle.y:.1f}, radius "
@@ -73,7 +75,7 @@ def locate_ball_note(options: dict, image, command: str) -> dict:
 
 
 def print_json(message: dict, pretty: bool) -> None:
-    from ..live.message import dumps
+    from ..live.wire.message import dumps
     print(dumps(message) if not pretty else json.dumps(message, indent=2, allow_nan=False))
 
 

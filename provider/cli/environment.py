@@ -7,7 +7,7 @@ import os
 import sys
 
 from ..core.errors import InputError
-from .options import add_engine_arguments
+from .options import add_budget_argument, add_engine_arguments
 
 
 def add_arguments(p) -> None:
@@ -22,18 +22,20 @@ def add_arguments(p) -> None:
                    help="edge of a cube face in texels: a power of two from 8 to 256 "
                         "(default 32)")
     p.add_argument("--probe", default="default", help="probe name in the file's key/value data")
+    add_budget_argument(p, 0, "the command fails with one line (exit 2)")
     add_engine_arguments(p)
 
 
 def run(args) -> int:
-    from ..live.environment import check_size, cube_options, encode_environment
+    from ..live.reflections.cube import check_size, cube_options, encode_environment
     from .feedback import say
     from .frames import read_frames
     from .options import engine_options
     size = check_size(args.size)
-    images, times, paths = read_frames([args.image], need_times=False)
+    images, times, paths = read_frames([args.image], need_times=False,
+                                       max_pixels=args.max_frame_pixels)
     options = engine_options(args)
-    from ..core.environment import EnvironmentProjector
+    from ..core.reflections.environment import EnvironmentProjector
     image = images[0]
     projector = EnvironmentProjector(image.shape[1], image.shape[0], args.projection,
                                      size=size, **cube_options(options))

@@ -2,7 +2,7 @@
 (the same input as ``compute``: images, FRAME@SECONDS brackets, the engine options).
 
 ``--to gltf`` also makes the reflection cube for ``EXT_lights_image_based``'s
-``specularImages`` (its mips at Babylon.js's roughness, :mod:`provider.core.gltf_ibl`), and
+``specularImages`` (its mips at Babylon.js's roughness, :mod:`provider.core.reflections.gltf_ibl`), and
 ``--to arcore`` the 16² cube of ``acquireEnvironmentalHdrCubeMap``; ``--no-cube`` skips it."""
 from __future__ import annotations
 
@@ -14,10 +14,10 @@ CUBE_FORMATS = {"gltf": 32, "arcore": 16}
 
 
 def add_arguments(p) -> None:
-    from ..core.conventions import FORMATS
+    from ..core.conventions.formats import FORMATS
     p.add_argument("--to", required=True, choices=FORMATS, metavar="FORMAT",
                    help="target layout: " + ", ".join(FORMATS))
-    g = p.add_argument_group("where the targets' own sources disagree (see README)")
+    g = p.add_argument_group("where the targets' own sources disagree (docs/engines.md)")
     g.add_argument("--babylon-handedness", choices=["left", "right"], default=None,
                    help="gltf: the Babylon.js scene's handedness (default left, Babylon's "
                         "default); the two differ by a 180° turn about +Y")
@@ -35,7 +35,7 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     from ..core.errors import InputError
-    from ..live.export import export_message
+    from ..live.wire.export import export_message
     options = {}
     if args.babylon_handedness is not None:
         if args.to != "gltf":
@@ -58,15 +58,16 @@ def cube_mips(args, size: int) -> list:
     """The reflection cube of the command line's input (a bracket: its median exposure, as
     ``serve --environment`` does), with the same engine options as the coefficients, so the
     two carry the same units and rotation; for gltf prefiltered at Babylon's roughness."""
-    from ..core.environment import EnvironmentProjector
-    from ..core.gltf_ibl import babylon_roughness
-    from ..live.environment import check_size, cube_options
+    from ..core.reflections.environment import EnvironmentProjector
+    from ..core.reflections.gltf_ibl import babylon_roughness
+    from ..live.reflections.cube import check_size, cube_options
     from .compute import locate_ball_note
     from .feedback import say
     from .frames import read_frames
     from .options import engine_options
     size = check_size(size)
-    images, times, _ = read_frames(args.image, need_times=len(args.image) > 1)
+    images, times, _ = read_frames(args.image, need_times=len(args.image) > 1,
+                                   max_pixels=args.max_frame_pixels)
     k = sorted(range(len(images)), key=lambda i: times[i] or 0.0)[len(images) // 2]
     options = engine_options(args)
     if options.get("ball") == "auto":

@@ -10,7 +10,7 @@ import os
 import re
 
 from ..core.errors import InputError
-from ..core.response import parse_seconds
+from ..core.radiometry.response import parse_seconds
 
 _TIMEISH = re.compile(r"[\s\d.+\-eE]*(/[\s\d.+\-eE]*)?")
 
@@ -30,10 +30,11 @@ def parse_frame(text: str) -> tuple[str, float | None]:
         raise InputError(f"{text}: {exc}") from None
 
 
-def read_frames(texts, *, need_times: bool):
+def read_frames(texts, *, need_times: bool, max_pixels: int = 0):
     """Images and times of ``FRAME@SECONDS`` arguments; with ``need_times`` every frame
-    must have its time (merging, calibrating)."""
-    from ..core.images import read_image
+    must have its time (merging, calibrating). ``max_pixels`` (pixels, 0: none): an image
+    whose header declares more is refused (InputError) before it is decoded."""
+    from ..core.radiometry.images import read_image
     items = [parse_frame(t) for t in texts]
     if need_times:
         missing = [p for p, t in items if t is None]
@@ -44,4 +45,5 @@ def read_frames(texts, *, need_times: bool):
         if "@" in p and not os.path.exists(p):
             raise InputError(f"no such file: {p} (an exposure time after '@' is a decimal or "
                              "a fraction such as 1/60)")
-    return [read_image(p) for p, _ in items], [t for _, t in items], [p for p, _ in items]
+    return ([read_image(p, max_pixels) for p, _ in items], [t for _, t in items],
+            [p for p, _ in items])

@@ -12,9 +12,9 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     import json
-    from ..core.ball import locate_ball
+    from ..core.registration.ball import locate_ball
     from ..core.errors import InputError
-    from ..core.images import read_image
+    from ..core.radiometry.images import read_image
     from .feedback import say
     if not 0 < args.min_radius < 0.55:
         raise InputError(f"--min-radius {args.min_radius:g}: a fraction in (0, 0.55)")

@@ -36,8 +36,8 @@ def png_with_dpi(gray, dpi: float) -> bytes:
 
 def run(args) -> int:
     import sys
-    from ..core.marker_detect import parse_marker
-    from ..core.marker_print import printable_marker, printed_side_m
+    from ..core.registration.marker_detect import parse_marker
+    from ..core.registration.marker_print import printable_marker, printed_side_m
     if not args.output.lower().endswith(".png"):
         raise InputError(f"-o {args.output}: write a .png (it carries its print resolution)")
     spec = parse_marker(args.marker)

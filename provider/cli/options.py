@@ -62,6 +62,26 @@ def finite_float(text: str) -> float:
     return v
 
 
+def pixel_budget(text: str) -> int:
+    """An argparse type: a number of pixels (``33554432``; 0: no budget) or ``WxH``."""
+    m = re.fullmatch(r"\s*(\d+)\s*(?:[xX×]\s*(\d+)\s*)?", text)
+    if not m:
+        raise argparse.ArgumentTypeError("expected a number of pixels (0: no budget) or "
+                                         f"WIDTHxHEIGHT, e.g. 8192x4096, got {text!r}")
+    return int(m.group(1)) * (int(m.group(2)) if m.group(2) else 1)
+
+
+def add_budget_argument(g, default: int, what: str) -> None:
+    """``--max-frame-pixels`` (``default`` pixels; ``what``: what a refusal does)."""
+    shown = "0: none" if not default else f"{default}"
+    if default == 8192 * 4096:
+        shown = "8192x4096 = 33554432"
+    g.add_argument("--max-frame-pixels", type=pixel_budget, default=default, metavar="N|WxH",
+                   help="refuse an image with more pixels than this, from its header, before "
+                        "decoding it (JPEG, PNG, OpenEXR, .hdr, TIFF, BMP, WebP, PNM): "
+                        f"{what}. 0: no budget (default {shown})")
+
+
 def add_engine_arguments(p: argparse.ArgumentParser) -> None:
     """Projection and engine options shared by `compute`, `serve` and `bench`."""
     g = p.add_argument_group("projection and engine options")
@@ -128,14 +148,14 @@ def fisheye_calibration(path: str) -> dict:
 
 
 def engine_options(args) -> dict:
-    """Translate parsed arguments into :class:`~provider.core.engine.SH9Projector` options."""
-    from ..core.engine_options import check_options
-    from ..core.sh import rotation_from_euler
+    """Translate parsed arguments into :class:`~provider.core.sh9.engine.SH9Projector` options."""
+    from ..core.options import check_options
+    from ..core.geometry.sh import rotation_from_euler
     opts = dict(encoding=args.encoding, exposure=args.exposure, downsample=args.downsample,
                 order=args.order if args.order == "auto" else int(args.order),
                 order_budget=args.order_budget, dering=args.dering)
     if args.max_lights is not None:     # the same rule whatever else is given
-        from ..core.engine_options import MAX_LIGHTS
+        from ..core.options import MAX_LIGHTS
         if not 1 <= args.max_lights <= MAX_LIGHTS:
             raise InputError(f"--max-lights {args.max_lights}: out of range (1-{MAX_LIGHTS})")
         if args.lights == "off":
@@ -155,7 +175,7 @@ def engine_options(args) -> dict:
     if not 0 <= args.albedo <= 1:
         raise InputError(f"--albedo {args.albedo:g}: must be in [0, 1]")
     if getattr(args, "camera", None):
-        from ..live.camerafile import load_camera
+        from ..live.probe.camerafile import load_camera
         if args.encoding != "auto":
             raise InputError(f"--encoding {args.encoding} and --camera both say how to decode "
                              "8/16-bit frames: give one")

@@ -45,7 +45,7 @@ def add_probe_arguments(g) -> None:
 
 def probe_options(args) -> dict:
     """The projection options of ``--projection mirrorball`` or ``angular``; ``ball`` may be
-    "auto" (resolved on a frame by :func:`provider.core.ball.resolve_ball`)."""
+    "auto" (resolved on a frame by :func:`provider.core.registration.ball.resolve_ball`)."""
     opts: dict = {}
     if args.ball == "auto":
         opts["ball"] = "auto"

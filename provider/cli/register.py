@@ -81,11 +81,11 @@ def projection_options(args) -> dict:
 
 def measure(args, command: str = "register"):
     """The marker's pose (averaged over the images that show it) and the images' names."""
-    from ..core.images import read_image
-    from ..core.marker_detect import parse_marker
-    from ..core.registration import (MarkerNotFound, average_poses, find_marker, levelled,
-                                     levelling_rotation)
-    from ..core.xmp_pose import read_pose
+    from ..core.radiometry.images import read_image
+    from ..core.registration.marker_detect import parse_marker
+    from ..core.registration.pose import (MarkerNotFound, average_poses, find_marker, levelled,
+                                          levelling_rotation)
+    from ..core.registration.xmp_pose import read_pose
     from .feedback import say
     spec = parse_marker(args.marker)
     if not args.marker_size > 0:
@@ -94,7 +94,7 @@ def measure(args, command: str = "register"):
     poses, missing = [], []
     for name in args.image:
         if name.startswith("theta://"):
-            from ..live.registration import theta_still
+            from ..live.probe.registration import theta_still
             say(command, "note", f"taking a full-resolution still with {name}")
             path = theta_still(name)
         else:
@@ -133,14 +133,14 @@ def add_serve_arguments(parser) -> None:
 
 
 def registrar_for(ns, name: str):
-    """The probe's :class:`~provider.live.registration.Registrar`, or None without --marker."""
+    """The probe's :class:`~provider.live.probe.registration.Registrar`, or None without --marker."""
     if ns.marker is None:
         if ns.marker_size is not None:
             raise InputError("--marker-size needs --marker SPEC")
         return None
     if ns.marker_size is None:
         raise InputError("--marker needs --marker-size METRES (the printed side)")
-    from ..live.registration import Registrar
+    from ..live.probe.registration import Registrar
     from .options import engine_options
     opts = {k: v for k, v in engine_options(ns).items()
             if k in ("fov_deg", "center", "radius", "K", "D")}

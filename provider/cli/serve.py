@@ -10,7 +10,8 @@ import re
 import shlex
 
 from ..core.errors import InputError
-from .options import Parser, add_engine_arguments, engine_options
+from ..core.radiometry.image_size import DEFAULT_MAX_PIXELS
+from .options import Parser, add_budget_argument, add_engine_arguments, engine_options
 
 EPILOG = """\
 sources (--source SPEC, or --probe NAME=SPEC, repeatable):
@@ -48,7 +49,7 @@ class _ProbeArgsParser(Parser):
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The ``shlight serve`` options (the engine options are shared with compute and bench)."""
-    from ..live.server import DEFAULT_PORT
+    from ..live.server.service import DEFAULT_PORT
     parser.description = "Serve live SH9 lighting over WebSocket, with a dashboard on HTTP."
     parser.epilog = EPILOG
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
@@ -118,7 +119,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _add_source_arguments(g) -> None:
     g.add_argument("--fps", type=float, default=None,
-                   help="pace of demo/file sources, polling rate of snapshot URLs")
+                   help="pace of demo/file sources, polling rate of snapshot URLs, most "
+                        "messages a second a ws:// relay takes (default 30)")
     g.add_argument("--no-loop", action="store_true", help="play videos and sequences once")
     g.add_argument("--source-timeout", type=float, default=5.0,
                    help="connect/read timeout of network sources; twice this without a "
@@ -138,6 +140,9 @@ def _add_source_arguments(g) -> None:
                    help="cycle the exposure over these EV offsets around auto exposure and "
                         "merge the newest frame of each, e.g. -4,-2,0,2,4 (alone: -9,-6,-3,0,3, "
                         "measured best; picamera2, UVC cameras with --exposure-unit, theta://)")
+    add_budget_argument(g, DEFAULT_MAX_PIXELS,
+                        "one log line, counted in /healthz and /metrics; a file is not read "
+                        "again until it changes")
     g.add_argument("--exposure-unit", choices=["100us", "log2s", "s"], default=None,
                    help="UVC cameras: the unit of the driver's CAP_PROP_EXPOSURE (V4L2: "
                         "100us; DirectShow/MSMF: log2s). Without it the exposure OpenCV "
@@ -173,7 +178,7 @@ def _add_environment_arguments(g) -> None:
 
 
 def _environment_size(text: str) -> int:
-    from ..live.environment import check_size
+    from ..live.reflections.cube import check_size
     try:
         return check_size(int(text))
     except (InputError, ValueError):
@@ -181,7 +186,7 @@ def _environment_size(text: str) -> int:
 
 
 def _environment_hz(text: str) -> float:
-    from ..live.environment import check_hz
+    from ..live.reflections.cube import check_hz
     try:
         return check_hz(float(text))
     except (InputError, ValueError):
@@ -189,7 +194,7 @@ def _environment_hz(text: str) -> float:
 
 
 def _offsets(text: str) -> tuple[float, ...]:
-    from ..core.bracket import check_offsets
+    from ..core.radiometry.bracket import check_offsets
     try:
         return check_offsets(text.replace("\u2212", "-").split(","))
     except (InputError, ValueError) as exc:
@@ -213,7 +218,7 @@ def _probe_parser() -> argparse.ArgumentParser:
 
 
 def _split_assignment(text: str, what: str) -> tuple[str, str]:
-    from ..live.server import PROBE_NAME
+    from ..live.server.service import PROBE_NAME
     name, sep, value = text.partition("=")
     name = name.strip()
     if not sep or not value.strip():
@@ -241,13 +246,13 @@ def _check_numbers(ns, where: str = "") -> None:
 
 
 def build_server(args):
-    """A :class:`~provider.live.server.ProviderServer` from parsed ``shlight serve``
+    """A :class:`~provider.live.server.service.ProviderServer` from parsed ``shlight serve``
     arguments (not started)."""
-    from ..live.environment import EnvironmentSettings
-    from ..live.probe import Probe, TemporalSettings
-    from ..live.server import ProviderServer, ServeSettings
+    from ..live.reflections.cube import EnvironmentSettings
+    from ..live.probe.pipeline import Probe, TemporalSettings
+    from ..live.server.service import ProviderServer, ServeSettings
     from ..live.sources import SourceOptions, parse_source
-    from ..live.tls import server_context
+    from ..live.server.tls import server_context
     named = [_split_assignment(t, "--probe") for t in args.probe]
     if args.source is not None or not named:
         named.insert(0, ("default", args.source or "demo"))
@@ -292,7 +297,8 @@ def build_server(args):
         options = SourceOptions(fps=ns.fps, loop=not ns.no_loop, timeout=ns.source_timeout,
                                 capture_size=ns.capture_size, fourcc=ns.capture_fourcc,
                                 theta_api=ns.theta_api, bracket=ns.bracket,
-                                exposure_unit=ns.exposure_unit, query_exposure=bool(ns.camera))
+                                exposure_unit=ns.exposure_unit, query_exposure=bool(ns.camera),
+                                max_pixels=ns.max_frame_pixels)
         spec = parse_source(text, options)
         _check_radiometry(name, spec, ns)
         temporal = TemporalSettings(smoothing=ns.smoothing, snap=ns.snap,
@@ -334,11 +340,11 @@ def run(args) -> int:
     logging.basicConfig(level=level, format="%(asctime)s %(levelname)-7s %(message)s",
                         datefmt="%H:%M:%S")
     logging.getLogger("shlight").setLevel(level)
-    from ..live.limits import install_repeat_filter
+    from ..live.server.limits import install_repeat_filter
     install_repeat_filter()     # identical warnings: once per 10 s, with a count
     if level > logging.DEBUG:
         logging.getLogger("websockets").setLevel(logging.WARNING)
-    from ..live.server import serve_until_stopped
+    from ..live.server.lifecycle import serve_until_stopped
     from .threads import limit_opencv_threads
     limit_opencv_threads(1)     # why: provider/cli/threads.py
     server = build_server(args)

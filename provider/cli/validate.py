@@ -58,7 +58,7 @@ def check_arguments(args) -> None:
         if not os.path.isdir(folder):
             raise InputError(f"--write-vectors {args.write_vectors}: no folder {folder}")
     if args.panoramas:          # the user's own files: unreadable ones refused before work
-        from ..core.images import read_image
+        from ..core.radiometry.images import read_image
         for path in args.panoramas:
             read_image(path)
     if args.vectors:

@@ -1,13 +1,21 @@
-"""The maths: SH basis, projections, the engine, image reading.
+"""The maths: frames in, lighting out. No sockets, threads, asyncio or wire message here.
 
-Frames in, coefficients out. Nothing here knows about sockets, threads, asyncio or the
-wire message; the live service (:mod:`provider.live`) and the tools (:mod:`provider.verify`,
-:mod:`provider.bench`) are built on top of it, never the other way round.
+One room per concern (docs/architecture.md); the import rules are import-linter contracts
+in pyproject.toml, checked by the test command. From the bottom up:
 
-* :mod:`.sh`: the real SH basis, irradiance, the 4×4 matrices, rotation, windowing;
-* :mod:`.projections`: per-pixel directions and exact solid angles, one class per projection;
-* :mod:`.engine`: :class:`SH9Projector` (precompute once, project each frame) and
-  :func:`compute_sh9`;
-* :mod:`.images`: reading image files into the engine's frame contract;
-* :mod:`.errors`: :class:`InputError`.
+* :mod:`.errors`: :class:`~provider.core.errors.InputError`, the one error every layer
+  shares; :mod:`.options`: the options every product takes, checked before any frame;
+* :mod:`.geometry`: the SH basis and its maths, projections (per-pixel directions and exact
+  solid angles), probe projections, cube-map geometry, pinhole views of a sphere;
+* :mod:`.radiometry`: from code values to light: image reading, the decode (transfer function
+  or camera response as a table, exposure, float clean-up), response fitting, brackets;
+* the products, each built on geometry and radiometry: :mod:`.lights` (directional lights),
+  :mod:`.reflections` (the radiance cube and its GGX mips, glTF IBL images) and :mod:`.sh9`
+  (the SH9 engine, which hands its decoded frame to the lights extractor);
+* above them: :mod:`.registration` (markers, XMP pose, ball finding) and :mod:`.conventions`
+  (our SH9 and cube in every consumer's convention).
+
+Geometry and radiometry know nothing of each other; lights and reflections know nothing of
+each other; nothing here imports :mod:`provider.live`, :mod:`provider.verify`,
+:mod:`provider.bench` or :mod:`provider.cli`.
 """

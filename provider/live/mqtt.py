@@ -12,8 +12,9 @@ The broker never delays WebSocket clients: the client library (paho-mqtt) does a
 network I/O in its own thread; :meth:`MqttPublisher.offer`, called on the server's event
 loop for each message, only stores the probe's newest message and hands it to paho when
 fewer than :attr:`MqttPublisher.MAX_UNWRITTEN` messages are still waiting for the socket.
-A slow broker therefore gets the newest message of each probe when it catches up, never a
-backlog; a broker that is down gets nothing, and paho reconnects with backoff. On every
+A slow broker therefore gets the newest message of each probe when it catches up (beyond
+what its own socket buffers took before it stalled: docs/mqtt.md); a broker that is down
+gets nothing, and paho reconnects with backoff. On every
 (re)connection the latest message of each probe is published again, so that a restarted
 broker (which may have lost its retained messages) has the current lighting at once.
 """

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import sh
+from ..core.geometry import sh
 from .export_vectors import DESCRIPTION as EXPORTS_DESCRIPTION, export_vectors
 from .render import SHADER_DIR
 
@@ -88,7 +88,7 @@ def random_coefficients(seed: int = RANDOM_SEED) -> np.ndarray:
 
 def panorama_coefficients(name: str, hdri_dir: Path = HDRI_DIR) -> np.ndarray:
     """Exact (un-windowed) SH9 of a bundled panorama, through the product's engine."""
-    from ..core.engine import compute_sh9
+    from ..core.sh9.engine import compute_sh9
     return compute_sh9(Path(hdri_dir) / f"{name}.exr", error_estimate=False).coefficients
 
 
@@ -127,7 +127,7 @@ def lights_vector_case(name: str, ambient, directions, irradiance) -> dict:
 def panorama_lights(name: str, hdri_dir: Path = HDRI_DIR):
     """(ambient (9, 3), directions (k, 3), irradiance (k, 3)) of a bundled panorama from the
     engine with ``lights="auto"``."""
-    from ..core.engine import compute_sh9
+    from ..core.sh9.engine import compute_sh9
     r = compute_sh9(Path(hdri_dir) / f"{name}.exr", error_estimate=False, lights="auto")
     return (r.ambient, np.array([light.direction for light in r.lights]).reshape(-1, 3),
             np.array([light.irradiance for light in r.lights]).reshape(-1, 3))

@@ -174,7 +174,7 @@ def cube_from_function(function, size: int, levels: int | None = None) -> list[n
 def cube_from_equirect(image: np.ndarray, size: int = 32) -> list[np.ndarray]:
     """The provider's cube of an equirect panorama (``compute_environment``: mip 0 and the
     GGX-prefiltered mips), as float32 arrays."""
-    from ..core.environment import compute_environment
+    from ..core.reflections.environment import compute_environment
     return [np.asarray(m, np.float32) for m in compute_environment(image, size=size).mips]
 
 

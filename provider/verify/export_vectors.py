@@ -9,7 +9,7 @@ a real panorama. Per case::
      light comes from), "normals" (3N, unit, rh-y-up: ±X, ±Y, ±Z first),
      "white" (3N: what a white Lambertian surface must show, E/π, with the lights exact),
      "white_sh9" (3N, light cases: E/π of the SH9 of everything, the lights included in it),
-     and one object per format: what provider.core.conventions.export returns, without its
+     and one object per format: what provider.core.conventions.formats.export returns, without its
      prose (layout, usage, description, sources and the *_note fields, the same in every
      case: `shlight export --to FORMAT` prints them)}
 
@@ -24,7 +24,8 @@ import math
 
 import numpy as np
 
-from ..core import conventions, sh
+from ..core.conventions import formats as conventions
+from ..core.geometry import sh
 
 ONE_SIDED_COLOUR = np.array([1.0, 0.5, 0.25])
 AXES = {"+x": np.array([1.0, 0.0, 0.0]), "+y": np.array([0.0, 1.0, 0.0]),
@@ -35,7 +36,7 @@ OBLIQUE_LIGHT = (np.array([1.0, 2.0, -2.0]) / 3.0, np.array([3.0, 2.0, 1.0]))
 PROSE = ("basis_note", "frame_note", "units_note", "layout", "usage", "description", "sources")
 
 DESCRIPTION = (
-    "Golden vectors of `shlight export --to FORMAT` (provider/core/conventions.py; written by "
+    "Golden vectors of `shlight export --to FORMAT` (provider/core/conventions/formats.py; written by "
     "provider/verify/export_vectors.py with the contract vectors). Per case: coefficients in "
     "(27, wire order, radiance, rh-y-up) with lights (docs/contract.md section 10) where given; "
     "'white' = E/pi a white Lambertian surface must show at 'normals' (rh-y-up), the lights "

@@ -3,7 +3,7 @@
 Each shader path renders E(n) for a dense set of normals, one fragment per normal (the normal
 is read from a float32 texture at the fragment's pixel), into two float32 render targets: the
 clamped ``shIrradiance``/``SHIrradiance`` and the unclamped function. The result is compared
-with ñᵀMñ evaluated in float64 on the CPU (provider.core.sh) for the same matrices.
+with ñᵀMñ evaluated in float64 on the CPU (provider.core.geometry.sh) for the same matrices.
 
 * GLSL path: shaders/sh9_irradiance.glsl pasted after ``#version 330 core``.
 * HLSL path: a pixel shader that #includes shaders/sh9_irradiance.hlsl, compiled by
@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import sh
+from ..core.geometry import sh
 from . import contract
 from ..core.errors import InputError
 from .render import (IRRADIANCE_UNIFORMS, NoOpenGL, create_context, set_irradiance_matrices,
@@ -289,8 +289,8 @@ def synthetic_cases(normals: np.ndarray) -> list[ShaderCase]:
 def panorama_cases(paths, normals: np.ndarray) -> list[ShaderCase]:
     """The un-windowed SH9 of each equirect panorama, and a rotated probe of the first one
     whose width divides by 4 (yaw 90°: R̃MR̃ᵀ against the re-projected, column-rolled image)."""
-    from ..core.engine import compute_sh9
-    from ..core.images import read_image
+    from ..core.sh9.engine import compute_sh9
+    from ..core.radiometry.images import read_image
     cases, rotated = [], None
     for path in paths:
         image = read_image(path)
@@ -317,7 +317,7 @@ def yaw90_rolled(image: np.ndarray) -> np.ndarray:
 
 
 def rotation_case(name: str, image: np.ndarray, matrices, normals) -> ShaderCase:
-    from ..core.engine import compute_sh9
+    from ..core.sh9.engine import compute_sh9
     R = sh.rotation_from_euler(90, 0, 0)
     rolled = compute_sh9(yaw90_rolled(image), error_estimate=False).matrices
     return ShaderCase(f"rotated_yaw90:{name}", sh.rotate_matrices(matrices, R),

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import sh
+from ..core.geometry import sh
 from . import contract, cubemap
 from .harness import VERTEX_SHADER
 from .render import look_at, set_irradiance_matrices, shader_source
@@ -426,8 +426,8 @@ def synthetic_cases(size: int = 32) -> list[IblCase]:
 def panorama_cases(paths, size: int = 32) -> list[IblCase]:
     """Each panorama's cube (:func:`cubemap.cube_from_equirect`, RGBA16F as the wire sends it)
     and its SH9."""
-    from ..core.engine import compute_sh9
-    from ..core.images import read_image
+    from ..core.sh9.engine import compute_sh9
+    from ..core.radiometry.images import read_image
     cases = []
     for path in paths:
         image = read_image(path)

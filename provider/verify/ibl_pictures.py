@@ -16,8 +16,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..core.engine import compute_sh9
-from ..core.images import read_image
+from ..core.sh9.engine import compute_sh9
+from ..core.radiometry.images import read_image
 from . import cubemap, ibl
 from .pictures import _display, _label
 
@@ -32,7 +32,7 @@ PREFERRED = ("bridge", "venice", "lab")
 
 def cube_description() -> str:
     try:
-        from ..core.environment import compute_environment  # noqa: F401
+        from ..core.reflections.environment import compute_environment  # noqa: F401
     except ImportError:
         return "nearest mip 0 + box mips (stand-in)"
     return "compute_environment, GGX-prefiltered"

@@ -23,18 +23,17 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..core import sh
-from ..core.engine import compute_sh9
-from ..core.images import read_image
+from ..core.geometry import sh
+from ..core.sh9.engine import compute_sh9
+from ..core.radiometry.images import read_image
 from . import contract
-from .harness import (FLOAT32_TOLERANCE, HLSL_GLOBALS, Comparison,
-                      DemoCheck, DISPLAY_TOLERANCE, IrradianceEvaluator, glsl_evaluator,
-                      hlsl_evaluator, judge)
+from .harness import (FLOAT32_TOLERANCE, HLSL_GLOBALS, Comparison, DemoCheck, DISPLAY_TOLERANCE,
+                      IrradianceEvaluator, glsl_evaluator, hlsl_evaluator, judge)
 from .pictures import (ObjectRenderer, _colour_bar, _display, _heat, _label,
                        brute_force_irradiance, panorama_flux)
 from .render import load_program, set_uniform, shader_source, srgb_encode, tone_map
 
-#: Light slots in the shaders (SH_MAX_LIGHTS; provider.core.engine.MAX_LIGHTS).
+#: Light slots in the shaders (SH_MAX_LIGHTS; provider.core.sh9.engine.MAX_LIGHTS).
 MAX_LIGHTS = 4
 
 GLSL_EVALUATOR = glsl_evaluator("shIrradianceWithLights")

@@ -15,10 +15,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..core import sh
-from ..core.engine import compute_sh9
-from ..core.images import read_image
-from ..core.projections import Equirect
+from ..core.geometry import sh
+from ..core.sh9.engine import compute_sh9
+from ..core.radiometry.images import read_image
+from ..core.geometry.projections import Equirect
 from .render import (lit_diffuse_program, look_at, mesh_vertex_array, perspective,
                      set_irradiance_matrices, set_uniform, shader_source, srgb_encode, tone_map,
                      torus, uv_sphere, write_matrix, expand_includes)

@@ -1,4 +1,4 @@
-// The `unity` export of `shlight export` (provider/core/conventions.py) checked in C# against
+// The `unity` export of `shlight export` (provider/core/conventions/formats.py) checked in C# against
 // the golden vectors ("exports" in shaders/contract_vectors.json):
 //   * the Unity package's own conversion (Sh9Math: coefficients -> SphericalHarmonicsL2, and
 //     matrices -> SphericalHarmonicsL2) gives the same numbers as the Python export;

@@ -2,7 +2,7 @@
 specifications that picks one.
 
 A *source* is a small blocking object (:class:`~.base.Source`: ``open``, ``read`` → a
-:class:`~.base.Frame`, ``close``) run by the capture thread (:mod:`provider.live.capture`).
+:class:`~.base.Frame`, ``close``) run by the capture thread (:mod:`provider.live.probe.capture`).
 Families, one module each: :mod:`.demo` (the built-in scene), :mod:`.files` (an image, an
 image sequence), :mod:`.opencv` (video files, cameras, RTSP), :mod:`.http` (MJPEG over
 HTTP), :mod:`.theta` (a Ricoh Theta over Wi-Fi), :mod:`.relay` (another ``shlight
@@ -27,7 +27,9 @@ Source specifications (``--source SPEC`` or ``--probe NAME=SPEC``)::
     ws[s]://HOST:PORT/[?probe=NAME&token=T]
                                 relay: the coefficients of another ``shlight serve``
 
-Only the standard library, OpenCV and ``websockets`` are used.
+Only the standard library, OpenCV and ``websockets`` are used. May import:
+:mod:`provider.core` (errors, image reading; the relay: the engine's result types). Nothing
+else of the live service.
 """
 from __future__ import annotations
 
@@ -39,7 +41,7 @@ from dataclasses import dataclass
 import cv2
 
 from ...core.errors import InputError
-from ...core.images import IMAGE_EXTENSIONS, read_image
+from ...core.radiometry.images import IMAGE_EXTENSIONS, read_image
 from .base import Frame, Source, SourceError, SourceFinished, SourceOptions, redact  # noqa: F401
 from .files import SequenceSource
 from .opencv import VIDEO_EXTENSIONS
@@ -62,9 +64,10 @@ class SourceSpec:
             return DemoSource(fps=o.fps or 30.0)
         if self.kind == "image":
             from .files import ImageSource
-            return ImageSource(t, fps=o.fps or 2.0)
+            return ImageSource(t, fps=o.fps or 2.0, max_pixels=o.max_pixels)
         if self.kind == "sequence":
-            return SequenceSource(t, fps=o.fps or 1.0, loop=o.loop)
+            return SequenceSource(t, fps=o.fps or 1.0, loop=o.loop,
+                                  max_pixels=o.max_pixels)
         if self.kind == "video":
             from .opencv import VideoFileSource
             return VideoFileSource(t, fps=o.fps, loop=o.loop)
@@ -93,7 +96,8 @@ class SourceSpec:
             return self.options.fps or defaults[self.kind]
         if self.kind == "mjpeg":
             return None
-        return self.options.fps if self.kind == "video" else None
+        # a relay paced below a frame a second must not look hung between two frames
+        return self.options.fps if self.kind in ("video", "relay") else None
 
 
 def _check_host(url: str, scheme: str) -> None:
@@ -158,7 +162,9 @@ def parse_source(spec: str, options: SourceOptions | None = None) -> SourceSpec:
         raise InputError(f"no such file or source: {s} (sources: demo, a file, a camera "
                          f"index, http://, rtsp://, theta://, ws://; see shlight serve --help)")
     if low.endswith(IMAGE_EXTENSIONS):
-        read_image(s)  # refuses an unreadable image now, with the reader's message
+        # refuses an unreadable image (or one over the pixel budget, from its header)
+        # now, with the reader's message
+        read_image(s, o.max_pixels)
         return SourceSpec("image", s, o, f"image {s}")
     if os.path.isfile(s):
         # A file that is neither an image nor a video would be retried forever: refuse it

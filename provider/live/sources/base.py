@@ -5,11 +5,12 @@ A *source* is a small blocking object with three methods: :meth:`Source.open` co
 :meth:`Source.read` blocks until the next :class:`Frame` arrives and returns it, and
 :meth:`Source.close` lets go. A source raises :class:`SourceError` when it loses its
 camera or stream, and :class:`SourceFinished` at the end of a video that does not loop.
-The capture thread (:mod:`provider.live.capture`) runs it; one module per family of
+The capture thread (:mod:`provider.live.probe.capture`) runs it; one module per family of
 sources implements it.
 """
 from __future__ import annotations
 
+import re
 import threading
 import time
 import urllib.parse
@@ -46,7 +47,7 @@ class Frame:
     ``image`` is an (H, W, 3) RGB array (uint8, uint16 or float: the engine's frame
     contract). MJPEG sources deliver ``jpeg`` bytes instead and the consumer decodes only
     the frames it uses (:meth:`decoded`), so that frames skipped under load cost nothing.
-    A relay delivers ready-made ``lighting`` (an :class:`~provider.core.engine.SH9Result`).
+    A relay delivers ready-made ``lighting`` (an :class:`~provider.core.sh9.engine.SH9Result`).
     ``time`` is the unix time of capture (arrival, for network streams). ``info``: what
     the source knows of the frame, e.g. ``exposure_s``, ``gain``, and for a bracket
     ``slot`` and ``bracket`` (see :mod:`.exposure`).
@@ -58,10 +59,28 @@ class Frame:
     lighting: object = None
     info: dict = field(default_factory=dict)
 
-    def decoded(self) -> np.ndarray:
-        """The RGB image, decoding ``jpeg`` on first use; :class:`InputError` if corrupt."""
+    def decoded(self, max_pixels: int = 0) -> np.ndarray:
+        """The RGB image, decoding ``jpeg`` on first use.
+
+        Parameters
+        ----------
+        max_pixels : int
+            Pixel budget (width × height, pixels; 0: none): a frame whose header declares
+            more is refused before decoding; a frame whose size only its decoder (or its
+            source) knows is checked once decoded.
+
+        Raises
+        ------
+        InputError
+            A corrupt frame; :class:`~provider.core.radiometry.image_size.FrameTooLarge`
+            past the budget.
+        """
+        from ...core.radiometry.image_size import check_pixels, header_size
         if self.image is None and self.jpeg is not None:
-            from ...core.images import check_complete
+            from ...core.radiometry.images import check_complete
+            size = header_size(self.jpeg)
+            if size is not None:     # refused from its header: nothing decoded
+                check_pixels(*size, max_pixels)
             # a frame cut short is refused, not decoded half-way (the rest grey)
             check_complete(f"JPEG frame ({len(self.jpeg)} bytes)", self.jpeg)
             try:
@@ -70,7 +89,13 @@ class Frame:
                 bgr = None
             if bgr is None:
                 raise InputError(f"corrupt JPEG frame ({len(self.jpeg)} bytes)")
+            if size is None:         # a size only the decoder read: checked now
+                check_pixels(bgr.shape[1], bgr.shape[0], max_pixels, decoded=True)
             self.image = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+        elif self.image is not None and self.jpeg is None and self.image.ndim >= 2:
+            # decoded by its source (a camera, a video): too late to save the decoding,
+            # not too late to save the projection
+            check_pixels(self.image.shape[1], self.image.shape[0], max_pixels, decoded=True)
         if self.image is None:
             raise InputError("frame has no image")
         return self.image
@@ -88,6 +113,8 @@ class SourceOptions:
     theta_api: str = "auto"           # "auto", "2.0" or "2.1"
     bracket: tuple | None = None      # EV offsets to cycle (sources that set exposure)
     exposure_unit: str | None = None  # UVC: what CAP_PROP_EXPOSURE means (100us, log2s, s)
+    max_pixels: int = 0               # --max-frame-pixels: frames with more pixels are
+                                      # refused from their header (0: no budget)
     query_exposure: bool = False      # ask the camera for its exposure where that costs a
                                       # command (the Theta's getOptions); see .exposure
 
@@ -149,6 +176,32 @@ def split_credentials(url: str) -> tuple[str, str | None, str | None]:
     clean = urllib.parse.urlunsplit((parts.scheme, netloc, parts.path, parts.query, parts.fragment))
     return (clean, urllib.parse.unquote(parts.username),
             urllib.parse.unquote(parts.password or ""))
+
+
+#: Control characters (C0, DEL, C1), line and paragraph separators, bidi overrides.
+_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029\u200e\u200f\u202a-\u202e"
+                          "\u2066-\u2069]+")
+
+
+def printable(text: str, limit: int = 200) -> str:
+    """Text from the other side (a camera's error page, its error message), fit for one
+    log line.
+
+    Parameters
+    ----------
+    text : str
+        What the camera said (whoever answers for the camera writes it).
+    limit : int
+        Most characters returned.
+
+    Returns
+    -------
+    str
+        ``text`` with control characters, newlines and bidi overrides turned into single
+        spaces, cut to ``limit`` characters (the last one "…" when cut).
+    """
+    text = " ".join(_UNPRINTABLE.sub(" ", str(text)).split())
+    return text if len(text) <= limit else text[:limit - 1].rstrip() + "…"
 
 
 def redact(url: str) -> str:

@@ -5,13 +5,14 @@ Only the standard library: a stalled stream times out on its socket instead of h
 """
 from __future__ import annotations
 
+import html
 import re
 import time
 import urllib.error
 import urllib.request
 
-from .base import (USER_AGENT, Frame, Pacer, Source, SourceError, SourceOptions, redact,
-                   split_credentials)
+from .base import (USER_AGENT, Frame, Pacer, Source, SourceError, SourceOptions, printable,
+                   redact, split_credentials)
 
 _CONTENT_LENGTH = re.compile(rb"(?im)^content-length[ \t]*:[ \t]*(\d+)[ \t]*\r?$")
 _SOI, _EOI = b"\xff\xd8\xff", b"\xff\xd9"
@@ -79,12 +80,22 @@ def http_opener(url: str, user: str | None, password: str | None):
     return urllib.request.build_opener(*handlers)
 
 
-def _http_error_text(exc: urllib.error.HTTPError) -> str:
+_TAG = re.compile(r"<(script|style)\b.*?</\1\s*>|<[^>]*>", re.S | re.I)
+
+
+def _http_error_text(exc: urllib.error.HTTPError, limit: int = 200) -> str:
+    """``HTTP 503 Service Unavailable: <the body's text>`` for one log line: the camera's
+    words (whoever answers for the camera writes them) without control characters or
+    newlines, HTML tags dropped, at most ``limit`` characters of body."""
     try:
-        body = exc.read(2048).decode("utf-8", "replace").strip()
+        body = exc.read(4096).decode("utf-8", "replace")
     except Exception:  # noqa: BLE001
         body = ""
-    return f"HTTP {exc.code} {exc.reason}" + (f": {body[:200]}" if body else "")
+    if "html" in (exc.headers.get_content_type() if exc.headers else "") or \
+            body.lstrip()[:1] == "<":
+        body = html.unescape(_TAG.sub(" ", body))
+    body = printable(body, limit)
+    return f"HTTP {exc.code} {printable(exc.reason or '', 80)}" + (f": {body}" if body else "")
 
 
 class MjpegHttpSource(Source):

@@ -1,4 +1,26 @@
-"""Relay: the coefficients of another ``shlight serve`` (edge device → PC → many headsets)."""
+"""Relay: the coefficients of another ``shlight serve`` (edge device → PC → many headsets).
+
+Every upstream sh9 message is checked before it becomes lighting here, against what this
+server's own probe would make (docs/contract.md §3, §9, §10): ``coefficients`` and
+``ambient_coefficients`` exactly 27 JSON numbers each (no strings, booleans, nulls, NaN or
+Infinity), at most :data:`MAX_MAGNITUDE` in size; ``lights`` a count with 3 numbers per light
+in ``light_directions`` (finite, of non-zero length; normalised here) and
+``light_irradiance`` (finite, ≥ 0); ``time`` a finite number; each optional statistic of
+its type and range. A message that breaks any of these is *refused*: it becomes a rejected
+frame (``frames_rejected`` in /healthz and /metrics, one log line per 10 s naming the
+field), and the probe keeps serving the last good lighting. Two faults are *corrected* and
+counted as ``frames_adjusted`` in /healthz: an upstream clock that cannot be right (before
+2001, or more than :data:`MAX_CLOCK_AHEAD_S` ahead of this one) gives way to the arrival
+time, and more than :data:`~provider.core.options.MAX_LIGHTS` lights are cut to the
+strongest (by luminance), the others' SH9 going into the ambient so that ambient + lights
+is still the full SH9. The matrices are never taken from upstream: this server makes them
+from the coefficients it accepted.
+
+Pace: the relay hands its probe at most ``--fps`` messages a second (default
+:data:`RELAY_FPS`): of the messages that arrive before the next slot the newest wins, the
+others are dropped unread, never queued; so an upstream that floods costs this server one
+JSON parse per message, not a projection and a fan-out to every client.
+"""
 from __future__ import annotations
 
 import asyncio
@@ -9,66 +31,178 @@ import urllib.parse
 
 import numpy as np
 
-from ...core.engine import SH9Result
-from ...core.lights_analysis import Light
+from ...core.geometry import sh
+from ...core.lights.analysis import Light
+from ...core.options import MAX_LIGHTS
+from ...core.sh9.engine import SH9Result
 from .base import USER_AGENT, Frame, Interrupted, Source, SourceError, SourceOptions, redact
 
-_RELAY_STATS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
-                "coverage_sr", "negative_energy_fraction", "negative_pixels",
-                "nonfinite_pixels", "order", "min_irradiance", "ringing", "window_cutoff",
-                "light_error", "sh9_error", "light_candidates",
-                "radiometry", "response", "exposure_s", "gain", "exposures_s",
-                "clipped_light_fraction")
+#: Messages a second a relay hands to its probe when ``--fps`` is not given: a camera's rate.
+RELAY_FPS = 30.0
+#: The largest magnitude of a relayed coefficient, ambient coefficient, light irradiance or
+#: statistic. Nine orders of magnitude above the brightest real input (the sun's radiance
+#: is about 2e7 W m⁻² sr⁻¹; radiance per second of exposure at 1/8000 s about 1e7), and low
+#: enough that what clients compute from the numbers in float32 (irradiance, sums of
+#: squares of 27 coefficients for a norm: 27e36) stays below its 3.4e38 limit.
+MAX_MAGNITUDE = 1e18
+#: An upstream time further than this ahead of this clock is not believed (arrival time used).
+MAX_CLOCK_AHEAD_S = 60.0
+#: An upstream time before this (2001-09-09) comes from a clock that was never set.
+MIN_CLOCK = 1e9
+#: A light direction within this of unit length is passed on bit for bit.
+_UNIT_TOLERANCE = 1e-9
+#: A light direction shorter than this names no direction.
+_MIN_DIRECTION = 1e-6
+_REC709 = np.array([0.2126, 0.7152, 0.0722])
+
+#: (minimum, maximum, minimum excluded) of each relayed number statistic (the JSON Schema's).
+_NUMBER_RANGES = {**{k: (0.0, MAX_MAGNITUDE, False)
+                     for k in ("compute_ms", "order_error", "error_estimate", "coverage_sr",
+                               "negative_energy_fraction", "window_cutoff", "light_error",
+                               "sh9_error")},
+                  "clipped_fraction": (0.0, 1.0, False),
+                  "clipped_light_fraction": (0.0, 1.0, False),
+                  "exposure_s": (0.0, MAX_MAGNITUDE, True), "gain": (0.0, MAX_MAGNITUDE, True)}
+_INT_RANGES = {"negative_pixels": (0, 1 << 53), "nonfinite_pixels": (0, 1 << 53),
+               "light_candidates": (0, 1 << 53), "order": (0, 2)}
+_RADIOMETRY = ("srgb-assumed", "calibrated", "merged", "linear")
+#: The optional fields an upstream message may carry that this provider passes on.
+_RELAY_STATS = (*_NUMBER_RANGES, *_INT_RANGES, "radiometry", "response", "ringing",
+                "min_irradiance", "exposures_s")
 
 
-#: The type each relayed optional field must have (docs/contract.md §3, §9, §10).
-_NUMBER, _INT, _STRING, _BOOL, _NUMBERS = "number", "integer", "string", "boolean", "numbers"
-_RELAY_TYPES = {**{k: _NUMBER for k in ("compute_ms", "clipped_fraction", "order_error",
-                                        "error_estimate", "coverage_sr",
-                                        "negative_energy_fraction", "window_cutoff",
-                                        "light_error", "sh9_error", "exposure_s", "gain",
-                                        "clipped_light_fraction")},
-                **{k: _INT for k in ("negative_pixels", "nonfinite_pixels", "order",
-                                     "light_candidates")},
-                "radiometry": _STRING, "response": _STRING, "ringing": _BOOL,
-                "min_irradiance": _NUMBERS, "exposures_s": _NUMBERS}
+def _show(value) -> str:
+    """A value for a log line: short, and quoted so that it cannot forge a line."""
+    return repr(value)[:40]
 
 
 def _is_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    return type(v) in (int, float) and math.isfinite(v)
+
+
+def _numbers(msg: dict, key: str, count: int | None = None, *,
+             minimum: float = -MAX_MAGNITUDE) -> np.ndarray:
+    """``msg[key]`` as a float64 array: a list of JSON numbers only (no strings, booleans,
+    nulls, NaN or Infinity), ``count`` of them when given, each within
+    [``minimum``, :data:`MAX_MAGNITUDE`]; ValueError names what is wrong."""
+    if key not in msg:
+        raise ValueError(f"no {key!r}")
+    values = msg[key]
+    if not isinstance(values, list):
+        raise ValueError(f"{key!r} is not a list of numbers: {_show(values)}")
+    if count is not None and len(values) != count:
+        raise ValueError(f"{key!r} holds {len(values)} values, not {count}")
+    if not set(map(type, values)) <= {int, float}:          # a bool's type is bool
+        bad = next(v for v in values if type(v) not in (int, float))
+        raise ValueError(f"{key!r} holds {_show(bad)}, not a number")
+    try:
+        array = np.array(values, np.float64)
+    except OverflowError:                                   # an integer of 400 digits
+        raise ValueError(f"{key!r} holds a number beyond float64") from None
+    if array.size and not (np.all(np.isfinite(array)) and array.min() >= minimum
+                           and array.max() <= MAX_MAGNITUDE):
+        raise ValueError(f"{key!r} holds a number outside [{minimum:g}, {MAX_MAGNITUDE:g}] "
+                         f"(or NaN, Infinity)")
+    return array
+
+
+def _stat_ok(key: str, v) -> bool:
+    if key in _NUMBER_RANGES:
+        lo, hi, open_lo = _NUMBER_RANGES[key]
+        return _is_number(v) and (v > lo if open_lo else v >= lo) and v <= hi
+    if key in _INT_RANGES:
+        lo, hi = _INT_RANGES[key]
+        return type(v) is int and lo <= v <= hi
+    if key == "radiometry":
+        return v in _RADIOMETRY
+    if key == "response":
+        return isinstance(v, str) and 0 < len(v) <= 64 and v.isprintable()
+    if key == "ringing":
+        return isinstance(v, bool)
+    if key == "min_irradiance":
+        return (isinstance(v, list) and len(v) == 3
+                and all(_is_number(x) and abs(x) <= MAX_MAGNITUDE for x in v))
+    return (isinstance(v, list) and len(v) <= 64                  # exposures_s
+            and all(_is_number(x) and 0 < x <= MAX_MAGNITUDE for x in v))
 
 
 def relayed_stats(msg: dict) -> dict:
     """The optional fields of an upstream message that this provider passes on, each
-    checked against its type; ValueError names the first malformed one."""
+    checked against its type and range (those of the JSON Schema); ValueError names the
+    first malformed one."""
     stats = {}
     for k in _RELAY_STATS:
-        if k not in msg:
-            continue
-        v, kind = msg[k], _RELAY_TYPES[k]
-        ok = (_is_number(v) if kind == _NUMBER else
-              isinstance(v, int) and not isinstance(v, bool) and abs(v) < 1 << 53
-              if kind == _INT else
-              isinstance(v, str) and len(v) <= 200 if kind == _STRING else
-              isinstance(v, bool) if kind == _BOOL else
-              isinstance(v, list) and len(v) <= 64 and all(map(_is_number, v)))
-        if not ok:
-            raise ValueError(f"field {k!r} is not a valid {kind}: {str(v)[:40]!r}")
-        stats[k] = v
+        if k in msg:
+            if not _stat_ok(k, msg[k]):
+                raise ValueError(f"field {k!r} is out of its type or range: {_show(msg[k])}")
+            stats[k] = msg[k]
     return stats
 
 
+def relayed_time(msg: dict, now: float) -> tuple[float, str | None]:
+    """(the frame time, a note when it was corrected): the upstream's ``time``, or ``now``
+    (the arrival time) when that clock cannot be right; ValueError when it is no number."""
+    t = msg.get("time")
+    if not _is_number(t):
+        raise ValueError(f"'time' is not a finite number: {_show(t)}")
+    if t < MIN_CLOCK:
+        return now, f"upstream time {t:g} is before 2001 (a clock never set): arrival time used"
+    if t > now + MAX_CLOCK_AHEAD_S:
+        return now, (f"upstream time is {t - now:.3g} s ahead of this clock (more than "
+                     f"{MAX_CLOCK_AHEAD_S:g} s): arrival time used")
+    return float(t), None
+
+
 def relayed_lights(msg: dict):
-    """(lights, ambient coefficients (9, 3) or None) of an upstream message (docs/contract.md §10);
-    each light's key is its slot (upstream sends its lights in a stable order)."""
+    """(lights, ambient coefficients (9, 3) or None, a note when lights were cut) of an
+    upstream message (docs/contract.md §10); each light's key is its upstream slot
+    (upstream sends its lights in a stable order). More than ``MAX_LIGHTS`` lights: the
+    strongest (luminance of their irradiance) are kept in their order, the SH9 of the
+    others is added to the ambient. ValueError names what breaks the contract."""
+    k = msg.get("lights", 0)
+    if type(k) is not int or k < 0:
+        raise ValueError(f"'lights' is not a count: {_show(k)}")
     if "ambient_coefficients" not in msg:
-        return [], None             # an upstream from before lights
-    k = int(msg.get("lights", 0))
-    dirs = np.asarray(msg.get("light_directions", []), np.float64).reshape(k, 3)
-    irr = np.asarray(msg.get("light_irradiance", []), np.float64).reshape(k, 3)
-    lights = [Light(d, i, i.copy(), 0.0, 0.0, key=slot)
-              for slot, (d, i) in enumerate(zip(dirs, irr))]
-    return lights, np.asarray(msg["ambient_coefficients"], np.float64).reshape(9, 3)
+        if k:
+            raise ValueError(f"'lights' is {k} without 'ambient_coefficients'")
+        return [], None, None             # an upstream from before lights
+    ambient = _numbers(msg, "ambient_coefficients", 27).reshape(9, 3)
+    if k == 0 and "light_directions" not in msg and "light_irradiance" not in msg:
+        return [], ambient, None
+    dirs = _numbers(msg, "light_directions", 3 * k).reshape(k, 3)
+    irr = _numbers(msg, "light_irradiance", 3 * k, minimum=0.0).reshape(k, 3)
+    norms = np.linalg.norm(dirs, axis=1)
+    if k and not norms.min() >= _MIN_DIRECTION:
+        i = int(np.argmin(norms))
+        raise ValueError(f"light {i}'s direction has length {norms[i]:.3g}: no direction")
+    off = np.abs(norms - 1.0) > _UNIT_TOLERANCE
+    dirs[off] /= norms[off, None]
+    slots, note = np.arange(k), None
+    if k > MAX_LIGHTS:
+        strength = irr @ _REC709
+        slots = np.sort(np.argsort(-strength, kind="stable")[:MAX_LIGHTS])
+        dropped = np.ones(k, bool)
+        dropped[slots] = False
+        ambient = ambient + sh.sh_basis(dirs[dropped]).T @ irr[dropped]
+        if not np.abs(ambient).max() <= MAX_MAGNITUDE:
+            raise ValueError(f"the SH9 of {k - MAX_LIGHTS} lights is out of range")
+        note = (f"upstream sent {k} lights (the contract allows {MAX_LIGHTS}): the "
+                f"{MAX_LIGHTS} strongest kept, the others added to the ambient")
+    lights = [Light(dirs[s].copy(), irr[s].copy(), irr[s].copy(), 0.0, 0.0, key=int(s))
+              for s in slots]
+    return lights, ambient, note
+
+
+def relayed_lighting(msg: dict, now: float) -> tuple[SH9Result, float, list[str]]:
+    """(lighting, frame time, notes on what was corrected) of an upstream sh9 message,
+    checked as described in the module docstring; the matrices are made here from the
+    accepted coefficients. ValueError names the first field that breaks the contract."""
+    coeffs = _numbers(msg, "coefficients", 27).reshape(9, 3)
+    t, time_note = relayed_time(msg, now)
+    lights, ambient, lights_note = relayed_lights(msg)
+    stats = relayed_stats(msg)
+    notes = [n for n in (time_note, lights_note) if n]
+    return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats, lights, ambient), t, notes
 
 
 class RelaySource(Source):
@@ -76,13 +210,16 @@ class RelaySource(Source):
     PC → many headsets). Frames carry ready-made lighting, timed by the upstream frame
     time, so latency figures stay end-to-end. The probe is ``?probe=NAME`` (default: the
     upstream's first probe); ``?token=`` is passed on. Upstream messages marked stale are
-    not relayed as fresh: this probe then goes stale too."""
+    not relayed as fresh: this probe then goes stale too. Each message is checked and the
+    relay is paced as the module docstring says."""
 
     def __init__(self, url: str, options: SourceOptions):
         super().__init__()
         self.url, self.options = url, options
         query = urllib.parse.parse_qs(urllib.parse.urlsplit(url).query)
         self.probe = query.get("probe", [None])[0]
+        self.interval = 1.0 / (options.fps or RELAY_FPS)
+        self._due: float | None = None  # monotonic time of the next slot (see _newest)
         self._ws = None
         # websockets' asyncio client on a loop of this source's own (the reading thread's):
         # one thread does all reads and writes. The threaded client reads in a thread of
@@ -148,10 +285,19 @@ class RelaySource(Source):
             raise SourceError(f"upstream closed the connection ({exc})") from None
 
     def _recv(self) -> dict:
+        """The next message (``{}`` for JSON that is not an object); SourceError when none
+        comes within the source timeout."""
+        return self._run(self._message(None))
+
+    async def _message(self, wait: float | None) -> dict | None:
+        """The next message; with ``wait`` (seconds), None when none comes in that time,
+        without: SourceError after the source timeout."""
         from websockets.exceptions import ConnectionClosed
         try:
-            text = self._run(self._ws.recv(), self.options.timeout)
+            text = await asyncio.wait_for(self._ws.recv(), wait or self.options.timeout)
         except (TimeoutError, asyncio.TimeoutError):
+            if wait is not None:
+                return None             # cancelling recv() loses no message (websockets)
             raise SourceError(f"no message from upstream in {self.options.timeout:g} s") from None
         except ConnectionClosed as exc:
             raise SourceError(f"upstream closed the connection ({exc})") from None
@@ -161,34 +307,47 @@ class RelaySource(Source):
             raise SourceError("upstream sent something that is not JSON") from None
         return msg if isinstance(msg, dict) else {}
 
-    def read(self) -> Frame:
+    async def _newest(self) -> dict:
+        """The newest fresh sh9 message of this probe received by the next slot (one every
+        ``interval`` seconds): those before it are dropped unchecked. Past the slot, the
+        first one that comes. (One coroutine per slot: a flood costs a JSON parse per
+        message, not a turn of the event loop's machinery.)"""
+        newest = None
+        if self._due is None:
+            self._due = time.monotonic()
         while True:
-            if self._stop.is_set():
-                raise Interrupted()
-            msg = self._recv()
+            left = self._due - time.monotonic()
+            if newest is not None and left <= 0:
+                break
+            msg = await self._message(left if left > 0 else None)
+            if msg is None:
+                continue                # the slot came
             kind = msg.get("type")
             if kind == "error":
-                raise SourceError(f"upstream error: {msg.get('error')}: {msg.get('detail', '')}")
-            if kind != "sh9" or msg.get("stale") or msg.get("probe") != self.probe:
-                continue
-            try:
-                coeffs = np.asarray(msg["coefficients"], np.float64).reshape(9, 3)
-                mats = np.asarray(msg["matrices"], np.float64).reshape(3, 4, 4)
-                t = float(msg["time"])
-                if not (math.isfinite(t) and np.all(np.isfinite(coeffs))
-                        and np.all(np.isfinite(mats))):
-                    raise ValueError("non-finite numbers")
-                lights, ambient = relayed_lights(msg)
-                stats = relayed_stats(msg)
-            except (KeyError, TypeError, ValueError, OverflowError) as exc:
-                # One bad message is one rejected frame (counted by the probe); the
-                # connection and the messages after it are fine.
-                reason = str(exc)[:120] if not isinstance(exc, KeyError) else f"no {exc}"
-                return Frame(None, time.time(), info={
-                    "upstream_seq": msg.get("seq"),
-                    "rejected": f"upstream sent a malformed sh9 message ({reason})"})
-            return Frame(None, t, lighting=SH9Result(coeffs, mats, stats, lights, ambient),
-                         info={"upstream_seq": msg.get("seq")})
+                raise SourceError(f"upstream error: {_show(msg.get('error'))}: "
+                                  f"{_show(msg.get('detail', ''))}")
+            if kind == "sh9" and not msg.get("stale") and msg.get("probe") == self.probe:
+                newest = msg
+        # as base.Pacer: a steady rate, at most one slot of catching up after a pause
+        self._due = max(self._due + self.interval, time.monotonic() - self.interval)
+        return newest
+
+    def read(self) -> Frame:
+        msg = self._run(self._newest())
+        now = time.time()
+        seq = msg.get("seq")
+        info = {"upstream_seq": seq if type(seq) is int else None}
+        try:
+            lighting, t, notes = relayed_lighting(msg, now)
+        except (KeyError, TypeError, ValueError, OverflowError) as exc:
+            # One bad message is one rejected frame (counted by the probe, which keeps the
+            # last good lighting); the connection and the messages after it are fine.
+            reason = str(exc)[:160] if not isinstance(exc, KeyError) else f"no {exc}"
+            info["rejected"] = f"upstream sent a malformed sh9 message ({reason})"
+            return Frame(None, now, info=info)
+        if notes:
+            info["adjusted"] = "; ".join(notes)     # counted by the probe (frames_adjusted)
+        return Frame(None, t, lighting=lighting, info=info)
 
     def close(self) -> None:
         if self._loop is None:

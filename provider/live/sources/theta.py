@@ -8,7 +8,8 @@ import urllib.parse
 import urllib.request
 
 from ...core.errors import InputError
-from .base import USER_AGENT, Frame, Source, SourceError, SourceOptions, split_credentials
+from .base import (USER_AGENT, Frame, Source, SourceError, SourceOptions, printable,
+                   split_credentials)
 from .http import MultipartJpegReader, http_opener
 from .theta_exposure import ThetaExposure
 
@@ -19,6 +20,8 @@ class OscCommandError(SourceError):
     """An Open Spherical Camera command answered with an error."""
 
     def __init__(self, command: str, code: str, message: str):
+        # the camera's words, fit for one log line (no newlines or control characters)
+        code, message = printable(code, 80), printable(message)
         super().__init__(f"{command}: {code}: {message}")
         self.code = code
 

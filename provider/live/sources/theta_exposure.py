@@ -106,7 +106,8 @@ class ThetaExposure:
         """Exposure t·gain that puts a preview frame's median at mid-grey (manual mode)."""
         t = nearest(1 / 100)
         for _ in range(3):
-            frame = Frame(None, 0.0, jpeg=self._settled_jpeg()).decoded()
+            frame = Frame(None, 0.0, jpeg=self._settled_jpeg()).decoded(
+                self.src.options.max_pixels)
             want = X.meter(frame, t * self.gain) / self.gain
             if abs(math.log2(want / t)) < 0.5:
                 break

@@ -2,7 +2,7 @@
 // container it travels in everywhere (/environment.ktx2, the binary frame after an
 // "environment" WebSocket message, MQTT). Plain C#, no UnityEngine.
 //
-// The file (provider/live/ktx2.py): vkFormat 97 (R16G16B16A16_SFLOAT), faceCount 6, levels
+// The file (provider/live/reflections/ktx2.py): vkFormat 97 (R16G16B16A16_SFLOAT), faceCount 6, levels
 // n, n/2, ... 2 (smallest first in the file, found through the level index), faces in the
 // OpenGL order +X −X +Y −Y +Z −Z, each face its rows from row 0 (t smallest), texels R G B A
 // as little-endian IEEE halves; texel [f, i, j] looks along the OpenGL cube-map table applied

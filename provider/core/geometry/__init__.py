@@ -1,0 +1,14 @@
+"""Geometry: where each pixel looks and how much of the sphere it sees (no pixels, no I/O).
+
+* :mod:`.sh`: the real SH basis (docs/contract.md §1-2), irradiance, the 4×4 matrices,
+  rotation, windowing;
+* :mod:`.projections`: per-pixel directions and exact solid angles, one class per
+  projection (equirect, fisheye, dual fisheye, cube map), and their SH weights;
+* :mod:`.projections_probe`: light-probe projections (mirror ball, angular map, cube cross);
+* :mod:`.cubemap`: cube-map texel directions, solid angles and pooling (§12);
+* :mod:`.sphere_views`: pinhole views rendered from any projection;
+* :mod:`.checks`: :class:`~provider.core.geometry.checks.ProjectionError` and the checks of
+  a projection against its frame.
+
+May import: numpy, OpenCV, :mod:`provider.core.errors`. Nothing of radiometry or the products.
+"""

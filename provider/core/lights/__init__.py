@@ -1,0 +1,11 @@
+"""The lights product: a scene's compact bright sources as directional lights plus SH9
+ambient (docs/contract.md §10).
+
+* :mod:`.extractor`: :class:`~provider.core.lights.extractor.LightExtractor`, the lights
+  of one decoded frame;
+* :mod:`.analysis`: the results (:class:`~provider.core.lights.analysis.Light`) and the
+  evaluator of light sets;
+* :mod:`.tracking`: hysteresis of lights across frames (a pure state machine).
+
+May import: geometry, radiometry. Not the other products.
+"""

@@ -1,0 +1,14 @@
+"""Radiometry: from code values to light (no sockets, no threads).
+
+* :mod:`.images`: reading image files into the frame contract (RGB, uint8/uint16/float32);
+* :mod:`.image_size`: the size a file's header declares, and the pixel budget checked on
+  it before decoding;
+* :mod:`.decode`: :class:`~provider.core.radiometry.decode.FrameDecoder`, a frame decoded
+  once for every product (transfer function or camera response as a table, exposure);
+* :mod:`.float_clean`: NaN, ±inf and negative samples of float frames, counted;
+* :mod:`.response`, :mod:`.response_fit`: a camera's inverse response and its calibration;
+* :mod:`.bracket`: brackets of one view merged into scene-referred light.
+
+May import: numpy, OpenCV, OpenEXR, :mod:`provider.core.errors`. Nothing of geometry or the
+products.
+"""

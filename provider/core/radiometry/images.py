@@ -1,0 +1,217 @@
+"""Reading images from files into the engine's frame contract (RGB, uint8/uint16/float32)."""
+from __future__ import annotations
+
+import os
+
+import cv2
+import numpy as np
+
+from ..errors import InputError
+from .image_size import EXR_MAGIC, HEADER_BYTES, PNG_MAGIC, check_pixels, header_size
+
+IMAGE_EXTENSIONS = (".exr", ".hdr", ".pic", ".png", ".jpg", ".jpeg", ".tif", ".tiff",
+                    ".bmp", ".webp", ".pfm", ".ppm", ".pgm")
+
+
+class TransientReadError(InputError):
+    """The file could not be read just now for a reason that is not its content (an I/O
+    error, memory): reading the same file again may work, so it is not remembered as bad."""
+
+
+def read_image(path, max_pixels: int = 0) -> np.ndarray:
+    """Read an image file as an (H, W, 3) RGB array.
+
+    OpenEXR files are read with the ``openexr`` package (the OpenCV wheels have no EXR
+    codec) and returned as float32; everything else through OpenCV with
+    ``IMREAD_UNCHANGED`` (8-bit, 16-bit and Radiance .hdr float stay as they are).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The image file.
+    max_pixels : int
+        Pixel budget (width × height, pixels; 0: none). An image whose header declares more
+        is refused with :class:`~.image_size.FrameTooLarge` before anything beyond its
+        header is read or decoded.
+
+    Raises
+    ------
+    InputError
+        In one readable line, for a missing, unreadable, truncated or corrupt file;
+        :class:`TransientReadError` (a subclass) when reading again may work.
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise InputError(f"no such file: {path}")
+    if os.path.isdir(path):
+        raise InputError(f"{path} is a directory, not an image")
+    try:
+        with open(path, "rb") as f:
+            data = f.read(HEADER_BYTES)
+            size = header_size(data)
+            if size is None and max_pixels and len(data) == HEADER_BYTES:
+                data += f.read()       # a header beyond the first bytes (a TIFF's directory)
+                size = header_size(data)
+            if size is not None:       # refused from the header: nothing more read or decoded
+                check_pixels(*size, max_pixels, f"{path}: image")
+            radiance = data[:2] == b"#?"
+            if not radiance:           # Radiance files are decoded from their path (below)
+                data += f.read()
+    except OSError as exc:
+        raise TransientReadError(f"cannot read {path}: {exc.strerror or exc}") from None
+    # By content, not by name: an EXR saved as .jpg is still an EXR (OpenCV's wheels cannot
+    # decode EXR, so the name alone would refuse it).
+    if data[:4] == EXR_MAGIC or (path.lower().endswith(".exr") and len(data) < 4):
+        _check_exr_complete(path, data)
+        del data
+        img = _read_exr(path)
+    else:
+        img = _decode(path, data, radiance)
+    if size is None:   # a format whose size only its decoder reads: checked once decoded
+        check_pixels(img.shape[1], img.shape[0], max_pixels, f"{path}: image", decoded=True)
+    return img
+
+
+def _decode(path: str, data: bytes, radiance: bool) -> np.ndarray:
+    """OpenCV's decoding of a file's bytes, as RGB (see :func:`read_image`)."""
+    check_complete(path, data)
+    try:
+        img = None
+        if radiance:
+            # OpenCV decodes Radiance .hdr bytes through a temporary file (its decoder reads
+            # files only): with /tmp full a valid file would fail. Read from its own path.
+            img = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+            if img is None:        # a path OpenCV cannot open (non-ASCII on Windows)
+                with open(path, "rb") as f:
+                    data = f.read()
+        if img is None:
+            img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+        if img is not None:
+            if img.ndim == 2:
+                return np.repeat(img[..., None], 3, axis=2)
+            if img.shape[2] == 4:
+                img = img[..., :3]
+            return np.ascontiguousarray(img[..., ::-1])  # BGR -> RGB
+    except OSError as exc:
+        raise TransientReadError(f"cannot read {path}: {exc.strerror or exc}") from None
+    except MemoryError:
+        raise TransientReadError(f"cannot read {path}: out of memory decoding it") from None
+    except cv2.error as exc:
+        if exc.code == cv2.Error.StsNoMem:
+            raise TransientReadError(f"cannot read {path}: out of memory decoding it") from None
+        # OpenCV refuses a header that declares more than CV_IO_MAX_IMAGE_PIXELS (2^30)
+        raise InputError(f"cannot read {path}: its header declares an image too large to "
+                         "decode (over 2^30 pixels), or it is corrupt") from None
+    if radiance:
+        raise InputError(f"cannot read {path}: not a Radiance .hdr file OpenCV can decode "
+                         "(corrupt or truncated)")
+    raise InputError(f"cannot read {path}: not an image OpenCV can decode")
+
+
+def _read_exr(path: str) -> np.ndarray:
+    try:
+        import OpenEXR
+    except ImportError:  # pragma: no cover - a declared dependency
+        raise InputError("reading .exr needs the 'openexr' package: pip install openexr")
+    try:
+        with OpenEXR.File(path) as f:
+            channels = f.channels()
+            if "RGB" in channels:
+                rgb = channels["RGB"].pixels
+            elif "RGBA" in channels:
+                rgb = channels["RGBA"].pixels[..., :3]
+            elif all(k in channels for k in "RGB"):
+                rgb = np.stack([channels[k].pixels for k in "RGB"], axis=-1)
+            elif "Y" in channels:
+                rgb = np.repeat(channels["Y"].pixels[..., None], 3, axis=2)
+            else:
+                raise InputError(f"{path}: no RGB or Y channels (has {sorted(channels)})")
+    except InputError:
+        raise
+    except MemoryError:
+        raise TransientReadError(f"cannot read {path}: out of memory decoding it") from None
+    except Exception as exc:
+        raise InputError(f"cannot read {path} as OpenEXR: {exc}") from None
+    return np.ascontiguousarray(rgb, dtype=np.float32)
+
+
+def check_complete(path: str, data: bytes) -> None:
+    """Refuse a JPEG or PNG that ends before its image does (a copy cut short): OpenCV
+    would decode the part it has and fill the rest with grey, and libjpeg/libpng would
+    print their own words."""
+    if data[:3] == b"\xff\xd8\xff":                                    # JPEG
+        tail = data.rstrip(b"\x00\r\n ")
+        scan = data.rfind(b"\xff\xda")                     # the last start of scan
+        if not tail.endswith(b"\xff\xd9") and (scan < 0 or data.rfind(b"\xff\xd9") < scan):
+            raise InputError(f"cannot read {path}: the JPEG is truncated (it ends before its "
+                             "end-of-image marker); copy it again")
+    elif data[:8] == PNG_MAGIC:
+        _check_png_chunks(path, data)
+
+
+def _check_png_chunks(path: str, data: bytes) -> None:
+    """Walk a PNG's chunks to IEND: refuse one cut short, or whose critical chunk (IHDR,
+    PLTE, IDAT, IEND) fails its CRC (a bit flipped on the way), in our words, instead of
+    libpng's "libpng error: IDAT: CRC error" on stderr (unthrottled, and not ours to route).
+    Ancillary chunks with a bad CRC are left to libpng, which skips them."""
+    import struct
+    import zlib
+    pos, view = 8, memoryview(data)
+    while True:
+        if pos + 12 > len(data):
+            raise InputError(f"cannot read {path}: the PNG is truncated (no IEND chunk); "
+                             "copy it again")
+        length, kind = struct.unpack_from(">I4s", data, pos)
+        end = pos + 12 + length
+        if length > 0x7FFFFFFF or end > len(data):
+            raise InputError(f"cannot read {path}: the PNG is truncated (its "
+                             f"{kind.decode('latin-1')!r} chunk ends beyond the file); copy "
+                             "it again")
+        if not kind[0] & 0x20:                        # critical: uppercase first letter
+            crc = struct.unpack_from(">I", data, end - 4)[0]
+            if zlib.crc32(view[pos + 4:end - 4]) != crc:
+                raise InputError(f"cannot read {path}: the PNG is corrupt (its "
+                                 f"{kind.decode('latin-1')!r} chunk fails its CRC check)")
+        if kind == b"IEND":
+            return
+        pos = end
+
+
+#: Scan lines per chunk of each OpenEXR compression (by its number in the header).
+_EXR_LINES = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256}
+
+
+def _check_exr_complete(path: str, data: bytes) -> None:
+    """Refuse a single-part scan-line OpenEXR file (``data``: its bytes) whose last chunk
+    lies beyond its end (a copy cut short): the OpenEXR library would print its own words
+    on stdout. Other layouts (tiled, multi-part, deep) are left to the library."""
+    import struct
+    short = InputError(f"cannot read {path}: the OpenEXR file is truncated or corrupt; copy "
+                       "it again")
+    if len(data) < 8:
+        raise short
+    flags = data[5]
+    if flags & 0x1E:                         # tiled, long names, deep or multi-part
+        return
+    pos, attrs = 8, {}
+    try:
+        while data[pos] != 0:
+            end = data.index(b"\0", pos)
+            name = data[pos:end]
+            end2 = data.index(b"\0", end + 1)
+            size = struct.unpack_from("<i", data, end2 + 1)[0]
+            attrs[name] = data[end2 + 5:end2 + 5 + size]
+            pos = end2 + 5 + size
+        pos += 1
+        xmin, ymin, xmax, ymax = struct.unpack("<4i", attrs[b"dataWindow"])
+        lines = _EXR_LINES.get(attrs[b"compression"][0])
+        if lines is None:
+            return
+        chunks = (ymax - ymin) // lines + 1
+        offsets = struct.unpack_from(f"<{chunks}Q", data, pos)
+        last = max(offsets)
+        size = struct.unpack_from("<i", data, last + 4)[0]
+    except (IndexError, KeyError, ValueError, struct.error):
+        raise short from None
+    if min(offsets) <= pos or last + 8 + size > len(data):
+        raise short

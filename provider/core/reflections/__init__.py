@@ -1,0 +1,10 @@
+"""The reflections product: an HDR radiance cube and its GGX-prefiltered mips
+(docs/contract.md §12).
+
+* :mod:`.environment`: :class:`~provider.core.reflections.environment.EnvironmentProjector`
+  (precompute once, project each frame, as the SH9 engine does);
+* :mod:`.prefilter`: GGX prefiltering as a fixed sparse operator;
+* :mod:`.gltf_ibl`: the cube as glTF ``EXT_lights_image_based`` images (Babylon.js).
+
+May import: geometry, radiometry, :mod:`provider.core.options`. Not the other products.
+"""

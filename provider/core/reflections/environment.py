@@ -1,0 +1,579 @@
+"""The reflection cube: frames in, an HDR radiance cube and its GGX-prefiltered mips out
+(no I/O; docs/contract.md §12).
+
+:class:`EnvironmentProjector` precomputes, once per (frame size, projection, options),
+everything that does not depend on pixels, as :class:`~provider.core.sh9.engine.SH9Projector`
+does for SH9 (and decodes frames the same way: :class:`~provider.core.radiometry.decode.FrameDecoder`):
+
+1. *work image*: the linear frame area-averaged to a few pixels per base texel (equirect:
+   at most 8 pixels per texel side; other projections: the integer downsample the SH9 fast
+   path uses), so per-frame work does not grow with the camera's resolution;
+2. *overlap*: a sparse map from work pixels to the base cube (64² for 16² and 32² cubes, 32²
+   for 8², the size itself beyond): each work pixel is split into sub-pixels with exact solid
+   angles and sent, with the sensor rotation, to the texels it overlaps. A base texel is the
+   solid-angle-weighted mean of the input over its footprint: a 0.5° sun keeps its flux and
+   its place. Directions a lens does not see get the projection's fill (a fisheye's
+   ``ground``: albedo·E_axis/π; ``zero``: black);
+3. *pyramid*: exact 2×2 solid-angle pools of the base; mip 0 is the level of ``size``;
+4. *prefilter* (:mod:`provider.core.reflections.prefilter`): one sparse operator from the pyramid to the
+   texel centres of every mip k ≥ 1, perceptual roughness k/(K−1) (α = roughness²); the
+   light of the brightest work pixels above the rest (a sun) is added from their own
+   directions, exactly. Cubes above 32² read the pyramid from 64² down and evaluate mips
+   above 32² at 32², upsampled (the bench says what that costs).
+
+Per frame: decode, one resize, one gather-and-sum for the base, the pools, one for the mips.
+Units are those of the SH9 coefficients of the same options (exposure, ``exposure_s``/``gain``
+divide the same way), so the cube and SH9 describe the same light.
+"""
+from __future__ import annotations
+
+import copy
+import math
+import time
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ..geometry import cubemap
+from . import prefilter
+from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
+from ..radiometry.decode import FrameDecoder, image_array
+from ..options import check_options, exposure_scale, freeze_options
+from ..blas import one_blas_thread
+from ..errors import InputError
+from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
+
+#: Options of :class:`~provider.core.sh9.engine.SH9Projector` that only concern SH9 (accepted and
+#: ignored, so that one options dict drives both products).
+SH9_ONLY = ("order", "dering", "order_budget", "error_estimate", "lights", "max_lights",
+            "downsample", "progress")
+#: Base texels per side of the work image's pixels (equirect): the overlap's resolution.
+WORK_PIXELS_PER_TEXEL = 4
+#: Widest work image (equirect): bounds the per-frame cost and memory of large cubes.
+WORK_MAX_WIDTH = 1024
+#: Sub-pixels per axis when a work pixel is split among the texels it overlaps.
+SUBPIXELS = 4
+#: Largest pyramid level the prefilter reads, and largest face it evaluates directly.
+PREFILTER_MAX_SOURCE, PREFILTER_MAX_FACE = 64, 32
+#: Work pixels whose light above the rest is prefiltered exactly (a sun, a lamp).
+BRIGHT_PIXELS = 64
+
+
+@dataclass
+class EnvironmentResult:
+    """A radiance cube and its prefiltered mips (docs/contract.md §12).
+
+    Attributes
+    ----------
+    mips : list of (6, n_k, n_k, 3) float32
+        Face order +X −X +Y −Y +Z −Z, texel [f, i, j] at s = (j+½)/n, t = (i+½)/n
+        (:mod:`provider.core.geometry.cubemap`), our frame; n_0 = size, halving down to 2. Mip 0 is
+        radiance, mip k ≥ 1 the GGX-prefiltered radiance PF at ``roughness[k]``.
+    roughness : list of float
+        Perceptual roughness of each mip: k/(K−1), 0 for mip 0, 1 for the last.
+    stats : dict
+        ``compute_ms``, ``coverage_sr``, ``negative_pixels``, ``nonfinite_pixels``,
+        ``radiometry``, ``exposure_s``/``gain`` (when given).
+    prefilter_source : optional
+        What the prefiltered mips were made of (the frame's pyramid), kept so that
+        :meth:`EnvironmentProjector.refilter` can prefilter the same frame at another
+        roughness without projecting it again.
+    """
+
+    mips: list
+    roughness: list
+    stats: dict = field(default_factory=dict)
+    prefilter_source: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def size(self) -> int:
+        return int(self.mips[0].shape[1])
+
+    def irradiance(self, normals: np.ndarray) -> np.ndarray:
+        """E(n) = Σ L·max(0, n·d)·Ω over mip 0's texels, at unit normals (..., 3) → (..., 3)."""
+        n = self.size
+        d = cubemap.texel_directions(n).reshape(-1, 3)
+        w = cubemap.texel_solid_angles(n).reshape(-1)
+        normals = np.asarray(normals, np.float64)
+        cos = np.maximum(normals.reshape(-1, 3) @ d.T, 0.0) * w
+        out = cos @ self.mips[0].reshape(-1, 3).astype(np.float64)
+        return out.reshape(normals.shape[:-1] + (3,))
+
+
+class EnvironmentProjector(FrameDecoder):
+    """Makes reflection cubes from frames of one size and projection.
+
+    Parameters
+    ----------
+    width, height : int
+        Frame size in pixels.
+    projection : str or Projection
+        As :class:`~provider.core.sh9.engine.SH9Projector` ("equirect", "fisheye", ...).
+    size : int
+        Face size of mip 0: a power of two from 8 to 256 (default 32).
+    encoding, exposure, rotation, response, **options
+        As :class:`~provider.core.sh9.engine.SH9Projector`; ``rotation`` (camera → world) turns
+        the cube as it turns the coefficients. SH9-only options are accepted and ignored.
+    mip_roughness : sequence of float, optional
+        Perceptual roughness of each mip (one per mip, mip 0 must be 0: the radiance), for a
+        consumer that reads its mips at other roughnesses than k/(K−1) (Babylon.js:
+        :func:`provider.core.reflections.gltf_ibl.babylon_roughness`). Default k/(K−1).
+    """
+
+    def __init__(self, width: int, height: int, projection="equirect", *, size: int = 32,
+                 encoding="auto", exposure=1.0, rotation=None, response=None,
+                 mip_roughness=None, **options):
+        for key in SH9_ONLY:
+            options.pop(key, None)
+        try:
+            self.size = cubemap.check_size(size)
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
+        check_options(encoding=encoding, exposure=exposure, rotation=rotation)
+        self._init_decoder(width, height, encoding, exposure, response)
+        try:
+            full = (projection if isinstance(projection, Projection)
+                    else make_projection(projection, width, height, **options))
+        except ProjectionError as exc:
+            raise InputError(str(exc)) from None
+        self.warnings = list(full.warnings)
+        #: (x0, y0, x1, y1): the part of each frame the projection covers (a ball's box).
+        self.window = getattr(full, "window", None)
+        self.rotation = None if rotation is None else np.asarray(rotation, np.float64)
+        self.sizes = cubemap.mip_sizes(self.size)
+        self.roughness = _check_roughness(mip_roughness, len(self.sizes))
+        # The finest level: 64² for 16² and 32² cubes (the narrow lobe of mip 1 needs it),
+        # 4× the size for 8², the size itself beyond.
+        self.base = min(4 * self.size, 64) if self.size <= 32 else self.size
+        self.levels = cubemap.mip_sizes(self.base)
+        self._omega = [cubemap.texel_solid_angles(n) for n in self.levels]
+        self._shares = [cubemap.pool_shares(fine, coarse)
+                        for fine, coarse in zip(self._omega, self._omega[1:])]
+        self._work, self._crop = self._work_geometry(full)
+        self._build_overlap(self._work)
+        if not self.coverage > 0:
+            raise InputError("no pixel of the frame sees anything with this geometry "
+                             "(check --center, --radius, --fov)")
+        self._build_prefilter()
+
+    # -- pixel-independent precomputation --------------------------------------------------
+    def _work_geometry(self, full: Projection):
+        """The projection of the work image and the crop of a full frame it covers."""
+        # Equirect width: 4 px per base texel (the work image's pixels, split into sub-pixels,
+        # are what the overlap integrates), at most WORK_MAX_WIDTH.
+        target = min(WORK_PIXELS_PER_TEXEL * self.base * 2, WORK_MAX_WIDTH)
+        if isinstance(full, Equirect):
+            # An integer factor: OpenCV's area resize has a fast path for those.
+            factor = max(1, round(full.width / target))
+            if factor == 1 or full.width // factor < 2 * self.base:
+                return full, None
+            return full.scaled(factor), full.scaled_source_size(factor)
+        area = target * target / 2
+        factor = max(1, int(math.sqrt(full.width * full.height / area)))
+        if factor == 1:
+            return full, None
+        try:
+            return full.scaled(factor), full.scaled_source_size(factor)
+        except (NotImplementedError, ProjectionError):
+            return full, None
+
+    def _subpixel_samples(self, p: Projection, q: int = SUBPIXELS):
+        """Directions (P, 3), solid angles (P,) and pixel index (P,) of q×q sub-pixels."""
+        if isinstance(p, Equirect):   # exact: φ uniform, ∫ sin θ dθ per sub-row
+            cols = (np.arange(p.width * q) + 0.5) / (p.width * q)
+            edges = np.linspace(0, math.pi, p.height * q + 1)
+            band = np.cos(edges[:-1]) - np.cos(edges[1:])
+            rows = (np.arange(p.height * q) + 0.5) / (p.height * q)
+            theta = rows * math.pi
+            phi = 2 * math.pi * (cols - 0.5)
+            st = np.sin(theta)[:, None]
+            d = np.stack(np.broadcast_arrays(st * np.sin(phi), np.cos(theta)[:, None],
+                                             -st * np.cos(phi)), axis=-1)
+            w = np.broadcast_to(band[:, None] * (2 * math.pi / (p.width * q)), d.shape[:2])
+            pix = (np.arange(p.height * q)[:, None] // q) * p.width + \
+                np.arange(p.width * q)[None, :] // q
+            return d.reshape(-1, 3), np.asarray(w).reshape(-1), pix.reshape(-1)
+        sub = (np.arange(q) + 0.5) / q
+        py, px = np.mgrid[0:p.height, 0:p.width].astype(np.float64)
+        px = px[:, :, None, None] + sub[None, None, None, :]
+        py = py[:, :, None, None] + sub[None, None, :, None]
+        px, py = np.broadcast_arrays(px, py)
+        d, valid = p.pixel_to_direction(px, py)
+        jac = p.jacobian(px, py)
+        if jac is None:
+            h = 1e-3
+            dxp, _ = p.pixel_to_direction(px + h, py)
+            dxm, _ = p.pixel_to_direction(px - h, py)
+            dyp, _ = p.pixel_to_direction(px, py + h)
+            dym, _ = p.pixel_to_direction(px, py - h)
+            jac = np.linalg.norm(np.cross((dxp - dxm) / (2 * h), (dyp - dym) / (2 * h)), axis=-1)
+        d = np.where(valid[..., None], d, 0.0)
+        w = np.where(valid & np.isfinite(jac), jac, 0.0) * p.node_factor(px, py, d) / (q * q)
+        w = np.broadcast_to(w, valid.shape)
+        pix = np.broadcast_to(np.arange(p.height * p.width).reshape(p.height, p.width, 1, 1),
+                              valid.shape)
+        keep = w.reshape(-1) > 0
+        return d.reshape(-1, 3)[keep], w.reshape(-1)[keep], pix.reshape(-1)[keep]
+
+    def _build_overlap(self, p: Projection) -> None:
+        n = self.base
+        ntex = 6 * n * n
+        q = SUBPIXELS
+        while True:     # a frame coarser than the base cube: finer sub-pixels reach every texel
+            d, w, pix = self._subpixel_samples(p, q)
+            if self.rotation is not None:
+                d = d @ self.rotation.T
+            face, i, j, _, _ = cubemap.direction_to_texel(d, n)
+            texel = cubemap.flat_index(face, i, j, n)
+            seen = np.bincount(texel, minlength=ntex) > 0
+            if seen.all() or q >= 4 * SUBPIXELS or w.sum() < 4 * math.pi * 0.999:
+                break
+            q *= 2
+        key = pix.astype(np.int64) * ntex + texel
+        uniq, inv = np.unique(key, return_inverse=True)
+        weight = np.bincount(inv, weights=w)
+        covered = np.bincount(texel, weights=w, minlength=ntex)
+        omega = self._omega[0].reshape(-1)
+        self.coverage = float(w.sum())
+        # A texel seen over (nearly) all of its footprint is the mean of what is seen; one
+        # partly seen is completed by the fill (the quantisation of sub-pixels is ~1/q²).
+        frac = np.clip(covered / omega, 0.0, 1.0)
+        whole = self.coverage > 4 * math.pi * 0.999      # the whole sphere is seen
+        frac[(frac > 0.97) | (whole & (covered > 0))] = 1.0
+        tex_u = uniq % ntex
+        self._pix = (uniq // ntex).astype(np.int32)
+        self._tex = tex_u.astype(np.int64)
+        self._val = (weight / np.maximum(covered[tex_u], 1e-300) * frac[tex_u]).astype(np.float32)
+        # The same map as an operator (texels that see nothing get one zero weight).
+        empty = np.flatnonzero(np.bincount(self._tex, minlength=ntex) == 0)
+        self._overlap_op = prefilter.SparseOperator(
+            np.concatenate([self._tex, empty]), np.concatenate([self._pix, np.zeros_like(empty)]),
+            np.concatenate([self._val, np.zeros(empty.size, np.float32)]),
+            (ntex, p.width * p.height))
+        self._fill_share = (1.0 - frac).astype(np.float32)          # (6n²,)
+        self._fill_weights = self._fill_model(p, d, w, pix)
+        # Each work pixel's solid angle and mean direction (world frame): where the light
+        # of its brightest pixels is sent exactly (see _bright_split).
+        npx = p.width * p.height
+        self._pix_omega = np.bincount(pix, weights=w, minlength=npx)
+        dsum = np.stack([np.bincount(pix, weights=w * d[:, c], minlength=npx)
+                         for c in range(3)], axis=1)
+        self._pix_dir = dsum / np.maximum(np.linalg.norm(dsum, axis=1, keepdims=True), 1e-300)
+
+    def _fill_model(self, p, d, w, pix):
+        """Per work pixel (H·W,) weights giving the fill radiance of unseen directions
+        (``ground``/``mirror``: albedo·E_axis/π, E_axis the irradiance on a surface facing
+        the lens axis), or None (``zero``, or nothing unseen)."""
+        if not np.any(self._fill_share > 0):
+            return None
+        fill, albedo = getattr(p, "fill", "zero"), float(getattr(p, "albedo", 0.0))
+        lens = getattr(p, "lens", None)
+        if fill == "zero" or albedo == 0 or lens is None:
+            return None
+        axis = np.asarray(lens.frame[0], np.float64)
+        if self.rotation is not None:
+            axis = self.rotation @ axis
+        g = np.bincount(pix, weights=np.maximum(d @ axis, 0.0) * w,
+                        minlength=p.width * p.height)
+        return (g * albedo / math.pi).astype(np.float32)
+
+    def _build_prefilter(self) -> None:
+        # Large cubes: the operator reads the pyramid from PREFILTER_MAX_SOURCE² down and
+        # evaluates mips larger than PREFILTER_MAX_FACE² at that size, upsampled bilinearly
+        # (their lobes span several texels of it; the bench measures what this costs).
+        self._source_first = next(a for a, n in enumerate(self.levels)
+                                  if n <= PREFILTER_MAX_SOURCE)
+        geom = prefilter.PyramidGeometry(self.levels[self._source_first:])
+        rows, cols, vals, offset = [], [], [], 0
+        self._mip_rows, self._outputs, self._norms = [], [], []
+        for k, n in enumerate(self.sizes[1:], start=1):
+            n = min(n, PREFILTER_MAX_FACE)
+            out = cubemap.texel_directions(n).reshape(-1, 3)
+            r, c, v, norm = prefilter.build_operator(
+                out, self.roughness[k] ** 2, geom,
+                ring=prefilter.RING_SMALL if self.size <= 16 else None)
+            rows.append(r + offset)
+            cols.append(c)
+            vals.append(v)
+            self._outputs.append(out)
+            self._norms.append(norm)
+            self._mip_rows.append((offset, offset + len(out)))
+            offset += len(out)
+        self._prefilter = (prefilter.SparseOperator(np.concatenate(rows), np.concatenate(cols),
+                                                    np.concatenate(vals), (offset, geom.total))
+                           if rows else None)
+
+    def at_roughness(self, mip_roughness) -> "EnvironmentProjector":
+        """A projector of the same frames, geometry and options whose mips are prefiltered at
+        ``mip_roughness`` instead (one per mip, 0 first; Babylon.js:
+        :func:`provider.core.reflections.gltf_ibl.babylon_roughness`): it shares this one's work image,
+        overlap and pyramid (mip 0 is the same), builds only its own prefilter operator, and
+        accepts this one's :class:`WorkImage`; its :meth:`refilter` turns this one's result
+        into its own with the prefilter alone."""
+        twin = copy.copy(self)
+        twin.roughness = _check_roughness(mip_roughness, len(self.sizes))
+        twin._build_prefilter()
+        return twin
+
+    def _same_geometry(self, other) -> bool:
+        """Whether ``other`` makes the same work image (itself, or an :meth:`at_roughness`
+        twin of it)."""
+        return other is self or other._overlap_op is self._overlap_op
+
+    @property
+    def nnz(self) -> int:
+        """Non-zeros of the per-frame operators (overlap + prefilter): the per-frame cost."""
+        return int(self._val.size) + (self._prefilter.nnz if self._prefilter else 0)
+
+    # -- per frame ------------------------------------------------------------------------
+    @one_blas_thread
+    def project(self, frame: np.ndarray, *, exposure_s: float | None = None,
+                gain: float = 1.0, work: "WorkImage | None" = None) -> EnvironmentResult:
+        """The cube of one frame (the frame contract of :mod:`provider.core.sh9.engine`).
+
+        ``exposure_s`` and ``gain`` divide the radiance as they divide the coefficients.
+        ``work``: this frame's :class:`WorkImage`, filled by the pass that decoded it already
+        (:meth:`~provider.core.sh9.engine.SH9Projector.project`'s ``work``): the frame is then
+        not decoded again. An incomplete one is ignored."""
+        t0 = time.perf_counter()
+        stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
+        frame = self._prepare(frame)
+        k = exposure_scale(exposure_s, gain, stats)
+        integer = frame.dtype in (np.uint8, np.uint16)
+        scale = (1.0 if integer else self.exposure) * (1.0 if k is None else k)
+        if integer and work is not None and work.complete and self._same_geometry(work.projector):
+            result = self._project_work(work.array, scale)
+            stats["shared_decode"] = True
+        elif integer and self._crop is not None:   # decode and shrink band by band, in cache
+            result = self._project_work(self._decode_work(frame), scale)
+        else:
+            result = self.project_linear(self.decode(frame, stats), scale)
+        stats["radiometry"] = self.radiometry if integer else "linear"
+        stats["coverage_sr"] = self.coverage
+        stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
+        result.stats = stats
+        return result
+
+    def project_linear(self, lin: np.ndarray, scale: float = 1.0) -> EnvironmentResult:
+        """The cube of an already decoded, clean (H, W, 3) float32 linear frame of this
+        projector's size, times ``scale``."""
+        if self._crop is not None:
+            cw, ch = self._crop
+            lin = cv2.resize(lin[:ch, :cw], (self._work.width, self._work.height),
+                             interpolation=cv2.INTER_AREA)
+        return self._project_work(lin, scale)
+
+    def new_work(self, decoder: FrameDecoder | None = None,
+                 band_rows: int = 32) -> "WorkImage | None":
+        """An empty :class:`WorkImage` for ``decoder``'s band-by-band pass over an integer
+        frame (bands of ``band_rows`` rows), or None where its bands cannot make this
+        projector's work image: another table (encoding, exposure, response) or bands that
+        do not fall on the work image's blocks."""
+        if decoder is not None and (
+                (decoder.width, decoder.height) != (self.width, self.height)
+                or decoder.encoding != self.encoding or decoder.exposure != self.exposure
+                or decoder.response is not self.response
+                or getattr(decoder, "window", None) != self.window):
+            return None
+        if self._crop is not None and band_rows % (self._crop[1] // self._work.height):
+            return None
+        return WorkImage(self)
+
+    def _decode_work(self, frame: np.ndarray) -> np.ndarray:
+        """The work image of an integer frame: linearised and area-averaged band by band
+        (each band's float copy stays in cache; the same numbers as the whole frame)."""
+        work = WorkImage(self)
+        f = self._crop[1] // self._work.height
+        rows = max(1, 32 // f) * f
+        for r0 in range(0, self._crop[1], rows):
+            work.add_band(self._linearise(frame[r0:r0 + rows]), r0)
+        return work.array
+
+    def _project_work(self, lin: np.ndarray, scale: float) -> EnvironmentResult:
+        px = np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
+        if scale != 1.0:
+            px = px * np.float32(scale)
+        base = self._overlap_op.apply(px)
+        if self._fill_weights is not None:
+            fill = self._fill_weights @ px                     # (3,)
+            base += self._fill_share[:, None] * fill[None, :].astype(np.float32)
+        mip0 = self._pyramid(base)[self.levels.index(self.size)]
+        if self._prefilter is None:
+            source = _PrefilterSource(self._overlap_op, mip0, None, None, None)
+            return EnvironmentResult([mip0], list(self.roughness), {}, source)
+        bright, excess = self._bright_split(px)
+        if bright is not None:   # the pyramid the operator reads keeps the smooth rest
+            # the overlap's entries are sorted by pixel: each bright pixel's run of them
+            lo = np.searchsorted(self._pix, bright)
+            hi = np.searchsorted(self._pix, bright, side="right")
+            pos = np.repeat(np.arange(bright.size), hi - lo)
+            sel = np.arange(pos.size) - np.repeat(np.cumsum(hi - lo) - (hi - lo), hi - lo) \
+                + np.repeat(lo, hi - lo)
+            base = base - self._overlap(excess, pos, self._val[sel], self._tex[sel])
+        levels = self._pyramid(base)[self._source_first:]
+        source = _PrefilterSource(self._overlap_op, mip0,
+                                  np.concatenate([lv.reshape(-1, 3) for lv in levels]),
+                                  bright, excess)
+        return EnvironmentResult(self._prefiltered(source), list(self.roughness), {}, source)
+
+    @one_blas_thread
+    def refilter(self, result: EnvironmentResult) -> EnvironmentResult:
+        """The cube of the frame that ``result`` was made from, its mips prefiltered at this
+        projector's roughness: ``result`` is from a projector of the same geometry (this
+        one, or the one this is an :meth:`at_roughness` twin of). Only the prefilter runs:
+        the frame is not decoded, overlapped nor pooled again. ``stats`` are ``result``'s
+        with this call's ``compute_ms``."""
+        t0 = time.perf_counter()
+        source = result.prefilter_source
+        if source is None or source.geometry is not self._overlap_op:
+            raise ValueError("refilter needs a result made by a projector of this geometry "
+                             "(this one, or the one it is an at_roughness twin of)")
+        out = EnvironmentResult(self._prefiltered(source), list(self.roughness),
+                                dict(result.stats), source)
+        out.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
+        return out
+
+    def _prefiltered(self, source: "_PrefilterSource") -> list:
+        """[mip 0, prefiltered mips…] of one frame's pyramid (and its bright pixels)."""
+        mips = [source.mip0]
+        if self._prefilter is None:
+            return mips
+        bright, excess = source.bright, source.excess
+        filtered = self._prefilter.apply(source.pyramid)
+        for (a, b), size, out, norm in zip(self._mip_rows, self.sizes[1:], self._outputs,
+                                            self._norms):
+            n = min(size, PREFILTER_MAX_FACE)
+            mip = filtered[a:b]
+            if bright is not None:
+                k = len(mips)
+                kern = prefilter.ggx_weight(out[:, None, :], self._pix_dir[bright][None],
+                                            self.roughness[k] ** 2)
+                kern *= self._pix_omega[bright][None, :] / norm[:, None]
+                mip = mip + (kern @ excess).astype(np.float32)
+            mip = mip.reshape(6, n, n, 3)
+            if size != n:
+                mip = np.stack([_upsample_face(f, size) for f in mip])
+            mips.append(mip)
+        return mips
+
+    def _overlap(self, px, pix, val, tex=None) -> np.ndarray:
+        """(6·base², 3) float32: Σ val · px[pix] into texels ``tex`` (default: all entries)."""
+        tex = self._tex if tex is None else tex
+        ntex = 6 * self.base * self.base
+        gathered = px[pix] * val[:, None]
+        return np.stack([np.bincount(tex, weights=gathered[:, c], minlength=ntex)
+                         for c in range(3)], axis=1).astype(np.float32)
+
+    def _pyramid(self, base: np.ndarray) -> list:
+        """The base cube and its exact 2×2 solid-angle pools (:func:`cubemap.pool`)."""
+        levels = [base.reshape(6, self.base, self.base, 3)]
+        for share in self._shares:
+            levels.append(cubemap.pool(levels[-1], share))
+        return levels
+
+    def _bright_split(self, px: np.ndarray):
+        """The brightest work pixels' light above the next one's luminance, sent to the
+        prefiltered mips exactly from their own directions instead of through the pyramid's
+        texels: a sun is a delta that no texel-sized quadrature gets right. Returns the
+        (sorted) pixel indices and their excess radiance (K, 3), or Nones."""
+        lum = px @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+        k = min(BRIGHT_PIXELS, lum.size - 1)
+        top = np.argpartition(lum, lum.size - k - 1)[lum.size - k - 1:]
+        cap = lum[top].min()
+        bright = np.sort(top[lum[top] > cap])
+        if bright.size == 0 or not cap >= 0:
+            return None, None
+        keep = (cap / lum[bright])[:, None]
+        excess = (px[bright] * (1 - keep)).astype(np.float64)
+        return bright, excess
+
+
+@dataclass(frozen=True)
+class _PrefilterSource:
+    """What a frame's prefiltered mips are made of, at any roughness: mip 0, the pyramid the
+    operator reads (levels from PREFILTER_MAX_SOURCE² down, bright pixels' excess taken out),
+    the bright pixels and their excess; ``geometry``: the overlap operator it was made by."""
+
+    geometry: object
+    mip0: np.ndarray
+    pyramid: np.ndarray
+    bright: np.ndarray | None
+    excess: np.ndarray | None
+
+
+def _check_roughness(mip_roughness, mips: int) -> list:
+    """The roughness of each of ``mips`` mips: k/(K−1) by default, else the given list
+    (InputError unless it has one finite value in [0, 1] per mip, 0 first, non-decreasing)."""
+    if mip_roughness is None:
+        return [k / (mips - 1) for k in range(mips)]
+    try:
+        r = [float(x) for x in mip_roughness]
+    except (TypeError, ValueError):
+        raise InputError("mip_roughness must be a list of numbers") from None
+    if len(r) != mips or r[0] != 0.0 or not all(math.isfinite(x) and 0 <= x <= 1 for x in r) \
+            or any(b < a for a, b in zip(r, r[1:])):
+        raise InputError(f"mip_roughness must hold {mips} non-decreasing values in [0, 1], "
+                         f"the first 0 (mip 0 is the radiance), got {mip_roughness!r}")
+    return r
+
+
+class WorkImage:
+    """The work image of one integer frame, filled band by band by a pass that decodes the
+    frame anyway (SH9's: :meth:`~provider.core.sh9.engine.SH9Projector.project`'s ``work``), so
+    that the frame is decoded once for both products. Made by
+    :meth:`EnvironmentProjector.new_work`; bands must come in order from row 0."""
+
+    def __init__(self, projector: EnvironmentProjector):
+        self.projector = projector
+        w = projector._work
+        self.array = np.empty((w.height, w.width, 3), np.float32)
+        self.rows = 0                   # frame rows received, in order
+        self.complete = False
+
+    def add_band(self, lin: np.ndarray, r0: int) -> None:
+        """Linear float32 rows ``[r0, r0 + len(lin))`` of the frame (after its window)."""
+        if r0 != self.rows:             # out of order: this work image is not usable
+            self.rows = -1
+            return
+        n = lin.shape[0]
+        self.rows += n
+        crop = self.projector._crop
+        if crop is None:
+            self.array[r0:r0 + n] = lin
+            self.complete = self.rows >= self.array.shape[0]
+            return
+        cw, ch = crop
+        f = ch // self.array.shape[0]
+        stop = min(r0 + n, ch)
+        if stop > r0:
+            self.array[r0 // f:stop // f] = cv2.resize(
+                lin[:stop - r0, :cw], (self.array.shape[1], (stop - r0) // f),
+                interpolation=cv2.INTER_AREA)
+        self.complete = self.rows >= ch
+
+
+def _upsample_face(face: np.ndarray, size: int) -> np.ndarray:
+    """Bilinear upsampling of one (n, n, 3) face to (size, size, 3), texel centres aligned."""
+    return cv2.resize(face, (size, size), interpolation=cv2.INTER_LINEAR)
+
+
+_CACHE: dict = {}
+
+
+def compute_environment(image, size: int = 32, projection: str = "equirect",
+                        **options) -> EnvironmentResult:
+    """The reflection cube of one image (a path or an (H, W, C) array; docs/contract.md §12).
+
+    Options are those of :func:`~provider.core.sh9.engine.compute_sh9` (SH9-only ones ignored).
+    Projectors are cached per (size, projection, options), a few at a time."""
+    image = image_array(image)
+    key = (image.shape[1], image.shape[0], size, projection, freeze_options(options))
+    projector = _CACHE.pop(key, None)
+    if projector is None:
+        projector = EnvironmentProjector(image.shape[1], image.shape[0], projection,
+                                         size=size, **options)
+    _CACHE[key] = projector
+    while len(_CACHE) > 4:          # least recently used first
+        _CACHE.pop(next(iter(_CACHE)))
+    return projector.project(image)

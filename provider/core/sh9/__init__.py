@@ -1,0 +1,10 @@
+"""The SH9 product: frames in, nine coefficients per channel, matrices and statistics out.
+
+* :mod:`.engine`: :class:`~provider.core.sh9.engine.SH9Projector` (precompute once, project
+  each frame) and :func:`~provider.core.sh9.engine.compute_sh9`;
+* :mod:`.clipping`: samples clipped at the top code and the light they carry.
+
+May import: geometry, radiometry, :mod:`provider.core.options` and the public classes of
+:mod:`provider.core.lights` (the engine hands its decoded frame to the lights extractor, so
+that a frame is decoded once for both). Not :mod:`provider.core.reflections`.
+"""

@@ -1,0 +1,97 @@
+"""Samples clipped at the top code of an 8/16-bit frame, and the light they carry (no I/O).
+
+``clipped_fraction`` counts the channel samples at the top code; ``clipped_light_fraction``
+(docs/contract.md §9) is the share of L00 they put into the projection at their clip level, a lower
+bound of the light that was never measured: the sun is a few samples and half the light.
+:class:`ClippedLight` computes both for an :class:`~.engine.SH9Projector` at little cost:
+
+* equirect: a SIMD compare of each band of rows while the engine's band loop has it in
+  cache, then per-row counts against the row's L00 weight (the weights are separable);
+  nothing more when nothing clips;
+* dense weights (fisheye, dual fisheye, cubemap): the mask against a per-pixel map of L00
+  weights (with downsampling, each block's weight shared by its pixels), on the rows that
+  clip only.
+"""
+from __future__ import annotations
+
+import weakref
+
+import cv2
+import numpy as np
+
+from ..geometry import sh
+from ..geometry.projections import Equirect
+
+
+class ClippedLight:
+    """Clipped samples and their L00 for one projector (built by it, reads its weights)."""
+
+    def __init__(self, projector):
+        # A proxy, not a reference: the projector holds this object, and a cycle would
+        # leave an evicted projector (tens of MB of weights) to the cyclic collector.
+        self.p = weakref.proxy(projector)
+        self._l00 = None        # equirect: L00 weight per row; dense: per pixel (H, W)
+
+    def start(self, frame: np.ndarray, lut: np.ndarray) -> dict:
+        """A tally for one frame decoded through ``lut``."""
+        h, w = frame.shape[:2]
+        top = 255 if frame.dtype == np.uint8 else 65535
+        value = np.asarray(lut[top] if lut.ndim == 1 else lut.reshape(top + 1, 3)[top],
+                           np.float64).reshape(-1)
+        if self.p._weights is None and (self._l00 is None or len(self._l00) != h):
+            full = Equirect(w, h)    # full-resolution rows, whatever the downsampling
+            self._l00 = sh.C0 * full.row_integrals()[0] * full.col_integrals()[0].mean()
+        return {"top": top, "value": value, "one": bool(np.all(value == value[0])),
+                "n": 0, "l00": 0.0}
+
+    def band(self, band: np.ndarray, r0: int, clip: dict) -> None:
+        """Equirect: add a band's clipped samples and the L00 they carry to ``clip``."""
+        hb, w = band.shape[:2]
+        mask = cv2.compare(band.reshape(hb, w * 3), clip["top"], cv2.CMP_EQ)  # 255: clipped
+        n = cv2.countNonZero(mask)
+        if n == 0:
+            return
+        clip["n"] += n
+        value, rows = clip["value"], self._l00[r0:r0 + hb]
+        if clip["one"]:
+            counts = cv2.reduce(mask, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).reshape(hb)
+            clip["l00"] += float(value[0] * (rows @ counts)) / 255.0
+        else:                                  # (cv2.reduce of 3 channels at once is slow)
+            planes = cv2.split(mask.reshape(hb, w, 3))
+            clip["l00"] += sum(float(value[c] * (rows @ cv2.reduce(
+                planes[c], 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).reshape(hb)))
+                for c in range(3)) / 255.0
+
+    def _dense(self, mask: np.ndarray, clip: dict) -> float:
+        h, w = mask.shape[:2]
+        p = self.p
+        if self._l00 is None:                  # the L00 weight of every source pixel (once)
+            ds = p.downsample
+            small = p._weights[:, 0].reshape(p.projection.height, p.projection.width)
+            full = np.zeros((h, w), np.float32)
+            bw, bh = p._block
+            full[:bh, :bw] = np.repeat(np.repeat(small, ds, 0), ds, 1) / float(ds * ds)
+            self._l00 = full
+        rows = np.flatnonzero(cv2.reduce(mask.reshape(h, w * 3), 1, cv2.REDUCE_SUM,
+                                         dtype=cv2.CV_32S))
+        few = len(rows) <= h // 2
+        weights = self._l00[rows] if few else self._l00
+        total = weights.reshape(-1) @ (mask[rows] if few else mask).reshape(-1, 3).astype(
+            np.float32)
+        return float(np.broadcast_to(clip["value"], (3,)) @ total) / 255.0
+
+    def whole(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
+        """``stats["clipped_fraction"]`` of a whole frame; returns the clipped L00 summed
+        over the channels (in the units of ``lut``)."""
+        clip = self.start(frame, lut)
+        if self.p._weights is not None:
+            h, w = frame.shape[:2]
+            mask = cv2.compare(frame.reshape(h, w * 3), clip["top"], cv2.CMP_EQ)
+            clip["n"] = cv2.countNonZero(mask)
+            if clip["n"]:
+                clip["l00"] = self._dense(mask.reshape(h, w, 3), clip)
+        else:
+            for r0 in range(0, frame.shape[0], self.p.BAND_ROWS):
+                self.band(frame[r0:r0 + self.p.BAND_ROWS], r0, clip)
+        stats["clipped_fraction"] = clip["n"] / frame.size
+        return clip["l00"]

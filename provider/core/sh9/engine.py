@@ -1,0 +1,487 @@
+"""The SH9 engine: frames in, coefficients, matrices and statistics out (no I/O).
+
+:class:`SH9Projector` precomputes, once per (frame size, projection, options), everything
+that does not depend on pixels (per-pixel SH weights, the sRGB linearisation table, the
+rotation matrix); :meth:`SH9Projector.project` then costs a few vectorised calls per frame.
+:func:`compute_sh9` is the one-shot convenience (docs/contract.md §4).
+
+Frame contract (like OpenCV's, but RGB channel order): an ``ndarray`` of shape (H, W, 3)
+(or (H, W, 4): alpha ignored; or (H, W) / (H, W, 1): grey), dtype
+
+* ``uint8``: sRGB-encoded unless ``encoding="linear"``; linearised through a table
+  *before* any averaging (docs/contract.md §5);
+* ``uint16``: likewise (16-bit PNG/TIFF are display-encoded), full scale 65535;
+* ``float16/32/64``: linear radiance (HDR, .exr/.hdr), used as is.
+
+Coefficients are in the units of the linear input times ``exposure`` (scene-referred for
+HDR; 0..1 relative to full scale for integer frames). With a camera ``response``
+(:class:`~provider.core.radiometry.response.CameraResponse`) integer frames are decoded by the
+camera's own curve instead of sRGB, and a frame's ``exposure_s`` and ``gain`` given to
+:meth:`SH9Projector.project` divide the coefficients: radiance per second of exposure, so
+that exposure changes never rebuild a table (docs/contract.md §9). Brackets: :mod:`.bracket`.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ..geometry import sh
+from .clipping import ClippedLight
+from ..blas import one_blas_thread
+from ..errors import InputError
+from ..lights.extractor import LightExtractor, LinearView
+from ..lights.analysis import model_irradiance
+from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
+from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
+from ..options import check_options, exposure_scale, freeze_options
+from ..radiometry.float_clean import FloatCleaner
+from ..radiometry.decode import FrameDecoder, image_array, srgb_to_linear  # noqa: F401
+
+
+@dataclass
+class SH9Result:
+    """Lighting of one frame.
+
+    Attributes
+    ----------
+    coefficients : (9, 3) float64
+        Radiance SH coefficients L_lm per RGB channel, order L00, L1-1, L10, L11, L2-2,
+        L2-1, L20, L21, L22, right-handed +Y-up frame.
+    matrices : (3, 4, 4) float64
+        Irradiance matrices M_r, M_g, M_b: E(n) = ñᵀ M ñ.
+    stats : dict
+        Per-frame statistics (see :meth:`SH9Projector.project`).
+    lights : list of :class:`~provider.core.lights.analysis.Light`
+        Directional lights (``lights="auto"``; empty otherwise): ``.direction`` unit vector
+        toward the light (world frame), ``.irradiance`` RGB on a surface facing it.
+    ambient_coefficients : (9, 3) float64 or None
+        SH9 of everything the lights did not take (``lights="auto"``); None when lights are
+        off. ``coefficients`` stay the full SH9 of everything (docs/contract.md §10).
+    """
+
+    coefficients: np.ndarray
+    matrices: np.ndarray
+    stats: dict = field(default_factory=dict)
+    lights: list = field(default_factory=list)
+    ambient_coefficients: np.ndarray | None = None
+
+    def irradiance(self, normals):
+        """E(n) (not clamped) at unit normals (..., 3) -> (..., 3)."""
+        return sh.irradiance(self.coefficients, normals)
+
+    @property
+    def ambient(self) -> np.ndarray:
+        """The ambient SH9 (9, 3): ``ambient_coefficients``, or the full SH9 without lights."""
+        return self.coefficients if self.ambient_coefficients is None else self.ambient_coefficients
+
+    @property
+    def ambient_matrices(self) -> np.ndarray:
+        """(3, 4, 4) irradiance matrices of :attr:`ambient`."""
+        if self.ambient_coefficients is None:
+            return self.matrices
+        return sh.irradiance_matrices(self.ambient_coefficients)
+
+    def irradiance_with_lights(self, normals):
+        """E(n) = ñᵀAñ + Σ_k I_k max(0, n·d_k) (not clamped) at unit normals (..., 3)."""
+        return model_irradiance(self.ambient, self.lights, normals)
+
+
+class SH9Projector(FrameDecoder):
+    """Projects frames of one size and projection onto SH9.
+
+    Parameters
+    ----------
+    width, height : int
+        Frame size in pixels.
+    projection : str or Projection
+        "equirect" (default), "fisheye", "dual-fisheye", "cubemap", or a built
+        :class:`~provider.core.geometry.projections.Projection`.
+    encoding : "auto" | "srgb" | "linear"
+        Transfer function of integer frames ("auto": sRGB). Float frames are linear.
+    exposure : float
+        Linear scale applied to the radiance (e.g. 2**EV).
+    downsample : int
+        Fast path: area-average the *linearised* frame by this integer factor before
+        projecting (1 = exact path). The weights are the exact integrals over each block.
+    rotation : (3, 3) array or None
+        Sensor rotation: maps camera-frame directions to world directions; applied to the
+        coefficients, never by resampling the image.
+    order : 0, 1, 2 or "auto"
+        Highest SH band kept. "auto" keeps the lowest order whose irradiance differs from
+        order 2 by at most ``order_budget`` (relative RMS over the sphere).
+    dering : "off" | "auto"
+        "auto" applies the weakest sinc⁴ window that makes irradiance non-negative
+        everywhere (only when it rings); "off" keeps the exact projection.
+    error_estimate : bool
+        Estimate SH9's truncation error per frame against brute-force irradiance from a
+        64×32-ish copy of the frame (costs one extra small resize).
+    progress : callable or None
+        Called with the fraction done while the per-pixel weights of a fisheye, dual-fisheye
+        or cube map frame are integrated (seconds to minutes for very large frames: see
+        :func:`precompute_note`).
+    lights : "off" | "auto"
+        "auto": model compact bright sources as directional lights plus an ambient SH9,
+        keeping a light only where it lowers the measured irradiance error
+        (:mod:`provider.core.lights.extractor`; docs/contract.md §10). "off": the exact path, unchanged.
+    max_lights : int
+        At most this many lights per frame, 1 to :data:`~provider.core.options.MAX_LIGHTS` (default 3).
+    response : CameraResponse or None
+        The camera's inverse response: integer frames are decoded with it (a table at
+        t = 1, like the sRGB one) instead of sRGB. None (default): sRGB, as ``encoding``.
+    **projection_options
+        Passed to the projection (fov_deg, center, radius, K, D, fill, albedo, ...).
+    """
+
+    def __init__(self, width: int, height: int, projection="equirect", *, encoding="auto",
+                 exposure=1.0, downsample=1, rotation=None, order=2, dering="off",
+                 order_budget=0.02, error_estimate=False, progress=None, lights="off",
+                 max_lights=3, response=None, **projection_options):
+        check_options(encoding=encoding, exposure=exposure, downsample=downsample,
+                      rotation=rotation, order=order, dering=dering, order_budget=order_budget,
+                      lights=lights, max_lights=max_lights)
+        self._init_decoder(width, height, encoding, exposure, response)
+        downsample = int(downsample)
+        if width // downsample < 1 or height // downsample < 1:
+            raise InputError(f"--downsample {downsample} is larger than the {width}×{height} frame")
+        try:
+            if isinstance(projection, Projection):
+                full = projection
+            else:
+                full = make_projection(projection, width, height, **projection_options)
+            self.projection = full if downsample == 1 else full.scaled(downsample)
+        except ProjectionError as exc:
+            raise InputError(str(exc)) from None
+        #: Allowed but probably wrong (e.g. a 2:1 panorama read as a fisheye): say them.
+        self.warnings = list(full.warnings)
+        #: (x0, y0, x1, y1): the part of each frame the projection covers (a ball's box).
+        self.window = getattr(full, "window", None)
+        self.downsample = downsample
+        self.order, self.dering, self.order_budget = order, dering, float(order_budget)
+        self.rotation = None if rotation is None else np.asarray(rotation, np.float64)
+        self._sh_rotation = None if rotation is None else sh.sh_rotation(self.rotation)
+        self.error_estimate = bool(error_estimate)
+        self.lights, self.max_lights = lights, int(max_lights)
+        # Lights (pixel-independent precomputation once, like the SH weights): integer
+        # frames on the exact path build the detection copy band by band while linearising.
+        self._extractor = (LightExtractor(full, max_lights=self.max_lights)
+                           if lights == "auto" else None)
+        self._fuse_lights = (self._extractor is not None and downsample == 1
+                             and self._extractor.fusable(self.BAND_ROWS))
+
+        # Pixel-independent precomputation.
+        p = self.projection
+        self._block = full.scaled_source_size(downsample)
+        if isinstance(p, Equirect):
+            rows, cols = p.row_integrals(), p.col_integrals()
+            self._rows = rows.astype(np.float32)          # (6, H)
+            self._cols = cols                               # (6, W) float64
+            self._weights = None
+        else:
+            p.progress = progress
+            try:
+                self._weights = p.sh_weights.astype(np.float32)  # (H·W, 9)
+            finally:
+                p.progress = None
+        self._clipped = ClippedLight(self)
+        self._estimator = None
+        self._coverage = 4 * math.pi if isinstance(p, Equirect) else p.coverage
+        if not self._coverage > 0:
+            raise InputError(f"no pixel of the {p.width}×{p.height} frame sees anything with "
+                             "this geometry (check --center, --radius, --fov)")
+        if self._coverage > 4 * math.pi * 1.01:   # integration of a frame far too coarse
+            raise InputError(f"this {p.width}×{p.height} {p.name} frame integrates to "
+                             f"{self._coverage:.1f} sr, more than the whole sphere (4π = "
+                             "12.6 sr): the frame is too small for this projection")
+
+    # -- projection -------------------------------------------------------------------------
+    #: Rows per band when linearising integer frames: the float32 band stays in cache.
+    BAND_ROWS = 32
+
+    def _accumulate(self, lin: np.ndarray, r0: int, acc: np.ndarray) -> None:
+        """Add the projection of linear rows [r0, r0+len) to ``acc``."""
+        h, w = lin.shape[:2]
+        if self._weights is None:
+            acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
+        else:
+            acc += lin.reshape(-1, 3).T @ self._weights[r0 * w:(r0 + h) * w]
+
+    def _new_accumulator(self) -> np.ndarray:
+        w = self.projection.width
+        return np.zeros((6, w * 3) if self._weights is None else (3, 9), np.float32)
+
+    def _coefficients(self, acc: np.ndarray) -> np.ndarray:
+        """(9, 3) float64 coefficients from an accumulator."""
+        if self._weights is not None:
+            return acc.T.astype(np.float64)
+        w = self.projection.width
+        rowsum = acc.reshape(6, w, 3).astype(np.float64)
+        partial = np.einsum("rwc,kw->rkc", rowsum, self._cols)  # (6 row fns, 6 col fns, 3)
+        out = np.zeros((9, 3))
+        for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
+            out[k] += const * partial[ri, ci]
+        return out
+
+    def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None,
+                       work=None):
+        """Linearise (counting bad samples) and project; returns the (9, 3) float64
+        coefficients, the fast path's small frame (or None), the linear frame the lights read
+        (the full linear frame, the fused detection copy, or None) and the L00 of the clipped
+        samples (summed over the channels). ``lut``: a table other than the projector's own."""
+        acc = self._new_accumulator()
+        integer = frame.dtype in (np.uint8, np.uint16)
+        scale = 1.0 if integer else self.exposure  # integer frames: folded into the LUT
+        if not integer:
+            stats["clipped_fraction"] = 0.0
+        if self.downsample == 1:
+            if integer:
+                table = self._lut(frame.dtype) if lut is None else lut
+                clip = self._clipped.start(frame, table)
+                mid = self._extractor.new_mid() if self._fuse_lights else None
+                for r0 in range(0, frame.shape[0], self.BAND_ROWS):
+                    band = frame[r0:r0 + self.BAND_ROWS]
+                    lin = self._linearise(band, lut)
+                    self._accumulate(lin, r0, acc)
+                    if work is not None and lut is None:   # the reflection cube's share
+                        work.add_band(lin, r0)
+                    if mid is not None:
+                        self._extractor.reduce_band(lin, r0, mid)
+                    if self._weights is None:
+                        self._clipped.band(band, r0, clip)  # while the band is in cache
+                if self._weights is not None:
+                    clipped = self.clipping(frame, table, stats)
+                else:
+                    stats["clipped_fraction"] = clip["n"] / frame.size
+                    clipped = clip["l00"]
+                return self._coefficients(acc) * scale, None, mid, clipped
+            lin = self._project_float(frame, stats, acc)
+            return self._coefficients(acc) * scale, None, lin, 0.0
+        # Fast path: area-average the *linear* frame, then project the small one.
+        clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
+                   if integer else 0.0)
+        lin = self._linearise(frame, lut) if integer else self._clean_float(frame, stats)
+        bw, bh = self._block
+        small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
+                           interpolation=cv2.INTER_AREA)
+        self._accumulate(small, 0, acc)
+        return self._coefficients(acc) * scale, small, lin, clipped
+
+    def _project_float(self, frame: np.ndarray, stats: dict, acc: np.ndarray):
+        """Clean (:class:`.float_clean.FloatCleaner`) and project a float frame band by band,
+        each band while it is in cache; returns the whole clean frame when the lights or the
+        error estimate will read it (a copy only if a band was dirty), else None."""
+        cleaner = FloatCleaner()
+        keep = self._extractor is not None or self.error_estimate
+        out = None
+        rows = self.BAND_ROWS
+        for r0 in range(0, frame.shape[0], rows):
+            band = cleaner.band(frame[r0:r0 + rows])
+            self._accumulate(band, r0, acc)
+            if keep and out is None and not np.may_share_memory(band, frame):
+                out = np.empty(frame.shape, np.float32)
+                out[:r0] = frame[:r0]
+            if out is not None:
+                out[r0:r0 + rows] = band
+        cleaner.finish(stats)
+        return out if out is not None else (frame if keep else None)
+
+    def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
+        """Sets ``stats["clipped_fraction"]`` (channel samples of an 8/16-bit frame at the top
+        code) and returns the L00 those samples put into the projection through ``lut``,
+        summed over the channels: light that is only a lower bound (the sun)."""
+        return self._clipped.whole(frame, lut, stats)
+
+    @one_blas_thread
+    def project(self, frame: np.ndarray, error_estimate: bool | None = None,
+                tracker=None, *, exposure_s: float | None = None,
+                gain: float = 1.0, work=None) -> SH9Result:
+        """Coefficients, matrices and statistics of one frame (``error_estimate``: whether
+        to estimate SH9's error on this frame; None: as the projector was built).
+
+        ``work``: a :class:`~provider.core.reflections.environment.WorkImage`
+        (``EnvironmentProjector.new_work(this projector)``) that the decoding pass of an 8- or
+        16-bit frame fills on its way, so that the reflection cube of the same frame needs no
+        second decode (left incomplete by float frames and ``downsample`` > 1).
+
+        With ``lights="auto"`` the result also holds ``lights`` and ``ambient_coefficients``;
+        ``tracker`` (a :class:`~provider.core.lights.tracking.LightTracker`, owned by the
+        caller, one per stream) chooses them with hysteresis across frames instead of the
+        per-frame greedy choice.
+
+        ``exposure_s`` and ``gain`` (when the source reports them): the coefficients are
+        divided by ``exposure_s · gain``, radiance per second of exposure (docs/contract.md §9),
+        so that auto exposure does not make the lighting jump; the table is not rebuilt.
+
+        ``stats`` keys: ``compute_ms``, ``clipped_fraction`` (fraction of channel samples at
+        the top code value of an integer frame), ``clipped_light_fraction`` (the share of
+        L00, the mean light, that comes from those samples: a lower bound, never measured),
+        ``radiometry`` ("srgb-assumed", "calibrated" or "linear"), ``response`` (the camera
+        curve's method, with a response), ``exposure_s`` and ``gain`` (when given),
+        ``negative_pixels`` and
+        ``nonfinite_pixels`` (set to 0 and counted), ``min_irradiance`` (per channel, over
+        the sphere, after windowing), ``ringing`` (the un-windowed SH irradiance went
+        negative), ``window_cutoff`` (sinc⁴ cutoff applied, or None), ``order`` (kept),
+        ``order_error`` (irradiance error caused by a lower order or by windowing, relative
+        to the exact order-2 result), ``error_estimate`` (when enabled: relative RMS SH9
+        irradiance error against brute force), ``coverage_sr`` (solid angle seen); with
+        lights: ``light_error`` (relative RMS irradiance error of ambient + lights against
+        brute force on a coarse copy, bright regions at mid resolution), ``sh9_error`` (the
+        full SH9 alone on the same copy), ``light_candidates`` (bright regions considered).
+        """
+        t0 = time.perf_counter()
+        stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
+        frame = self._prepare(frame)
+        k = exposure_scale(exposure_s, gain, stats)
+        coeffs, small, light_input, clipped = self._project_frame(frame, stats, work=work)
+        if k is not None:
+            coeffs, clipped = coeffs * k, clipped * k
+        integer = frame.dtype in (np.uint8, np.uint16)
+        self.radiometry_stats(stats, coeffs, clipped, self.radiometry if integer else "linear")
+        result = self.result(coeffs, stats)
+        if self._extractor is not None:
+            self._add_lights(result, frame, coeffs, light_input, tracker, k)
+        if self.error_estimate if error_estimate is None else error_estimate:
+            if small is None:
+                small = (self._linearise(frame) if frame.dtype in (np.uint8, np.uint16)
+                         else self._clean_float(frame, {}))
+            result.stats["error_estimate"] = self._estimate_error(small, result.stats["order"])
+        result.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
+        return result
+
+    # -- building blocks of brackets (provider.core.radiometry.bracket) ----------------------------------
+    def project_part(self, frame: np.ndarray, table: np.ndarray):
+        """The projection of ``table(frame)`` for an 8/16-bit frame: ``(coefficients (9, 3),
+        clipped L00 (summed over the channels), stats)``, not rotated and not scaled by any exposure (one slot of
+        a bracket; the sum of slots goes to :meth:`result`)."""
+        stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
+        frame = self._prepare(frame)
+        if frame.dtype not in (np.uint8, np.uint16):
+            raise InputError(f"a bracket needs 8- or 16-bit frames, got {frame.dtype}")
+        coeffs, _, _, clipped = self._project_frame(frame, stats, lut=table)
+        return coeffs * self.exposure, clipped * self.exposure, stats
+
+    def result(self, coefficients: np.ndarray, stats: dict) -> SH9Result:
+        """An :class:`SH9Result` from exact (un-rotated) coefficients: the sensor rotation,
+        windowing, order choice, matrices and their statistics."""
+        if self._sh_rotation is not None:
+            coefficients = self._sh_rotation @ coefficients
+        return self._finish(coefficients, stats)
+
+    def radiometry_stats(self, stats: dict, coefficients: np.ndarray, clipped_l00: float,
+                         radiometry: str) -> None:
+        """``radiometry``, ``response`` and ``clipped_light_fraction`` (clipped L00 over all
+        L00, summed over the channels; exact coefficients, before rotation) into stats."""
+        stats["radiometry"] = radiometry
+        if self.response is not None and radiometry != "linear":
+            stats["response"] = self.response.method
+        total = float(np.sum(coefficients[0]))
+        part = float(np.sum(clipped_l00))
+        stats["clipped_light_fraction"] = min(max(part / total, 0.0), 1.0) if total > 0 else 0.0
+
+    def _finish(self, exact: np.ndarray, stats: dict) -> SH9Result:
+        coeffs = exact
+        E_exact = sh.sphere_irradiance(exact)
+        stats["ringing"] = bool(np.any(E_exact.min(axis=0) < 0))
+        stats["window_cutoff"] = None
+        if self.dering == "auto":
+            coeffs, cutoff = sh.dering(coeffs)
+            stats["window_cutoff"] = cutoff
+        order = self.order
+        if order == "auto":
+            order = 2
+            for candidate in (0, 1):
+                err = sh.relative_rms(sh.sphere_irradiance(sh.truncate_order(coeffs, candidate)),
+                                      sh.sphere_irradiance(coeffs))
+                if err <= self.order_budget:
+                    order = candidate
+                    break
+        if order < 2:
+            coeffs = sh.truncate_order(coeffs, order)
+        E = sh.sphere_irradiance(coeffs)
+        stats["order"] = order
+        stats["order_error"] = sh.relative_rms(E, E_exact)
+        stats["min_irradiance"] = [float(v) for v in E.min(axis=0)]
+        stats["coverage_sr"] = self._coverage
+        return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats)
+
+    def _add_lights(self, result, frame, exact, light_input, tracker, k=None) -> None:
+        """Directional lights + ambient of one frame (provider.core.lights.extractor), in the units
+        and frame of the coefficients: exposure scales them like the coefficients, the
+        sensor rotation turns light directions and the ambient like the coefficients, and
+        the ambient gets the same deringing and order as the coefficients."""
+        integer = frame.dtype in (np.uint8, np.uint16)
+        scale = 1.0 if integer else self.exposure  # integer frames: folded into the LUT
+        if k is not None:                           # per second of exposure, as the coefficients
+            scale *= k
+        if light_input is None:                     # an integer frame that was not fused
+            light_input = self._linearise(frame)
+        full = light_input if light_input.shape[:2] == frame.shape[:2] else \
+            LinearView(frame, self._linearise)
+        order = result.stats["order"]
+        found = self._extractor.extract(
+            light_input, exact / scale, tracker=tracker, full=full,
+            process=lambda ambient: self._same_processing(ambient, order))
+        found = found.transformed(scale, self.rotation, self._sh_rotation)
+        result.lights, result.ambient_coefficients = found.lights, found.ambient
+        result.stats.update(light_error=found.light_error, sh9_error=found.sh9_error,
+                            light_candidates=len(found.candidates))
+
+    # -- error estimate ---------------------------------------------------------------------
+    def _estimate_error(self, lin: np.ndarray, order: int) -> float:
+        """Relative RMS difference between SH9 irradiance and brute-force irradiance.
+
+        Both come from the same coarse copy of the frame (about 4k pixels), so the figure
+        measures SH9 truncation (and windowing/order choices), not resolution.
+        """
+        if self._estimator is None:
+            p = self.projection
+            factor = max(1, int(math.sqrt(p.width * p.height / 4096)))
+            coarse = p if factor == 1 else p.scaled(factor)
+            crop = p.scaled_source_size(factor)
+            dirs = coarse.directions().reshape(-1, 3)
+            omega = coarse.solid_angle.reshape(-1)
+            normals = sh.fibonacci_sphere(256)
+            kernel = np.maximum(normals @ dirs.T, 0.0) * omega  # (256, P)
+            sh_w = coarse.sh_weights  # (P, 9), includes any fill model
+            self._estimator = (factor, coarse, crop, normals, kernel, sh_w)
+        factor, coarse, crop, normals, kernel, sh_w = self._estimator
+        small = lin if factor == 1 else cv2.resize(
+            lin[:crop[1], :crop[0]], (coarse.width, coarse.height), interpolation=cv2.INTER_AREA)
+        px = small.reshape(-1, 3).astype(np.float64)
+        truth = kernel @ px
+        coarse_coeffs = sh_w.T @ px
+        # The same order/window choices as the result, applied to the coarse projection.
+        approx = sh.irradiance(self._same_processing(coarse_coeffs, order), normals)
+        return sh.relative_rms(approx, truth)
+
+    def _same_processing(self, coeffs, order):
+        out = coeffs
+        if self.dering == "auto":
+            out, _ = sh.dering(out)
+        return sh.truncate_order(out, order)
+
+
+_PROJECTOR_CACHE: dict = {}
+
+
+def compute_sh9(image, projection: str = "equirect", **options) -> SH9Result:
+    """SH9 lighting of one image (docs/contract.md §4).
+
+    ``image`` is an (H, W, C) array in RGB order (see the module docstring) or a path to
+    an image file (.exr, .hdr, .png, .jpg, .tif, ...). Options are those of
+    :class:`SH9Projector`; ``error_estimate`` defaults to True here. Projectors are cached
+    per (size, projection, options), so calling this per frame is cheap after the first.
+    """
+    image = image_array(image)
+    options.setdefault("error_estimate", True)
+    key = (image.shape[1], image.shape[0], projection, freeze_options(options))
+    projector = _PROJECTOR_CACHE.get(key)
+    if projector is None:
+        projector = SH9Projector(image.shape[1], image.shape[0], projection, **options)
+        if len(_PROJECTOR_CACHE) > 16:
+            _PROJECTOR_CACHE.clear()
+        _PROJECTOR_CACHE[key] = projector
+    return projector.project(image)
