@@ -106,6 +106,13 @@ class Subscriber:
                                   None), timeout=timeout, what=f"a message on {topic}")
         return found
 
+    def retained(self, topic: str, timeout: float = 20.0) -> bytes:
+        """The payload of the retained message the broker sent on subscribing. It is not
+        always the first on ``topic``: a live publish that reaches the broker while the
+        subscription is being made may be delivered before it (seen under load)."""
+        return poll(lambda: next((p for t, r, p in list(self.messages) if t == topic and r),
+                                 None), timeout=timeout, what=f"the retained message on {topic}")
+
     def latest_seq(self, topic: str) -> int | None:
         seqs = [json.loads(p)["seq"] for t, _, p in list(self.messages) if t == topic]
         return max(seqs) if seqs else None

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 import pytest
 
-from servertools import ServeProcess, poll
+from servertools import ServeProcess, http_get, poll
 
 from browsertools import CHROMIUM, browser, page_of, sync_playwright  # noqa: F401
 
@@ -68,8 +68,13 @@ def test_glossy_and_mirror_spheres_reflect_the_live_cube(tmp_path, browser):  # 
     write_panorama(pano, "right")
     with ServeProcess("--source", str(pano), "--environment", "--fps", "4") as proc, \
             page_of(browser, proc.http + "/", viewport=(1100, 900)) as page:
-        page.wait_for_selector("#env-spheres:not([hidden])", timeout=20000)
-        page.wait_for_selector("#sphere-env[data-cube-seq]", timeout=20000)
+        # The cube is made by a thread at nice 10: on a busy machine the first one takes
+        # long. Wait for it at the server, then for the page to draw it (issue 33: 20 s
+        # was not enough beside other work).
+        poll(lambda: http_get(proc.http + "/environment.ktx2")[0] == 200, timeout=240,
+             interval=0.2, what="the server's first cube")
+        page.wait_for_selector("#env-spheres:not([hidden])", timeout=60000)
+        page.wait_for_selector("#sphere-env[data-cube-seq]", timeout=60000)
         glossy, mirror = spheres(page)
         for name, sphere in (("glossy", glossy), ("mirror", mirror)):
             left, right = sides(sphere)
@@ -77,9 +82,9 @@ def test_glossy_and_mirror_spheres_reflect_the_live_cube(tmp_path, browser):  # 
         assert "cube 32²" in page.inner_text("#env-note")
         first = page.evaluate(SEQ)
         write_panorama(pano, "left")                # the light moves to −X
-        poll(lambda: page.evaluate(SEQ) != first, timeout=20, interval=0.1,
+        # cubeSeq is set right after the canvas is drawn with that cube
+        poll(lambda: page.evaluate(SEQ) != first, timeout=240, interval=0.1,
              what="the cube of the moved light")
-        page.wait_for_timeout(300)
         glossy, mirror = spheres(page)
         for name, sphere in (("glossy", glossy), ("mirror", mirror)):
             left, right = sides(sphere)

@@ -311,8 +311,8 @@ def test_mqtt_retains_the_same_cube_bytes(tmp_path):
         with Subscriber(broker.port, "site/+/environment") as early:   # the broker has it
             early.first("site/default/environment")
         with Subscriber(broker.port, "site/#") as late:      # joins after it was published
-            retained, payload = late.first("site/default/environment")
-            assert retained and payload == body
+            payload = late.retained("site/default/environment")
+            assert payload == body
             retained, lighting = late.first("site/default")
             assert json.loads(lighting)["type"] == "sh9"
         assert key_value(payload, "shlight.probe") == "default"

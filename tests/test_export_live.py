@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import time
 
 import cv2
 import jsonschema
@@ -140,7 +139,10 @@ def test_conversion_runs_once_per_message_and_format():
             for i, ws in enumerate(clients):
                 recv_until(ws, is_export("webxr" if i < 8 else "gltf"))
             before = srv.call(lambda: (srv.server.exports.conversions, srv.server.probes["default"].seq))
-            time.sleep(1.5)             # the clients' own threads receive meanwhile
+            # five new messages or more, however slow the machine (the clients' own
+            # threads receive meanwhile)
+            poll(lambda: srv.call(lambda: srv.server.probes["default"].seq) >= before[1] + 5,
+                 timeout=120, interval=0.05, what="five more messages")
             after = srv.call(lambda: (srv.server.exports.conversions, srv.server.probes["default"].seq))
             got = [len([m for m in collect(ws, 0.2) if m.get("type") == "export"]) for ws in clients]
         published = after[1] - before[1]

@@ -86,3 +86,30 @@ def test_each_probe_s_failure_reaches_the_log():
         poll(lambda: "probe a" in proc.output and "probe b" in proc.output, 60,
              what="both probes' failures in the log")
         assert proc.proc.poll() is None
+
+
+@pytest.mark.parametrize("value", ["-5", "nan", "abc", "inf", "1e400"])
+def test_a_bad_max_hz_in_the_url_gets_400_as_in_a_subscribe(server, value):
+    """?max_hz=-5 connected with no cap, while a subscribe with it is refused (issue 33)."""
+    from websockets.exceptions import InvalidStatus
+    from servertools import connect
+    with pytest.raises(InvalidStatus) as refused:
+        with connect(server.url + f"?token=tok&max_hz={value}"):
+            pass
+    assert refused.value.response.status_code == 400
+    assert b"max_hz must be a number >= 0" in refused.value.response.body
+    with connect(server.url + "?token=tok&max_hz=2.5") as ws:      # a good one still goes
+        assert ws.recv(timeout=10)
+
+
+def test_the_example_s_placeholder_token_is_warned_about():
+    """examples/edge/shlight-edge.env ships SHLIGHT_TOKEN=change-me for a server on 0.0.0.0
+    (issue 33): a server started with it says so."""
+    from pathlib import Path
+    env = (Path(__file__).resolve().parent.parent / "examples" / "edge"
+           / "shlight-edge.env").read_text()
+    assert "SHLIGHT_TOKEN=change-me" in env and "REPLACE IT" in env
+    with ServeProcess("--source", "demo", "--token", "change-me") as proc:
+        poll(lambda: "placeholder 'change-me'" in proc.output, 30, what="the warning")
+    with ServeProcess("--source", "demo", "--token", "a-real-secret") as proc:
+        assert "placeholder" not in proc.output

@@ -71,7 +71,9 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     try:
-        return _run(args)
+        code = _run(args)
+        sys.stdout.flush()      # what a command printed fails here, not at exit
+        return code
     except InputError as exc:
         print(f"shlight {args.command}: error: {exc}", file=sys.stderr)
         return 2
@@ -82,4 +84,18 @@ def main(argv=None) -> int:
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except OSError as exc:
+        if not _stdout_failed(exc):
+            raise
+        from .feedback import output_error
+        print(f"shlight {args.command}: error: {output_error(exc)}", file=sys.stderr)
+        return 2
+
+
+def _stdout_failed(exc: OSError) -> bool:
+    """Whether ``exc`` is stdout's write failing (a full disk, ``> /dev/full``): the error
+    of a command that printed with ``print`` rather than :func:`.feedback.write_output`."""
+    import errno
+    return exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG) and (
+        exc.filename is None)
 

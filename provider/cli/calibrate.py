@@ -27,8 +27,8 @@ def add_arguments(p) -> None:
                    help="pixels sampled (auto: 1000, spread over the scene's radiance; "
                         "debevec: 150)")
     p.add_argument("--lambda", dest="lambda_", type=float, default=None,
-                   help="debevec: smoothness (default 50; grow it with --samples, ~samples/3; "
-                        "auto chooses it)")
+                   help="debevec: smoothness, above 0 and at most 1e6 (default 50; grow it "
+                        "with --samples, ~samples/3; auto chooses it)")
 
 
 def run(args) -> int:
@@ -77,8 +77,11 @@ def check_arguments(args) -> None:
             raise InputError(f"--lambda is Debevec's smoothness; --method {args.method} "
                              + ("chooses it from the frames" if args.method == "auto"
                                 else "has none") + " (use --method debevec)")
-        if not (math.isfinite(args.lambda_) and args.lambda_ > 0):
-            raise InputError(f"--lambda must be a finite number above 0, got {args.lambda_:g}")
+        from ..core.radiometry.response import DEBEVEC_LAMBDA_MAX
+        if not (math.isfinite(args.lambda_) and 0 < args.lambda_ <= DEBEVEC_LAMBDA_MAX):
+            raise InputError(f"--lambda must be above 0 and at most {DEBEVEC_LAMBDA_MAX:g} "
+                             f"(Debevec's smoothness: default 50, about --samples / 3), got "
+                             f"{args.lambda_:g}")
     if args.samples is not None:
         if args.method == "robertson":
             raise InputError("--samples is for --method auto or debevec (robertson uses "

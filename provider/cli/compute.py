@@ -58,6 +58,10 @@ def wire_message(args, command: str = "compute") -> dict:
         result = project_bracket(projector, images, times)
     else:
         result = projector.project(image, exposure_s=times[0])
+    if not result.coefficients[0].any():      # L00 = 0: not one pixel seen is above 0
+        say(command, "warning", f"the frame{'s are' if several else ' is'} all zeros where "
+                                "the projection looks: no light, the lighting is black (a "
+                                "lens cap, a black render, the wrong file?)")
     return coefficient_message(result, probe=args.probe, seq=0,
                                time=os.path.getmtime(paths[0]), projection=args.projection)
 
@@ -75,8 +79,11 @@ def locate_ball_note(options: dict, image, command: str) -> dict:
 
 
 def print_json(message: dict, pretty: bool) -> None:
+    """The message as JSON on stdout (a failed write: one line, exit 2)."""
     from ..live.wire.message import dumps
-    print(dumps(message) if not pretty else json.dumps(message, indent=2, allow_nan=False))
+    from .feedback import write_output
+    write_output(dumps(message) if not pretty else json.dumps(message, indent=2,
+                                                              allow_nan=False))
 
 
 def run(args) -> int:

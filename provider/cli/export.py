@@ -45,13 +45,33 @@ def run(args) -> int:
         if args.to not in _PHASED:
             raise InputError("--no-condon-shortley applies to --to arcore or openxr-android only")
         options["condon_shortley"] = False
-    if args.cube_size is not None and args.to != "gltf":
-        raise InputError("--cube-size applies to --to gltf only (ARCore's cube is 16²)")
+    size = cube_size(args)
     message = wire_message(args, "export")
-    if args.to in CUBE_FORMATS and not args.no_cube:
-        options["environment"] = cube_mips(args, args.cube_size or CUBE_FORMATS[args.to])
+    if size is not None:
+        options["environment"] = cube_mips(args, size)
     print_json(export_message(message, args.to, **options), args.pretty)
     return 0
+
+
+def cube_size(args) -> int | None:
+    """The edge of the reflection cube's mip 0, checked before any work (None: no cube for
+    this format, or ``--no-cube``); :class:`InputError` for a size that cannot be, as
+    ``environment --size`` refuses it, never a silent default."""
+    from ..core.errors import InputError
+    from ..live.reflections.cube import check_size
+    if args.cube_size is not None:
+        if args.to != "gltf":
+            raise InputError("--cube-size applies to --to gltf only (ARCore's cube is 16²)")
+        if args.no_cube:
+            raise InputError("--cube-size sizes the cube that --no-cube leaves out: give one")
+        try:
+            return check_size(args.cube_size)
+        except InputError:
+            raise InputError(f"--cube-size {args.cube_size}: a power of two from 8 to 256 "
+                             f"(default {CUBE_FORMATS['gltf']})") from None
+    if args.to not in CUBE_FORMATS or args.no_cube:
+        return None
+    return CUBE_FORMATS[args.to]
 
 
 def cube_mips(args, size: int) -> list:

@@ -5,6 +5,32 @@ import sys
 import time
 
 
+def write_output(text: str) -> None:
+    """``text`` and a newline on stdout, flushed now, so that a write that fails (a full
+    disk, ``> /dev/full``) fails here, in one line (:class:`InputError`, exit 2), rather
+    than as a traceback, or at exit. A reader that left (``| head``) raises
+    :class:`BrokenPipeError`, which the command line ends quietly."""
+    try:
+        sys.stdout.write(text + "\n")
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as exc:
+        raise output_error(exc) from None
+
+
+def output_error(exc: OSError):
+    """The :class:`InputError` of a failed write to stdout; stdout is pointed at the null
+    device first, so that the exit's own flush of what is left does not fail again."""
+    import os
+    from ..core.errors import InputError
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+    return InputError(f"cannot write the output: {exc.strerror or exc}")
+
+
 def say(command: str, kind: str, text: str) -> None:
     """One line on stderr, e.g. ``shlight compute: warning: ...``."""
     print(f"shlight {command}: {kind}: {text}", file=sys.stderr, flush=True)

@@ -49,8 +49,8 @@ def add_arguments(p) -> None:
     p.add_argument("--marker", required=True, metavar="SPEC",
                    help="aruco:DICT_4X4_50:7 (dictionary and id), or qr / qr:TEXT")
     p.add_argument("--marker-size", type=finite_float, required=True, metavar="METRES",
-                   help="the printed side: ArUco's black square, or the QR symbol without "
-                        "its quiet zone (what `shlight marker` prints under it)")
+                   help="the printed side, 0.005-5 m: ArUco's black square, or the QR symbol "
+                        "without its quiet zone (what `shlight marker` prints under it)")
     p.add_argument("--level", default="auto", choices=["auto", "off"],
                    help="auto: level the frame where the still says its pitch and roll (XMP)")
     p.add_argument("--pretty", action="store_true", help="indent the JSON")
@@ -87,9 +87,9 @@ def measure(args, command: str = "register"):
                                           levelling_rotation)
     from ..core.registration.xmp_pose import read_pose
     from .feedback import say
+    from ..core.registration.marker_detect import check_marker_size
     spec = parse_marker(args.marker)
-    if not args.marker_size > 0:
-        raise InputError(f"--marker-size {args.marker_size:g}: the printed side in metres (> 0)")
+    check_marker_size(args.marker_size, "--marker-size")
     options = projection_options(args)
     poses, missing = [], []
     for name in args.image:
@@ -140,6 +140,8 @@ def registrar_for(ns, name: str):
         return None
     if ns.marker_size is None:
         raise InputError("--marker needs --marker-size METRES (the printed side)")
+    from ..core.registration.marker_detect import check_marker_size
+    check_marker_size(ns.marker_size, "--marker-size")
     from ..live.probe.registration import Registrar
     from .options import engine_options
     opts = {k: v for k, v in engine_options(ns).items()

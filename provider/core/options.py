@@ -18,6 +18,14 @@ DERING = ("off", "auto")
 LIGHTS = ("off", "auto")
 #: Most directional lights per frame (the shaders' SH_MAX_LIGHTS).
 MAX_LIGHTS = 4
+#: The largest float32: integer frames' tables (code -> linear × exposure) are float32, so a
+#: larger exposure overflows every lit pixel, and no shader holds the result.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+#: The smallest normal float32: below it the tables underflow (every pixel 0 or denormal).
+FLOAT32_TINY = float(np.finfo(np.float32).tiny)
+#: The largest coefficient a result may hold: the irradiance matrices (up to ~1.2× the
+#: coefficients) and the shaders' sums of products over them stay within float32.
+LIGHTING_MAX = FLOAT32_MAX / 16
 
 
 def check_options(*, encoding="auto", exposure=1.0, downsample=1, rotation=None, order=2,
@@ -38,6 +46,10 @@ def check_options(*, encoding="auto", exposure=1.0, downsample=1, rotation=None,
         raise InputError(f"encoding must be auto, srgb or linear; got {encoding!r}")
     if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):
         raise InputError(f"exposure must be a positive finite number; got {exposure!r}")
+    if not FLOAT32_TINY <= exposure <= FLOAT32_MAX:
+        raise InputError(f"exposure {exposure:g} {'over' if exposure > 1 else 'under'}flows "
+                         f"the lighting: from {FLOAT32_TINY:.3g} to {FLOAT32_MAX:.3g} (float32's "
+                         "range)")
     if not (isinstance(order_budget, (int, float)) and math.isfinite(order_budget)
             and order_budget >= 0):
         raise InputError(f"order budget must be a finite number >= 0; got {order_budget!r}")
@@ -110,6 +122,36 @@ def exposure_scale(exposure_s, gain, stats: dict) -> float | None:
     if g != 1.0:
         stats["gain"] = g
     return 1.0 / (t * g)
+
+
+def check_lighting(coefficients, exposure: float = 1.0, exposure_s=None) -> None:
+    """Refuse lighting that overflowed (a huge ``exposure``, a frame of huge values): it
+    would reach a shader as infinities, or as numbers beyond what float32 holds.
+
+    Parameters
+    ----------
+    coefficients : array_like
+        The (9, 3) coefficients of one frame, exposure applied.
+    exposure : float
+        The engine's ``exposure`` option, named in the message.
+    exposure_s : float or None
+        The frame's exposure time (seconds), named in the message when given.
+
+    Raises
+    ------
+    InputError
+        When a coefficient is not finite or beyond :data:`LIGHTING_MAX`.
+    """
+    c = np.asarray(coefficients, np.float64)
+    with np.errstate(invalid="ignore"):
+        peak = float(np.max(np.abs(c))) if c.size else 0.0
+    if math.isfinite(peak) and peak <= LIGHTING_MAX:
+        return
+    at = f"exposure {exposure:g}" + (f" and a {exposure_s:g} s frame" if exposure_s else "")
+    got = "not finite" if not math.isfinite(peak) else f"{peak:.3g}"
+    raise InputError(f"the lighting overflows at {at}: a coefficient is {got}, beyond the "
+                     f"{LIGHTING_MAX:.2g} that float32 shaders hold; lower the exposure (or "
+                     "the frame's values)")
 
 
 def freeze_options(options: dict):

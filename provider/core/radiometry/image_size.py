@@ -77,6 +77,51 @@ def check_pixels(width: int, height: int, budget: int, what: str = "frame",
         raise FrameTooLarge(width, height, budget, what, decoded)
 
 
+def decode_limits() -> tuple[int, int]:
+    """(most pixels, most pixels a side) that OpenCV decodes: its ``OPENCV_IO_MAX_IMAGE_PIXELS``
+    (2^30) and ``OPENCV_IO_MAX_IMAGE_WIDTH`` / ``_HEIGHT`` (2^20), read as OpenCV reads them."""
+    import os
+
+    def env(name: str, default: int) -> int:
+        try:
+            return int(os.environ.get(name, default))
+        except ValueError:
+            return default
+    side = min(env("OPENCV_IO_MAX_IMAGE_WIDTH", 1 << 20), env("OPENCV_IO_MAX_IMAGE_HEIGHT",
+                                                               1 << 20))
+    return env("OPENCV_IO_MAX_IMAGE_PIXELS", 1 << 30), side
+
+
+#: libpng refuses a PNG wider or taller than this (PNG_USER_WIDTH_MAX / _HEIGHT_MAX), with
+#: its own lines on stderr, before OpenCV looks at the size.
+PNG_MAX_SIDE = 1_000_000
+
+
+def check_decodable(width: int, height: int, data: bytes, what: str) -> None:
+    """Refuse, from its header, an image that OpenCV would refuse to decode anyway, so that
+    it is one line of ours and not libpng's three (``libpng error: PNG unsigned integer out
+    of range``) or OpenCV's: a side of 0, or a size past :func:`decode_limits` (or, for a
+    PNG, :data:`PNG_MAX_SIDE`). OpenEXR files (read by the ``openexr`` package) are not
+    checked here.
+
+    Raises
+    ------
+    InputError
+        In one line naming ``what`` (e.g. ``"cannot read PATH"``) and the declared size.
+    """
+    if data[:4] == EXR_MAGIC:
+        return
+    if width <= 0 or height <= 0:
+        raise InputError(f"{what}: its header declares a {width}×{height} image (corrupt)")
+    pixels, side = decode_limits()
+    if data[:8] == PNG_MAGIC:
+        side = min(side, PNG_MAX_SIDE)
+    if width * height > pixels or max(width, height) > side:
+        raise InputError(f"{what}: its header declares a {width}×{height} image "
+                         f"({megapixels(width * height)}), too large to decode (at most "
+                         f"{megapixels(pixels)} and {side} pixels a side)")
+
+
 def header_size(data: bytes) -> tuple[int, int] | None:
     """The size an image file's header declares, without decoding it.
 

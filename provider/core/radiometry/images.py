@@ -7,7 +7,8 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from .image_size import EXR_MAGIC, HEADER_BYTES, PNG_MAGIC, check_pixels, header_size
+from .image_size import (EXR_MAGIC, HEADER_BYTES, PNG_MAGIC, check_decodable, check_pixels,
+                         header_size)
 
 IMAGE_EXTENSIONS = (".exr", ".hdr", ".pic", ".png", ".jpg", ".jpeg", ".tif", ".tiff",
                     ".bmp", ".webp", ".pfm", ".ppm", ".pgm")
@@ -54,6 +55,7 @@ def read_image(path, max_pixels: int = 0) -> np.ndarray:
                 size = header_size(data)
             if size is not None:       # refused from the header: nothing more read or decoded
                 check_pixels(*size, max_pixels, f"{path}: image")
+                check_decodable(*size, data, f"cannot read {path}")
             radiance = data[:2] == b"#?"
             if not radiance:           # Radiance files are decoded from their path (below)
                 data += f.read()
@@ -79,12 +81,16 @@ def _decode(path: str, data: bytes, radiance: bool) -> np.ndarray:
         img = None
         if radiance:
             # OpenCV decodes Radiance .hdr bytes through a temporary file (its decoder reads
-            # files only): with /tmp full a valid file would fail. Read from its own path.
-            img = cv2.imread(path, cv2.IMREAD_UNCHANGED)
-            if img is None:        # a path OpenCV cannot open (non-ASCII on Windows)
-                with open(path, "rb") as f:
-                    data = f.read()
-        if img is None:
+            # files only): with /tmp full a valid file would fail. Read from its own path,
+            # and from the bytes only when OpenCV cannot open the path (non-ASCII on
+            # Windows). Its log's "imread_(...): can't read data" is said in our words below.
+            with _opencv_log_quiet():
+                img = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+                if img is None and not _opencv_can_open(path):
+                    with open(path, "rb") as f:
+                        data = f.read()
+                    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+        else:
             img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
         if img is not None:
             if img.ndim == 2:
@@ -106,6 +112,32 @@ def _decode(path: str, data: bytes, radiance: bool) -> np.ndarray:
         raise InputError(f"cannot read {path}: not a Radiance .hdr file OpenCV can decode "
                          "(corrupt or truncated)")
     raise InputError(f"cannot read {path}: not an image OpenCV can decode")
+
+
+class _opencv_log_quiet:
+    """OpenCV's log silenced while a decode runs (it prints "[ERROR:0@0.1] global
+    loadsave.cpp ... imread_(...)" for a corrupt file, which the caller says in one line of
+    its own); the level it had is put back, unless it was already silent or another decode
+    changed it meanwhile (so concurrent decodes never leave it silenced for good)."""
+
+    def __enter__(self):
+        import cv2.utils.logging as cv_log
+        self.log = cv_log
+        self.before = cv_log.getLogLevel()
+        if self.before != cv_log.LOG_LEVEL_SILENT:
+            cv_log.setLogLevel(cv_log.LOG_LEVEL_SILENT)
+        return self
+
+    def __exit__(self, *exc):
+        if self.before != self.log.LOG_LEVEL_SILENT:
+            self.log.setLogLevel(self.before)
+        return False
+
+
+def _opencv_can_open(path: str) -> bool:
+    """Whether OpenCV opens ``path`` by name (its C++ ``fopen``: any path here, but a
+    non-ASCII one on Windows)."""
+    return os.name != "nt" or path.isascii()
 
 
 def _read_exr(path: str) -> np.ndarray:

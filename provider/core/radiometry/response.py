@@ -431,6 +431,47 @@ def _jsonable(v):
 #: SVD solve can return NaN for a whole channel: calibrate() retries with half the samples.
 DEBEVEC_SAMPLES = 150
 DEBEVEC_LAMBDA = 50.0
+#: The largest smoothness accepted: past ~1e9 the curve is a straight line whatever the
+#: frames, and from ~1e38 OpenCV's float32 solve fails (LAPACK prints on stdout). Even a
+#: million samples want a lambda of only ~3e5 (about samples / 3).
+DEBEVEC_LAMBDA_MAX = 1e6
+
+
+def debevec_grid(width: int, height: int, samples: int) -> tuple[int, int]:
+    """The (columns, rows) of the grid of pixels that OpenCV's Debevec calibration samples
+    in a ``width`` × ``height`` frame (its own arithmetic, ``photo/src/calibrate.cpp``); it
+    refuses frames that the grid does not fit."""
+    x = int(math.sqrt(samples * width / height))
+    return x, (samples // x if x > 0 else samples)
+
+
+def check_debevec(width: int, height: int, samples: int, lambda_: float) -> None:
+    """Refuse Debevec parameters, and frames too small for them, before solving (OpenCV
+    would fail an assertion or print LAPACK's complaints); :class:`ResponseError`."""
+    try:
+        lam = float(lambda_)
+    except (TypeError, ValueError):
+        lam = math.nan
+    if not (math.isfinite(lam) and 0 < lam <= DEBEVEC_LAMBDA_MAX):
+        raise ResponseError(f"Debevec's smoothness lambda must be above 0 and at most "
+                            f"{DEBEVEC_LAMBDA_MAX:g} (default {DEBEVEC_LAMBDA:g}, about "
+                            f"samples / 3), got {lambda_!r}")
+    x, y = debevec_grid(width, height, samples)
+    if not (0 < x <= width and 0 < y <= height):
+        raise ResponseError(
+            f"the frames are too small to calibrate: {width}×{height} pixels, where Debevec's "
+            f"{samples} samples need a grid of {max(x, 1)}×{y} (a square frame needs at least "
+            f"{_side(samples)}×{_side(samples)})")
+
+
+def _side(samples: int) -> int:
+    """The side of the smallest square frame that holds ``samples`` Debevec samples."""
+    side = math.isqrt(samples)
+    while True:
+        x, y = debevec_grid(side, side, samples)
+        if 0 < x <= side and 0 < y <= side:
+            return side
+        side += 1
 
 
 def calibrate(frames, times, method: str = "debevec", *, samples: int = DEBEVEC_SAMPLES,
@@ -464,6 +505,7 @@ def calibrate(frames, times, method: str = "debevec", *, samples: int = DEBEVEC_
         samples = int(samples)
         if samples < 10:
             raise ResponseError("samples must be >= 10")
+        check_debevec(frames[0].shape[1], frames[0].shape[0], samples, lambda_)
         while True:
             # positional: the binding's keyword for lambda is a Python reserved word
             cal = cv2.createCalibrateDebevec(samples, float(lambda_), False)

@@ -26,6 +26,24 @@ from ..errors import InputError
 OBJECT_CORNERS = np.array([[-0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.5, -0.5, 0.0],
                            [-0.5, -0.5, 0.0]])
 
+#: The side of a printed marker, metres: what ``shlight marker`` prints and what a pose is
+#: measured from (a side of 1e300 m makes the pose's solve fail, 1e-9 m gives a pose at 0).
+MARKER_SIZE_M = (0.005, 5.0)
+
+
+def check_marker_size(size, what: str = "marker size") -> float:
+    """``size`` (metres) as a float, or :class:`InputError` naming ``what`` (e.g.
+    ``--marker-size``) when it is not a number within :data:`MARKER_SIZE_M`."""
+    try:
+        value = float(size)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a number of metres, got {size!r}") from None
+    lo, hi = MARKER_SIZE_M
+    if not lo <= value <= hi:          # NaN fails too
+        raise InputError(f"{what} {value:g}: a printed marker is {lo:g}-{hi:g} m on a side")
+    return value
+
+
 ARUCO_DICTIONARIES = tuple(n for n in dir(cv2.aruco) if n.startswith("DICT_")
                            and not re.search(r"[a-z]", n))
 

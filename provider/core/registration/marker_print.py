@@ -8,9 +8,11 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from .marker_detect import MarkerSpec
+from .marker_detect import MarkerSpec, check_marker_size
 
 MM_PER_INCH = 25.4
+#: The most a QR code (version 40, error correction L: OpenCV's encoder) holds, per mode.
+QR_CAPACITY = {"bytes": 2953, "alphanumeric": 4296, "digits": 7089}
 
 
 def marker_cells(spec: MarkerSpec) -> np.ndarray:
@@ -22,7 +24,17 @@ def marker_cells(spec: MarkerSpec) -> np.ndarray:
         return spec.grid()
     if not spec.text:
         raise InputError("marker qr: say what the code encodes (e.g. qr:room-1)")
-    img = cv2.QRCodeEncoder.create().encode(spec.text)
+    try:
+        img = cv2.QRCodeEncoder.create().encode(spec.text)
+    except cv2.error as exc:
+        img = None
+        n = len(spec.text.encode("utf-8"))
+        if "capacity" in str(exc):
+            raise InputError(
+                f"marker qr: the text is too long for a QR code ({len(spec.text)} characters, "
+                f"{n} bytes): a QR code holds at most {QR_CAPACITY['digits']} digits, "
+                f"{QR_CAPACITY['alphanumeric']} characters of 0-9 A-Z space $%*+-./:, or "
+                f"{QR_CAPACITY['bytes']} bytes of other text") from None
     if img is None or img.size == 0:
         raise InputError(f"marker {spec}: OpenCV cannot encode that text as a QR code")
     dark = img < 128
@@ -35,8 +47,7 @@ def printable_marker(spec: MarkerSpec, size_m: float, dpi: float = 300.0) -> np.
     (each cell a whole number of dots, so the side is within one cell's rounding of the
     request; the caption gives the side as printed), a white quiet zone (ArUco: one cell;
     QR: four modules, as ISO/IEC 18004 asks) and a caption naming the marker and its size."""
-    if not (math.isfinite(size_m) and 0.005 <= size_m <= 5):
-        raise InputError(f"--size {size_m:g}: a printed marker is 0.005-5 m on a side")
+    check_marker_size(size_m, "--size")
     if not (math.isfinite(dpi) and 50 <= dpi <= 2400):
         raise InputError(f"--dpi {dpi:g}: expected 50-2400 dots per inch")
     cells = marker_cells(spec)

@@ -32,7 +32,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry.checks import ProjectionError
-from .marker_detect import OBJECT_CORNERS, MarkerSpec, detect, parse_marker, refine_corners
+from .marker_detect import (OBJECT_CORNERS, MarkerSpec, check_marker_size, detect, parse_marker,
+                            refine_corners)
 from ..geometry.projections import DualFisheye, Fisheye, Projection, make_projection
 from ..geometry.sphere_views import PinholeView, local_scale, look_rotation, render_view
 
@@ -291,12 +292,7 @@ def find_marker(image, marker: str | MarkerSpec = "aruco:DICT_4X4_50:7", marker_
     direction (3,) where the marker was last seen, measured first. Raises
     :class:`MarkerNotFound` (an :class:`InputError`) when no such marker is seen."""
     spec = parse_marker(marker) if not isinstance(marker, MarkerSpec) else marker
-    try:
-        size = float(marker_size)
-    except (TypeError, ValueError):
-        raise InputError(f"marker size must be a number of metres, got {marker_size!r}") from None
-    if not (math.isfinite(size) and size > 0):
-        raise InputError(f"marker size must be a positive number of metres, got {marker_size!r}")
+    size = check_marker_size(marker_size)
     img = np.asarray(image)
     if img.ndim not in (2, 3) or img.shape[0] < 8 or img.shape[1] < 8:
         raise InputError(f"expected an (H, W) or (H, W, 3) image, got shape {img.shape}")

@@ -37,7 +37,7 @@ from ..lights.extractor import LightExtractor, LinearView
 from ..lights.analysis import model_irradiance
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
-from ..options import check_options, exposure_scale, freeze_options
+from ..options import check_lighting, check_options, exposure_scale, freeze_options
 from ..radiometry.float_clean import FloatCleaner
 from ..radiometry.decode import FrameDecoder, image_array, srgb_to_linear  # noqa: F401
 
@@ -340,7 +340,7 @@ class SH9Projector(FrameDecoder):
             coeffs, clipped = coeffs * k, clipped * k
         integer = frame.dtype in (np.uint8, np.uint16)
         self.radiometry_stats(stats, coeffs, clipped, self.radiometry if integer else "linear")
-        result = self.result(coeffs, stats)
+        result = self.result(coeffs, stats, exposure_s)
         if self._extractor is not None:
             self._add_lights(result, frame, coeffs, light_input, tracker, k)
         if self.error_estimate if error_estimate is None else error_estimate:
@@ -363,9 +363,12 @@ class SH9Projector(FrameDecoder):
         coeffs, _, _, clipped = self._project_frame(frame, stats, lut=table)
         return coeffs * self.exposure, clipped * self.exposure, stats
 
-    def result(self, coefficients: np.ndarray, stats: dict) -> SH9Result:
+    def result(self, coefficients: np.ndarray, stats: dict, exposure_s=None) -> SH9Result:
         """An :class:`SH9Result` from exact (un-rotated) coefficients: the sensor rotation,
-        windowing, order choice, matrices and their statistics."""
+        windowing, order choice, matrices and their statistics. Coefficients that overflowed
+        (``exposure``, or ``exposure_s`` — named in the message — too extreme for the frame)
+        raise :class:`InputError` (:func:`~provider.core.options.check_lighting`)."""
+        check_lighting(coefficients, self.exposure, exposure_s)
         if self._sh_rotation is not None:
             coefficients = self._sh_rotation @ coefficients
         return self._finish(coefficients, stats)

@@ -45,10 +45,9 @@ class Registrar:
 
     def __init__(self, marker, marker_size: float, projection: str = "equirect",
                  projection_options: dict | None = None, every_s: float = 5.0, name="default"):
-        from ...core.registration.marker_detect import parse_marker
+        from ...core.registration.marker_detect import check_marker_size, parse_marker
         self.spec = parse_marker(marker) if isinstance(marker, str) else marker
-        if not (math.isfinite(marker_size) and marker_size > 0):
-            raise InputError(f"--marker-size {marker_size:g}: the printed side in metres (> 0)")
+        marker_size = check_marker_size(marker_size, "--marker-size")
         if not (math.isfinite(every_s) and every_s > 0):
             raise InputError(f"--register-every {every_s:g}: seconds between detections (> 0)")
         self.size, self.every_s, self.name = float(marker_size), float(every_s), name

@@ -11,6 +11,9 @@ from .service import ProviderServer
 
 log = logging.getLogger("shlight.server")
 
+#: Tokens shipped in examples (examples/edge/shlight-edge.env): never a secret.
+PLACEHOLDER_TOKENS = ("change-me",)
+
 
 def _lan_address() -> str | None:
     """This machine's address on the default route (no packet is sent)."""
@@ -46,6 +49,10 @@ async def serve_until_stopped(server: ProviderServer, stop: asyncio.Event | None
         if s.host not in ("127.0.0.1", "localhost", "::1") and not s.token:
             log.warning("listening on %s without --token: anyone on the network can connect",
                         s.host)
+        elif s.token in PLACEHOLDER_TOKENS:
+            log.warning("the token is the example's placeholder %r: anyone who has read the "
+                        "example can connect; set your own (python3 -c \"import secrets; "
+                        "print(secrets.token_urlsafe(24))\")", s.token)
         await stop.wait()
         log.info("shutting down")
     finally:

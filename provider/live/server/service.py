@@ -486,6 +486,10 @@ class ProviderServer:
         except InputError as exc:
             self.counters.rejected["unknown_format"] += 1
             return _response(400, f"{exc}\n".encode(), "text/plain; charset=utf-8")
+        if "max_hz" in query and self._query_hz(query) is None:   # as a subscribe refuses it
+            self.counters.rejected["bad_request"] += 1
+            return _response(400, b"max_hz must be a number >= 0 (0: no cap)\n",
+                             "text/plain; charset=utf-8")
         if len(self.clients) >= self.max_clients:
             self.counters.rejected["too_many_clients"] += 1
             log.warning("refused %s: %d clients connected (--max-clients)", _peer(connection),
