@@ -74,17 +74,82 @@ def test_a_half_degree_sun_keeps_its_flux_and_its_place():
     assert angle < 90 / 32 / 2
 
 
-@pytest.mark.parametrize("name", ["sky", "lab", "bridge"])
-def test_prefiltered_mips_match_brute_force_ggx(hdri, name):
+@pytest.fixture(scope="module")
+def projector32():
+    """The default cube's projector for the 512×256 panoramas (built once: ~3 s)."""
+    return EnvironmentProjector(512, 256, size=32)
+
+
+def mip_errors(env, img):
+    """Relative RMS of each prefiltered mip (k ≥ 1) of ``env``, the cube of ``img``, against
+    the float64 brute force of PF over every pixel of ``img`` (tests/reference_cube.py)."""
+    return [ref.rel_rms(env.mips[k], ref.prefiltered(img, ref.cube_directions(
+        env.mips[k].shape[1]), env.roughness[k])) for k in range(1, len(env.mips))]
+
+
+def test_the_brute_force_shortcut_is_the_definition():
+    """reference_cube.prefiltered's (r·h)² = (1 + r·l)/2 equals the explicit half vector."""
+    rng = np.random.default_rng(5)
+    img = (rng.random((16, 32, 3)) ** 4 * 50).astype(np.float32)
+    dirs = rng.normal(size=(20, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    l = ref.equirect_directions(32, 16).reshape(-1, 3)
+    om = np.broadcast_to(ref.equirect_solid_angle(32, 16), (16, 32)).reshape(-1)
+    for rough in (0.1, 0.5, 1.0):
+        k = ref.ggx_kernel_explicit(dirs[:, None, :], l[None], rough) * om
+        want = k @ img.reshape(-1, 3).astype(np.float64) / k.sum(axis=1, keepdims=True)
+        np.testing.assert_allclose(ref.prefiltered(img, dirs, rough), want, rtol=1e-10)
+
+
+@pytest.mark.parametrize("name", HDRI_NAMES)
+def test_prefiltered_mips_match_brute_force_ggx(projector32, hdri, name):
+    """Every prefiltered mip of every shared panorama is within 2 % of PF (relative RMS),
+    so that rooms outside the nine stay within 3 % (measured: ≤ 0.84 % here, ≤ 0.93 % on
+    nine other Poly Haven rooms; the fixed rings before: 1.95 % and 3.4 %)."""
     img = clean(hdri(name))
-    env = compute_environment(img, size=32)
+    env = projector32.project(img)
     assert env.roughness == [0, 0.25, 0.5, 0.75, 1.0]
     assert [m.shape for m in env.mips] == [(6, n, n, 3) for n in (32, 16, 8, 4, 2)]
-    for k in range(1, len(env.mips)):
-        n = env.mips[k].shape[1]
-        want = ref.prefiltered(img, ref.cube_directions(n), env.roughness[k])
-        limit = 0.03 if env.roughness[k] >= 0.2 else 0.06
-        assert ref.rel_rms(env.mips[k], want) < limit, (name, k)
+    errors = mip_errors(env, img)
+    assert max(errors) < 0.02, (name, errors)
+
+
+def lit_room(w=512, h=256):
+    """A room none of the nine is: dim walls, a mullioned window across the +X/+Z cube edge
+    and six ~3° lamps toward cube corners and edges (more bright pixels than are sent
+    exactly, so the pyramid carries some of each)."""
+    d = ref.equirect_directions(w, h)
+    az = np.degrees(np.arctan2(d[..., 0], -d[..., 2]))
+    el = np.degrees(np.arcsin(np.clip(d[..., 1], -1, 1)))
+    img = (0.08 + 0.06 * np.clip(d[..., 1], 0, 1) + 0.02 * np.cos(np.radians(3 * az)))[..., None]
+    img = img * np.array([1.0, 0.9, 0.75])
+    window = (np.abs(az - 135) < 22) & (np.abs(el - 10) < 15)
+    mullion = (np.abs((az - 135) % 11 - 5.5) < 0.7) | (np.abs(el - 10) < 0.8)
+    img[window & ~mullion] = [20.0, 24.0, 30.0]
+    for axis in [(1, 1, 1), (-1, 1, 1), (1, 1, -1), (-1, 1, -1), (0, 1, 1), (1, 0.3, 0)]:
+        a = np.array(axis, float) / np.linalg.norm(axis)
+        img[d @ a > math.cos(math.radians(1.4))] = [400.0, 360.0, 300.0]
+    return img.astype(np.float32)
+
+
+@pytest.mark.parametrize("room", ["bridge turned 45°", "lit room"])
+def test_rooms_outside_the_nine_stay_within_3_percent(projector32, hdri, room):
+    """Unseen rooms: bridge turned 45° about +Y (its sunlit patch and lamps fall across cube
+    edges; the fixed rings erred 3.3 % there, now 1.3 %) and a synthetic room with lamps
+    toward cube corners and a window across an edge (2.2 % before, 0.8 % now)."""
+    if room == "lit room":
+        img = lit_room()
+    else:
+        img = np.roll(clean(hdri("bridge")), 64, axis=1)       # 64 of 512 columns: 45°
+    errors = mip_errors(projector32.project(img), img)
+    assert max(errors) < 0.03, (room, errors)
+
+
+def test_the_prefilter_costs_no_more_than_the_rings_it_replaced(projector32):
+    """Per-frame cost is the operator's non-zeros: at most those of the fixed rings
+    (1,077,552 for 32², 355,992 for 16²)."""
+    assert projector32._prefilter.nnz <= 1_077_552
+    assert EnvironmentProjector(512, 256, size=16)._prefilter.nnz <= 355_992
 
 
 def test_cube_irradiance_agrees_with_brute_force_as_well_as_sh9(hdri):

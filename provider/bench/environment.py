@@ -16,7 +16,6 @@ Written to ``environment.md`` and ``environment.png``.
 """
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 
@@ -36,17 +35,29 @@ def _equirect(width, height):
     return d, np.broadcast_to(omega[:, None], (height, width))
 
 
-def brute_prefiltered(image, directions, roughness, chunk=48):
-    """Float64 PF over every pixel of an equirect ``image`` at unit ``directions`` (T, 3)."""
-    from ..core.reflections.prefilter import ggx_weight
+def brute_prefiltered(image, directions, roughness, chunk=8):
+    """Float64 PF over every pixel of an equirect ``image`` at unit ``directions`` (T, 3).
+
+    With n = v = r, cos²θ_h = (1 + r·l)/2, so D(h)⟨r·l⟩ ∝ max(r·l, 0)/(A + B r·l)², A =
+    (1 + α²)/2, B = (α² − 1)/2 (the constant α²/π cancels): one product r·l per pair, in
+    chunks that stay in cache."""
     h, w = image.shape[:2]
     d, omega = _equirect(w, h)
-    l, om = d.reshape(-1, 3), omega.reshape(-1)
-    px = image.reshape(-1, 3).astype(np.float64)
+    lt = np.ascontiguousarray(d.reshape(-1, 3).T)
+    om = omega.reshape(-1)
+    rhs = np.concatenate([image.reshape(-1, 3).astype(np.float64) * om[:, None], om[:, None]],
+                         axis=1)
+    a2 = roughness ** 4
+    A, B = (1 + a2) / 2, (a2 - 1) / 2
     out = np.empty((len(directions), 3))
     for k in range(0, len(directions), chunk):
-        wgt = ggx_weight(directions[k:k + chunk, None, :], l[None], roughness ** 2) * om
-        out[k:k + chunk] = (wgt @ px) / wgt.sum(axis=1, keepdims=True)
+        rl = directions[k:k + chunk] @ lt
+        den = A + B * rl
+        den *= den
+        np.maximum(rl, 0, out=rl)
+        rl /= den
+        s = rl @ rhs
+        out[k:k + chunk] = s[:, :3] / s[:, 3:]
     return out
 
 

@@ -290,9 +290,8 @@ class EnvironmentProjector(FrameDecoder):
         for k, n in enumerate(self.sizes[1:], start=1):
             n = min(n, PREFILTER_MAX_FACE)
             out = cubemap.texel_directions(n).reshape(-1, 3)
-            r, c, v, norm = prefilter.build_operator(
-                out, self.roughness[k] ** 2, geom,
-                ring=prefilter.RING_SMALL if self.size <= 16 else None)
+            r, c, v, norm = prefilter.build_operator(out, self.roughness[k] ** 2, geom,
+                                                     prefilter.mip_tolerance(k, n))
             rows.append(r + offset)
             cols.append(c)
             vals.append(v)
