@@ -79,7 +79,8 @@ def check_arguments(args) -> None:
                                 else "has none") + " (use --method debevec)")
         from ..core.radiometry.response import DEBEVEC_LAMBDA_MAX
         if not (math.isfinite(args.lambda_) and 0 < args.lambda_ <= DEBEVEC_LAMBDA_MAX):
-            raise InputError(f"--lambda must be above 0 and at most {DEBEVEC_LAMBDA_MAX:g} "
+            raise InputError("--lambda must be a finite number above 0 and at most "
+                             f"{DEBEVEC_LAMBDA_MAX:g} "
                              f"(Debevec's smoothness: default 50, about --samples / 3), got "
                              f"{args.lambda_:g}")
     if args.samples is not None:

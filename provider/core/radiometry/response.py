@@ -453,7 +453,7 @@ def check_debevec(width: int, height: int, samples: int, lambda_: float) -> None
     except (TypeError, ValueError):
         lam = math.nan
     if not (math.isfinite(lam) and 0 < lam <= DEBEVEC_LAMBDA_MAX):
-        raise ResponseError(f"Debevec's smoothness lambda must be above 0 and at most "
+        raise ResponseError(f"Debevec's smoothness lambda must be a finite number above 0 and at most "
                             f"{DEBEVEC_LAMBDA_MAX:g} (default {DEBEVEC_LAMBDA:g}, about "
                             f"samples / 3), got {lambda_!r}")
     x, y = debevec_grid(width, height, samples)
