@@ -112,7 +112,8 @@ def check_decodable(width: int, height: int, data: bytes, what: str) -> None:
     if data[:4] == EXR_MAGIC:
         return
     if width <= 0 or height <= 0:
-        raise InputError(f"{what}: its header declares a {width}×{height} image (corrupt)")
+        raise InputError(f"{what}: its header declares a {width}×{height} image (the file "
+                         "is truncated or corrupt)")
     pixels, side = decode_limits()
     if data[:8] == PNG_MAGIC:
         side = min(side, PNG_MAX_SIDE)
