@@ -31,8 +31,9 @@ def read(ws, timeout: float = 10.0):
     return ("binary", data) if isinstance(data, bytes) else ("json", json.loads(data))
 
 
-def read_until(ws, done, timeout: float = 20.0) -> list:
-    """Frames until ``done(frames)``; AssertionError at the deadline."""
+def read_until(ws, done, timeout: float = 120.0) -> list:
+    """Frames until ``done(frames)``; AssertionError at the deadline (long: the cube's
+    thread runs at nice 10, and beside a CPU hog its first cube came after more than 20 s)."""
     frames, deadline = [], time.monotonic() + timeout
     while not done(frames):
         left = deadline - time.monotonic()
