@@ -16,18 +16,7 @@ import numpy as np
 import pytest
 
 from servertools import ROOT, SHLIGHT, run_cli
-
-
-def _refused(res, *words):
-    """The one line of a refusal (progress lines ending in " ..." aside)."""
-    assert res.returncode == 2, (res.stdout, res.stderr)
-    assert res.stdout == "", res.stdout[:400]
-    assert "Traceback" not in res.stderr
-    lines = [l for l in res.stderr.strip().splitlines() if not l.endswith(" ...")]
-    assert len(lines) == 1, res.stderr
-    for w in words:
-        assert w in lines[0], lines[0]
-    return lines[0]
+from test_bad_input_more import _refused   # one refusal: one line, exit 2, nothing on stdout
 
 
 def _png_with_size(src: bytes, width: int, height: int) -> bytes:

@@ -28,12 +28,13 @@ import collections
 import logging
 import time
 
-from .limits import TokenBucket
+from .limits import ConnectRate
 
 log = logging.getLogger("shlight.server")
 
-#: Addresses the per-address rules exempt (as :class:`~provider.live.server.limits.ConnectRate`).
-EXEMPT = frozenset({"127.0.0.1", "::1", "::ffff:127.0.0.1"})
+#: Addresses the per-address rules exempt (those :class:`~provider.live.server.limits.ConnectRate`
+#: exempts).
+EXEMPT = ConnectRate.EXEMPT
 
 
 class SilentConnections:
@@ -47,11 +48,12 @@ class SilentConnections:
                  max_silent: int = 4096, max_addresses: int = 4096):
         self.head_timeout, self.per_address, self.min_age = head_timeout, per_address, min_age
         self.accept_rate, self.accept_burst = accept_rate, accept_burst
-        self.max_silent, self.max_addresses = max_silent, max_addresses
+        self.max_silent = max_silent
         # address -> {connection: (accepted at, timer)}, oldest first (dicts keep order)
         self._silent: dict[str, dict] = {}
         self._count = 0
-        self._accepts: dict[str, TokenBucket] = {}
+        # accepted TCP connections per address: the same token-bucket table as handshakes
+        self._accepts = ConnectRate(accept_rate, accept_burst, max_addresses)
         self.cut: collections.Counter = collections.Counter()    # reason -> connections
 
     def __len__(self) -> int:
@@ -62,7 +64,7 @@ class SilentConnections:
         accept rate, else hold it as silent (and cut older ones past the caps)."""
         now = time.monotonic()
         address = address or "?"
-        if not self._accept(address, now):
+        if self._accepts.retry_after(address, now) > 0:
             self._cut(connection, "accept_rate", address)
             return
         timer = connection.loop.call_later(self.head_timeout, self._timed_out, connection,
@@ -119,17 +121,3 @@ class SilentConnections:
         transport = connection.transport
         if transport is not None and not transport.is_closing():
             transport.abort()
-
-    def _accept(self, address: str, now: float) -> bool:
-        if not self.accept_rate or address in EXEMPT:
-            return True
-        bucket = self._accepts.get(address)
-        if bucket is None:
-            if len(self._accepts) >= self.max_addresses:
-                self._accepts = {a: b for a, b in self._accepts.items()
-                                 if b.refill(now) < b.burst}
-                if len(self._accepts) >= self.max_addresses:
-                    self._accepts.clear()
-            bucket = self._accepts[address] = TokenBucket(self.accept_rate, self.accept_burst,
-                                                          now=now)
-        return bucket.take(1.0, now)
