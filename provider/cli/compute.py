@@ -35,11 +35,14 @@ def wire_message(args, command: str = "compute") -> dict:
     from .feedback import Progress, say
     from .frames import read_frames
     from .options import engine_options
+    from .options import say_fifo_waits, say_frame_warnings
     several = len(args.image) > 1
+    say_fifo_waits(args.image, command)
     images, times, paths = read_frames(args.image, need_times=several,
                                        max_pixels=args.max_frame_pixels)
     options = engine_options(args)
     image = images[0]
+    say_frame_warnings(args, image, command)
     if several:
         from ..core.radiometry.response import check_bracket
         check_bracket(images, times)  # sizes, pixel types, times: one clear line each

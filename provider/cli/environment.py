@@ -26,17 +26,45 @@ def add_arguments(p) -> None:
     add_engine_arguments(p)
 
 
+def check_output(output: str, image: str) -> str | None:
+    """Refuse (InputError) an output that is the input image (by name, or the same file by
+    another path or link: it would be overwritten with KTX2); the warning for a name whose
+    extension says another format, or None."""
+    from .frames import parse_frame
+    if output == "-":
+        return None
+    source = parse_frame(image)[0]
+    same = os.path.abspath(output) == os.path.abspath(source)
+    try:
+        same = same or (os.path.exists(output) and os.path.samefile(output, source))
+    except OSError:
+        pass
+    if same:
+        raise InputError(f"-o {output} is the input image: the cube would overwrite it; "
+                         f"give another file, e.g. -o {os.path.splitext(output)[0]}.ktx2")
+    ext = os.path.splitext(output)[1]
+    if ext and ext.lower() != ".ktx2":
+        return (f"-o {output}: the file holds a KTX2 cube map, not what '{ext}' says; "
+                "name it .ktx2")
+    return None
+
+
 def run(args) -> int:
     from ..live.reflections.cube import check_size, cube_options, encode_environment
     from .feedback import say
     from .frames import read_frames
-    from .options import engine_options
+    from .options import engine_options, say_fifo_waits, say_frame_warnings
     size = check_size(args.size)
+    foreign = check_output(args.output, args.image)
+    options = engine_options(args)
+    say_fifo_waits([args.image], "environment")
     images, times, paths = read_frames([args.image], need_times=False,
                                        max_pixels=args.max_frame_pixels)
-    options = engine_options(args)
+    if foreign:
+        say("environment", "warning", foreign)
     from ..core.reflections.environment import EnvironmentProjector
     image = images[0]
+    say_frame_warnings(args, image, "environment")
     projector = EnvironmentProjector(image.shape[1], image.shape[0], args.projection,
                                      size=size, **cube_options(options))
     for warning in getattr(projector, "warnings", ()):

@@ -16,9 +16,12 @@ def run(args) -> int:
     from ..core.errors import InputError
     from ..core.radiometry.images import read_image
     from .feedback import say
+    from .options import say_fifo_waits
     if not 0 < args.min_radius < 0.55:
         raise InputError(f"--min-radius {args.min_radius:g}: a fraction in (0, 0.55)")
+    say_fifo_waits([args.image], "locate-ball")
     image = read_image(args.image)
+    # a circle that runs past the frame is refused by locate_ball ("no ball found ...")
     circle = locate_ball(image, min_radius_fraction=args.min_radius)
     if circle.weak:
         say("locate-ball", "warning", circle.weak_note())

@@ -1,4 +1,23 @@
-"""Projection and engine options shared by ``compute``, ``serve`` and ``bench``."""
+"""Projection and engine options shared by ``compute``, ``export``, ``environment``, ``serve``
+and ``register``, and the rule for options that cannot do anything where they are given.
+
+The rule (issue 33), the same for every command:
+
+* an option that does nothing with the rest of the command line (``--fov`` with ``--projection
+  equirect``, ``--order-budget`` without ``--order auto``), and two options that contradict
+  each other or give the same thing twice (``--ball-distance`` and ``--fov``, ``--no-hlsl`` and
+  ``--require-hlsl``), are refused before any work: one line, exit 2 (:func:`unused_options`,
+  :func:`refuse_unused_options`; ``engine_options`` applies it);
+* an option that does nothing with *this input*, which only the frame shows (``--camera`` on a
+  float frame: :func:`frame_warnings`; a 2:1 frame read as ``--projection fisheye``: the
+  projection's own warning, :func:`say_projection_warnings` where no engine says it), is one
+  warning line on stderr, and the command goes on;
+* a number beyond what can make sense is refused with its range in the message (``--fps``:
+  :data:`MAX_FPS`).
+
+Options whose use depends on others default to None here (their documented default is filled
+in by ``engine_options``), so that "given" can be told from "left out".
+"""
 from __future__ import annotations
 
 import argparse
@@ -7,6 +26,143 @@ import math
 import re
 
 from ..core.errors import InputError
+
+
+#: The documented defaults of options that default to None (see the module docstring).
+DEFAULT_ORDER_BUDGET = 0.02
+DEFAULT_FILL = "ground"
+DEFAULT_ALBEDO = 0.1
+#: Highest ``--fps``: frames a second a source is paced at (demo, files, snapshot URLs, the
+#: most a relay takes). Beyond it a demo or file source only burns a core.
+MAX_FPS = 240.0
+
+#: Options only some projections read: dest -> (flag, the projections that read it).
+PROJECTION_OPTIONS = {
+    "fov": ("--fov", ("fisheye", "dual-fisheye", "mirrorball")),
+    "center": ("--center", ("fisheye", "mirrorball", "angular")),
+    "radius": ("--radius", ("fisheye", "mirrorball", "angular")),
+    "calibration": ("--calibration", ("fisheye",)),
+    "fill": ("--fill", ("fisheye",)),
+    "albedo": ("--albedo", ("fisheye",)),
+    "ball_unseen": ("--ball-unseen", ("mirrorball",)),
+    "ball_mask": ("--ball-mask", ("mirrorball",)),
+    "ball_fill": ("--ball-fill", ("mirrorball",)),
+    "ball_distance": ("--ball-distance", ("mirrorball",)),
+}
+#: Options that only another option gives a use: dest -> (flag, what it needs, is it there).
+NEEDS = {
+    "order_budget": ("--order-budget", "--order auto", lambda a: a.order == "auto"),
+    "environment_size": ("--environment-size", "--environment", lambda a: a.environment),
+    "environment_hz": ("--environment-hz", "--environment", lambda a: a.environment),
+}
+#: Pairs of options that contradict each other, or give the same thing twice: (dest, dest,
+#: when it matters (None: always), what they both do).
+CONFLICTS = (
+    ("ball_distance", "fov", lambda a: a.projection == "mirrorball",
+     "both set the mirror ball's perspective (the camera's distance to it)"),
+    ("ball", "center", None, "both give the ball's circle"),
+    ("ball", "radius", None, "both give the ball's circle"),
+    ("no_hlsl", "require_hlsl", None, "contradict each other (skip HLSL, and fail without it)"),
+)
+
+
+def _flag(dest: str) -> str:
+    return "--" + dest.replace("_", "-")
+
+
+def _set(args, dest: str) -> bool:
+    """Whether the command line gave ``dest`` (None: left out; False: a flag not given; 0 is
+    a value)."""
+    value = getattr(args, dest, None)
+    return value is not None and value is not False
+
+
+def unused_options(args, given=None) -> dict:
+    """``{dest: one line}`` for each option of the parsed command line ``args`` that does
+    nothing with the rest of it, or contradicts another (the module docstring's rule);
+    ``given``: the dests to consider (default: every one that is set, not None or False).
+    Works on any command's namespace: options it lacks count as not given."""
+    def has(dest):
+        return _set(args, dest) and (given is None or dest in given)
+    out = {}
+    projection = getattr(args, "projection", None)
+    for dest, (flag, readers) in PROJECTION_OPTIONS.items():
+        if has(dest) and projection is not None and projection not in readers:
+            out[dest] = (f"{flag} has no effect with --projection {projection} (only "
+                         f"{', '.join(readers)} read it): leave it out")
+    for dest, (flag, needed, present) in NEEDS.items():
+        if has(dest) and not present(args):
+            out[dest] = f"{flag} has no effect without {needed}: give {needed}, or leave {flag} out"
+    for a, b, when, what in CONFLICTS:
+        if (_set(args, a) and _set(args, b) and (has(a) or has(b))
+                and (when is None or when(args))):
+            out.setdefault(a if has(a) else b, f"{_flag(a)} and {_flag(b)} {what}: give one")
+    return out
+
+
+def refuse_unused_options(args) -> None:
+    """:func:`unused_options` refused in one line (InputError), unless the command already
+    checked them its own way (``args._options_checked``: serve, per probe)."""
+    if getattr(args, "_options_checked", False):
+        return
+    problems = unused_options(args)
+    if problems:
+        raise InputError(next(iter(problems.values())))
+
+
+def frame_warnings(args, floating: bool) -> list:
+    """What the first frame shows the options cannot do with it (one line each, warnings:
+    the command goes on): ``--camera`` or ``--encoding`` on a float frame (float frames are
+    linear: neither decodes them). A 2:1 frame read as a fisheye is the projection's own
+    warning (``Projection.warnings``, which every command prints)."""
+    out = []
+    if floating and getattr(args, "camera", None):
+        out.append("--camera has no effect on a float frame (its curve decodes 8- and "
+                   "16-bit frames; float frames are linear already)")
+    if floating and getattr(args, "encoding", "auto") not in ("auto", None):
+        out.append(f"--encoding {args.encoding} has no effect on a float frame (float "
+                   "frames are linear already)")
+    return out
+
+
+def say_frame_warnings(args, image, command: str) -> None:
+    """:func:`frame_warnings` of the first frame (an array), each a warning line on stderr."""
+    from .feedback import say
+    floating = getattr(image, "dtype", None) is not None and image.dtype.kind == "f"
+    for line in frame_warnings(args, floating):
+        say(command, "warning", line)
+
+
+def say_projection_warnings(projection: str, image, options: dict, command: str) -> None:
+    """The warnings of ``projection`` (with its ``options``) built for ``image``'s size, each
+    a line on stderr, for a command that builds it without the engine, which says them
+    itself (``register``: a 2:1 panorama read as --projection fisheye gives a confident,
+    wrong pose). A projection that cannot be built is left for the command to refuse."""
+    from ..core.geometry.projections import make_projection
+    from .feedback import say
+    try:
+        built = make_projection(projection, image.shape[1], image.shape[0], **options)
+    except (InputError, TypeError, ValueError):       # ProjectionError: a ValueError
+        return
+    for line in getattr(built, "warnings", ()):
+        say(command, "warning", line)
+
+
+def say_fifo_waits(texts, command: str) -> None:
+    """Before reading ``FRAME[@SECONDS]`` arguments: a note for each that is a FIFO (a named
+    pipe), whose opening waits, as POSIX has it, until some program opens it for writing."""
+    import os
+    import stat
+    from .feedback import say
+    from .frames import parse_frame
+    for text in texts:
+        try:
+            path = parse_frame(text)[0]
+            fifo = stat.S_ISFIFO(os.stat(path).st_mode)
+        except (OSError, ValueError, InputError):     # said by the reading, in its words
+            continue
+        if fifo:
+            say(command, "note", f"waiting for a writer on FIFO {path}")
 
 
 #: Options whose value may start with '-' ("--bracket -4,-2,0,2,4"): argparse would take such
@@ -98,7 +254,7 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                    help="fast path: area-average the linearised frame by this factor")
     g.add_argument("--order", default="2", choices=["0", "1", "2", "auto"],
                    help="highest SH band kept (auto: lowest within --order-budget)")
-    g.add_argument("--order-budget", type=finite_float, default=0.02,
+    g.add_argument("--order-budget", type=finite_float, default=None,
                    help="irradiance error budget for --order auto (default 0.02 = 2%%)")
     g.add_argument("--dering", default="off", choices=["off", "auto"],
                    help="auto: window the SH just enough that irradiance is never negative")
@@ -118,9 +274,9 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                    help="fisheye pixel radius at fov/2 (default: inscribed circle)")
     g.add_argument("--calibration", default=None,
                    help="JSON file with an OpenCV fisheye calibration {\"K\": 3x3, \"D\": 4}")
-    g.add_argument("--fill", default="ground", choices=["ground", "mirror", "zero"],
+    g.add_argument("--fill", default=None, choices=["ground", "mirror", "zero"],
                    help="fisheye: model of the unseen hemisphere (default ground)")
-    g.add_argument("--albedo", type=finite_float, default=0.1,
+    g.add_argument("--albedo", type=finite_float, default=None,
                    help="fisheye fill albedo (default 0.1, measured best on real scenes)")
     g.add_argument("--camera", default=None, metavar="CAMERA.json",
                    help="the camera's response (shlight calibrate-response): 8/16-bit frames "
@@ -151,9 +307,11 @@ def engine_options(args) -> dict:
     """Translate parsed arguments into :class:`~provider.core.sh9.engine.SH9Projector` options."""
     from ..core.options import check_options
     from ..core.geometry.sh import rotation_from_euler
+    refuse_unused_options(args)
     opts = dict(encoding=args.encoding, exposure=args.exposure, downsample=args.downsample,
                 order=args.order if args.order == "auto" else int(args.order),
-                order_budget=args.order_budget, dering=args.dering)
+                order_budget=DEFAULT_ORDER_BUDGET if args.order_budget is None
+                else args.order_budget, dering=args.dering)
     if args.max_lights is not None:     # the same rule whatever else is given
         from ..core.options import MAX_LIGHTS
         if not 1 <= args.max_lights <= MAX_LIGHTS:
@@ -172,8 +330,9 @@ def engine_options(args) -> dict:
         raise InputError(f"--fov {args.fov:g}: a field of view is in (0, 360] degrees")
     if args.radius is not None and args.radius <= 0:
         raise InputError(f"--radius {args.radius:g}: must be positive")
-    if not 0 <= args.albedo <= 1:
-        raise InputError(f"--albedo {args.albedo:g}: must be in [0, 1]")
+    albedo = DEFAULT_ALBEDO if args.albedo is None else args.albedo
+    if not 0 <= albedo <= 1:
+        raise InputError(f"--albedo {albedo:g}: must be in [0, 1]")
     if getattr(args, "camera", None):
         from ..live.probe.camerafile import load_camera
         if args.encoding != "auto":
@@ -181,7 +340,7 @@ def engine_options(args) -> dict:
                              "8/16-bit frames: give one")
         opts["response"] = load_camera(args.camera)
     if args.projection == "fisheye":
-        opts.update(fill=args.fill, albedo=args.albedo)
+        opts.update(fill=args.fill or DEFAULT_FILL, albedo=albedo)
         if args.fov is not None:
             opts["fov_deg"] = args.fov
         if args.center is not None:

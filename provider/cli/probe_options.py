@@ -28,13 +28,13 @@ def add_probe_arguments(g) -> None:
                    help="mirrorball/angular: the ball's circle in the frame, in pixels (shlight "
                         "locate-ball prints it), or auto: found in the first frame; each frame "
                         "is cropped to it (default: the circle inscribed in the frame)")
-    g.add_argument("--ball-unseen", type=float, default=0.0, metavar="DEG",
+    g.add_argument("--ball-unseen", type=float, default=None, metavar="DEG",
                    help="mirrorball: do not use directions within DEG of -Z, behind the ball "
                         "(the grazing rim); default 0")
-    g.add_argument("--ball-mask", type=float, default=0.0, metavar="DEG",
+    g.add_argument("--ball-mask", type=float, default=None, metavar="DEG",
                    help="mirrorball: do not use directions within DEG of +Z (the camera's own "
                         "reflection in the ball's centre); default 0")
-    g.add_argument("--ball-fill", default="rim", choices=["rim", "zero"],
+    g.add_argument("--ball-fill", default=None, choices=["rim", "zero"],
                    help="mirrorball: fill the unseen cones with the mean of the seen band "
                         "around them (rim, default) or leave them black (zero)")
     g.add_argument("--ball-distance", type=float, default=None, metavar="RADII",
@@ -59,11 +59,13 @@ def probe_options(args) -> dict:
             opts["radius"] = args.radius
     if args.projection != "mirrorball":
         return opts
-    for flag, value in (("--ball-unseen", args.ball_unseen), ("--ball-mask", args.ball_mask)):
+    unseen = 0.0 if args.ball_unseen is None else args.ball_unseen
+    mask = 0.0 if args.ball_mask is None else args.ball_mask
+    for flag, value in (("--ball-unseen", unseen), ("--ball-mask", mask)):
         if not (math.isfinite(value) and 0 <= value < 90):
             raise InputError(f"{flag} {value:g}: an angle in [0, 90) degrees")
-    opts.update(unseen_deg=args.ball_unseen, mask_deg=args.ball_mask, fill=args.ball_fill)
-    if args.ball_distance is not None:
+    opts.update(unseen_deg=unseen, mask_deg=mask, fill=args.ball_fill or "rim")
+    if args.ball_distance is not None:    # with --fov too: refused (options.CONFLICTS)
         if not (math.isfinite(args.ball_distance) and args.ball_distance > 1):
             raise InputError(f"--ball-distance {args.ball_distance:g}: in ball radii, more "
                              "than 1 (the camera is outside the ball)")

@@ -59,6 +59,8 @@ def add_arguments(p) -> None:
 
 def projection_options(args) -> dict:
     """The projection's options from the command line (InputError on bad values)."""
+    from .options import refuse_unused_options
+    refuse_unused_options(args)
     opts = {}
     if args.fov is not None:
         if not 0 < args.fov <= 360:
@@ -100,6 +102,8 @@ def measure(args, command: str = "register"):
         else:
             path = name
         image = read_image(path)
+        from .options import say_projection_warnings
+        say_projection_warnings(args.projection, image, options, command)
         try:
             pose = find_marker(image, spec, args.marker_size, args.projection, **options)
         except MarkerNotFound as exc:

@@ -11,7 +11,8 @@ import shlex
 
 from ..core.errors import InputError
 from ..core.radiometry.image_size import DEFAULT_MAX_PIXELS
-from .options import Parser, add_budget_argument, add_engine_arguments, engine_options
+from .options import (MAX_FPS, Parser, add_budget_argument, add_engine_arguments,
+                      engine_options)
 
 EPILOG = """\
 sources (--source SPEC, or --probe NAME=SPEC, repeatable):
@@ -120,7 +121,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _add_source_arguments(g) -> None:
     g.add_argument("--fps", type=float, default=None,
                    help="pace of demo/file sources, polling rate of snapshot URLs, most "
-                        "messages a second a ws:// relay takes (default 30)")
+                        "messages a second a ws:// relay takes (default 30; at most "
+                        f"{MAX_FPS:g})")
     g.add_argument("--no-loop", action="store_true", help="play videos and sequences once")
     g.add_argument("--source-timeout", type=float, default=5.0,
                    help="connect/read timeout of network sources; twice this without a "
@@ -170,9 +172,9 @@ def _add_environment_arguments(g) -> None:
                         "from the same frames as SH9 but in its own thread: GET "
                         "/environment.ktx2, WebSocket subscribe {\"environment\": true}, MQTT "
                         "PREFIX/PROBE/environment")
-    g.add_argument("--environment-size", type=_environment_size, default=32, metavar="N",
+    g.add_argument("--environment-size", type=_environment_size, default=None, metavar="N",
                    help="edge of a cube face in texels: a power of two from 8 to 256 (default 32)")
-    g.add_argument("--environment-hz", type=_environment_hz, default=1.0, metavar="HZ",
+    g.add_argument("--environment-hz", type=_environment_hz, default=None, metavar="HZ",
                    help="at most this many cube updates per second, only when the lighting "
                         "changed (default 1)")
 
@@ -221,6 +223,9 @@ def _split_assignment(text: str, what: str) -> tuple[str, str]:
     from ..live.server.service import PROBE_NAME
     name, sep, value = text.partition("=")
     name = name.strip()
+    if sep and name and not value.strip() and what == "--probe":
+        raise InputError(f"--probe {text!r}: the source is empty (an unset variable in a "
+                         f"service file?): give {name}=SPEC, e.g. {name}=demo")
     if not sep or not value.strip():
         raise InputError(f"{what}: expected NAME=VALUE, got {text!r}")
     if not PROBE_NAME.fullmatch(name):
@@ -237,11 +242,14 @@ def _check_numbers(ns, where: str = "") -> None:
               ("--change-threshold", ns.change_threshold, ns.change_threshold >= 0),
               ("--source-timeout", ns.source_timeout, ns.source_timeout > 0),
               ("--reconnect-max", ns.reconnect_max, ns.reconnect_max > 0),
-              ("--fps", ns.fps, ns.fps is None or ns.fps > 0),
+              ("--fps", ns.fps, ns.fps is None or 0 < ns.fps <= MAX_FPS),
               ("--exposure", ns.exposure, ns.exposure > 0),
               ("--downsample", ns.downsample, ns.downsample >= 1)]
     for flag, value, ok in checks:
         if not ok or (isinstance(value, float) and not math.isfinite(value)):
+            if flag == "--fps":
+                raise InputError(f"{where}--fps {value:g}: out of range (0, {MAX_FPS:g}] "
+                                 "frames a second")
             raise InputError(f"{where}{flag} {value}: out of range")
 
 
@@ -254,13 +262,16 @@ def build_server(args):
     from ..live.sources import SourceOptions, parse_source
     from ..live.server.tls import server_context
     named = [_split_assignment(t, "--probe") for t in args.probe]
+    if args.source is not None and not args.source.strip():
+        raise InputError("--source is empty (an unset variable in a service file?): give a "
+                         "source, e.g. --source demo")
     if args.source is not None or not named:
         named.insert(0, ("default", args.source or "demo"))
     names = [n for n, _ in named]
     duplicates = {n for n in names if names.count(n) > 1}
     if duplicates:
         raise InputError(f"probe names must be unique: {', '.join(sorted(duplicates))}")
-    overrides = {}
+    overrides, given = {}, {}
     for text in args.probe_args:
         name, value = _split_assignment(text, "--probe-args")
         if name not in names:
@@ -270,6 +281,8 @@ def build_server(args):
         except ValueError as exc:
             raise InputError(f"--probe-args {name}: {exc}") from None
         overrides[name] = _probe_parser().parse_args(words, namespace=argparse.Namespace(**vars(args)))
+        given[name] = _given(words)
+    _check_option_use(args, [n for n, _ in named], overrides, given)
     s = ServeSettings(host=args.host, port=args.port, token=args.token,
                       allowed_origins=tuple(args.allow_origin), max_clients=args.max_clients,
                       max_message_bytes=args.max_message_bytes, send_timeout=args.send_timeout,
@@ -301,11 +314,13 @@ def build_server(args):
                                 max_pixels=ns.max_frame_pixels)
         spec = parse_source(text, options)
         _check_radiometry(name, spec, ns)
+        _file_frame_warnings(name, spec, ns)
         temporal = TemporalSettings(smoothing=ns.smoothing, snap=ns.snap,
                                     change_threshold=ns.change_threshold,
                                     keepalive=ns.keepalive, stale_after=ns.stale_after)
-        environment = (EnvironmentSettings(ns.environment_size, ns.environment_hz)
-                       if ns.environment else None)
+        environment = (EnvironmentSettings(
+            32 if ns.environment_size is None else ns.environment_size,
+            1.0 if ns.environment_hz is None else ns.environment_hz) if ns.environment else None)
         probes.append(Probe(name, spec, projection=ns.projection,
                             engine_options=engine_options(ns), temporal=temporal,
                             backoff_max=ns.reconnect_max, environment=environment))
@@ -319,6 +334,66 @@ def build_server(args):
     elif args.mqtt_ca:
         raise InputError("--mqtt-ca needs --mqtt mqtts://...")
     return ProviderServer(probes, s, publishers)
+
+
+def _given(words) -> set:
+    """The dests that ``--probe-args`` words set themselves (not inherited from the command
+    line): argparse leaves an attribute the namespace already has alone, so a namespace
+    whose every attribute is a marker shows which ones the words changed."""
+    p, marker = _probe_parser(), object()
+    ns = argparse.Namespace(**{a.dest: marker for a in p._actions})
+    p.parse_args(words, namespace=ns)
+    return {k for k, v in vars(ns).items() if v is not marker}
+
+
+def _check_option_use(args, names, overrides: dict, given: dict) -> None:
+    """The rule of :mod:`.options` (an option that does nothing, or contradicts another, is
+    refused) across probes: an option of ``--probe-args NAME=...`` is checked in its probe;
+    one of the command line in every probe that inherits it, and refused only when it does
+    nothing in all of them (``--environment-size 16 --probe-args b=--environment`` is
+    fine). ``engine_options`` then skips its own check (``_options_checked``)."""
+    from .options import unused_options
+    useless, useful = {}, set()     # inherited options: useless in a probe, useful in one
+    for name in names:
+        ns, own = overrides.get(name, args), given.get(name, set())
+        problems = unused_options(ns)
+        for dest in own & problems.keys():
+            raise InputError(f"--probe-args {name}: {problems[dest]}")
+        for dest, line in problems.items():
+            useless.setdefault(dest, line)
+        useful |= {d for d in vars(ns) if d not in problems and d not in own}
+        ns._options_checked = True
+    useless = [line for dest, line in useless.items() if dest not in useful]
+    if useless:
+        raise InputError(useless[0])
+    args._options_checked = True
+
+
+def _file_frame_warnings(name: str, spec, ns) -> None:
+    """The first frame's warnings (:func:`.options.frame_warnings`: --camera or --encoding
+    on a float frame) for a file source, from its first bytes, at start (other sources show
+    their frames later; the projection says its own when the probe builds it)."""
+    import stat
+    from ..core.radiometry.image_size import EXR_MAGIC
+    from ..live.sources import SequenceSource
+    from .options import frame_warnings
+    if spec.kind == "image":
+        path = spec.target
+    elif spec.kind == "sequence":
+        paths = SequenceSource.expand(spec.target)
+        path = paths[0] if paths else None
+    else:
+        return
+    try:
+        if path is None or not stat.S_ISREG(os.stat(path).st_mode):   # a FIFO: not now
+            return
+        with open(path, "rb") as f:
+            head = f.read(4)
+    except OSError:
+        return
+    floating = head[:4] == EXR_MAGIC or head[:2] in (b"#?", b"PF", b"Pf")
+    for line in frame_warnings(ns, floating):
+        logging.getLogger("shlight").warning("probe %s: %s", name, line)
 
 
 def _check_radiometry(name: str, spec, ns) -> None:

@@ -2,8 +2,12 @@
 from __future__ import annotations
 
 
+#: Where ``--write-vectors`` alone writes: the current folder, never the installed package
+#: (the tracked file, shaders/contract_vectors.json, is updated by naming it).
+DEFAULT_VECTORS_OUT = "contract_vectors.json"
+
+
 def add_arguments(p) -> None:
-    from ..verify.contract import VECTORS_PATH
     from ..verify.harness import DENSE_NORMALS, FLOAT32_TOLERANCE
     p.add_argument("panoramas", nargs="*", metavar="PANORAMA",
                    help="equirect panoramas (.exr, .hdr, ...) for the real-scene cases and the "
@@ -20,9 +24,10 @@ def add_arguments(p) -> None:
                    help="max |E_gpu - E_cpu| / (|n|^T|M||n|) (default 32 float32 roundoffs "
                         f"= {FLOAT32_TOLERANCE:.2e}); the reflection checks scale their own "
                         "tolerance, (32 + 4 x cube size) roundoffs, by the same factor")
-    p.add_argument("--write-vectors", nargs="?", const=str(VECTORS_PATH), default=None,
-                   metavar="PATH", help="write the contract test vectors (default path: "
-                                        "shaders/contract_vectors.json), then check them")
+    p.add_argument("--write-vectors", nargs="?", const=DEFAULT_VECTORS_OUT, default=None,
+                   metavar="PATH", help="write the contract test vectors, then check them "
+                                        f"(default path: ./{DEFAULT_VECTORS_OUT}; the "
+                                        "repository's own: shaders/contract_vectors.json)")
     p.add_argument("--vectors", default=None, metavar="PATH",
                    help="contract vectors to check on the GPU (default: "
                         "shaders/contract_vectors.json if present)")
@@ -38,6 +43,8 @@ def check_arguments(args) -> None:
     import math
     import os
     from ..core.errors import InputError
+    from .options import refuse_unused_options
+    refuse_unused_options(args)         # --no-hlsl with --require-hlsl
     if not 1 <= args.normals <= MAX_NORMALS:
         raise InputError(f"--normals must be between 1 and {MAX_NORMALS}, got {args.normals}")
     if not (math.isfinite(args.tolerance) and args.tolerance > 0):

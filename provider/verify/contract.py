@@ -1,7 +1,8 @@
 """Contract test vectors: coefficients in; matrices and E(n) out, in both frames.
 
 ``shaders/contract_vectors.json`` is written by :func:`write_contract_vectors` (``shlight
-validate-shaders --write-vectors``) and read by the shader harness and by the C# tests of the
+validate-shaders --write-vectors shaders/contract_vectors.json``; every number at
+:data:`DIGITS` significant digits, so that writing it again changes nothing) and read by the shader harness and by the C# tests of the
 Unity package. Format (version 1; every array flat, numbers only, so Unity's JsonUtility and
 any small parser read it)::
 
@@ -42,6 +43,13 @@ from .export_vectors import DESCRIPTION as EXPORTS_DESCRIPTION, export_vectors
 from .render import SHADER_DIR
 
 VECTORS_PATH = SHADER_DIR / "contract_vectors.json"
+#: Significant digits of every number written: far below every check's tolerance (1e-12 of an
+#: array's scale for the derived arrays, tests/test_shaders.py), and above float64's last
+#: bits, which the same formulas may set apart across numpy builds and CPUs (their SIMD sine
+#: and cosine), so that writing the file again changes nothing. The panorama cases' inputs
+#: come from the engine's float32 sums with BLAS on one thread (provider.core.blas):
+#: reproduced on one machine; on another CPU they may differ by ~1e-7, which the tests allow.
+DIGITS = 14
 #: Panoramas the real-scene cases come from (CC0, shipped with the package; the tests' too).
 HDRI_DIR = Path(__file__).resolve().parents[1] / "data" / "hdri"
 
@@ -160,7 +168,8 @@ def vector_case(name: str, coefficients, rotation=None, normals=None) -> dict:
 
 DESCRIPTION = (
     "Contract test vectors for SH9 irradiance (docs/contract.md sections 1-2), written by "
-    "`shlight validate-shaders --write-vectors` (provider/verify/contract.py). Per case: radiance SH "
+    "`shlight validate-shaders --write-vectors PATH` (provider/verify/contract.py), every number at "
+    f"{DIGITS} significant digits. Per case: radiance SH "
     "coefficients in; the irradiance matrices M (E(n) = n~^T M n~, n~ = (x, y, z, 1)) and E at "
     "the listed unit normals out, float64, NOT clamped at zero. Unity's frame: S M S with "
     "S = diag(1, 1, -1, 1) and normals (x, y, -z) give the same E. Rotation cases: "
@@ -177,7 +186,8 @@ DESCRIPTION = (
 
 
 def contract_vectors(hdri_dir: Path = HDRI_DIR) -> dict:
-    """The whole vectors document (deterministic up to float rounding of the engine)."""
+    """The whole vectors document (as :func:`dumps` writes it: the same on one machine, run
+    after run; see :data:`DIGITS`)."""
     one_sided = one_sided_coefficients()
     sky = panorama_coefficients("sky", hdri_dir)
     cases = [vector_case("furnace", furnace_coefficients()),
@@ -197,10 +207,23 @@ def contract_vectors(hdri_dir: Path = HDRI_DIR) -> dict:
             "exports_description": EXPORTS_DESCRIPTION, "exports": export_vectors(sky)}
 
 
+def rounded(v):
+    """``v`` (numbers, lists and dicts of them) with every float at :data:`DIGITS`
+    significant digits (-0.0 as 0.0)."""
+    if isinstance(v, float):
+        return float(f"{v:.{DIGITS}g}") + 0.0
+    if isinstance(v, list):
+        return [rounded(x) for x in v]
+    if isinstance(v, dict):
+        return {k: rounded(x) for k, x in v.items()}
+    return v
+
+
 def dumps(vectors: dict) -> str:
-    """JSON text with one key per line and each array on one line (diffable, still plain JSON)."""
+    """JSON text with one key per line and each array on one line (diffable, still plain
+    JSON), every number at :data:`DIGITS` significant digits."""
     def value(v):
-        return json.dumps(v, allow_nan=False)
+        return json.dumps(rounded(v), allow_nan=False)
     lines = ["{"]
     lists = [k for k in ("cases", "exports") if k in vectors]
     top = [k for k in vectors if k not in lists]
@@ -216,8 +239,9 @@ def dumps(vectors: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_contract_vectors(path: Path = VECTORS_PATH, hdri_dir: Path = HDRI_DIR) -> Path:
-    """Write the vectors file; returns its path."""
+def write_contract_vectors(path: Path, hdri_dir: Path = HDRI_DIR) -> Path:
+    """Write the vectors file at ``path`` (given: the package's own, :data:`VECTORS_PATH`,
+    is the repository's tracked file, not a default); returns its path."""
     from ..core.errors import InputError
     missing = [n for n in ("sky", "lab", "city") if not (Path(hdri_dir) / f"{n}.exr").exists()]
     if missing:

@@ -26,6 +26,10 @@ EDGE_RAYS = 720
 #: rendered into rooms (``shlight bench --sections probes``), every circle more than 1 px off
 #: had fewer than half the rays; nearly every right one had more.
 WEAK_EDGE_POINTS = EDGE_RAYS // 2
+#: How far a ball's circle may run past the frame's edge, as a fraction of its radius (plus
+#: a pixel): a ball cut off more than this is no probe, and the circles found so far out in a
+#: frame with no ball (a panorama's arches and lamps, refined outward) are not balls.
+MAX_OUTSIDE = 0.1
 
 
 @dataclass
@@ -40,6 +44,13 @@ class BallCircle:
     radius: float
     edge_rms: float = float("nan")
     edge_points: int = 0
+
+    def inside(self, width: int, height: int) -> bool:
+        """Whether the circle lies in a ``width`` × ``height`` frame, give or take
+        :data:`MAX_OUTSIDE` of its radius: what a ball must do to be a probe."""
+        m = MAX_OUTSIDE * self.radius + 1.0
+        return (self.radius > 0 and self.x - self.radius >= -m and self.y - self.radius >= -m
+                and self.x + self.radius <= width + m and self.y + self.radius <= height + m)
 
     @property
     def weak(self) -> bool:
@@ -81,7 +92,9 @@ def locate_ball(image: np.ndarray, *, min_radius_fraction: float = 0.05) -> Ball
     """The ball in ``image`` (H×W, or H×W×C in RGB order, any dtype the engine takes):
     the :data:`CANDIDATES` strongest circles of :func:`cv2.HoughCircles` with a radius from
     ``min_radius_fraction`` to 0.55 of the frame's smaller side, each refined on its edge
-    (:func:`refine_edge`); the one with the most rays on its edge wins. Raises :class:`InputError` when no circle is found."""
+    (:func:`refine_edge`); of those that lie in the frame (:meth:`BallCircle.inside`), the
+    one with the most rays on its edge wins. Raises :class:`InputError` when no circle is
+    found, or none in the frame."""
     grey = grey8(image)
     h, w = grey.shape[:2]
     if min(h, w) < 32:
@@ -101,15 +114,21 @@ def locate_ball(image: np.ndarray, *, min_radius_fraction: float = 0.05) -> Ball
             break
     if found is None:
         raise InputError(f"no ball found in the {w}×{h} frame (no circle of radius "
-                         f"{min_radius_fraction:.0%} to 55 % of its smaller side): "
+                         f"{min_radius_fraction * 100:g} % to 55 % of its smaller side): "
                          "give it with --ball X,Y,R")
-    best = None
+    best = outside = None
     for x, y, r in found[0][:CANDIDATES, :3] / scale:
         circle = BallCircle(float(x) + 0.5, float(y) + 0.5, float(r))  # OpenCV: centres integer
         for _ in range(3):
             circle = refine_edge(grey, circle)
-        if best is None or circle.edge_points > best.edge_points:
+        if not circle.inside(w, h):
+            outside = outside or circle
+        elif best is None or circle.edge_points > best.edge_points:
             best = circle
+    if best is None:
+        raise InputError(f"no ball found in the {w}×{h} frame (the circles found run past "
+                         f"its edge, e.g. centre {outside.x:.0f}, {outside.y:.0f}, radius "
+                         f"{outside.radius:.0f} px): give it with --ball X,Y,R")
     return best
 
 

@@ -105,6 +105,9 @@ class Probe:
         self.loop_errors = 0            # unexpected errors the probe's loop survived
         self.running = False            # the probe's task is running (see ProviderServer)
         self.bad_files: dict[str, str] = {}   # unreadable input file -> why (until it changes)
+        #: the source's file whose current version cannot be read while its previous one
+        #: goes on (an image source): "PATH: why", for /healthz (status degraded), or None
+        self.outdated: str | None = None
         self.compute_ms = 0.0
         self.latency_s = 0.0            # capture → message of the newest frame
         self._projectors: collections.OrderedDict = collections.OrderedDict()
@@ -250,6 +253,8 @@ class Probe:
         path = info.get("path")
         if path is None:
             return
+        if not info.get("rejected"):       # a frame: of this version, or kept from an older one
+            self.outdated = f"{path}: {info['bad_file']}" if info.get("bad_file") else None
         reason = info.get("rejected") or info.get("bad_file")
         if reason:
             self.bad_files.pop(path, None)
@@ -462,6 +467,9 @@ class Probe:
                   "max_frame_pixels": self.max_pixels,
                   "reconnects": self.capture.reconnects, "running": self.running,
                   "loop_errors": self.loop_errors, "bad_files": dict(self.bad_files)}
+        if self.outdated is not None:   # the lighting is from an older version of its file
+            health["outdated"] = (f"{self.outdated} (the lighting is from its previous "
+                                  "version)")
         if self.environment is not None:
             health["environment"] = self.environment.health()
         if self.ball is not None:       # --ball auto: where, and whether it may be off

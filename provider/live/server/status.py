@@ -41,7 +41,7 @@ class MetricsText:
 def health(server) -> dict:
     """The /healthz document: overall status, each probe's state, each publisher's."""
     probes = {name: p.health() for name, p in server.probes.items()}
-    ok = all(p["state"] == "live" for p in probes.values())
+    ok = all(p["state"] == "live" and "outdated" not in p for p in probes.values())
     health = {"status": "ok" if ok else "degraded", "provider": f"shlight {__version__}",
               "uptime_s": round(time.time() - server.started_at, 3),
               "clients": len(server.clients), "probes": probes}

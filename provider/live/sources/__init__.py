@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import os
 import re
+import stat
 import urllib.parse
 from dataclasses import dataclass
 
@@ -64,7 +65,7 @@ class SourceSpec:
             return DemoSource(fps=o.fps or 30.0)
         if self.kind == "image":
             from .files import ImageSource
-            return ImageSource(t, fps=o.fps or 2.0, max_pixels=o.max_pixels)
+            return ImageSource(t, fps=o.fps or 2.0, max_pixels=o.max_pixels, timeout=o.timeout)
         if self.kind == "sequence":
             return SequenceSource(t, fps=o.fps or 1.0, loop=o.loop,
                                   max_pixels=o.max_pixels)
@@ -124,7 +125,8 @@ def parse_source(spec: str, options: SourceOptions | None = None) -> SourceSpec:
     s = spec.strip()
     low = s.lower()
     if not s:
-        raise InputError("empty source")
+        raise InputError("empty source (an unset variable in a service file?): give one, "
+                         "e.g. demo")
     if low == "demo":
         return SourceSpec("demo", None, o, "demo (built-in animated scene)")
     if re.fullmatch(r"(camera:)?\d+", low):
@@ -161,6 +163,10 @@ def parse_source(spec: str, options: SourceOptions | None = None) -> SourceSpec:
     if not os.path.exists(s):
         raise InputError(f"no such file or source: {s} (sources: demo, a file, a camera "
                          f"index, http://, rtsp://, theta://, ws://; see shlight serve --help)")
+    if low.endswith(IMAGE_EXTENSIONS) and stat.S_ISFIFO(os.stat(s).st_mode):
+        # not read now: that would wait for a writer before the server listens, and take
+        # what it writes from the source (which says what it waits for, and reads it)
+        return SourceSpec("image", s, o, f"image {s} (FIFO)")
     if low.endswith(IMAGE_EXTENSIONS):
         # refuses an unreadable image (or one over the pixel budget, from its header)
         # now, with the reader's message

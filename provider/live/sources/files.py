@@ -4,6 +4,9 @@ from __future__ import annotations
 import glob
 import logging
 import os
+import select
+import stat
+import tempfile
 import time
 
 from ...core.errors import InputError
@@ -32,10 +35,19 @@ class ImageSource(Source):
     also ``info["too_large"]``: (width, height), which the probe counts and says once). A
     read that failed for a reason that is not the file's content (an I/O error, memory) is
     not remembered: the file is read again (after 1 s, then 2, 4, up to 10 s), and its
-    picture comes back as soon as that works."""
+    picture comes back as soon as that works.
 
-    def __init__(self, path: str, fps: float = 2.0, max_pixels: int = 0):
+    A FIFO (a named pipe) is such a file whose versions come through the pipe: each writer
+    writes one image and closes it (``cat room.png > PATH``). The FIFO is held open for
+    reading (non-blocking: a writer never waits for the server, nor finds no reader), and
+    between writers the last image goes on. Before the first image, ``open`` waits up to
+    ``timeout`` seconds, said once in the log ("waiting for a writer on FIFO PATH"), then
+    fails (the capture retries, its reason "no writer ... yet")."""
+
+    def __init__(self, path: str, fps: float = 2.0, max_pixels: int = 0,
+                 timeout: float = 5.0):
         super().__init__()
+        self.timeout = timeout
         self.path, self.nominal_fps, self.max_pixels = path, fps, max_pixels
         self._pacer = Pacer(fps)
         self._image, self._mtime = None, None
@@ -45,6 +57,7 @@ class ImageSource(Source):
         # after a read that failed (not for its content): that version, when to try again
         # (monotonic time, s) and the wait after the next failure (s)
         self._retry_version, self._retry_at, self._retry_s = None, 0.0, 1.0
+        self._fifo: _FifoReader | None = None
 
     def open(self) -> None:
         self._load()
@@ -55,13 +68,24 @@ class ImageSource(Source):
         except OSError as exc:
             raise SourceError(f"cannot read {self.path}: {exc.strerror}") from None
         mtime = file_version(st)
-        if mtime == self._mtime or (self._bad is not None and self._bad[0] == mtime):
+        if stat.S_ISFIFO(st.st_mode):       # versions are writers, not modification times
+            if self._fifo is None:
+                self._fifo = _FifoReader(self.path, self.max_pixels)
+            data = self._fifo.take(self.timeout if self._image is None else 0.0, self._stop)
+            if data is None and self._image is None:
+                raise SourceError(f"no writer on FIFO {self.path} yet (waited "
+                                  f"{self.timeout:g} s)")
+            if data is None:
+                return
+            mtime = ("fifo", self._fifo.writers)
+        elif mtime == self._mtime or (self._bad is not None and self._bad[0] == mtime):
             return
-        if (self._failing is not None and mtime == self._retry_version
+        elif (self._failing is not None and mtime == self._retry_version
                 and time.monotonic() < self._retry_at):
             return
         try:
-            image = read_image(self.path, self.max_pixels)
+            image = (read_image(self.path, self.max_pixels) if self._fifo is None
+                     else self._fifo.decode(data))
         except TransientReadError as exc:      # not the content: not remembered as bad
             if self._image is None:
                 raise SourceError(str(exc)) from None
@@ -84,6 +108,10 @@ class ImageSource(Source):
             self._image, self._mtime, self._bad, self._failing = image, mtime, None, None
             self._retry_s = 1.0
 
+    def close(self) -> None:
+        if self._fifo is not None:
+            self._fifo.close()
+
     def read(self) -> Frame:
         self._pacer.wait(self)
         self._load()
@@ -93,6 +121,81 @@ class ImageSource(Source):
         if self._too_large is not None:
             info["too_large"], self._too_large = self._too_large, None
         return Frame(self._image, time.time(), info=info)
+
+
+#: FIFOs said to wait for their first writer (once per path, not once per retry).
+_FIFOS_SAID: set = set()
+
+
+class _FifoReader:
+    """The read end of a FIFO, held open without blocking: :meth:`take` gathers what writers
+    write, and gives the bytes of one once it closed its end (an image per writer)."""
+
+    def __init__(self, path: str, max_pixels: int = 0):
+        self.path, self.max_pixels = path, max_pixels
+        self.limit = 16 * (max_pixels or 1 << 26)     # bytes: float32 RGBA, and then some
+        self.fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        self.data = bytearray()
+        self.dropped = 0            # bytes of the current writer beyond the limit
+        self.writers = 0            # images taken so far (a writer's is the next version)
+
+    def take(self, wait: float, stop) -> bytes | None:
+        """A writer's bytes, once it closed the FIFO, waiting up to ``wait`` s for them (and
+        saying so the first time for this path), and while they come; None when none came
+        (or ``stop`` is set): what came so far waits for the next call."""
+        if wait > 0 and not self.data and self.path not in _FIFOS_SAID:
+            _FIFOS_SAID.add(self.path)
+            log.warning("waiting for a writer on FIFO %s", self.path)
+        deadline = time.monotonic() + wait
+        while True:
+            try:
+                chunk = os.read(self.fd, 1 << 20)
+            except BlockingIOError:     # a writer that has not written (all) yet
+                chunk = None
+            if chunk:                   # a writer at work: give it a second more to finish
+                deadline = max(deadline, time.monotonic() + 1.0)
+                if self.dropped or len(self.data) + len(chunk) > self.limit:
+                    self.dropped += len(self.data) + len(chunk)   # not an image: drained
+                    self.data = bytearray()
+                else:
+                    self.data += chunk
+                continue
+            if chunk == b"" and (self.data or self.dropped):   # its writer closed
+                data, self.data = bytes(self.data), bytearray()
+                self.writers += 1
+                if self.dropped:
+                    self.dropped = 0
+                    return b""          # refused by decode
+                return data
+            left = deadline - time.monotonic()
+            if left <= 0 or stop.is_set():
+                return None
+            if chunk == b"":            # no writer since one left: select would not wait
+                stop.wait(min(left, 0.05))
+            else:
+                select.select([self.fd], [], [], min(left, 0.1))
+
+    def decode(self, data: bytes):
+        """The image in a writer's bytes (read through a temporary file of the FIFO's
+        extension; errors name the FIFO)."""
+        if not data:
+            raise InputError(f"{self.path}: a writer sent more than {self.limit:,} bytes: "
+                             "not an image under --max-frame-pixels")
+        fd, tmp = tempfile.mkstemp(suffix=os.path.splitext(self.path)[1], prefix="shlight-fifo-")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(data)
+            return read_image(tmp, self.max_pixels)
+        except InputError as exc:
+            exc.args = (str(exc).replace(tmp, self.path),) + exc.args[1:]
+            raise
+        finally:
+            os.unlink(tmp)
+
+    def close(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)
+            self.fd = None
 
 
 class SequenceSource(Source):
