@@ -69,11 +69,26 @@ def _bracket(files, name):
      ["the lighting overflows at exposure 3e+38", "float32"]),
     (["compute", "{d}/bright.exr", "--exposure", "1e38"],
      ["the lighting overflows at exposure 1e+38", "float32"]),
+    (["environment", "{d}/bright.exr", "--exposure", "3e38", "-o", "{d}/over.ktx2"],
+     ["the lighting overflows at exposure 3e+38", "float32"]),
 ])
 def test_an_exposure_whose_lighting_overflows_is_refused(files, argv, words):
     res = run_cli(*[a.format(d=files) for a in argv])
     assert "RuntimeWarning" not in res.stderr
     _refused(res, *words)
+
+
+def test_a_cube_brighter_than_half_float_says_how_many_texels_are_held(files):
+    """The KTX2 cube is half float: texels beyond 65504 are stored as 65504, and the command
+    says how many (no silent clamping)."""
+    res = run_cli("environment", f"{files}/bright.exr", "--exposure", "1e5", "-o",
+                  f"{files}/held.ktx2")
+    assert res.returncode == 0, res.stderr
+    assert "RuntimeWarning" not in res.stderr
+    warning = [line for line in res.stderr.splitlines() if "65504" in line]
+    assert len(warning) == 1 and "8,184 of 8,184 texels are brighter than half float" in warning[0]
+    quiet = run_cli("environment", f"{files}/bright.exr", "-o", f"{files}/fine.ktx2")
+    assert quiet.returncode == 0 and "65504" not in quiet.stderr
 
 
 def test_the_library_refuses_lighting_that_overflows():

@@ -70,6 +70,12 @@ def run(args) -> int:
     for warning in getattr(projector, "warnings", ()):
         say("environment", "warning", warning)
     result = projector.project(image, exposure_s=times[0])
+    from ..live.reflections.ktx2 import beyond_half_float
+    over, texels = beyond_half_float(result.mips)
+    if over:
+        say("environment", "warning",
+            f"{over:,} of {texels:,} texels are brighter than half float's 65504 and are "
+            "stored as 65504 (lower --exposure to keep them)")
     cube = encode_environment(result, probe=args.probe, seq=0, sh9_seq=None,
                               time_s=os.path.getmtime(paths[0]),
                               exposure=options.get("exposure", 1.0), exposure_s=times[0])

@@ -392,7 +392,12 @@ class EnvironmentProjector(FrameDecoder):
     def _project_work(self, lin: np.ndarray, scale: float) -> EnvironmentResult:
         px = np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
         if scale != 1.0:
-            px = px * np.float32(scale)
+            with np.errstate(over="ignore"):   # said below, in one line, not as a warning
+                px = px * np.float32(scale)
+            if not np.isfinite(px).all():
+                raise InputError(
+                    f"the lighting overflows at exposure {scale:g}: the cube's float32 texels "
+                    f"hold at most {np.finfo(np.float32).max:.3g} (lower --exposure)")
         base = self._overlap_op.apply(px)
         if self._fill_weights is not None:
             fill = self._fill_weights @ px                     # (3,)

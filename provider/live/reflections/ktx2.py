@@ -77,6 +77,14 @@ def check_cube_mips(mips) -> list[np.ndarray]:
     return arrays
 
 
+def beyond_half_float(mips) -> tuple[int, int]:
+    """(texels with a channel beyond ±65504, all texels) over every mip: what
+    :func:`encode_cube` stores as ±65504, counted so that a caller can say so."""
+    arrays = check_cube_mips(mips)
+    over = sum(int((np.abs(m) > 65504.0).any(-1).sum()) for m in arrays)
+    return over, sum(m.shape[0] * m.shape[1] * m.shape[2] for m in arrays)
+
+
 def encode_cube(mips, key_values: dict[str, str] | None = None) -> bytes:
     """A KTX 2.0 file (bytes) of an RGB cube map with its mips: see the module docstring.
     Values beyond the half-float range become ±65504 (never infinity); NaN is refused."""
