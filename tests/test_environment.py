@@ -278,7 +278,10 @@ def test_one_decode_feeds_sh9_and_the_cube(projection, w, h):
     env = EnvironmentProjector(w, h, projection, size=16)
     work = env.new_work(sh9)
     shared = sh9.project(frame, work=work)
-    np.testing.assert_array_equal(shared.coefficients, sh9.project(frame).coefficients)
+    # the same sums to float rounding (exact equality failed once under load: the order of a
+    # threaded library's partial sums is not promised)
+    np.testing.assert_allclose(shared.coefficients, sh9.project(frame).coefficients,
+                               rtol=1e-6, atol=1e-9)
     assert work.complete
     cube = env.project(frame, work=work)
     assert cube.stats["shared_decode"]
