@@ -113,3 +113,32 @@ def test_the_example_s_placeholder_token_is_warned_about():
         poll(lambda: "placeholder 'change-me'" in proc.output, 30, what="the warning")
     with ServeProcess("--source", "demo", "--token", "a-real-secret") as proc:
         assert "placeholder" not in proc.output
+
+
+def _corrupt_but_decodable_jpeg() -> bytes:
+    """A JPEG that decodes (the rest of the picture grey) while libjpeg prints "Corrupt
+    JPEG data: N extraneous bytes before marker 0xd9" to stderr."""
+    import cv2
+    import numpy as np
+    from servertools import jpeg_panorama
+    data = bytearray(jpeg_panorama(128))
+    assert cv2.imdecode(np.frombuffer(bytes(data), np.uint8), cv2.IMREAD_COLOR) is not None
+    n = len(data) // 2
+    data[n:n + 40] = b"\0" * 40
+    return bytes(data)
+
+
+def test_a_camera_that_keeps_sending_bad_jpegs_is_one_log_line_not_one_a_frame():
+    """libjpeg writes a line to stderr for every corrupt frame: a camera sending only such
+    frames filled the log (issue 29). Its lines go through the log, one per source per 10 s,
+    and the frames still light."""
+    from servertools import MjpegCamera, health
+    with MjpegCamera(_corrupt_but_decodable_jpeg(), fps=30) as cam:
+        with ServeProcess("--source", cam.url, "--change-threshold", "0") as proc:
+            poll(lambda: health(proc.http)["probes"]["default"]["frames"] >= 40, timeout=120,
+                 what="40 frames decoded")
+            out = proc.output
+    said = [line for line in out.splitlines() if "Corrupt JPEG data" in line]
+    assert 1 <= len(said) <= 3, out[-3000:]       # 40 frames in a few seconds: one line
+    for line in said:
+        assert "WARNING" in line and "the image decoder says: Corrupt JPEG data" in line, line

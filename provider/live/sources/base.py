@@ -10,10 +10,15 @@ sources implements it.
 """
 from __future__ import annotations
 
+import logging
+import os
 import re
+import sys
+import tempfile
 import threading
 import time
 import urllib.parse
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import cv2
@@ -22,6 +27,7 @@ import numpy as np
 from ...core.errors import InputError
 
 USER_AGENT = "shlight"
+log = logging.getLogger("shlight.source")
 
 class SourceError(Exception):
     """The source lost its camera or stream (the message says why); it will be re-created."""
@@ -84,7 +90,8 @@ class Frame:
             # a frame cut short is refused, not decoded half-way (the rest grey)
             check_complete(f"JPEG frame ({len(self.jpeg)} bytes)", self.jpeg)
             try:
-                bgr = cv2.imdecode(np.frombuffer(self.jpeg, np.uint8), cv2.IMREAD_COLOR)
+                with codec_messages("a JPEG frame"):
+                    bgr = cv2.imdecode(np.frombuffer(self.jpeg, np.uint8), cv2.IMREAD_COLOR)
             except cv2.error:       # a header declaring more than OpenCV decodes
                 bgr = None
             if bgr is None:
@@ -211,3 +218,73 @@ def redact(url: str) -> str:
     query = "&".join(q if not q.lower().startswith("token=") else "token=***"
                      for q in parts.query.split("&")) if parts.query else ""
     return urllib.parse.urlunsplit(parts._replace(query=query))
+
+
+# ---- what the image codecs print, routed to the log -------------------------------------------
+#
+# libjpeg's "Corrupt JPEG data ...", libpng's "libpng error: ...", OpenCV's and OpenEXR's
+# warnings: C libraries that write straight to file descriptor 2, one line per bad frame (about
+# 680 extra lines for 1,000 bad files; forever from a camera that keeps sending bad JPEGs,
+# issue 29). codec_messages points descriptor 2 at a scratch file for the length of one decode
+# (a lock makes the decodes of several sources take turns), then says the codec's lines as one
+# log line per source per interval (with how many were held back), and writes everything else
+# that reached descriptor 2 meanwhile (another thread's log line) back to the real stderr,
+# unchanged and in order.
+
+#: The lines the codecs write (libjpeg's messages, libpng's, OpenCV's log, OpenEXR's).
+CODEC_LINE = re.compile(
+    r"^(Corrupt JPEG data|Premature end of JPEG|Invalid JPEG|Bogus |Unsupported JPEG|"
+    r"Huffman table|Quantization table|Warning: |JPEG datastream|libpng (error|warning)|"
+    r"\[ ?(WARN|ERROR|INFO)[: ]|imread_|imdecode_|OpenEXR|Iex|Cannot read|"
+    r"Error: |TIFFRead|TIFFFetch|[A-Za-z]+: .*(TIFF|tiff) )")
+
+_lock = threading.Lock()
+_scratch = None                 # one scratch file, emptied after each decode
+_said: dict = {}                # source -> [monotonic time said, lines held back since]
+
+
+def _say(where: str, line: str, interval: float) -> None:
+    now = time.monotonic()
+    seen = _said.get(where)
+    if seen is not None and now - seen[0] < interval:
+        seen[1] += 1
+        return
+    held = seen[1] if seen is not None else 0
+    if len(_said) > 1024:
+        _said.clear()
+    _said[where] = [now, 0]
+    more = f" (and {held} more from the decoder in the last {interval:g} s)" if held else ""
+    log.warning("%s: the image decoder says: %s%s", where, line[:300], more)
+
+
+@contextmanager
+def codec_messages(where: str, interval: float = 10.0):
+    """Within the block, what the codecs write to descriptor 2 goes to the log, as one line
+    about ``where`` (a file, a camera) at most every ``interval`` seconds."""
+    global _scratch
+    with _lock:
+        try:
+            sys.stderr.flush()
+        except (OSError, ValueError):
+            pass
+        if _scratch is None:
+            _scratch = tempfile.TemporaryFile()
+        saved = os.dup(2)
+        os.dup2(_scratch.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            _scratch.seek(0)
+            text = _scratch.read().decode("utf-8", "replace")
+            _scratch.seek(0)
+            _scratch.truncate()
+            others = []
+            for line in text.splitlines():
+                if CODEC_LINE.match(line):
+                    _say(where, line.strip(), interval)
+                elif line:
+                    others.append(line)
+            if others:
+                os.write(2, ("\n".join(others) + "\n").encode("utf-8", "replace"))

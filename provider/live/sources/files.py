@@ -14,6 +14,8 @@ from ...core.radiometry.image_size import FrameTooLarge
 from ...core.radiometry.images import IMAGE_EXTENSIONS, TransientReadError, read_image
 from .base import Frame, Pacer, Source, SourceError, SourceFinished
 
+from .base import codec_messages
+
 log = logging.getLogger("shlight.source")
 
 
@@ -84,8 +86,9 @@ class ImageSource(Source):
                 and time.monotonic() < self._retry_at):
             return
         try:
-            image = (read_image(self.path, self.max_pixels) if self._fifo is None
-                     else self._fifo.decode(data))
+            with codec_messages(self.path):
+                image = (read_image(self.path, self.max_pixels) if self._fifo is None
+                         else self._fifo.decode(data))
         except TransientReadError as exc:      # not the content: not remembered as bad
             if self._image is None:
                 raise SourceError(str(exc)) from None
@@ -250,7 +253,8 @@ class SequenceSource(Source):
             if self._bad.get(path) == version:
                 continue
             try:
-                image = read_image(path, self.max_pixels)
+                with codec_messages(path):
+                    image = read_image(path, self.max_pixels)
             except InputError as exc:
                 info = {"path": path, "rejected": str(exc)}
                 if not isinstance(exc, TransientReadError):
