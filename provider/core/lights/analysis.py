@@ -141,14 +141,16 @@ def angular_radius_deg(weights, angles, footprint2) -> float:
     ``m2 = Σ w (angle² − footprint²) / Σ w`` is the source's own flux-weighted mean squared
     angle; a uniform disc of radius a has m2 = a²/2, hence ``a = sqrt(2 · m2)``. A source
     within one pixel gives m2 ≤ 0: it is reported as 0 (a point light), the honest answer
-    when its pixels cannot tell its size.
+    when its pixels cannot tell its size. The radius is at most 90° by definition (the
+    wire's range): a disc wider than a hemisphere is no shadow caster (never reached by
+    the extractor's compact regions; the nine panoramas give at most 27°).
     """
     w = np.asarray(weights, np.float64)
     total = float(w.sum())
     if not total > 0:
         return 0.0
     m2 = float(w @ (np.asarray(angles, np.float64) ** 2 - np.asarray(footprint2, np.float64)))
-    return math.degrees(math.sqrt(2.0 * max(m2 / total, 0.0)))
+    return min(90.0, math.degrees(math.sqrt(2.0 * max(m2 / total, 0.0))))
 
 
 def model_irradiance(ambient, lights, normals) -> np.ndarray:
