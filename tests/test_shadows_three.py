@@ -216,3 +216,77 @@ def picture(rgba, alpha, profile, s, umbra, msg, key):
     fig.tight_layout()
     fig.savefig(ROOT / "docs" / "shadows_three.png", dpi=90)
     plt.close(fig)
+
+
+# ---- the WebXR example page (xr.html?shadows=1) on a real inline XRSession -----------------
+
+#: Seen from straight above the preview's floor (y = −1.3); the sphere drawn into the shadow
+#: map only. Returns the catcher's alpha at floor points [x, z] (bilinear, from the canvas).
+XR_TOP_VIEW = """(points) => { const s = window.shlight, THREE = s.THREE;
+  s.camera.position.set(0, 6, 0); s.camera.up.set(0, 0, -1); s.camera.lookAt(0, -1.3, 0);
+  s.camera.updateMatrixWorld();
+  s.sphere.material = new THREE.MeshLambertMaterial({ colorWrite: false, depthWrite: false });
+  const c = s.renderer.domElement;
+  return points.map(([x, z]) => { const p = new THREE.Vector3(x, -1.3, z).project(s.camera);
+    return [(p.x + 1) / 2 * c.width - 0.5, (1 - p.y) / 2 * c.height - 0.5]; });
+}"""
+
+
+def test_webxr_page_shadow_from_xr_estimated_light(browser, tmp_path):
+    """xr.html?shadows=1: in the preview the key light of the sh9 messages casts the shadow;
+    in a session three's XREstimatedLight (fed by the polyfill) does, its catcher's opacity is
+    the primary light's share computed from the server's webxr export and equals 1 − the CPU
+    shadow_ratio of the sh9 message; the umbra shows it, the rest of the floor is untouched."""
+    from provider.core.geometry import sh
+    from test_xr_polyfill import INLINE_LE, START_SESSION, webxr_latest
+    from browsertools import REFUSED, canvas_rgba
+    pano = tmp_path / "sun.hdr"
+    write_sun_and_sky(pano)
+    with ServeProcess("--source", str(pano), "--lights", "auto", "--keepalive", "60") as proc:
+        with page_of(browser, proc.http + "/xr.html?shadows=1", tolerate=f"{REFUSED}|{INLINE_LE}") as page:
+            page.wait_for_function("window.shlight && window.shlight.conn.shadows && "
+                                   "window.shlight.conn.shadows.key !== null", timeout=30000)
+            preview = page.evaluate("""() => { const s = window.shlight, sh = s.conn.shadows;
+              return { share: sh.key.share, opacity: s.floor.material.opacity, visible: sh.light.visible,
+                       cast: sh.light.castShadow, sphere: s.sphere.castShadow, active: s.xrShadow.active,
+                       msg: s.conn.latest.message }; }""")
+            assert preview["cast"] and preview["sphere"] and preview["visible"] and not preview["active"]
+            assert preview["opacity"] == preview["share"] > 0.3
+            cpu_lum, _ = cpu_umbra_ratio(preview["msg"], int(np.argmax(
+                np.reshape(preview["msg"]["light_irradiance"], (-1, 3)) @ [0.2126, 0.7152, 0.0722])))
+            assert abs(preview["share"] - (1 - cpu_lum)) < 1e-4
+
+            page.evaluate(START_SESSION)
+            page.wait_for_function("window.started === 1 && !window.shlight.lightProbe.visible", timeout=20000)
+            held = page.evaluate("""() => { const s = window.shlight; s.xrShadow.update();
+              const dl = s.xrLight.directionalLight;
+              return { share: s.xrShadow.share, opacity: s.floor.material.opacity, active: s.xrShadow.active,
+                       radius: s.xrShadow.angularRadiusDeg, shadowRadius: dl.shadow.radius,
+                       cast: dl.castShadow, preview: s.conn.shadows.light.visible,
+                       position: dl.position.toArray() }; }""")
+            assert held["active"] and held["cast"] and not held["preview"]
+            latest = webxr_latest(proc.http)
+            d = latest["primaryLightDirection"]
+            d = np.array([d["x"], d["y"], d["z"]])
+            e = latest["primaryLightIntensity"]
+            e = np.array([e["x"], e["y"], e["z"]])
+            lum = np.array([0.2126, 0.7152, 0.0722])
+            e_probe = np.maximum(sh.irradiance(np.reshape(latest["sphericalHarmonicsCoefficients"], (9, 3)),
+                                               np.array([[0.0, 1.0, 0.0]]))[0], 0) @ lum
+            key = (e @ lum) * max(0.0, d[1])
+            share = key / (e_probe + key)
+            assert abs(held["share"] - share) < 1e-4, (held["share"], share)
+            assert abs(held["share"] - (1 - cpu_lum)) < 2e-3, (held["share"], 1 - cpu_lum)
+            assert held["opacity"] == held["share"]
+            radius = preview["msg"].get("light_angular_radius_deg", [0])[0]
+            assert abs(held["radius"] - radius) < 1e-9
+
+            centre = np.array([0.0, 0.0, 0.0]) - (1.3 / d[1]) * d        # the umbra's centre
+            points = [[centre[0], centre[2]], [1.6, -1.6], [2.0, 0.5], [-0.5, -2.0]]
+            at = page.evaluate(XR_TOP_VIEW, points)
+            alpha = canvas_rgba(page)[..., 3].astype(np.float32) / 255
+            vals = [float(cv2.remap(alpha, np.float32([[x]]), np.float32([[y]]), cv2.INTER_LINEAR)[0, 0])
+                    for x, y in at]
+            print(f"XR umbra alpha {vals[0]:.4f}, share {held['share']:.4f}; away {vals[1:]}")
+            assert abs(vals[0] - held["share"]) < UMBRA_TOL, (vals[0], held["share"])
+            assert vals[1:] == [0.0, 0.0, 0.0], vals

@@ -446,3 +446,58 @@ export function shadowCatcher(THREE, { size = 4, segments = 1 } = {}) {
   mesh.name = "shlight shadow catcher";
   return mesh;
 }
+
+/**
+ * Shadows for three's XREstimatedLight (three/addons/webxr/XREstimatedLight.js), fed by the
+ * browser's own light estimation or by the provider's polyfill (xr-lighting-polyfill.js):
+ * its DirectionalLight (the estimate's primary light, shining from primaryLightDirection at
+ * unit distance toward the origin) casts shadows, and a catcher's opacity is that light's
+ * share of the catcher's irradiance, E_p⟨n·d⟩ / (E_probe(n) + E_p⟨n·d⟩), E_probe from the
+ * estimate's SH (which holds everything but the primary light), Rec. 709 luminance.
+ * Options:
+ *   scene, renderer, catcher, up, casterHeight   as connectLightProbe's `shadows`
+ *   size              width of the shadow camera's square (world units, default 4): what
+ *                     shadows can fall on; its near/far are ±`depth` (default 10) about
+ *                     the light's position, since XREstimatedLight puts it 1 unit from the origin
+ *   angularRadiusDeg  the primary light's angular radius: a number, or a function returning
+ *                     one (e.g. from the provider's sh9 messages, keyLight(conn.latest));
+ *                     WebXR's estimate has no field for it. Default 0 (a hard shadow).
+ * Returns { light, catcher, share, angularRadiusDeg, active, update() }: update() runs before
+ * the catcher is drawn each frame (its onBeforeRender; call it yourself to read `share`
+ * sooner) and does nothing while `active` is false (e.g. outside a session, where another
+ * driver, connectLightProbe's `shadows`, may own the catcher).
+ */
+export function xrShadows(THREE, xrLight, opts = {}) {
+  const light = xrLight.directionalLight, size = opts.size ?? 4, depth = opts.depth ?? 10;
+  light.castShadow = true;
+  light.shadow.mapSize.set(1024, 1024);
+  Object.assign(light.shadow.camera, { left: -size / 2, right: size / 2, top: size / 2, bottom: -size / 2,
+                                       near: -depth, far: depth });
+  light.shadow.camera.updateProjectionMatrix();
+  light.shadow.bias = -0.0005;
+  const catcher = opts.catcher === undefined ? shadowCatcher(THREE, { size }) : opts.catcher;
+  if (opts.scene && catcher) opts.scene.add(catcher);
+  if (opts.renderer) {
+    opts.renderer.shadowMap.enabled = true;
+    opts.renderer.shadowMap.type = THREE.PCFShadowMap;
+  }
+  const up = new THREE.Vector3(...(opts.up || [0, 1, 0])).normalize();
+  const casterHeight = opts.casterHeight ?? 0.5, e = new THREE.Vector3(), dir = new THREE.Vector3();
+  const state = { light, catcher, share: 0, angularRadiusDeg: 0, active: true, update };
+  function update() {
+    if (!state.active) return;
+    const r = typeof opts.angularRadiusDeg === "function" ? opts.angularRadiusDeg() : opts.angularRadiusDeg;
+    state.angularRadiusDeg = Number.isFinite(+r) && +r > 0 ? +r : 0;
+    xrLight.lightProbe.sh.getIrradianceAt(up, e).multiplyScalar(xrLight.lightProbe.intensity);
+    const probe = luminance([Math.max(0, e.x), Math.max(0, e.y), Math.max(0, e.z)]);
+    dir.copy(light.position).sub(light.target.position);
+    const cos = dir.lengthSq() > 0 ? Math.max(0, dir.normalize().dot(up)) : 0;
+    const c = light.color, key = luminance([c.r, c.g, c.b]) * light.intensity * cos;
+    state.share = probe + key > 0 ? key / (probe + key) : 0;
+    if (catcher) catcher.material.opacity = light.visible ? state.share : 0;
+    light.shadow.radius = shadowRadiusTexels(state.angularRadiusDeg, { casterHeight,
+      mapSize: light.shadow.mapSize.x, frustumWidth: size });
+  }
+  if (catcher) catcher.onBeforeRender = update;
+  return state;
+}
