@@ -300,7 +300,14 @@ namespace UnityEngine
         public static readonly Dictionary<int, int> StandInGlobalInts = new Dictionary<int, int>();
         public static readonly Dictionary<int, Vector4[]> StandInGlobalVectorArrays = new Dictionary<int, Vector4[]>();
         public static void SetGlobalInt(int nameID, int value) { StandInGlobalInts[nameID] = value; }
-        public static void SetGlobalVectorArray(int nameID, Vector4[] values) { StandInGlobalVectorArrays[nameID] = (Vector4[])values.Clone(); }
+        public static void SetGlobalVectorArray(int nameID, Vector4[] values)
+        {
+            // copied into the array held for this id (allocated once), as Unity copies into native memory
+            Vector4[] held;
+            if (!StandInGlobalVectorArrays.TryGetValue(nameID, out held) || held.Length != values.Length)
+                StandInGlobalVectorArrays[nameID] = held = new Vector4[values.Length];
+            System.Array.Copy(values, held, values.Length);
+        }
     }
 
     public enum LightType { Spot = 0, Directional = 1, Point = 2, Area = 3, Rectangle = 3, Disc = 4 }
