@@ -290,3 +290,23 @@ def test_webxr_page_shadow_from_xr_estimated_light(browser, tmp_path):
             print(f"XR umbra alpha {vals[0]:.4f}, share {held['share']:.4f}; away {vals[1:]}")
             assert abs(vals[0] - held["share"]) < UMBRA_TOL, (vals[0], held["share"])
             assert vals[1:] == [0.0, 0.0, 0.0], vals
+            if os.environ.get("SHLIGHT_DOCS_SCREENSHOT"):
+                xr_picture(canvas_rgba(page), held)
+
+
+def xr_picture(rgba, held):
+    """docs/shadows_webxr.png: xr.html?shadows=1 in a session (XREstimatedLight fed by the polyfill),
+    seen from above (the sphere drawn into the shadow map only), over a grey 'camera image'."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    a = rgba[..., 3:4].astype(float) / 255
+    shown = rgba[..., :3].astype(float) / 255 * a + 0.55 * (1 - a)
+    fig, ax = plt.subplots(figsize=(4.6, 4.6))
+    ax.imshow(shown)
+    ax.set_axis_off()
+    ax.set_title(f"WebXR: XREstimatedLight's primary light\nshare {held['share']:.3f}, "
+                 f"angular radius {held['radius']:.2f}°")
+    fig.tight_layout()
+    fig.savefig(ROOT / "docs" / "shadows_webxr.png", dpi=90)
+    plt.close(fig)

@@ -17,6 +17,7 @@ compiles them, without Unity, with the harness of tests/test_unity_shaders.py.
 from __future__ import annotations
 
 import math
+import os
 import re
 import subprocess
 from pathlib import Path
@@ -81,9 +82,10 @@ def test_builtin_catcher_compiles_with_unity_includes(tmp_path):
     print(f"\n{total} variants of the built-in shadow catcher compiled ({', '.join(n for n, _, _ in sets)})")
 
 
-def _run_catcher(ctx, spv: Path, normals, values: dict, shadow: float) -> np.ndarray:
+def _run_catcher(ctx, spv: Path, normals, values: dict, shadow, coords=None) -> np.ndarray:
     """The fragment stage, once per normal; the screen-space shadow texture (an array: single-pass
-    instanced stereo) reads `shadow` everywhere."""
+    instanced stereo) reads `shadow` everywhere (a number), or is `shadow` (an (h, w) array) read
+    at `coords` ((n, 2) texture coordinates, one per normal)."""
     glsl = subprocess.run([_tool("spirv-cross"), str(spv), "--version", "430", "--no-es", "--no-420pack-extension"],
                           capture_output=True, text=True, timeout=60).stdout
     refl = reflect(spv)
@@ -93,10 +95,10 @@ def _run_catcher(ctx, spv: Path, normals, values: dict, shadow: float) -> np.nda
         if "Normal" in n:
             body.append(f"  {n} = normal;")
         elif "ShadowCoord" in n:
-            body.append(f"  {n} = {t}(0.5, 0.5, 0.5, 1.0);")     # inside the shadow map, depth mid-range
+            body.append(f"  {n} = {t}(uv, 0.5, 1.0);")             # screen position, w = 1
         else:
             body.append(f"  {n} = {t}(0.0);")
-    vertex = ("#version 430\nin vec3 normal;\nuniform float width;\n" +
+    vertex = ("#version 430\nin vec3 normal;\nin vec2 uv;\nuniform float width;\n" +
               "".join(f"{layout}out {t} {n};\n" for layout, t, n in inputs) +
               "void main() {\n  gl_Position = vec4((float(gl_VertexID) + 0.5) / width * 2.0 - 1.0, 0.0, 0.0, 1.0);\n"
               "  gl_PointSize = 1.0;\n" + "\n".join(body) + "\n}\n")
@@ -114,12 +116,16 @@ def _run_catcher(ctx, spv: Path, normals, values: dict, shadow: float) -> np.nda
         buf.bind_to_uniform_block(binding)
         prog["_Global" if ubo["name"] == "$Global" else ubo["name"]].binding = binding
         keep.append(buf)
-    tex = ctx.texture_array((1, 1, 1), 4, np.full(4, shadow, np.float32).tobytes(), dtype="f4")
+    img = np.full((1, 1), shadow, np.float32) if np.isscalar(shadow) else np.asarray(shadow, np.float32)
+    tex = ctx.texture_array((img.shape[1], img.shape[0], 1), 4, np.repeat(img[..., None], 4, -1).tobytes(), dtype="f4")
+    tex.filter = (ctx.NEAREST, ctx.NEAREST)
     tex.use(0)
     fbo = ctx.framebuffer(color_attachments=[ctx.texture((n, 1), 4, dtype="f4")])
     fbo.use()
     fbo.clear()
-    vao = ctx.vertex_array(prog, [(ctx.buffer(np.asarray(normals, np.float32).tobytes()), "3f", "normal")])
+    uv = np.full((n, 2), 0.5, np.float32) if coords is None else np.asarray(coords, np.float32)
+    vao = ctx.vertex_array(prog, [(ctx.buffer(np.asarray(normals, np.float32).tobytes()), "3f", "normal"),
+                                  (ctx.buffer(uv.tobytes()), "2f", "uv")])
     vao.render(mode=ctx.POINTS, vertices=n)
     return np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(n, 4)
 
@@ -162,6 +168,55 @@ def test_builtin_catcher_outputs_the_cpu_shadow_ratio(tmp_path):
     # half strength: V 0 shows as V 0.5
     out = _run_catcher(ctx, spv, normals, {**values, "_ShadowStrength": 0.5}, 0.0)
     np.testing.assert_allclose(out[:, :3], shadow_ratio(normals, A_unity, d_unity[None], e[None], [0.5]), atol=2e-5)
+    if os.environ.get("SHLIGHT_DOCS_SCREENSHOT"):
+        picture(ctx, spv, values, A_unity, d_unity, e)
+
+
+def _disc_visibility(gap_deg, light_deg, occluder_deg):
+    """Fraction of a light disc (angular radius light_deg) left by an occluding disc (occluder_deg)
+    whose centre is gap_deg away (flat-disc overlap)."""
+    r, R, g = np.radians(light_deg), np.radians(occluder_deg), np.radians(gap_deg)
+    r2, R2 = r * r, R * R
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a = r2 * np.arccos(np.clip((g * g + r2 - R2) / (2 * g * r), -1, 1)) + \
+            R2 * np.arccos(np.clip((g * g + R2 - r2) / (2 * g * R), -1, 1)) - \
+            0.5 * np.sqrt(np.clip((-g + r + R) * (g + r - R) * (g - r + R) * (g + r + R), 0, None))
+    overlap = np.where(g >= r + R, 0.0, np.where(g <= np.abs(R - r), np.pi * np.minimum(r, R) ** 2, a))
+    return 1 - overlap / (np.pi * r2)
+
+
+def picture(ctx, spv, values, A_unity, d_unity, e, size=96):
+    """docs/shadows_unity.png: the built-in catcher's output, run, under a sphere (radius 0.3, centre
+    0.8 above a 2 × 2 floor) and a key light of angular radius 6°, the shadow map holding the disc's
+    visibility at each floor point; multiplied onto a stand-in camera image of a floor."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    x, z = np.meshgrid(np.linspace(-1, 1, size), np.linspace(-1, 1, size))
+    floor = np.stack([x, np.zeros_like(x), z], -1)
+    to_sphere = np.array([0, 0.8, 0]) - floor
+    dist = np.linalg.norm(to_sphere, axis=-1)
+    gap = np.degrees(np.arccos(np.clip((to_sphere / dist[..., None]) @ d_unity, -1, 1)))
+    vis = _disc_visibility(gap, 6.0, np.degrees(np.arcsin(0.3 / dist)))
+    coords = np.stack([(np.arange(size * size) % size + 0.5) / size, (np.arange(size * size) // size + 0.5) / size], -1)
+    normals = np.tile([0.0, 1.0, 0.0], (size * size, 1))
+    out = _run_catcher(ctx, spv, normals, values, vis, coords)[:, :3].reshape(size, size, 3)
+    want = shadow_ratio(normals, A_unity, d_unity[None], e[None], vis.reshape(-1, 1)).reshape(size, size, 3)
+    rng = np.random.default_rng(1)
+    camera = (np.array([0.55, 0.47, 0.38]) * (0.85 + 0.15 * ((np.floor(x * 4) + np.floor(z * 4)) % 2))[..., None]
+              + rng.normal(0, 0.015, (size, size, 1)))
+    fig, ax = plt.subplots(1, 3, figsize=(12, 4))
+    ax[0].imshow(np.clip(camera, 0, 1), extent=(-1, 1, 1, -1)); ax[0].set_title("camera image (stand-in)")
+    ax[1].imshow(np.clip(camera * out, 0, 1), extent=(-1, 1, 1, -1))
+    ax[1].set_title("× Shlight/SH9 Shadow Catcher (run)\nkey light 6°, sphere 0.8 above the floor")
+    c = np.argmin(vis.min(axis=1))
+    ax[2].plot(x[c], out[c, :, 1], label="shader output (G)")
+    ax[2].plot(x[c], want[c, :, 1], "k--", label="shadow_ratio (CPU)")
+    ax[2].set_ylim(0, 1.05); ax[2].set_xlabel("x on the floor"); ax[2].legend(loc="lower right")
+    ax[2].set_title("through the umbra")
+    fig.tight_layout()
+    fig.savefig(ROOT / "docs" / "shadows_unity.png", dpi=90)
+    plt.close(fig)
 
 
 def _urp_pass():
