@@ -146,6 +146,17 @@ def test_sphere_shadow_on_the_catcher_matches_the_cpu_ratio(browser, tmp_path):
             d = np.reshape(msg["light_directions"], (-1, 3))[key["index"]]
             assert d @ SUN > np.cos(np.radians(2)), (d, SUN)                   # the sun
             np.testing.assert_allclose(key["direction"], d / np.linalg.norm(d), atol=1e-5)
+            # the key light: brightest by Rec. 709, kept within 10 %, handed over beyond
+            picks = page.evaluate("""() => { const k = window.t.a.keyLightIndex, e = [1,1,1, 3,3,3, 2.9,2.9,2.9];
+              return [k(e), k(e, 2), k(e, 0), k(e, 7), k([]), k([2,0,2, 0,1,0])]; }""")
+            assert picks == [1, 2, 1, 1, -1, 1], picks
+            # the LightProbe gets the full SH9 less the key light's E·Y(d): the ambient plus the others
+            from provider.core.conventions.formats import light_sh
+            others = np.reshape(msg["ambient_coefficients"], (9, 3)) + sum(
+                (light_sh(np.reshape(msg["light_directions"], (-1, 3))[i], np.reshape(msg["light_irradiance"], (-1, 3))[i])
+                 for i in range(msg["lights"]) if i != key["index"]), np.zeros((9, 3)))
+            probe = page.evaluate("() => window.t.probe.sh.coefficients.flatMap((v) => [v.x, v.y, v.z])")
+            np.testing.assert_allclose(probe, others.reshape(-1), rtol=1e-5, atol=1e-6 * np.abs(msg["coefficients"]).max())
             # the catcher's opacity is the key light's share in Rec. 709 luminance; the sky is
             # grey, so the per-colour ratios are alike
             cpu_lum, cpu = cpu_umbra_ratio(msg, key["index"])
