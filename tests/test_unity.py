@@ -1067,12 +1067,13 @@ def test_live_client_times_out_on_a_silent_server(live_exe):
 
 # ---- shaders ---------------------------------------------------------------------------------------
 
-def test_hlsl_include_identical_to_shaders_dir():
-    """The package's include must never drift from shaders/sh9_irradiance.hlsl."""
-    a = (ROOT / "shaders" / "sh9_irradiance.hlsl").read_bytes()
-    b = (PKG / "Shaders" / "sh9_irradiance.hlsl").read_bytes()
-    assert a == b, ("unity_package/Shaders/sh9_irradiance.hlsl differs from shaders/sh9_irradiance.hlsl: "
-                    "copy shaders/sh9_irradiance.hlsl over it")
+@pytest.mark.parametrize("name", ["sh9_irradiance.hlsl", "sh9_lights.hlsl"])
+def test_hlsl_include_identical_to_shaders_dir(name):
+    """The package's includes must never drift from shaders/ (sh9_lights.hlsl: the shadow catchers')."""
+    a = (ROOT / "shaders" / name).read_bytes()
+    b = (PKG / "Shaders" / name).read_bytes()
+    assert a == b, (f"unity_package/Shaders/{name} differs from shaders/{name}: "
+                    f"copy shaders/{name} over it")
 
 
 # The shader's passes, variants, SRP Batcher layout and stereo are tested in tests/test_unity_shaders.py.
@@ -1172,7 +1173,7 @@ def test_meta_files_present_and_guids_unique():
         assert meta.with_name(meta.name[:-5]).exists(), f"orphan {meta}"
     # the sample material points at the package shader's GUID
     shader_guid = re.search(r"guid: (\w+)", (PKG / "Shaders" / "SH9Diffuse.shader.meta").read_text()).group(1)
-    mat = next((PKG / "Samples~").rglob("*.mat")).read_text()
+    mat = (PKG / "Samples~" / "BasicLighting" / "SH9 Diffuse White.mat").read_text()
     assert f"guid: {shader_guid}, type: 3" in mat
 
 

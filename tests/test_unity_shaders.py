@@ -79,7 +79,7 @@ def _blocks(text: str, keyword: str) -> list[str]:
         i = j
 
 
-def parse_shader(text: str) -> list[dict]:
+def parse_shader(text: str, name: str = "Shlight/SH9 Diffuse") -> list[dict]:
     """Passes: SubShader index and tags, pass name and LightMode, program text, pragmas."""
     text = re.sub(r"//[^\n]*", "", text)
     programs = []
@@ -88,7 +88,7 @@ def parse_shader(text: str) -> list[dict]:
         programs.append(m.group(2))
         return f"@PROGRAM{len(programs) - 1}@"
     masked = re.sub(r"(CGPROGRAM|HLSLPROGRAM)(.*?)(ENDCG|ENDHLSL)", mask, text, flags=re.S)
-    assert re.search(r'Shader\s+"Shlight/SH9 Diffuse"', masked)
+    assert re.search(r'Shader\s+"' + re.escape(name) + '"', masked)
     passes = []
     for s, sub in enumerate(_blocks(masked, "SubShader")):
         tags = dict(re.findall(r'"(\w+)"\s*=\s*"([^"]*)"', (_blocks(sub, "Tags") or [""])[0]))

@@ -36,6 +36,9 @@ Sections (all written to ``--out``, default ./bench-results):
 * ``environment.md`` / ``.png`` (only with ``--sections environment``, see
   :mod:`provider.bench.environment`): the reflection cube's cost per update against the SH9
   path, its error against a float64 brute force per size and roughness, and its bytes.
+* ``shadows.md`` / ``.png`` (only with ``--sections shadows``, see
+  :mod:`provider.bench.shadows`): a floating sphere's floor shadow per real panorama, by
+  brute force against the light model (SH9 only, lights as points, lights as discs).
 
 Before it starts, the run lists the sections with what each costs; each section then says
 when it starts and how long it took.
@@ -104,10 +107,11 @@ SECTION_WHAT = {
     "radiometry": "a simulated 8-bit camera: one frame, calibrated, brackets, against HDR",
     "probes": "mirror balls and angular maps from the real panoramas against their SH9",
     "environment": "the reflection cube: cost against SH9, error against brute force, bytes",
+    "shadows": "a floating sphere's floor shadow: brute force against the light model",
 }
 SECTION_COST_S = {"speed": (5, 40), "edge": (2, 5), "fill": (2, 10), "scenes": (20, 50),
                   "server": (20, 70), "radiometry": (20, 40), "probes": (15, 150),
-                  "environment": (60, 400)}
+                  "environment": (60, 400), "shadows": (15, 60)}
 INSTRUCTIONS_COST_S = (150, 130)    # valgrind runs Python and numpy under emulation
 
 
@@ -171,5 +175,11 @@ def _environment(hdri, out, args):
     bench_environment(hdri, out, args)
 
 
+def _shadows(hdri, out, args):
+    from .shadows import bench_shadows
+    bench_shadows(hdri, out, args)
+
+
 _SECTIONS = {"speed": _speed, "edge": _edge, "fill": _fill, "scenes": _scenes, "server": _server,
-             "radiometry": _radiometry, "probes": _probes, "environment": _environment}
+             "radiometry": _radiometry, "probes": _probes, "environment": _environment,
+             "shadows": _shadows}

@@ -13,6 +13,14 @@ Cases: one light from (2, 1, -2)/3 only (independent answer: E = I·max(0, n·d)
 (must equal SH9 alone); four random lights; more slots uploaded than ``count`` (the unused
 slots must not light anything); the engine's lights for each panorama (``lights="auto"``);
 and the lights cases of the contract vectors, in both frames.
+
+The shadow ratio (``shShadowRatio`` / ``SHShadowRatio``, :mod:`provider.core.lights.shadows`)
+is checked the same way against :func:`~provider.core.lights.shadows.shadow_ratio`, with
+the visibility of each light a uniform (``shadowVisibility`` / ``_ShadowVisibility``), on
+the light sets above at several visibilities (all visible: exactly 1; none; mixed; out of
+range, which the shaders clamp). Its error measure follows from r = N/D with N and D each
+off by at most c·ε·S (S the magnitude sum above): ``|r_gpu − r_cpu| / (2 S / D)`` ≤ the
+same 32 float32 round-offs (D ≤ 0, where the ratio is 1 by definition, is not judged).
 """
 from __future__ import annotations
 
@@ -24,6 +32,7 @@ import cv2
 import numpy as np
 
 from ..core.geometry import sh
+from ..core.lights.shadows import shadow_ratio
 from ..core.sh9.engine import compute_sh9
 from ..core.radiometry.images import read_image
 from . import contract
@@ -325,7 +334,113 @@ def compare(ctx, path: str, normals, panoramas, vectors, tolerance) -> list[Comp
     cases = synthetic_light_cases(normals) + panorama_light_cases(panoramas)
     if vectors is not None:
         cases += vector_light_cases(vectors)
-    return run_light_cases(evaluator, cases, normals, tolerance)
+    out = run_light_cases(evaluator, cases, normals, tolerance)
+    return out + run_shadow_cases(ShadowEvaluator(ctx, path), shadow_cases(normals, panoramas),
+                                  normals, tolerance)
+
+
+# -- the shadow ratio (shShadowRatio / SHShadowRatio) -------------------------------------------
+
+SHADOW_GLSL_EVALUATOR = """
+uniform sampler2D normals;   // one unit normal per pixel (RGB32F)
+uniform vec4 shadowVisibility;
+layout(location = 0) out vec4 clampedOut;
+layout(location = 1) out vec4 unclampedOut;
+void main() {
+    vec3 n = texelFetch(normals, ivec2(gl_FragCoord.xy), 0).xyz;
+    clampedOut = vec4(shShadowRatio(n, shadowVisibility), 1.0);
+    unclampedOut = clampedOut;
+}
+"""
+
+SHADOW_HLSL_EVALUATOR = """#include "sh9_lights.hlsl"
+Texture2D<float4> _Normals;   // one unit normal per pixel
+float4 _ShadowVisibility;
+struct Targets
+{
+    float4 clamped : SV_Target0;
+    float4 unclamped : SV_Target1;
+};
+Targets main(float4 position : SV_Position)
+{
+    float3 n = _Normals.Load(int3(position.xy, 0)).xyz;
+    Targets t;
+    t.clamped = float4(SHShadowRatio(n, _ShadowVisibility), 1.0);
+    t.unclamped = t.clamped;
+    return t;
+}
+"""
+
+#: Visibilities of lights 0..3 per shadow case: all visible (ratio exactly 1), none, mixed,
+#: and out of [0, 1] (the shaders clamp; the CPU reference gets the clamped values).
+SHADOW_VISIBILITIES = {"open": (1.0, 1.0, 1.0, 1.0), "shadowed": (0.0, 0.0, 0.0, 0.0),
+                       "mixed": (0.25, 1.0, 0.0, 0.6), "clamped": (-0.5, 1.5, 0.5, 2.0)}
+
+
+class ShadowEvaluator(LightsEvaluator):
+    """Renders ``shShadowRatio(n, visibility)`` / ``SHShadowRatio`` through one path."""
+
+    def __init__(self, ctx, path: str = "glsl"):
+        source = (shader_source("sh9_lights.glsl") + SHADOW_GLSL_EVALUATOR if path == "glsl"
+                  else SHADOW_HLSL_EVALUATOR)
+        IrradianceEvaluator.__init__(self, ctx, path, source)
+        self._lights = (_slots([], []), 0)
+        self.visibility = np.ones(4, np.float32)
+
+    def set_matrices(self, matrices) -> None:
+        super().set_matrices(matrices)
+        v = np.asarray(self.visibility, np.float32).reshape(4)
+        if self._block is None:
+            set_uniform(self.program, "shadowVisibility", tuple(float(x) for x in v))
+        else:
+            self._ubo.write(v.tobytes(), offset=self._block[1]["_ShadowVisibility"])
+
+
+def compare_shadow(case: LightCase, visibility, path: str, ratio, normals,
+                   tolerance: float = FLOAT32_TOLERANCE) -> Comparison:
+    """Rendered ratio against :func:`shadow_ratio` in float64 (error measure: module doc)."""
+    n = np.asarray(normals, np.float32).astype(np.float64)
+    k = len(case.directions) if case.count is None else case.count
+    d = np.asarray(case.directions, np.float64).reshape(-1, 3)[:k]
+    irr = np.asarray(case.irradiance, np.float64).reshape(-1, 3)[:k]
+    v = np.clip(np.asarray(visibility, np.float64), 0.0, 1.0)[:k]
+    exact = shadow_ratio(n, case.matrices, d, irr, v)
+    M = np.asarray(case.matrices, np.float64)
+    open_ = (np.maximum(sh.irradiance_from_matrices(M, n), 0.0)
+             + np.maximum(n @ d.T, 0.0) @ irr)
+    magnitude = (sh.irradiance_from_matrices(np.abs(M), np.abs(n))
+                 + (np.abs(n) @ np.abs(d).T) @ np.abs(irr))
+    scale = np.where(open_ > 0, 2.0 * magnitude / np.where(open_ > 0, open_, 1.0), np.inf)
+    return judge(case, path, ratio, ratio, exact, scale, tolerance)
+
+
+def shadow_cases(normals, panoramas) -> list[tuple[LightCase, str, tuple]]:
+    """(light case, visibility name, visibility) for every synthetic light set and the
+    first panorama with lights, at each of :data:`SHADOW_VISIBILITIES`."""
+    sets = [c for c in synthetic_light_cases(normals) if c.name != "lights:none"]
+    for case in panorama_light_cases(panoramas):
+        if len(case.directions):
+            sets.append(case)
+            break
+    out = []
+    for case in sets:
+        for vname, v in SHADOW_VISIBILITIES.items():
+            shadow = LightCase(f"shadow:{case.name.split(':', 1)[1]}:{vname}", case.matrices,
+                               case.directions, case.irradiance, count=case.count,
+                               note=f"shadow ratio, visibility {v}")
+            out.append((shadow, vname, v))
+    return out
+
+
+def run_shadow_cases(evaluator: ShadowEvaluator, cases, normals,
+                     tolerance: float = FLOAT32_TOLERANCE) -> list[Comparison]:
+    out = []
+    for case, _, v in cases:
+        evaluator.visibility = np.asarray(v, np.float32)
+        evaluator.set_lights(case.directions, case.irradiance, case.count)
+        ratio, _ = evaluator.evaluate(case.matrices, normals)
+        out.append(compare_shadow(case, v, evaluator.path, ratio, normals, tolerance))
+    return out
 
 
 def demo_checks(ctx) -> list[DemoCheck]:

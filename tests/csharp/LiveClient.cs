@@ -9,7 +9,8 @@
 //                                                            when a new message has been applied
 // The "matrices" are what Update passed to Shader.SetGlobalMatrix (_SHIrradianceR/G/B) and
 // "ambient" what it assigned to RenderSettings.ambientProbe, read back from the stand-in; with
-// --light, "light" is the driven Directional Light as the stand-in holds it.
+// --light, "light" is the driven Directional Light as the stand-in holds it (--shadows: the component's
+// KeyLightShadows on: the key light drawn, its shadows set, sh9_lights.hlsl's globals reported).
 // Stdin: "quit" ends the program (exit 0), and so does the end of stdin (the test runner went
 // away); it also ends after the time limit in args. "pause" plays a suspended app (Unity calls
 // OnApplicationPause(true) and OnApplicationFocus(false), then no Update until the app is back);
@@ -24,7 +25,7 @@
 // count, how many of them applied a new message, and the bytes they allocated.
 //
 // usage: LiveClient.exe URL TOKEN PROBE SECONDS [QX QY QZ QW] [--token-in-query] [--intensity=X]
-//        [--light] [--color-space=linear|gamma] [--linear-intensity]
+//        [--light] [--shadows] [--color-space=linear|gamma] [--linear-intensity]
 //   TOKEN or PROBE "-": empty. QX..QW: the rotation of the component's transform.
 using System;
 using System.Globalization;
@@ -83,7 +84,8 @@ static class LiveClient
                ",\"forward\":" + Array(new double[] { f.x, f.y, f.z }) +
                ",\"color\":" + Array(new double[] { c.r, c.g, c.b }) +
                ",\"intensity\":" + MiniJson.Number(light.intensity) +
-               ",\"use_color_temperature\":" + (light.useColorTemperature ? "true" : "false") + "}";
+               ",\"use_color_temperature\":" + (light.useColorTemperature ? "true" : "false") +
+               ",\"shadows\":\"" + light.shadows + "\",\"shadow_strength\":" + MiniJson.Number(light.shadowStrength) + "}";
     }
 
     static string Array(float[] v)
@@ -121,6 +123,20 @@ static class LiveClient
         return Shader.StandInGlobalFloats.TryGetValue(Shader.PropertyToID(name), out v) ? v : float.NaN;
     }
 
+    static int GlobalInt(string name)
+    {
+        int v;
+        return Shader.StandInGlobalInts.TryGetValue(Shader.PropertyToID(name), out v) ? v : -1;
+    }
+
+    // the first vector of a global vector array (sh9_lights.hlsl's light 0), or null
+    static string GlobalVector0(string name)
+    {
+        Vector4[] v;
+        if (!Shader.StandInGlobalVectorArrays.TryGetValue(Shader.PropertyToID(name), out v)) return "null";
+        return Array(new double[] { v[0].x, v[0].y, v[0].z, v[0].w });
+    }
+
     static float[] AmbientProbe()
     {
         var result = new float[27];
@@ -155,6 +171,7 @@ static class LiveClient
                 light.intensity = 1.25f;
                 component.DirectionalLight = light;
             }
+            else if (f == "--shadows") component.KeyLightShadows = true;
             else if (f == "--color-space=gamma") QualitySettings.StandInColorSpace = ColorSpace.Gamma;
             else if (f == "--color-space=linear") QualitySettings.StandInColorSpace = ColorSpace.Linear;
             else if (f == "--linear-intensity") UnityEngine.Rendering.GraphicsSettings.lightsUseLinearIntensity = true;
@@ -292,6 +309,11 @@ static class LiveClient
                          ",\"main_light_scale\":" + MiniJson.Number(GlobalFloat("_SHMainLightScale")) +
                          ",\"wire_light_directions\":" + Array(msg.LightDirections) +
                          ",\"wire_light_irradiance\":" + Array(msg.LightIrradiance) +
+                         ",\"wire_light_angular_radius_deg\":" + Array(msg.LightAngularRadiusDeg) +
+                         ",\"light_angular_radius_deg\":" + MiniJson.Number(component.LightAngularRadiusDeg) +
+                         ",\"sh_light_count\":" + GlobalInt("_SHLightCount") +
+                         ",\"sh_light_direction\":" + GlobalVector0("_SHLightDirection") +
+                         ",\"sh_light_irradiance\":" + GlobalVector0("_SHLightIrradiance") +
                          ",\"wire_ambient_coefficients\":" + (msg.AmbientCoefficients == null ? "null" : Array(msg.AmbientCoefficients)) +
                          "}");
                 }

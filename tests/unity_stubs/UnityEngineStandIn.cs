@@ -296,6 +296,18 @@ namespace UnityEngine
         public static void SetGlobalMatrix(string name, Matrix4x4 value) { SetGlobalMatrix(PropertyToID(name), value); }
         public static void SetGlobalFloat(int nameID, float value) { StandInGlobalFloats[nameID] = value; }
         public static void SetGlobalFloat(string name, float value) { SetGlobalFloat(PropertyToID(name), value); }
+        /// <summary>Stand-in only: what SetGlobalInt and SetGlobalVectorArray received, by property id.</summary>
+        public static readonly Dictionary<int, int> StandInGlobalInts = new Dictionary<int, int>();
+        public static readonly Dictionary<int, Vector4[]> StandInGlobalVectorArrays = new Dictionary<int, Vector4[]>();
+        public static void SetGlobalInt(int nameID, int value) { StandInGlobalInts[nameID] = value; }
+        public static void SetGlobalVectorArray(int nameID, Vector4[] values)
+        {
+            // copied into the array held for this id (allocated once), as Unity copies into native memory
+            Vector4[] held;
+            if (!StandInGlobalVectorArrays.TryGetValue(nameID, out held) || held.Length != values.Length)
+                StandInGlobalVectorArrays[nameID] = held = new Vector4[values.Length];
+            System.Array.Copy(values, held, values.Length);
+        }
     }
 
     public enum LightType { Spot = 0, Directional = 1, Point = 2, Area = 3, Rectangle = 3, Disc = 4 }
@@ -315,6 +327,8 @@ namespace UnityEngine
         public float intensity { get { return lightIntensity; } set { lightIntensity = value; } }
         public bool useColorTemperature { get { return colorTemperature; } set { colorTemperature = value; } }
         public LightShadows shadows { get { return lightShadows; } set { lightShadows = value; } }
+        float lightShadowStrength = 1f;
+        public float shadowStrength { get { return lightShadowStrength; } set { lightShadowStrength = value; } }
     }
 
     public enum ColorSpace { Uninitialized = -1, Gamma = 0, Linear = 1 }
@@ -459,6 +473,12 @@ namespace UnityEngine
         public int fontSize { get { return font; } set { font = value; } }
         public TextAnchor anchor { get { return textAnchor; } set { textAnchor = value; } }
         public Color color { get { return textColor; } set { textColor = value; } }
+    }
+
+    public struct Vector4
+    {
+        public float x, y, z, w;
+        public Vector4(float x, float y, float z, float w) { this.x = x; this.y = y; this.z = z; this.w = w; }
     }
 
     public struct Vector3

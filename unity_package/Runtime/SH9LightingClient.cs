@@ -55,17 +55,31 @@ namespace Shlight.Lighting
                  "Empty: every light stays in the SH9. The light is switched off while the server sends none.")]
         [SerializeField] Light directionalLight;
 
+        [Header("Shadows (docs/shadows_consumers.md)")]
+        [Tooltip("The Directional Light shows the key light (the brightest of the server's lights, not the first) " +
+                 "and casts its shadows: Soft when the light's angular radius is 0.5° or more (a lamp, a window), " +
+                 "Hard below (the sun), strength 1. Put an SH9 Shadow Catcher material on the real floor's " +
+                 "stand-in to darken the passthrough image where the key light is blocked.")]
+        [SerializeField] bool keyLightShadows = false;
+
         static readonly int IdR = Shader.PropertyToID("_SHIrradianceR");
         static readonly int IdG = Shader.PropertyToID("_SHIrradianceG");
         static readonly int IdB = Shader.PropertyToID("_SHIrradianceB");
         // 1 while the driven light carries part of the room's light: SH9 Diffuse then adds the main
         // directional light to SHIrradiance; 0 otherwise (a scene's own default light is not added).
         static readonly int IdMainLightScale = Shader.PropertyToID("_SHMainLightScale");
+        // sh9_lights.hlsl's lights (docs/contract.md §10): the drawn light only, since the SH9 globals hold
+        // everything else while it is drawn; SHShadowRatio (the shadow catchers) reads them.
+        static readonly int IdLightCount = Shader.PropertyToID("_SHLightCount");
+        static readonly int IdLightDirection = Shader.PropertyToID("_SHLightDirection");
+        static readonly int IdLightIrradiance = Shader.PropertyToID("_SHLightIrradiance");
+        readonly Vector4[] lightDirections = new Vector4[4];
+        readonly Vector4[] lightIrradiances = new Vector4[4];
 
         Sh9Client client;
         // the settings the running client was made with (compared field by field: no garbage per frame)
         string usedUrl, usedToken, usedProbe;
-        bool usedTokenInQuery, usedEnvironment;
+        bool usedTokenInQuery, usedEnvironment, usedKeyLight;
         bool receiveEnvironment;
         float usedMaxHz, usedStaleAfter;
         readonly ConcurrentQueue<string> logQueue = new ConcurrentQueue<string>();
@@ -82,6 +96,8 @@ namespace Shlight.Lighting
         SphericalHarmonicsL2 savedAmbientProbe;
         Light savedLight;
         bool savedLightEnabled, savedLightColorTemperature;
+        LightShadows savedLightShadows;
+        float savedLightShadowStrength;
         Color savedLightColor;
         float savedLightIntensity;
         Quaternion savedLightRotation;
@@ -128,6 +144,13 @@ namespace Shlight.Lighting
         public Light DirectionalLight { get { return directionalLight; } set { directionalLight = value; } }
         /// <summary>Also receive the reflection cube (set by SH9Reflections; changing it reconnects).</summary>
         public bool ReceiveEnvironment { get { return receiveEnvironment; } set { receiveEnvironment = value; } }
+
+        /// <summary>Draw the key light (the brightest) and let it cast shadows (Soft from 0.5° of angular radius);
+        /// takes effect at the next frame (reconnecting).</summary>
+        public bool KeyLightShadows { get { return keyLightShadows; } set { keyLightShadows = value; } }
+
+        /// <summary>Angular radius (degrees) of the light the Directional Light shows (0: none sent, or no light).</summary>
+        public float LightAngularRadiusDeg { get { return lightDriven ? (float)values.LightAngularRadiusDeg : 0f; } }
         /// <summary>The newest reflection cube received (null until the first, or without ReceiveEnvironment).</summary>
         public Sh9EnvironmentSnapshot LatestEnvironment { get { return client == null ? null : client.LatestEnvironment; } }
         /// <summary>The orientation the lighting is turned by: this transform's rotation (Follow Transform
@@ -150,6 +173,7 @@ namespace Shlight.Lighting
             RestoreAmbient();
             RestoreLight();
             Shader.SetGlobalFloat(IdMainLightScale, 0f);
+            Shader.SetGlobalInt(IdLightCount, 0);
         }
 
         // Coming back from suspend (HoloLens: the app was left and resumed; the headset slept): the
@@ -184,6 +208,7 @@ namespace Shlight.Lighting
             Disconnect();
             usedUrl = serverUrl; usedToken = token; usedTokenInQuery = tokenInQuery; usedProbe = probe;
             usedMaxHz = maxHz; usedStaleAfter = staleAfterSeconds; usedEnvironment = receiveEnvironment;
+            usedKeyLight = keyLightShadows;
             appliedVersion = -1; // versions restart with each client
             try
             {
@@ -196,6 +221,7 @@ namespace Shlight.Lighting
                     MaxHz = maxHz,
                     StaleAfterSeconds = staleAfterSeconds,
                     Environment = receiveEnvironment,
+                    DrawKeyLight = keyLightShadows,
                 });
             }
             catch (ArgumentException e)
@@ -219,7 +245,7 @@ namespace Shlight.Lighting
         {
             return usedUrl != serverUrl || usedToken != token || usedTokenInQuery != tokenInQuery ||
                    usedProbe != probe || usedMaxHz != maxHz || usedStaleAfter != staleAfterSeconds ||
-                   usedEnvironment != receiveEnvironment;
+                   usedEnvironment != receiveEnvironment || usedKeyLight != keyLightShadows;
         }
 
         static Sh9LightColorSpace CurrentLightColorSpace()
@@ -276,6 +302,7 @@ namespace Shlight.Lighting
             Shader.SetGlobalMatrix(IdG, matrixG);
             Shader.SetGlobalMatrix(IdB, matrixB);
             Shader.SetGlobalFloat(IdMainLightScale, lightDriven ? 1f : 0f);
+            SetLightGlobals();
             if (driveAmbientProbe)
             {
                 if (!savedAmbient)
@@ -358,6 +385,8 @@ namespace Shlight.Lighting
                 savedLightIntensity = light.intensity;
                 savedLightRotation = light.transform.rotation;
                 savedLightColorTemperature = light.useColorTemperature;
+                savedLightShadows = light.shadows;
+                savedLightShadowStrength = light.shadowStrength;
                 WarnAboutOtherDirectionalLights(light);
             }
             return light;
@@ -377,6 +406,16 @@ namespace Shlight.Lighting
         }
 
         // Show the first light (values.LightActive) on the driven light, or switch that light off.
+        void SetLightGlobals()
+        {
+            double[] d = values.LightDirection, e = values.LightIrradiance;
+            lightDirections[0] = new Vector4((float)d[0], (float)d[1], (float)d[2], 0f);
+            lightIrradiances[0] = new Vector4((float)e[0], (float)e[1], (float)e[2], 0f);
+            Shader.SetGlobalInt(IdLightCount, lightDriven ? 1 : 0);
+            Shader.SetGlobalVectorArray(IdLightDirection, lightDirections);
+            Shader.SetGlobalVectorArray(IdLightIrradiance, lightIrradiances);
+        }
+
         void ApplyLight(Light light, Sh9LightColorSpace colorSpace)
         {
             lightDriven = light != null && values.LightActive;
@@ -396,6 +435,17 @@ namespace Shlight.Lighting
             light.useColorTemperature = false;
             light.color = new Color((float)lightColor[0], (float)lightColor[1], (float)lightColor[2], 1f);
             light.intensity = (float)lightColor[3];
+            if (keyLightShadows)
+            {
+                light.shadows = Sh9Shadows.ShadowType(values.LightAngularRadiusDeg) == Sh9ShadowType.Soft
+                    ? LightShadows.Soft : LightShadows.Hard;
+                light.shadowStrength = 1f; // the catcher's ratio assumes the key light fully blocked in the umbra
+            }
+            else
+            {
+                light.shadows = savedLightShadows;
+                light.shadowStrength = savedLightShadowStrength;
+            }
             light.enabled = true;
         }
 
@@ -411,6 +461,8 @@ namespace Shlight.Lighting
             light.intensity = savedLightIntensity;
             light.transform.rotation = savedLightRotation;
             light.useColorTemperature = savedLightColorTemperature;
+            light.shadows = savedLightShadows;
+            light.shadowStrength = savedLightShadowStrength;
         }
 
         void RestoreAmbient()

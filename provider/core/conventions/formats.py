@@ -134,6 +134,29 @@ def lights_from_fields(fields: Mapping) -> tuple[list[tuple[np.ndarray, np.ndarr
     return _as_lights(zip(dirs, irr)), ambient
 
 
+def _as_radii(radii, k: int):
+    """Angular radii (k,) in degrees, or None; InputError unless k finite numbers in [0, 90]."""
+    if radii is None:
+        return None
+    try:
+        r = np.asarray(radii, np.float64).reshape(k)
+    except (TypeError, ValueError):
+        raise InputError(f"light_angular_radius_deg must hold {k} numbers (one per light)") from None
+    if not (np.all(np.isfinite(r)) and np.all((r >= 0) & (r <= 90))):
+        raise InputError("a light's angular radius must be a finite number of degrees in [0, 90]")
+    return r
+
+
+def light_radii_from_fields(fields: Mapping, k: int):
+    """``light_angular_radius_deg`` of a wire message (docs/contract.md §10) for its k lights,
+    or None when the message has none (an older provider's, or an empty list beside k > 0:
+    lights added to a message by hand); InputError for another count."""
+    radii = fields.get("light_angular_radius_deg")
+    if radii is None or k == 0 or (isinstance(radii, (list, tuple)) and not radii):
+        return None
+    return _as_radii(radii, k)
+
+
 def light_sh(direction, irradiance) -> np.ndarray:
     """SH9 (9, 3) of a distant light: radiance E⊥·δ(ω − d), so L_lm = E⊥ Y_lm(d).
 
@@ -278,7 +301,7 @@ def _webxr(L, lights, ambient):
     return out
 
 
-def _unity(L, lights, ambient):
+def _unity(L, lights, ambient, radii=None):
     """Unity ``SphericalHarmonicsL2`` for ``RenderSettings.ambientProbe``.
 
     S[rgb, i] = MZ_i · L_i · Â_l · |Y_i| / π. Unity's own conversion to its SH format
@@ -290,7 +313,10 @@ def _unity(L, lights, ambient):
     (docs/contract.md §1; ARCore Unity SDK LightEstimateApi.cs:131-133, 148-151). Layout
     channel-major, SphericalHarmonicsL2.bindings.cs:16-20, 73-79 (index rgb*9 + i).
     Main light: forward = −(toward light) in Unity axes, colour = E⊥/π because Unity's
-    BRDF lacks 1/π (LightEstimateApi.cs:111-122).
+    BRDF lacks 1/π (LightEstimateApi.cs:111-122); ``angularDiameter`` (degrees, given the
+    lights' angular radii) = 2 × the primary's radius: HDRP's
+    ``HDAdditionalLightData.angularDiameter`` of a directional light (the softness of its
+    shadows; the built-in pipeline and URP have no such field).
     """
     out = _describe("unity", "unity-sphericalharmonicsl2", basis="unity-sh9-premultiplied",
                     condon_shortley=False, quantity="irradiance_over_pi",
@@ -308,6 +334,8 @@ def _unity(L, lights, ambient):
         du = d * _TO_UNITY
         out["mainLight"] = {"towardLight": _f(du), "forward": _f(-du),
                             "colorLinear": _f(e / math.pi), "intensity": 1.0}
+        if radii is not None:
+            out["mainLight"]["angularDiameter"] = 2.0 * float(radii[_primary(lights)])
     return out
 
 
@@ -413,7 +441,8 @@ def _gltf(L, lights, ambient, babylon_handedness, environment=None):
     :func:`provider.core.reflections.gltf_ibl.babylon_roughness`), RGBD PNG faces in Babylon's lookup
     frame (:mod:`provider.core.reflections.gltf_ibl`), else ``missing_required``.
     Lights: KHR_lights_punctual directional (shines along the node's −Z; ``node_rotation``
-    takes +Z to the toward-light vector), intensity in lux = E⊥.
+    takes +Z to the toward-light vector), intensity in lux = E⊥. KHR_lights_punctual has no
+    field for a light's angular size: the lights' angular radii are not in this export.
     """
     if babylon_handedness not in ("left", "right"):
         raise InputError(f"babylon_handedness must be 'left' or 'right', got {babylon_handedness!r}")
@@ -494,7 +523,8 @@ def _openxr_android(L, lights, ambient, condon_shortley):
 
 
 def export(coefficients, fmt: str, *, lights=None, ambient=None, babylon_handedness: str = "left",
-           condon_shortley: bool = True, environment=None) -> dict:
+           condon_shortley: bool = True, environment=None,
+           light_angular_radius_deg=None) -> dict:
     """Our (9, 3) radiance SH9 (and optional lights) in ``fmt``'s layout (one of FORMATS).
 
     ``lights``: (direction toward the light, RGB irradiance) pairs in our frame;
@@ -504,6 +534,9 @@ def export(coefficients, fmt: str, *, lights=None, ambient=None, babylon_handedn
     units), for gltf prefiltered at :func:`provider.core.reflections.gltf_ibl.babylon_roughness` (its
     ``specularImages``), for arcore mip 0 (``environmentalHdrCubeMap``, 16² in ARCore);
     or that part already encoded (:func:`encode_cube`); ignored by the other formats.
+    ``light_angular_radius_deg``: each light's angular radius (degrees, one per light), for
+    the formats that have a field for it (unity: ``mainLight.angularDiameter``, HDRP's);
+    threejs, webxr, arcore, gltf (KHR_lights_punctual) and openxr-android have none.
     Returns a JSON-ready dict (module docstring).
     """
     if fmt not in FORMATS:
@@ -512,12 +545,13 @@ def export(coefficients, fmt: str, *, lights=None, ambient=None, babylon_handedn
     lights = _as_lights(lights)
     if ambient is not None:
         ambient = _as_coefficients(ambient, "ambient")
+    radii = _as_radii(light_angular_radius_deg, len(lights))
     if fmt == "threejs":
         return _threejs(L, lights, ambient)
     if fmt == "webxr":
         return _webxr(L, lights, ambient)
     if fmt == "unity":
-        return _unity(L, lights, ambient)
+        return _unity(L, lights, ambient, radii)
     if fmt == "arcore":
         return _arcore(L, lights, ambient, bool(condon_shortley), environment)
     if fmt == "gltf":

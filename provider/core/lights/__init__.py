@@ -5,7 +5,8 @@ ambient (docs/contract.md §10).
   of one decoded frame;
 * :mod:`.analysis`: the results (:class:`~provider.core.lights.analysis.Light`) and the
   evaluator of light sets;
-* :mod:`.tracking`: hysteresis of lights across frames (a pure state machine).
+* :mod:`.tracking`: hysteresis of lights across frames (a pure state machine);
+* :mod:`.shadows`: the shadow a receiver sees (the ratio a shadow catcher multiplies by).
 
 May import: geometry, radiometry. Not the other products.
 """

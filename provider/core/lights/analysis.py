@@ -43,6 +43,12 @@ class Light:
     level : the detection threshold (× mean luminance) of the region it came from.
     key : identity across frames (set by :class:`LightTracker`; -1 without one).
     source : index of its candidate in the frame's :class:`Analysis` (used by ``refine``).
+    angular_radius_deg : radius (degrees) of the uniform disc that stands for the source as
+        a shadow caster (:func:`angular_radius_deg`): ``sqrt(2 · m2)`` where m2 is the
+        excess-flux-weighted mean squared angle of its pixels about ``direction`` less the
+        pixels' own footprint (a uniform disc of radius a has m2 = a²/2). 0 for a source
+        smaller than its pixels can tell (a point light) and for lights from elsewhere
+        that did not say (an old relay upstream).
     """
 
     direction: np.ndarray
@@ -52,6 +58,7 @@ class Light:
     level: float
     key: int = -1
     source: int = -1
+    angular_radius_deg: float = 0.0
 
 
 @dataclass
@@ -62,6 +69,7 @@ class Candidate:
     flux : (3,) RGB excess flux Σ excess ω (radiance × sr).
     moment : (3,) RGB irradiance of a light in ``direction``: ``Σ excess ω (d_i · d)``.
     spread_deg, radius_deg : RMS / max angular radius of the region about ``direction``.
+    angular_radius_deg : the radius of its shadow-casting disc (:func:`angular_radius_deg`).
     level : index into ``LightExtractor.thresholds``; group : its component id at that level.
     pixels : flat indices into the mid copy; excess : (n, 3) radiance taken from them;
     local : the same pixels as indices into the frame's list of pixels above the lowest level.
@@ -80,6 +88,7 @@ class Candidate:
     excess: np.ndarray
     local: np.ndarray | None = None
     gain: float = 0.0
+    angular_radius_deg: float = 0.0
 
 
 @dataclass
@@ -117,6 +126,31 @@ class LightsResult:
         if sh_rotation is not None:
             ambient = sh_rotation @ ambient
         return replace(self, lights=lights, ambient=ambient)
+
+
+def angular_radius_deg(weights, angles, footprint2) -> float:
+    """Radius (degrees) of the uniform disc that casts the shadows of a source seen in pixels.
+
+    ``weights`` (n,): each pixel's share of the source's flux (its excess luminance × solid
+    angle); ``angles`` (n,): each pixel centre's angle from the source's direction, radians;
+    ``footprint2`` (n,): each pixel's own mean squared angular offset about its centre,
+    rad² (``(w² + h²)/12`` for a w × h pixel, w and h its sides as angles).
+
+    A pixel records the source's light *at its centre*, which adds the footprint's second
+    moment to every point of the source (on average over where the pixel grid falls), so
+    ``m2 = Σ w (angle² − footprint²) / Σ w`` is the source's own flux-weighted mean squared
+    angle; a uniform disc of radius a has m2 = a²/2, hence ``a = sqrt(2 · m2)``. A source
+    within one pixel gives m2 ≤ 0: it is reported as 0 (a point light), the honest answer
+    when its pixels cannot tell its size. The radius is at most 90° by definition (the
+    wire's range): a disc wider than a hemisphere is no shadow caster (never reached by
+    the extractor's compact regions; the nine panoramas give at most 27°).
+    """
+    w = np.asarray(weights, np.float64)
+    total = float(w.sum())
+    if not total > 0:
+        return 0.0
+    m2 = float(w @ (np.asarray(angles, np.float64) ** 2 - np.asarray(footprint2, np.float64)))
+    return min(90.0, math.degrees(math.sqrt(2.0 * max(m2 / total, 0.0))))
 
 
 def model_irradiance(ambient, lights, normals) -> np.ndarray:
@@ -278,7 +312,7 @@ class Analysis:
             ambient -= sh.sh_basis(c.direction)[:, None] * I[j][None, :]
             lights.append(Light(c.direction.copy(), I[j].copy(), c.flux.copy(), c.spread_deg,
                                 self.x.thresholds[c.level], -1 if keys is None else keys[j],
-                                i))
+                                i, c.angular_radius_deg))
         return LightsResult(lights, ambient, self.evaluate(idx), self.sh9_error,
                             self.candidates)
 

@@ -53,7 +53,8 @@ import cv2
 import numpy as np
 
 from ..geometry import sh
-from .analysis import LUMA, Analysis, Candidate, Light, LightsResult, model_irradiance
+from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
+                       model_irradiance)
 from ..geometry.projections import Fisheye, Projection
 
 __all__ = ["LightExtractor", "Analysis", "Candidate", "Light", "LightsResult", "LUMA",
@@ -127,6 +128,8 @@ class LightExtractor:
         self._pixel_angle = float(np.sqrt(omega.max()))              # largest pixel, rad
         self._touch_cos = math.cos(1.6 * self._pixel_angle)
         self._seam = self._seam_pixels(dirs.reshape(h, w, 3), omega.reshape(h, w) > 0)
+        py, px = np.mgrid[0:h, 0:w] + 0.5
+        self._footprint2 = pixel_footprint2(self.mid, px, py).reshape(-1)   # (P,) rad²
 
         # Coarse copy and brute-force kernel at the normals.
         fc = max(1, math.ceil(math.sqrt(w * h / coarse_pixels)))
@@ -369,7 +372,8 @@ class LightExtractor:
             out.append(Candidate(d, flux, np.maximum(moment, 0.0),
                                  math.degrees(math.sqrt((wk @ ang ** 2) / wk.sum())),
                                  math.degrees(float(ang.max())), level, k, pix, exm,
-                                 local=loc[sel]))
+                                 local=loc[sel], angular_radius_deg=angular_radius_deg(
+                                     wk, ang, self._footprint2[pix])))
         return out, glocal
 
     def refine(self, result: LightsResult, analysis: Analysis, frame) -> LightsResult:
@@ -396,6 +400,7 @@ class LightExtractor:
         for light in result.lights:
             c = analysis.candidates[light.source] if light.source >= 0 else None
             d = light.direction
+            radius = light.angular_radius_deg
             if c is not None and c.radius_deg <= math.degrees(self.refine_max_px
                                                               * self._pixel_angle):
                 rows, cols = c.pixels // w, c.pixels % w
@@ -417,9 +422,12 @@ class LightExtractor:
                     nv = np.linalg.norm(v)
                     if nv > 0 and float(v @ d) / nv > math.cos(2 * self._pixel_angle):
                         d = v / nv
+                        ang = np.arccos(np.clip(dirs @ d, -1.0, 1.0))
+                        fp2 = (np.sum(dx * dx, axis=-1) + np.sum(dy * dy, axis=-1)) / 12.0
+                        radius = angular_radius_deg(ex[valid], ang[valid], fp2[valid])
             ambient -= sh.sh_basis(d)[:, None] * light.irradiance[None, :]
             lights.append(Light(d, light.irradiance, light.flux, light.spread_deg,
-                                light.level, light.key, light.source))
+                                light.level, light.key, light.source, radius))
         return LightsResult(lights, ambient, result.light_error, result.sh9_error,
                             result.candidates)
 
@@ -457,6 +465,18 @@ class LightExtractor:
         are refined on ``frame`` when it is the full-resolution frame."""
         full = frame if frame.shape[:2] == (self.full.height, self.full.width) else None
         return self.extract(frame, coefficients, full=full)
+
+
+def pixel_footprint2(projection, px, py) -> np.ndarray:
+    """Mean squared angular offset (rad²) of a pixel's area about its centre, per pixel:
+    ``(w² + h²) / 12`` with w, h the angles its sides span (central differences of
+    ``projection.pixel_to_direction``, so any projection works; 0 where invalid)."""
+    dx = (projection.pixel_to_direction(px + 0.5, py)[0]
+          - projection.pixel_to_direction(px - 0.5, py)[0])
+    dy = (projection.pixel_to_direction(px, py + 0.5)[0]
+          - projection.pixel_to_direction(px, py - 0.5)[0])
+    valid = projection.pixel_to_direction(px, py)[1]
+    return np.where(valid, (np.sum(dx * dx, axis=-1) + np.sum(dy * dy, axis=-1)) / 12.0, 0.0)
 
 
 class LinearView:

@@ -12,8 +12,8 @@ sampling:
 once; :class:`ChangeGate` decides when a message is worth sending.
 
 Lights (``lights="auto"``, docs/contract.md §10). Every linear quantity (full and ambient
-coefficients and matrices, each light's irradiance) is smoothed with the same weight, and
-each light's direction with that weight on the sphere (normalised lerp), so a sun that moves
+coefficients and matrices, each light's irradiance and angular radius) is smoothed with the
+same weight, and each light's direction with that weight on the sphere (normalised lerp), so a sun that moves
 is followed smoothly. The *set* of lights is never blended: a light appearing or
 disappearing, or a change of which source a slot holds, snaps everything in that frame (the
 demo's switching lamp reaches clients at once, never as a half-faded ghost). The
@@ -181,10 +181,11 @@ class ChangeGate:
 
 
 def _blend(old, new, w: float):
-    """A light moved a fraction ``w`` of the way from ``old`` to ``new`` (irradiance
-    linearly, direction by normalised lerp)."""
+    """A light moved a fraction ``w`` of the way from ``old`` to ``new`` (irradiance and
+    angular radius linearly, direction by normalised lerp)."""
     d = old.direction + w * (new.direction - old.direction)
     norm = float(np.linalg.norm(d))
     d = new.direction if norm == 0.0 else d / norm
     irradiance = old.irradiance + w * (new.irradiance - old.irradiance)
-    return replace(new, direction=d, irradiance=irradiance)
+    radius = old.angular_radius_deg + w * (new.angular_radius_deg - old.angular_radius_deg)
+    return replace(new, direction=d, irradiance=irradiance, angular_radius_deg=radius)

@@ -5,7 +5,9 @@ server's own probe would make (docs/contract.md §3, §9, §10): ``coefficients`
 ``ambient_coefficients`` exactly 27 JSON numbers each (no strings, booleans, nulls, NaN or
 Infinity), at most :data:`MAX_MAGNITUDE` in size; ``lights`` a count with 3 numbers per light
 in ``light_directions`` (finite, of non-zero length; normalised here) and
-``light_irradiance`` (finite, ≥ 0); ``time`` a finite number; each optional statistic of
+``light_irradiance`` (finite, ≥ 0), and ``light_angular_radius_deg`` when present (k numbers
+in [0, 90]; absent, from an older upstream: 0, point lights; an empty list beside k > 0 is
+corrected to 0 and counted as adjusted); ``time`` a finite number; each optional statistic of
 its type and range. A message that breaks any of these is *refused*: it becomes a rejected
 frame (``frames_rejected`` in /healthz and /metrics, one log line per 10 s naming the
 field), and the probe keeps serving the last good lighting. Two faults are *corrected* and
@@ -171,13 +173,21 @@ def relayed_lights(msg: dict):
         return [], ambient, None
     dirs = _numbers(msg, "light_directions", 3 * k).reshape(k, 3)
     irr = _numbers(msg, "light_irradiance", 3 * k, minimum=0.0).reshape(k, 3)
+    radii, note = np.zeros(k), None
+    if msg.get("light_angular_radius_deg") == [] and k:
+        note = (f"upstream sent {k} lights and no 'light_angular_radius_deg': read as "
+                f"point lights")
+    elif "light_angular_radius_deg" in msg:
+        radii = _numbers(msg, "light_angular_radius_deg", k, minimum=0.0)
+        if k and radii.max() > 90.0:
+            raise ValueError("'light_angular_radius_deg' holds a radius above 90 degrees")
     norms = np.linalg.norm(dirs, axis=1)
     if k and not norms.min() >= _MIN_DIRECTION:
         i = int(np.argmin(norms))
         raise ValueError(f"light {i}'s direction has length {norms[i]:.3g}: no direction")
     off = np.abs(norms - 1.0) > _UNIT_TOLERANCE
     dirs[off] /= norms[off, None]
-    slots, note = np.arange(k), None
+    slots = np.arange(k)
     if k > MAX_LIGHTS:
         strength = irr @ _REC709
         slots = np.sort(np.argsort(-strength, kind="stable")[:MAX_LIGHTS])
@@ -186,10 +196,11 @@ def relayed_lights(msg: dict):
         ambient = ambient + sh.sh_basis(dirs[dropped]).T @ irr[dropped]
         if not np.abs(ambient).max() <= MAX_MAGNITUDE:
             raise ValueError(f"the SH9 of {k - MAX_LIGHTS} lights is out of range")
-        note = (f"upstream sent {k} lights (the contract allows {MAX_LIGHTS}): the "
-                f"{MAX_LIGHTS} strongest kept, the others added to the ambient")
-    lights = [Light(dirs[s].copy(), irr[s].copy(), irr[s].copy(), 0.0, 0.0, key=int(s))
-              for s in slots]
+        note = "; ".join(filter(None, [
+            note, f"upstream sent {k} lights (the contract allows {MAX_LIGHTS}): the "
+                  f"{MAX_LIGHTS} strongest kept, the others added to the ambient"]))
+    lights = [Light(dirs[s].copy(), irr[s].copy(), irr[s].copy(), 0.0, 0.0, key=int(s),
+                    angular_radius_deg=float(radii[s])) for s in slots]
     return lights, ambient, note
 
 

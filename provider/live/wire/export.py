@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import logging
 
-from ...core.conventions.formats import CUBE_FORMATS, FORMATS, export, lights_from_fields
+from ...core.conventions.formats import (CUBE_FORMATS, FORMATS, export, light_radii_from_fields,
+                                          lights_from_fields)
 from ...core.errors import InputError
 from .message import SCHEMA_VERSION, dumps
 
@@ -52,14 +53,16 @@ def export_message(message: dict, fmt: str, **options) -> dict:
     """The ``export`` message of an ``sh9`` message in format ``fmt`` (one of FORMATS).
 
     The lights are the message's own docs/contract.md §10 fields (every ``sh9`` message carries
-    them). ``options``: ``babylon_handedness`` (gltf), ``condon_shortley`` (arcore,
+    them), with their angular radii where the format has a field for them. ``options``: ``babylon_handedness`` (gltf), ``condon_shortley`` (arcore,
     openxr-android), ``environment`` (the reflection cube's mips: gltf ``specularImages``,
     arcore ``environmentalHdrCubeMap``); see :func:`provider.core.conventions.formats.export`.
     """
     lights, ambient = lights_from_fields(message)
+    radii = light_radii_from_fields(message, len(lights))
     out = {"type": "export", "version": SCHEMA_VERSION}
     out.update((k, message[k]) for k in _ENVELOPE if k in message)
-    out.update(export(message["coefficients"], fmt, lights=lights, ambient=ambient, **options))
+    out.update(export(message["coefficients"], fmt, lights=lights, ambient=ambient,
+                      light_angular_radius_deg=radii, **options))
     out["lights"] = len(lights)
     return out
 

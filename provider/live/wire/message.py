@@ -14,8 +14,9 @@ Condon-Shortley phase), ``coefficients_mode`` / ``matrices_mode`` (the quantity)
 
 Lights (docs/contract.md §10) are in every message: ``lights`` (k), ``light_directions`` (3k: unit
 vectors toward each light), ``light_irradiance`` (3k: RGB irradiance on a surface facing
-it), ``ambient_coefficients`` (27) and ``ambient_matrices`` (48), so that
-E(n) = ñᵀAñ + Σ_k I_k max(0, n·d_k). With lights off, or when a scene needs none: k = 0,
+it), ``light_angular_radius_deg`` (k: the radius in degrees of the disc that casts each
+light's shadows, 0 for a point), ``ambient_coefficients`` (27) and ``ambient_matrices``
+(48), so that E(n) = ñᵀAñ + Σ_k I_k max(0, n·d_k). With lights off, or when a scene needs none: k = 0,
 empty light arrays and the ambient equal to the full SH9, so that formula holds for every
 message and a client needs no special case. ``coefficients`` and ``matrices`` are always
 the full SH9 of everything (clients that ignore lights are unaffected).
@@ -109,20 +110,23 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
 
 
 def light_fields(result) -> dict:
-    """The five docs/contract.md §10 fields of an :class:`~provider.core.sh9.engine.SH9Result`
+    """The six docs/contract.md §10 fields of an :class:`~provider.core.sh9.engine.SH9Result`
     (flat number lists; see the module docstring): its ``lights`` and its ambient, which is
     the full SH9 when it has no lights."""
     lights = list(result.lights)
     ambient, ambient_m = result.ambient, result.ambient_matrices
     directions = np.asarray([light.direction for light in lights], np.float64).reshape(-1)
     irradiance = np.asarray([light.irradiance for light in lights], np.float64).reshape(-1)
+    radii = np.asarray([getattr(light, "angular_radius_deg", 0.0) for light in lights],
+                       np.float64)
     arrays = [np.asarray(a, np.float64).reshape(-1)
-              for a in (directions, irradiance, ambient, ambient_m)]
+              for a in (directions, irradiance, ambient, ambient_m, radii)]
     if not all(np.all(np.isfinite(a)) for a in arrays):
         raise ValueError("non-finite lights cannot be sent")
     return {"lights": len(lights),
             "light_directions": [float(v) for v in arrays[0]],
             "light_irradiance": [float(v) for v in arrays[1]],
+            "light_angular_radius_deg": [float(v) for v in arrays[4]],
             "ambient_coefficients": [float(v) for v in arrays[2]],
             "ambient_matrices": [float(v) for v in arrays[3]]}
 

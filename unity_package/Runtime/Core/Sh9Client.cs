@@ -56,6 +56,9 @@ namespace Shlight.Lighting
         /// <summary>Also subscribe to the reflection cube (docs/contract.md §12): <see cref="Sh9Client.LatestEnvironment"/>.
         /// Messages up to <see cref="Sh9Client.EnvironmentMaxBytes"/> are then accepted (a 256² cube is 4.2 MB).</summary>
         public bool Environment;
+        /// <summary>Draw the key light (the brightest, <see cref="Sh9Shadows.KeyLightIndex"/>) as the Unity
+        /// light instead of the message's first light: the one whose shadow a shadow catcher shows.</summary>
+        public bool DrawKeyLight;
 
         public Sh9ClientOptions Clone() { return (Sh9ClientOptions)MemberwiseClone(); }
     }
@@ -64,6 +67,7 @@ namespace Shlight.Lighting
     {
         readonly Sh9ClientOptions options;
         readonly object gate = new object();
+        int keyLight = -1;   // the last key light's index (receive thread only)
         CancellationTokenSource cts;
         Task loop;
         ClientWebSocket current;
@@ -623,8 +627,11 @@ namespace Shlight.Lighting
                         Interlocked.Increment(ref ignored);
                         return false;
                     }
+                    int drawn = 0;
+                    if (options.DrawKeyLight)
+                        drawn = keyLight = Sh9Shadows.KeyLightIndex(parsed.Sh9.LightIrradiance, parsed.Sh9.Lights, keyLight);
                     var snap = new Sh9Snapshot(parsed.Sh9, System.Diagnostics.Stopwatch.GetTimestamp(),
-                                               Interlocked.Increment(ref version));
+                                               Interlocked.Increment(ref version), drawn);
                     Volatile.Write(ref latest, snap);
                     Interlocked.Increment(ref received);
                     Action<Sh9Snapshot> handler = SnapshotReceived;

@@ -17,20 +17,32 @@ namespace Shlight.Lighting
         public readonly double[] UnityCoefficients;
         /// <summary>
         /// With <see cref="Sh9Message.HasLightSplit"/>: the ambient matrices in Unity's frame, plus the
-        /// order-2 part of every light after the first (only the first is drawn as a Unity light, the
-        /// others stay in the SH9 so that nothing is lost). Null otherwise.
+        /// order-2 part of every light but the drawn one (<see cref="DrawnLight"/>: only it is drawn as a
+        /// Unity light, the others stay in the SH9 so that nothing is lost). Null otherwise.
         /// </summary>
         public readonly double[] UnityAmbientMatrices;
-        /// <summary>Direction toward the first light in Unity's frame (x, y, -z); null without lights.</summary>
+        /// <summary>Which of the message's lights is drawn as a Unity light: the first (0), or the key light
+        /// (<see cref="Sh9Shadows.KeyLightIndex"/>) when the client is asked to draw that one.</summary>
+        public readonly int DrawnLight;
+        /// <summary>Direction toward the drawn light in Unity's frame (x, y, -z); null without lights.</summary>
         public readonly double[] UnityLightDirection;
-        /// <summary>RGB irradiance of the first light on a surface facing it; null without lights.</summary>
+        /// <summary>RGB irradiance of the drawn light on a surface facing it; null without lights.</summary>
         public readonly double[] LightIrradiance;
+        /// <summary>Angular radius of the drawn light (degrees; 0 when the server sends none, or without lights).</summary>
+        public readonly double LightAngularRadiusDeg;
         /// <summary>When it arrived, in <see cref="System.Diagnostics.Stopwatch"/> ticks.</summary>
         public readonly long ReceivedTimestamp;
         /// <summary>1, 2, 3, ... per accepted message of this client (changes when new data arrives).</summary>
         public readonly long Version;
 
         public Sh9Snapshot(Sh9Message message, long receivedTimestamp, long version)
+            : this(message, receivedTimestamp, version, 0)
+        {
+        }
+
+        /// <summary>As the other constructor, drawing light <paramref name="drawnLight"/> of the message
+        /// (out of range: the first).</summary>
+        public Sh9Snapshot(Sh9Message message, long receivedTimestamp, long version, int drawnLight)
         {
             if (message == null) throw new ArgumentNullException("message");
             Message = message;
@@ -38,15 +50,20 @@ namespace Shlight.Lighting
             UnityCoefficients = Sh9Math.CoefficientsToUnity(message.Coefficients);
             if (message.HasLightSplit)
             {
+                int p = drawnLight >= 0 && drawnLight < message.Lights ? drawnLight : 0;
+                DrawnLight = p;
                 double[] d = message.LightDirections, e = message.LightIrradiance;
-                UnityLightDirection = new[] { d[0], d[1], -d[2] };
-                LightIrradiance = new[] { e[0], e[1], e[2] };
+                UnityLightDirection = new[] { d[3 * p], d[3 * p + 1], -d[3 * p + 2] };
+                LightIrradiance = new[] { e[3 * p], e[3 * p + 1], e[3 * p + 2] };
+                if (message.LightAngularRadiusDeg.Length == message.Lights)
+                    LightAngularRadiusDeg = message.LightAngularRadiusDeg[p];
                 double[] ambient = message.AmbientMatrices;
                 if (message.Lights > 1)
                 {
                     var extra = new double[27];
-                    for (int i = 1; i < message.Lights; i++)
-                        Sh9Math.AddDirectionalLight(extra, d[3 * i], d[3 * i + 1], d[3 * i + 2],
+                    for (int i = 0; i < message.Lights; i++)
+                        if (i != p)
+                            Sh9Math.AddDirectionalLight(extra, d[3 * i], d[3 * i + 1], d[3 * i + 2],
                                                     e[3 * i], e[3 * i + 1], e[3 * i + 2]);
                     double[] em = Sh9Math.MatricesFromCoefficients(extra);
                     ambient = (double[])ambient.Clone();
@@ -87,6 +104,8 @@ namespace Shlight.Lighting
         public readonly double[] LightDirection = new double[3];
         /// <summary>RGB irradiance of the light on a surface facing it (intensity applied).</summary>
         public readonly double[] LightIrradiance = new double[3];
+        /// <summary>Angular radius of the drawn light, degrees (0: none sent, or no light).</summary>
+        public double LightAngularRadiusDeg { get; private set; }
 
         readonly double[] rotation = new double[9];
         readonly double[] rotated = new double[48];
@@ -120,6 +139,7 @@ namespace Shlight.Lighting
             bool light = drawLight && snapshot.UnityAmbientMatrices != null;
             LightActive = light;
             Apply(light ? snapshot.UnityAmbientMatrices : snapshot.UnityMatrices, this.rotation, intensity);
+            LightAngularRadiusDeg = light ? snapshot.LightAngularRadiusDeg : 0;
             if (!light)
             {
                 LightDirection[0] = LightDirection[1] = LightDirection[2] = 0;

@@ -43,6 +43,11 @@ namespace Shlight.Lighting
         public double[] LightDirections = EmptyNumbers;
         /// <summary>3k numbers: RGB irradiance on a surface facing each light.</summary>
         public double[] LightIrradiance = EmptyNumbers;
+        /// <summary>k numbers, degrees: the radius of the disc that stands for each light as a shadow caster
+        /// ("light_angular_radius_deg"); zeros (hard shadows) when the server does not send them.</summary>
+        public double[] LightAngularRadiusDeg = EmptyNumbers;
+        /// <summary>True when the message carried "light_angular_radius_deg".</summary>
+        public bool HasLightAngularRadius;
         /// <summary>27 numbers: SH9 of everything but the lights (null when not sent or sent empty).</summary>
         public double[] AmbientCoefficients;
         /// <summary>48 numbers: irradiance matrices of <see cref="AmbientCoefficients"/> (derived when only
@@ -224,6 +229,18 @@ namespace Shlight.Lighting
             }
             m.LightDirections = dirs;
             m.LightIrradiance = irr;
+            // "light_angular_radius_deg": [k] degrees in [0, 90] (issue 30); absent from older servers
+            double[] radii = GetNumbers(obj, "light_angular_radius_deg", 0, false);
+            m.HasLightAngularRadius = radii != null && (radii.Length > 0 || m.Lights == 0);
+            if (!m.HasLightAngularRadius) radii = new double[m.Lights];
+            if (radii.Length != m.Lights)
+                throw new FormatException("\"light_angular_radius_deg\" must have one number per light (" + m.Lights +
+                                          "), got " + radii.Length);
+            for (int i = 0; i < m.Lights; i++)
+                if (!(radii[i] >= 0 && radii[i] <= 90))
+                    throw new FormatException("\"light_angular_radius_deg\"[" + i + "] must be degrees in [0, 90], got " +
+                                              MiniJson.Number(radii[i]));
+            m.LightAngularRadiusDeg = radii;
             m.AmbientCoefficients = GetOptionalNumbers(obj, "ambient_coefficients", 27);
             m.AmbientMatrices = GetOptionalNumbers(obj, "ambient_matrices", 48);
             if (m.AmbientMatrices == null && m.AmbientCoefficients != null)

@@ -51,7 +51,8 @@
 // GGX D) is E(n) itself; a LightProbe with the SH9 would count it twice, so
 // connectEnvironment hides the LightProbe it is given while a cube lights the scene
 // (diffuse: "environment", the default) or keeps it (diffuse: "both").
-import { bilinear, connect, faceDirection, registrationRotation, rotateCoefficients } from "./client.js";
+import { bilinear, connect, faceDirection, irradiance, matricesFromCoefficients, registrationRotation,
+  rotateCoefficients } from "./client.js";
 
 /**
  * Set a THREE.LightProbe (anything with .sh.coefficients[9] of Vector3/Color-like .set)
@@ -72,20 +73,72 @@ export function setLightProbe(lightProbe, lighting, { rotation = null, intensity
 /**
  * connect() (see client.js) and keep `lightProbe` set to the newest lighting. Options as
  * connect()'s, plus `rotation` and `intensity` (read at every message, so they may be
- * changed on the returned connection's `.options`).
+ * changed on the returned connection's `.options`), and, opt-in, `shadows`: an object
+ *   THREE         the three.js module (required)
+ *   scene         where to add the key light (and its target) and the catcher (optional)
+ *   renderer      a WebGLRenderer whose shadowMap gets enabled (PCFShadowMap; optional)
+ *   light         a THREE.DirectionalLight to drive (default: a new one, 1024² shadow map,
+ *                 shadow camera ±2 world units)
+ *   catcher       a shadow catcher (default: shadowCatcher(THREE), at the origin); null: none
+ *   up            the catcher's normal in your world (default [0, 1, 0])
+ *   casterHeight  world units between the catcher and the edges that cast (default 0.5):
+ *                 sets the penumbra (shadowRadiusTexels)
+ *   distance      how far from its target the light is put (default 5)
+ * With `shadows`, the key light (keyLight) is a DirectionalLight casting shadows, the
+ * LightProbe holds the rest of the SH9, and the catcher's opacity is the key light's share
+ * of the catcher's irradiance; the connection's `.shadows` holds { light, catcher, key }.
+ * Without lights in the messages, the light is off and the catcher transparent.
  */
 export function connectLightProbe(url, lightProbe, options = {}) {
   const settings = { rotation: options.rotation || null, intensity: options.intensity ?? 1 };
+  const shadows = options.shadows ? shadowSetup(options.shadows) : null;
   const conn = connect(url, {
     ...options,
     onLighting: (lighting, c) => {
-      setLightProbe(lightProbe, lighting, settings);
+      if (shadows) applyShadows(shadows, lightProbe, lighting, settings);
+      else setLightProbe(lightProbe, lighting, settings);
       if (options.onLighting) options.onLighting(lighting, c);
     },
   });
   conn.options = settings;
   conn.lightProbe = lightProbe;
+  if (shadows) conn.shadows = shadows.state;
   return conn;
+}
+
+function shadowSetup(opts) {
+  const { THREE } = opts;
+  if (!THREE) throw new TypeError("connectLightProbe: shadows.THREE is required");
+  let light = opts.light;
+  if (!light) {
+    light = new THREE.DirectionalLight(0xffffff, 0);
+    light.shadow.mapSize.set(1024, 1024);
+    Object.assign(light.shadow.camera, { left: -2, right: 2, top: 2, bottom: -2, near: 0.1, far: 20 });
+    light.shadow.camera.updateProjectionMatrix();
+    light.shadow.bias = -0.0005;
+    light.name = "shlight key light";
+  }
+  light.castShadow = true;
+  const catcher = opts.catcher === undefined ? shadowCatcher(THREE) : opts.catcher;
+  if (opts.scene) {
+    opts.scene.add(light, light.target);
+    if (catcher) opts.scene.add(catcher);
+  }
+  if (opts.renderer) {
+    opts.renderer.shadowMap.enabled = true;
+    opts.renderer.shadowMap.type = THREE.PCFShadowMap;
+  }
+  return { light, catcher, up: opts.up || [0, 1, 0], casterHeight: opts.casterHeight ?? 0.5,
+           distance: opts.distance ?? 5, state: { light, catcher, key: null } };
+}
+
+function applyShadows(s, lightProbe, lighting, settings) {
+  const previous = s.state.key ? s.state.key.index : -1;
+  const key = keyLight(lighting, { rotation: settings.rotation, up: s.up, previous });
+  s.state.key = key;
+  setLightProbe(lightProbe, key ? key.coefficients : lighting, settings);
+  setKeyLight(s.light, key, { intensity: settings.intensity, distance: s.distance, casterHeight: s.casterHeight });
+  if (s.catcher) s.catcher.material.opacity = key ? key.share : 0;
 }
 
 // ---- reflections: the provider's cube as three's PMREM -----------------------------------
@@ -250,4 +303,201 @@ export function connectEnvironment(url, options = {}) {
   };
   apply();
   return conn;
+}
+
+// ---- shadows (docs/contract.md §10, docs/shadows.md): the key light as a shadow caster -----
+//
+// Opt-in: connectLightProbe(url, probe, { shadows: { THREE, scene } }) or keyLight()/
+// setKeyLight()/shadowCatcher() by hand; without `shadows` nothing below runs.
+// * The key light is the brightest of the message's lights (Rec. 709 luminance of its
+//   irradiance, as the provider's webxr export picks its primary light); it stays the key
+//   light until another is more than KEY_HYSTERESIS brighter, so that two near-equal lamps do
+//   not make the shadow jump between them.
+// * It becomes a THREE.DirectionalLight with castShadow (colour × intensity = its irradiance
+//   E_k: three lights a Lambert surface by E·max(0, n·l)·ρ/π, as our E(n)); the LightProbe then
+//   holds the full SH9 less that light's own projection E_k·Y(d_k) (docs/contract.md §10: the
+//   ambient plus each light's I_k·Y(d_k) is the full SH9), so nothing is counted twice.
+// * Softness: three r187's PCF shadow (PCFShadowMap, shadowmap_pars_fragment.glsl.js:150-190)
+//   averages the shadow map over a disc of `shadow.radius` texels. A disc light of angular
+//   radius r seen past an edge `casterHeight` above the receiver gives a penumbra of width
+//   2·h·tan r; a blur of radius ρ gives a transition of width 2ρ. So ρ = h·tan r / texel, with
+//   texel = the shadow camera's width / mapSize. Exact only for edges at casterHeight (three
+//   has no contact-hardening shadows); at least 1 texel (three's default).
+// * The shadow catcher: a THREE.ShadowMaterial (black, alpha = opacity · (1 − shadow)) drawn
+//   over the camera image (passthrough, or a transparent canvas over video): there it leaves
+//   image × (1 − opacity·(1 − V)). With opacity = the key light's share of the floor's
+//   irradiance, s = E_key⟨n·d⟩ / (E_ambient(n) + Σ_k E_k⟨n·d_k⟩), that is image ×
+//   shadow_ratio(n, V) with V the key light's visibility and the other lights unblocked
+//   (Rec. 709 luminance of the RGB ratio: the material's alpha is one number).
+
+/** A key light stays key until another is brighter by more than this factor − 1. */
+export const KEY_HYSTERESIS = 0.1;
+const REC709 = [0.2126, 0.7152, 0.0722];
+const luminance = (e) => REC709[0] * e[0] + REC709[1] * e[1] + REC709[2] * e[2];
+
+/** Index of the key light among k lights' RGB irradiance (3k numbers; -1 if none). */
+export function keyLightIndex(lightIrradiance, previous = -1) {
+  const k = Math.floor((lightIrradiance ? lightIrradiance.length : 0) / 3);
+  let best = -1, bestY = -Infinity;
+  for (let i = 0; i < k; i++) {
+    const y = luminance(lightIrradiance.slice(3 * i, 3 * i + 3));
+    if (y > bestY) { best = i; bestY = y; }
+  }
+  if (previous >= 0 && previous < k && best >= 0 &&
+      luminance(lightIrradiance.slice(3 * previous, 3 * previous + 3)) * (1 + KEY_HYSTERESIS) >= bestY) {
+    return previous;
+  }
+  return best;
+}
+
+function turn(R, d) {
+  return R ? [R[0] * d[0] + R[1] * d[1] + R[2] * d[2], R[3] * d[0] + R[4] * d[1] + R[5] * d[2],
+              R[6] * d[0] + R[7] * d[1] + R[8] * d[2]] : [d[0], d[1], d[2]];
+}
+
+/** 27 radiance coefficients less a directional light's projection E·Y(d) (contract §1 basis). */
+export function withoutLight(coefficients, d, e) {
+  const [x, y, z] = d;
+  const Y = [0.282095, 0.488603 * y, 0.488603 * z, 0.488603 * x, 1.092548 * x * y, 1.092548 * y * z,
+             0.315392 * (3 * z * z - 1), 1.092548 * x * z, 0.546274 * (x * x - y * y)];
+  const out = Float32Array.from(coefficients);
+  for (let i = 0; i < 9; i++) for (let c = 0; c < 3; c++) out[3 * i + c] -= e[c] * Y[i];
+  return out;
+}
+
+/**
+ * The key light of a Lighting (client.js decodeLighting) or an "sh9" message, or null where
+ * it has no lights: { index, direction (unit, your world: rotation · the provider's),
+ * irradiance [r, g, b], angularRadiusDeg (light_angular_radius_deg; 0, a hard shadow, where
+ * the provider sends none), share (the key light's share of the irradiance of a surface
+ * facing `up`, your world, Rec. 709 luminance: the catcher's opacity), coefficients (the
+ * full SH9 less the key light, provider frame) }. `previous`: the last key light's index.
+ */
+export function keyLight(lighting, { rotation = null, up = [0, 1, 0], previous = -1 } = {}) {
+  const m = lighting && lighting.message ? lighting.message : lighting;
+  const k = m && Number.isInteger(m.lights) ? m.lights : 0;
+  const dirs = m && m.light_directions, irr = m && m.light_irradiance;
+  if (!(k > 0) || !dirs || !irr || dirs.length !== 3 * k || irr.length !== 3 * k) return null;
+  const index = keyLightIndex(irr, previous);
+  const radii = m.light_angular_radius_deg;
+  const radius = Array.isArray(radii) && radii.length === k && Number.isFinite(+radii[index]) ? Math.max(0, +radii[index]) : 0;
+  // the floor normal in the provider's frame: Rᵀ·up
+  const n = rotation ? [0, 1, 2].map((j) => rotation[j] * up[0] + rotation[3 + j] * up[1] + rotation[6 + j] * up[2]) : up;
+  const ambient = m.ambient_matrices && m.ambient_matrices.length === 48 ? m.ambient_matrices
+    : matricesFromCoefficients(m.ambient_coefficients && m.ambient_coefficients.length === 27
+      ? m.ambient_coefficients : m.coefficients);
+  let total = luminance(irradiance(ambient, n).map((e) => Math.max(0, e))), key = 0;   // clamped as E
+  for (let i = 0; i < k; i++) {
+    const d = dirs.slice(3 * i, 3 * i + 3);
+    const cos = Math.max(0, (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / Math.hypot(d[0], d[1], d[2]));
+    const e = luminance(irr.slice(3 * i, 3 * i + 3)) * cos;
+    total += e;
+    if (i === index) key = e;
+  }
+  const d0 = dirs.slice(3 * index, 3 * index + 3), len = Math.hypot(d0[0], d0[1], d0[2]);
+  const e0 = irr.slice(3 * index, 3 * index + 3).map(Number);
+  const coefficients = withoutLight(lighting.coefficients || m.coefficients, d0.map((v) => v / len), e0);
+  return { index, direction: turn(rotation, d0.map((v) => v / len)), irradiance: e0,
+           angularRadiusDeg: radius, share: total > 0 ? key / total : 0, coefficients };
+}
+
+/**
+ * shadow.radius (texels of three's PCF disc) for a light of angular radius `angularRadiusDeg`
+ * seen past an edge `casterHeight` (world units, e.g. metres) above the receiver, for a
+ * shadow camera `frustumWidth` wide with a `mapSize`-texel map: h·tan r·mapSize / width, ≥ 1.
+ */
+export function shadowRadiusTexels(angularRadiusDeg, { casterHeight = 0.5, mapSize = 1024, frustumWidth = 4 } = {}) {
+  const r = (Math.max(0, +angularRadiusDeg || 0) * Math.PI) / 180;
+  return Math.max(1, (casterHeight * Math.tan(r) * mapSize) / frustumWidth);
+}
+
+/**
+ * Set a THREE.DirectionalLight (castShadow on) from keyLight()'s result: it shines from
+ * `distance` along the key direction toward its target, colour × `intensity` = the key
+ * light's irradiance, shadow.radius from the angular radius (shadowRadiusTexels, the light's
+ * own shadow camera and map size). `key` null: the light is switched off (intensity 0).
+ */
+export function setKeyLight(light, key, { intensity = 1, distance = 5, casterHeight = 0.5 } = {}) {
+  light.castShadow = true;
+  if (!key) { light.intensity = 0; return light; }
+  const t = light.target.position, d = key.direction;
+  light.position.set(t.x + distance * d[0], t.y + distance * d[1], t.z + distance * d[2]);
+  const e = key.irradiance, top = Math.max(e[0], e[1], e[2]);
+  if (top > 0) light.color.setRGB(e[0] / top, e[1] / top, e[2] / top);
+  light.intensity = top * intensity;
+  const cam = light.shadow.camera;
+  light.shadow.radius = shadowRadiusTexels(key.angularRadiusDeg, { casterHeight,
+    mapSize: light.shadow.mapSize.x, frustumWidth: Math.abs(cam.right - cam.left) || 1 });
+  light.updateMatrixWorld();
+  return light;
+}
+
+/**
+ * A shadow catcher: a horizontal square (`size` world units, facing +Y, receiveShadow) of
+ * THREE.ShadowMaterial, invisible but for the darkening. Put it where the real floor (or
+ * table) is; its material.opacity is kept at the key light's share by connectLightProbe's
+ * `shadows`. Transparent everywhere the key light is not blocked.
+ */
+export function shadowCatcher(THREE, { size = 4, segments = 1 } = {}) {
+  const geometry = new THREE.PlaneGeometry(size, size, segments, segments);
+  geometry.rotateX(-Math.PI / 2);
+  const mesh = new THREE.Mesh(geometry, new THREE.ShadowMaterial({ color: 0x000000, opacity: 0, depthWrite: false }));
+  mesh.receiveShadow = true;
+  mesh.name = "shlight shadow catcher";
+  return mesh;
+}
+
+/**
+ * Shadows for three's XREstimatedLight (three/addons/webxr/XREstimatedLight.js), fed by the
+ * browser's own light estimation or by the provider's polyfill (xr-lighting-polyfill.js):
+ * its DirectionalLight (the estimate's primary light, shining from primaryLightDirection at
+ * unit distance toward the origin) casts shadows, and a catcher's opacity is that light's
+ * share of the catcher's irradiance, E_p⟨n·d⟩ / (E_probe(n) + E_p⟨n·d⟩), E_probe from the
+ * estimate's SH (which holds everything but the primary light), Rec. 709 luminance.
+ * Options:
+ *   scene, renderer, catcher, up, casterHeight   as connectLightProbe's `shadows`
+ *   size              width of the shadow camera's square (world units, default 4): what
+ *                     shadows can fall on; its near/far are ±`depth` (default 10) about
+ *                     the light's position, since XREstimatedLight puts it 1 unit from the origin
+ *   angularRadiusDeg  the primary light's angular radius: a number, or a function returning
+ *                     one (e.g. from the provider's sh9 messages, keyLight(conn.latest));
+ *                     WebXR's estimate has no field for it. Default 0 (a hard shadow).
+ * Returns { light, catcher, share, angularRadiusDeg, active, update() }: update() runs before
+ * the catcher is drawn each frame (its onBeforeRender; call it yourself to read `share`
+ * sooner) and does nothing while `active` is false (e.g. outside a session, where another
+ * driver, connectLightProbe's `shadows`, may own the catcher).
+ */
+export function xrShadows(THREE, xrLight, opts = {}) {
+  const light = xrLight.directionalLight, size = opts.size ?? 4, depth = opts.depth ?? 10;
+  light.castShadow = true;
+  light.shadow.mapSize.set(1024, 1024);
+  Object.assign(light.shadow.camera, { left: -size / 2, right: size / 2, top: size / 2, bottom: -size / 2,
+                                       near: -depth, far: depth });
+  light.shadow.camera.updateProjectionMatrix();
+  light.shadow.bias = -0.0005;
+  const catcher = opts.catcher === undefined ? shadowCatcher(THREE, { size }) : opts.catcher;
+  if (opts.scene && catcher) opts.scene.add(catcher);
+  if (opts.renderer) {
+    opts.renderer.shadowMap.enabled = true;
+    opts.renderer.shadowMap.type = THREE.PCFShadowMap;
+  }
+  const up = new THREE.Vector3(...(opts.up || [0, 1, 0])).normalize();
+  const casterHeight = opts.casterHeight ?? 0.5, e = new THREE.Vector3(), dir = new THREE.Vector3();
+  const state = { light, catcher, share: 0, angularRadiusDeg: 0, active: true, update };
+  function update() {
+    if (!state.active) return;
+    const r = typeof opts.angularRadiusDeg === "function" ? opts.angularRadiusDeg() : opts.angularRadiusDeg;
+    state.angularRadiusDeg = Number.isFinite(+r) && +r > 0 ? +r : 0;
+    xrLight.lightProbe.sh.getIrradianceAt(up, e).multiplyScalar(xrLight.lightProbe.intensity);
+    const probe = luminance([Math.max(0, e.x), Math.max(0, e.y), Math.max(0, e.z)]);
+    dir.copy(light.position).sub(light.target.position);
+    const cos = dir.lengthSq() > 0 ? Math.max(0, dir.normalize().dot(up)) : 0;
+    const c = light.color, key = luminance([c.r, c.g, c.b]) * light.intensity * cos;
+    state.share = probe + key > 0 ? key / (probe + key) : 0;
+    if (catcher) catcher.material.opacity = light.visible ? state.share : 0;
+    light.shadow.radius = shadowRadiusTexels(state.angularRadiusDeg, { casterHeight,
+      mapSize: light.shadow.mapSize.x, frustumWidth: size });
+  }
+  if (catcher) catcher.onBeforeRender = update;
+  return state;
 }

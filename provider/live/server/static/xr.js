@@ -13,8 +13,10 @@
 // yaw=DEGREES (turn the room's lighting into the XR space: the provider's -Z direction
 // appears at this yaw, counterclockwise seen from above), native=1 (the browser's own light
 // estimation where it has one), three=URL (where to load three.js from, read by xr.html's
-// import map; default a CDN).
-import { connectLightProbe } from "./client-three.js";
+// import map; default a CDN), shadows=1 (a shadow catcher on the floor: the key light casts
+// the sphere's shadow onto the camera image; client-three.js connectLightProbe's `shadows` in
+// the preview, xrShadows on XREstimatedLight in a session; docs/shadows_consumers.md).
+import { connectLightProbe, keyLight, shadowCatcher, xrShadows } from "./client-three.js";
 import { installLightEstimationPolyfill, yawRotation } from "./xr-lighting-polyfill.js";
 
 const params = new URLSearchParams(location.search);
@@ -51,12 +53,20 @@ async function main() {
   const token = params.get("token");
   const yaw = parseFloat(params.get("yaw") || "0") || 0;
 
-  // The preview: the whole lighting (sh9 messages) in a LightProbe.
+  // Opt-in shadows: a catcher where the floor is (below the sphere in the preview; y = 0 of
+  // the "local-floor" space in a session), edges about 1.3 units above it.
+  const shadows = params.get("shadows") === "1";
+  const floor = shadows ? shadowCatcher(THREE, { size: 6 }) : null;
+  if (floor) { floor.position.y = -1.3; scene.add(floor); sphere.castShadow = knot.castShadow = true; }
+
+  // The preview: the whole lighting (sh9 messages) in a LightProbe (with shadows: the key
+  // light as a DirectionalLight, the rest in the LightProbe).
   const lightProbe = new THREE.LightProbe();
   scene.add(lightProbe);
   const conn = connectLightProbe(provider, lightProbe, {
     probe: probe || "*", token, maxHz: 60,
     rotation: yaw ? yawRotation(yaw) : null,
+    shadows: floor ? { THREE, scene, renderer, catcher: floor, casterHeight: 1.3 } : undefined,
     onState: (state, detail) => {
       const el = $("status");
       el.dataset.state = state;
@@ -72,10 +82,23 @@ async function main() {
   // world origin (XREstimatedLight.js:112), and LightProbes ignore transforms
   // (WebGLLights.js:279-287).
   scene.add(xrLight);
+  // Its primary light casts the shadows in a session; the angular radius (not in WebXR's
+  // estimate) from the provider's own messages: the brightest light's, as the webxr export's
+  // primary light.
+  const xrShadow = floor ? xrShadows(THREE, xrLight, { renderer, catcher: floor, casterHeight: 1.3,
+    angularRadiusDeg: () => { const k = conn.latest && keyLight(conn.latest); return k ? k.angularRadiusDeg : 0; },
+  }) : null;
+  if (xrShadow) xrShadow.active = false;
   // While it estimates, it alone lights the scene (a hidden light is not rendered:
   // WebGLRenderer.js:1875).
-  xrLight.addEventListener("estimationstart", () => { lightProbe.visible = false; });
-  xrLight.addEventListener("estimationend", () => { lightProbe.visible = true; });
+  const previewLight = conn.shadows ? conn.shadows.light : null;
+  const estimating = (on) => {
+    lightProbe.visible = !on;
+    if (previewLight) previewLight.visible = !on;
+    if (xrShadow) xrShadow.active = on;
+  };
+  xrLight.addEventListener("estimationstart", () => estimating(true));
+  xrLight.addEventListener("estimationend", () => estimating(false));
 
   function resize() {
     if (renderer.xr.isPresenting) return;
@@ -103,7 +126,9 @@ async function main() {
       group.position.set(0, 1.3, -1.2);            // in front of the user at chest height
       group.scale.setScalar(0.15);
       knot.visible = true;
+      if (floor) floor.position.y = 0;             // the real floor of "local-floor"
       session.addEventListener("end", () => {
+        if (floor) floor.position.y = -1.3;
         group.position.set(0, 0, 0); group.scale.setScalar(1); knot.visible = false; resize();
       });
     });
@@ -112,7 +137,7 @@ async function main() {
   }
   // For scripts and tests: what the page holds.
   window.shlight = { THREE, conn, lightProbe, renderer, scene, camera, sphere, yawRotation,
-                     polyfill, xrLight, XREstimatedLight };
+                     polyfill, xrLight, XREstimatedLight, floor, xrShadow };
 }
 
 main();

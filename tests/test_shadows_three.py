@@ -1,0 +1,337 @@
+"""Shadows in three.js (issue 30, docs/shadows_consumers.md): client-three.js's opt-in
+``shadows`` turns the provider's key light into a DirectionalLight that casts shadows and keeps
+a ShadowMaterial floor (a shadow catcher) at the key light's share of the floor's irradiance.
+
+Real ``shlight serve --lights auto`` on a panorama with a sun disc and a sky, real headless
+Chromium, three.js r187's own shadow maps (tests/node/node_modules). A sphere floats above the
+catcher; seen from above with a transparent canvas:
+* in the umbra the catcher's alpha (the darkening it multiplies the camera image by, 1 − α) is
+  1 − shadow_ratio(up, V_key = 0) of the CPU (provider.core.lights.shadows), within UMBRA_TOL;
+* away from the shadow the catcher is fully transparent (α = 0: the image untouched);
+* the shadow lies where the key light's direction puts it, and with a larger angular radius
+  the penumbra widens as shadowRadiusTexels says.
+SHLIGHT_DOCS_SCREENSHOT=1 also writes docs/shadows_three.png.
+"""
+from __future__ import annotations
+
+import os
+
+import cv2
+import numpy as np
+import pytest
+
+from browsertools import NEEDS_BROWSER, ROOT, browser, page_of, three_version  # noqa: F401
+from envtools import THREE_URL, equirect_directions, png_of
+from servertools import ServeProcess, http_get, poll
+
+pytestmark = NEEDS_BROWSER
+
+#: Catcher alpha in the umbra against the CPU: 8-bit alpha (±0.5/255) and three's PCF noise
+#: (5 Vogel taps rotated per pixel: none inside a full umbra); measured within 0.004.
+UMBRA_TOL = 0.01
+SUN = np.array([0.55, 0.7, -0.45])
+SUN /= np.linalg.norm(SUN)
+SUN_RADIUS_DEG = 3.0
+
+PAGE = """async ([threeUrl, provider]) => {
+  const THREE = await import(threeUrl);
+  const a = await import(provider + "/client-three.js");
+  const S = 256;
+  const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true, alpha: true });
+  renderer.setSize(S, S, false);
+  renderer.setClearColor(0x000000, 0);
+  renderer.toneMapping = THREE.NoToneMapping;
+  document.body.appendChild(renderer.domElement);
+  const scene = new THREE.Scene();
+  // seen from straight above: +X right, −Z up in the picture, the floor 4 × 4 units
+  const camera = new THREE.OrthographicCamera(-2, 2, 2, -2, 0.1, 20);
+  camera.position.set(0, 10, 0);
+  camera.up.set(0, 0, -1);
+  camera.lookAt(0, 0, 0);
+  const sphere = new THREE.Mesh(new THREE.SphereGeometry(0.3, 64, 32),
+                                new THREE.MeshLambertMaterial({ color: 0xffffff }));
+  sphere.position.set(0, 0.8, 0);
+  sphere.castShadow = true;
+  scene.add(sphere);
+  const probe = new THREE.LightProbe();
+  scene.add(probe);
+  window.keys = 0;
+  const conn = a.connectLightProbe(provider + "/", probe, {
+    shadows: { THREE, scene, renderer, casterHeight: 0.8 },
+    onLighting: () => { window.keys++; } });
+  function render() {
+    renderer.render(scene, camera);
+    return renderer.domElement.toDataURL("image/png");
+  }
+  function onlyCatcher(on) { sphere.material.colorWrite = !on; sphere.material.depthWrite = !on; }
+  window.t = { THREE, a, conn, renderer, scene, camera, sphere, probe, render, onlyCatcher, S };
+  return true;
+}"""
+
+
+def write_sun_and_sky(path, h: int = 256) -> None:
+    """A float panorama: a sky of radiance 0.3 above the horizon, 0.05 below, and a sun disc
+    of SUN_RADIUS_DEG toward SUN, radiance 150 (E⊥ ≈ 0.6 π·(radius)²·150 ≈ 1.3)."""
+    d = equirect_directions(h, 2 * h)
+    img = np.where(d[..., 1:2] > 0, 0.3, 0.05).astype(np.float32).repeat(3, axis=-1)
+    img[d @ SUN > np.cos(np.radians(SUN_RADIUS_DEG))] = 150.0
+    assert cv2.imwrite(str(path), img[..., ::-1])
+
+
+def cpu_umbra_ratio(msg: dict, key: int) -> tuple[float, np.ndarray]:
+    """The floor's (normal +Y) ratio with the key light blocked and the others not, from the
+    CPU reference (provider.core.lights.shadows): (Rec. 709 luminance of E_lit(n, V) over that
+    of E_lit(n, 1): what one alpha can show; the per-colour shadow_ratio)."""
+    from provider.core.lights.shadows import lit_irradiance, shadow_ratio
+    k = msg["lights"]
+    args = (np.array([0.0, 1.0, 0.0]), np.reshape(msg["ambient_matrices"], (3, 4, 4)),
+            np.reshape(msg["light_directions"], (k, 3)), np.reshape(msg["light_irradiance"], (k, 3)))
+    visibility = np.ones(k)
+    visibility[key] = 0.0
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    blocked, open_ = lit_irradiance(*args, visibility) @ lum, lit_irradiance(*args, np.ones(k)) @ lum
+    return float(blocked / open_), shadow_ratio(*args, visibility)
+
+
+def _alpha(page) -> np.ndarray:
+    return png_of(page.evaluate("window.t.render()"))[..., 3].astype(float) / 255
+
+
+def _floor_xz(S: int, row: float, col: float) -> tuple[float, float]:
+    return -2 + 4 * (col + 0.5) / S, -2 + 4 * (row + 0.5) / S
+
+
+def _shadow_profile(alpha: np.ndarray, S: int, centre, direction) -> tuple[np.ndarray, np.ndarray]:
+    """Alpha along the floor line through `centre` (x, z) perpendicular to the light's
+    horizontal direction: (offsets in floor units, alpha)."""
+    perp = np.array([-direction[2], direction[0]])
+    perp /= np.linalg.norm(perp)
+    s = np.linspace(-0.8, 0.8, 321)
+    x, z = centre[0] + s * perp[0], centre[1] + s * perp[1]
+    cols, rows = (x + 2) / 4 * S - 0.5, (z + 2) / 4 * S - 0.5
+    vals = cv2.remap(alpha.astype(np.float32), cols.astype(np.float32)[None], rows.astype(np.float32)[None],
+                     cv2.INTER_LINEAR)[0]
+    return s, vals
+
+
+def _width_10_90(s, a, top):
+    """Distance over which the profile's right flank falls from 90 % to 10 % of `top`."""
+    right = s > 0
+    ss, aa = s[right], a[right]
+    return ss[np.argmax(aa < 0.1 * top)] - ss[np.argmax(aa < 0.9 * top)]
+
+
+@pytest.mark.parametrize("scene", ["sun", "sky", "lab"])
+def test_sphere_shadow_on_the_catcher_matches_the_cpu_ratio(browser, tmp_path, scene):
+    """`sun`: the synthetic 3° sun (also the penumbra's growth with the radius, and the picture);
+    `sky` and `lab`: real panoramas (a sun of 1.3°; two softboxes of about 10°, the key one
+    blocked and the other not)."""
+    if scene == "sun":
+        pano = tmp_path / "sun.hdr"
+        write_sun_and_sky(pano)
+    else:
+        pano = ROOT / "tests" / "data" / "hdri" / f"{scene}.exr"
+    with ServeProcess("--source", str(pano), "--lights", "auto", "--keepalive", "60") as proc:
+        import json
+        status, _, body = poll(lambda: (r := http_get(proc.http + "/latest.json"))[0] == 200 and r,
+                               what="first lighting")
+        msg = json.loads(body)
+        assert msg["lights"] >= 1
+        with page_of(browser, proc.http + "/healthz") as page:
+            page.evaluate(PAGE, [THREE_URL.format(version=three_version()), proc.http])
+            page.wait_for_function("window.keys > 0", timeout=60000)
+            got = page.evaluate("""() => { const s = window.t.conn.shadows, m = window.t.conn.latest.message;
+              return { key: s.key && { index: s.key.index, direction: s.key.direction, share: s.key.share,
+                                       radius: s.key.angularRadiusDeg },
+                       opacity: s.catcher.material.opacity, intensity: s.light.intensity,
+                       castShadow: s.light.castShadow, shadowRadius: s.light.shadow.radius,
+                       position: s.light.position.toArray(), msg: m }; }""")
+            msg = got["msg"]
+            key = got["key"]
+            assert key is not None and got["castShadow"]
+            irr = np.reshape(msg["light_irradiance"], (-1, 3)) @ [0.2126, 0.7152, 0.0722]
+            assert key["index"] == int(np.argmax(irr))                         # the brightest
+            d = np.reshape(msg["light_directions"], (-1, 3))[key["index"]]
+            if scene == "sun":
+                assert d @ SUN > np.cos(np.radians(2)), (d, SUN)               # the sun
+            np.testing.assert_allclose(key["direction"], d / np.linalg.norm(d), atol=1e-5)
+            # the key light: brightest by Rec. 709, kept within 10 %, handed over beyond
+            picks = page.evaluate("""() => { const k = window.t.a.keyLightIndex, e = [1,1,1, 3,3,3, 2.9,2.9,2.9];
+              return [k(e), k(e, 2), k(e, 0), k(e, 7), k([]), k([2,0,2, 0,1,0])]; }""")
+            assert picks == [1, 2, 1, 1, -1, 1], picks
+            # the LightProbe gets the full SH9 less the key light's E·Y(d): the ambient plus the others
+            from provider.core.conventions.formats import light_sh
+            others = np.reshape(msg["ambient_coefficients"], (9, 3)) + sum(
+                (light_sh(np.reshape(msg["light_directions"], (-1, 3))[i], np.reshape(msg["light_irradiance"], (-1, 3))[i])
+                 for i in range(msg["lights"]) if i != key["index"]), np.zeros((9, 3)))
+            probe = page.evaluate("() => window.t.probe.sh.coefficients.flatMap((v) => [v.x, v.y, v.z])")
+            np.testing.assert_allclose(probe, others.reshape(-1), rtol=1e-5, atol=1e-6 * np.abs(msg["coefficients"]).max())
+            # the catcher's opacity is the key light's share in Rec. 709 luminance (the synthetic
+            # sky is grey, so there the per-colour ratios are alike)
+            cpu_lum, cpu = cpu_umbra_ratio(msg, key["index"])
+            if scene == "sun":
+                assert np.all(np.abs(cpu - cpu_lum) < 0.02), (cpu, cpu_lum)
+            assert abs(got["opacity"] - (1 - cpu_lum)) < 1e-4, (got["opacity"], cpu_lum)
+
+            page.evaluate("window.t.onlyCatcher(true)")
+            alpha = _alpha(page)
+            S = alpha.shape[0]
+            # where the shadow's centre falls: the sphere's centre projected along −d to y = 0
+            centre = np.array([0.0, 0.8, 0.0]) - 0.8 / d[1] * d
+            col, row = (centre[0] + 2) / 4 * S - 0.5, (centre[2] + 2) / 4 * S - 0.5
+            r0, c0 = int(round(row)), int(round(col))
+            umbra = alpha[r0 - 3:r0 + 4, c0 - 3:c0 + 4]
+            print(f"umbra alpha {umbra.mean():.4f} (min {umbra.min():.4f}, max {umbra.max():.4f}); "
+                  f"CPU 1 − ratio {1 - cpu_lum:.4f}; shadow.radius {got['shadowRadius']:.2f} texels")
+            assert np.all(np.abs(umbra - (1 - cpu_lum)) < UMBRA_TOL), (umbra, 1 - cpu_lum)
+            # away from the shadow (more than 0.5 units from its centre, on the floor): untouched
+            rows, cols = np.mgrid[0:S, 0:S]
+            x, z = -2 + 4 * (cols + 0.5) / S, -2 + 4 * (rows + 0.5) / S
+            far = np.hypot(x - centre[0], z - centre[2]) > 0.7
+            assert alpha[far].max() == 0, alpha[far].max()
+            # where three's PCF disc (shadow.radius texels) stays inside the sphere's shadow: umbra
+            blur = got["shadowRadius"] * 4 / 1024
+            near = np.hypot(x - centre[0], z - centre[2]) < 0.27 - blur
+            assert alpha[near].min() > 0.9 * (1 - cpu_lum)
+            if scene != "sun":
+                return
+
+            # a larger angular radius: a wider penumbra, as shadowRadiusTexels says
+            s_prof, a_prof = _shadow_profile(alpha, S, centre[[0, 2]], d)
+            w_small = _width_10_90(s_prof, a_prof, 1 - cpu_lum)
+            wide = page.evaluate("""() => { const t = window.t, s = t.conn.shadows;
+              const key = { ...s.key, angularRadiusDeg: 6 };
+              t.a.setKeyLight(s.light, key, { casterHeight: 0.8 });
+              return s.light.shadow.radius; }""")
+            expect = 0.8 * np.tan(np.radians(6)) * 1024 / 4
+            assert abs(wide - expect) < 1e-6 * expect
+            alpha_wide = _alpha(page)
+            s_prof, a_wide = _shadow_profile(alpha_wide, S, centre[[0, 2]], d)
+            w_wide = _width_10_90(s_prof, a_wide, 1 - cpu_lum)
+            print(f"penumbra 90→10 %: {w_small:.3f} (radius {key['radius']:.2f}°) → "
+                  f"{w_wide:.3f} units at 6°")
+            assert w_wide > w_small + 0.03, (w_small, w_wide)
+
+            if os.environ.get("SHLIGHT_DOCS_SCREENSHOT"):
+                page.evaluate("window.t.onlyCatcher(false)")
+                page.evaluate("""() => { const t = window.t, s = t.conn.shadows;
+                  t.a.setKeyLight(s.light, s.key, { casterHeight: 0.8 }); }""")
+                picture(png_of(page.evaluate("window.t.render()")), alpha, a_prof, s_prof,
+                        1 - cpu_lum, msg, key)
+
+
+def picture(rgba, alpha, profile, s, umbra, msg, key):
+    """docs/shadows_three.png: the page over a grey 'camera image', and the catcher's
+    multiplier across the shadow against the CPU ratio."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    grey = 0.55
+    a = rgba[..., 3:4].astype(float) / 255
+    shown = rgba[..., :3].astype(float) / 255 * a + grey * (1 - a)
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4.4))
+    ax[0].imshow(shown, extent=(-2, 2, 2, -2))
+    ax[0].set_title("three.js r187: sphere over a ShadowMaterial catcher\n(seen from above, over a grey image)")
+    ax[0].set_xlabel("x"); ax[0].set_ylabel("z")
+    ax[1].plot(s, 1 - profile, label="catcher: image multiplier 1 − α")
+    ax[1].axhline(1 - umbra, color="k", ls="--", label=f"CPU shadow_ratio, key light blocked ({1 - umbra:.3f})")
+    ax[1].set_ylim(0, 1.05); ax[1].set_xlabel("across the shadow (floor units)")
+    ax[1].set_title(f"key light: angular radius {key['radius']:.2f}°, share {key['share']:.3f}")
+    ax[1].legend(loc="lower right")
+    fig.tight_layout()
+    fig.savefig(ROOT / "docs" / "shadows_three.png", dpi=90)
+    plt.close(fig)
+
+
+# ---- the WebXR example page (xr.html?shadows=1) on a real inline XRSession -----------------
+
+#: Seen from straight above the preview's floor (y = −1.3); the sphere drawn into the shadow
+#: map only. Returns the catcher's alpha at floor points [x, z] (bilinear, from the canvas).
+XR_TOP_VIEW = """(points) => { const s = window.shlight, THREE = s.THREE;
+  s.camera.position.set(0, 6, 0); s.camera.up.set(0, 0, -1); s.camera.lookAt(0, -1.3, 0);
+  s.camera.updateMatrixWorld();
+  s.sphere.material = new THREE.MeshLambertMaterial({ colorWrite: false, depthWrite: false });
+  const c = s.renderer.domElement;
+  return points.map(([x, z]) => { const p = new THREE.Vector3(x, -1.3, z).project(s.camera);
+    return [(p.x + 1) / 2 * c.width - 0.5, (1 - p.y) / 2 * c.height - 0.5]; });
+}"""
+
+
+def test_webxr_page_shadow_from_xr_estimated_light(browser, tmp_path):
+    """xr.html?shadows=1: in the preview the key light of the sh9 messages casts the shadow;
+    in a session three's XREstimatedLight (fed by the polyfill) does, its catcher's opacity is
+    the primary light's share computed from the server's webxr export and equals 1 − the CPU
+    shadow_ratio of the sh9 message; the umbra shows it, the rest of the floor is untouched."""
+    from provider.core.geometry import sh
+    from test_xr_polyfill import INLINE_LE, START_SESSION, webxr_latest
+    from browsertools import REFUSED, canvas_rgba
+    pano = tmp_path / "sun.hdr"
+    write_sun_and_sky(pano)
+    with ServeProcess("--source", str(pano), "--lights", "auto", "--keepalive", "60") as proc:
+        with page_of(browser, proc.http + "/xr.html?shadows=1", tolerate=f"{REFUSED}|{INLINE_LE}") as page:
+            page.wait_for_function("window.shlight && window.shlight.conn.shadows && "
+                                   "window.shlight.conn.shadows.key !== null", timeout=30000)
+            preview = page.evaluate("""() => { const s = window.shlight, sh = s.conn.shadows;
+              return { share: sh.key.share, opacity: s.floor.material.opacity, visible: sh.light.visible,
+                       cast: sh.light.castShadow, sphere: s.sphere.castShadow, active: s.xrShadow.active,
+                       msg: s.conn.latest.message }; }""")
+            assert preview["cast"] and preview["sphere"] and preview["visible"] and not preview["active"]
+            assert preview["opacity"] == preview["share"] > 0.3
+            cpu_lum, _ = cpu_umbra_ratio(preview["msg"], int(np.argmax(
+                np.reshape(preview["msg"]["light_irradiance"], (-1, 3)) @ [0.2126, 0.7152, 0.0722])))
+            assert abs(preview["share"] - (1 - cpu_lum)) < 1e-4
+
+            page.evaluate(START_SESSION)
+            page.wait_for_function("window.started === 1 && !window.shlight.lightProbe.visible", timeout=20000)
+            held = page.evaluate("""() => { const s = window.shlight; s.xrShadow.update();
+              const dl = s.xrLight.directionalLight;
+              return { share: s.xrShadow.share, opacity: s.floor.material.opacity, active: s.xrShadow.active,
+                       radius: s.xrShadow.angularRadiusDeg, shadowRadius: dl.shadow.radius,
+                       cast: dl.castShadow, preview: s.conn.shadows.light.visible,
+                       position: dl.position.toArray() }; }""")
+            assert held["active"] and held["cast"] and not held["preview"]
+            latest = webxr_latest(proc.http)
+            d = latest["primaryLightDirection"]
+            d = np.array([d["x"], d["y"], d["z"]])
+            e = latest["primaryLightIntensity"]
+            e = np.array([e["x"], e["y"], e["z"]])
+            lum = np.array([0.2126, 0.7152, 0.0722])
+            e_probe = np.maximum(sh.irradiance(np.reshape(latest["sphericalHarmonicsCoefficients"], (9, 3)),
+                                               np.array([[0.0, 1.0, 0.0]]))[0], 0) @ lum
+            key = (e @ lum) * max(0.0, d[1])
+            share = key / (e_probe + key)
+            assert abs(held["share"] - share) < 1e-4, (held["share"], share)
+            assert abs(held["share"] - (1 - cpu_lum)) < 2e-3, (held["share"], 1 - cpu_lum)
+            assert held["opacity"] == held["share"]
+            radius = preview["msg"].get("light_angular_radius_deg", [0])[0]
+            assert abs(held["radius"] - radius) < 1e-9
+
+            centre = np.array([0.0, 0.0, 0.0]) - (1.3 / d[1]) * d        # the umbra's centre
+            points = [[centre[0], centre[2]], [1.6, -1.6], [2.0, 0.5], [-0.5, -2.0]]
+            at = page.evaluate(XR_TOP_VIEW, points)
+            alpha = canvas_rgba(page)[..., 3].astype(np.float32) / 255
+            vals = [float(cv2.remap(alpha, np.float32([[x]]), np.float32([[y]]), cv2.INTER_LINEAR)[0, 0])
+                    for x, y in at]
+            print(f"XR umbra alpha {vals[0]:.4f}, share {held['share']:.4f}; away {vals[1:]}")
+            assert abs(vals[0] - held["share"]) < UMBRA_TOL, (vals[0], held["share"])
+            assert vals[1:] == [0.0, 0.0, 0.0], vals
+            if os.environ.get("SHLIGHT_DOCS_SCREENSHOT"):
+                xr_picture(canvas_rgba(page), held)
+
+
+def xr_picture(rgba, held):
+    """docs/shadows_webxr.png: xr.html?shadows=1 in a session (XREstimatedLight fed by the polyfill),
+    seen from above (the sphere drawn into the shadow map only), over a grey 'camera image'."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    a = rgba[..., 3:4].astype(float) / 255
+    shown = rgba[..., :3].astype(float) / 255 * a + 0.55 * (1 - a)
+    fig, ax = plt.subplots(figsize=(4.6, 4.6))
+    ax.imshow(shown)
+    ax.set_axis_off()
+    ax.set_title(f"WebXR: XREstimatedLight's primary light\nshare {held['share']:.3f}, "
+                 f"angular radius {held['radius']:.2f}°")
+    fig.tight_layout()
+    fig.savefig(ROOT / "docs" / "shadows_webxr.png", dpi=90)
+    plt.close(fig)

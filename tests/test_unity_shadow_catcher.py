@@ -1,0 +1,280 @@
+"""The Unity package's shadow catchers (issue 30, docs/shadows_consumers.md), compiled as Unity
+compiles them, without Unity, with the harness of tests/test_unity_shaders.py.
+
+* Built-in (unity_package/Shaders/SH9ShadowCatcher.shader): every stage and variant (no shadows,
+  SHADOWS_SCREEN with screen-space shadows and with UNITY_NO_SCREENSPACE_SHADOWS as on mobile /
+  Quest, GPU instancing, each stereo path) against Unity's own 2019.4.1 CGIncludes (AutoLight.cginc
+  and UnityShadowLibrary.cginc included, tests/data/unity_cgincludes_2019.4) and any version named
+  in SHLIGHT_UNITY_CGINCLUDES. Then the fragment stage is run (SPIR-V → GLSL, software OpenGL) with a
+  shadow map reading V: its colour is SHShadowRatio = provider.core.lights.shadows.shadow_ratio(n,
+  V for the key light), its alpha 1 − the ratio's luminance; with V = 1 it is exactly 1 (untouched).
+* URP (Samples~/ShadowCatcher/SH9ShadowCatcherURP.shader): every variant of URP's main-light
+  shadow keywords against stand-ins of URP's ShaderLibrary (tests/unity_stubs/urp: the functions
+  the shader calls, with URP's signatures; URP itself is not here).
+* Both: blend factors are the material's, and the two shipped materials of each pipeline multiply
+  (DstColor Zero, alpha kept) and cover (Zero OneMinusSrcAlpha, One OneMinusSrcAlpha).
+"""
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from provider.core.geometry import sh
+from provider.core.lights.shadows import shadow_ratio
+
+from test_unity_shaders import (API, INCLUDE_SETS, STAGES, STEREO, _gl_context, _tool, compile_pass,
+                                entry, keyword_sets, layer_depends_on_instance_id, parse_shader, reflect)
+
+ROOT = Path(__file__).resolve().parent.parent
+PKG = ROOT / "unity_package"
+CATCHER = PKG / "Shaders" / "SH9ShadowCatcher.shader"
+URP_CATCHER = PKG / "Samples~" / "ShadowCatcher" / "SH9ShadowCatcherURP.shader"
+URP_STUBS = ROOT / "tests" / "unity_stubs" / "urp"
+STUBS = ROOT / "tests" / "unity_stubs"
+#: the main light's shadow, as Unity sets it for a ForwardBase pass: none, screen-space (desktop),
+#: a shadow map sampled in the pass (mobile: UNITY_NO_SCREENSPACE_SHADOWS, hardware PCF)
+SHADOW_VARIANTS = {"none": [], "screen": ["SHADOWS_SCREEN"],
+                   "mobile": ["SHADOWS_SCREEN", "UNITY_NO_SCREENSPACE_SHADOWS"]}
+BLENDS = {"Multiply": (2, 0, 0, 1), "Passthrough": (0, 10, 1, 10)}   # UnityEngine.Rendering.BlendMode
+
+
+def _catcher_pass():
+    passes = parse_shader(CATCHER.read_text(), name="Shlight/SH9 Shadow Catcher")
+    assert [(p["pipeline"], p["name"], p["lightmode"]) for p in passes] == \
+        [("built-in", "SH9ShadowCatcher", "ForwardBase")]
+    p = passes[0]
+    assert re.search(r"Blend \[_SrcBlend\] \[_DstBlend\], \[_SrcBlendAlpha\] \[_DstBlendAlpha\]", p["state"])
+    assert re.search(r"ZWrite\s+Off", p["state"])
+    assert ["multi_compile_instancing"] in p["pragmas"]
+    assert any(pr[0] == "multi_compile_fwdbase" for pr in p["pragmas"])
+    return p
+
+
+def _variants(p, version):
+    for stage, stereo, shadows, instancing in ((s, t, v, i) for s in STAGES for t in STEREO
+                                               for v in SHADOW_VARIANTS for i in ([], ["INSTANCING_ON"])):
+        yield stage, stereo, shadows, [API[stereo], "SHADER_TARGET=35", f"UNITY_VERSION={version}",
+                                       STAGES[stage][1], *STEREO[stereo], *SHADOW_VARIANTS[shadows], *instancing]
+
+
+def test_builtin_catcher_compiles_with_unity_includes(tmp_path):
+    p = _catcher_pass()
+    sets = [(n, d, v) for n, (d, v) in INCLUDE_SETS.items() if n != "stand-in"]
+    total = 0
+    for name, dirs, versions in sets:
+        assert (dirs[0] / "AutoLight.cginc").exists(), f"{dirs[0]} has no AutoLight.cginc"
+        failed = []
+        for k, (stage, stereo, shadows, defines) in enumerate(_variants(p, versions[-1])):
+            spv = tmp_path / f"{name}_{k}.spv"
+            ok, log = compile_pass(p, stage, defines, dirs, spv)
+            total += 1
+            if not ok:
+                failed.append(f"{stage} {stereo} {shadows} {defines}:\n{log[-1200:]}")
+            elif stage == "vertex" and stereo == "single-pass-instanced":
+                assert layer_depends_on_instance_id(spv), f"{name}: eye not from the instance ID"
+        assert not failed, f"Unity {name}: {len(failed)} failed:\n" + "\n".join(failed[:3])
+    print(f"\n{total} variants of the built-in shadow catcher compiled ({', '.join(n for n, _, _ in sets)})")
+
+
+def _run_catcher(ctx, spv: Path, normals, values: dict, shadow, coords=None) -> np.ndarray:
+    """The fragment stage, once per normal; the screen-space shadow texture (an array: single-pass
+    instanced stereo) reads `shadow` everywhere (a number), or is `shadow` (an (h, w) array) read
+    at `coords` ((n, 2) texture coordinates, one per normal)."""
+    glsl = subprocess.run([_tool("spirv-cross"), str(spv), "--version", "430", "--no-es", "--no-420pack-extension"],
+                          capture_output=True, text=True, timeout=60).stdout
+    refl = reflect(spv)
+    inputs = re.findall(r"^(layout\(location = \d+\) )?in (\w+) (\w+);", glsl, re.M)
+    body = []
+    for _, t, n in inputs:
+        if "Normal" in n:
+            body.append(f"  {n} = normal;")
+        elif "ShadowCoord" in n:
+            body.append(f"  {n} = {t}(uv, 0.5, 1.0);")             # screen position, w = 1
+        else:
+            body.append(f"  {n} = {t}(0.0);")
+    vertex = ("#version 430\nin vec3 normal;\nin vec2 uv;\nuniform float width;\n" +
+              "".join(f"{layout}out {t} {n};\n" for layout, t, n in inputs) +
+              "void main() {\n  gl_Position = vec4((float(gl_VertexID) + 0.5) / width * 2.0 - 1.0, 0.0, 0.0, 1.0);\n"
+              "  gl_PointSize = 1.0;\n" + "\n".join(body) + "\n}\n")
+    prog = ctx.program(vertex_shader=vertex, fragment_shader=glsl)
+    n = len(normals)
+    prog["width"].value = float(n)
+    keep = []
+    for binding, ubo in enumerate(refl["ubos"]):
+        data = np.zeros(ubo["block_size"] // 4, np.float32)
+        for m in refl["types"][ubo["type"]]["members"]:
+            if m["name"] in values:
+                v = np.asarray(values[m["name"]], np.float32).reshape(-1)
+                data[m["offset"] // 4: m["offset"] // 4 + v.size] = v
+        buf = ctx.buffer(data.tobytes())
+        buf.bind_to_uniform_block(binding)
+        prog["_Global" if ubo["name"] == "$Global" else ubo["name"]].binding = binding
+        keep.append(buf)
+    img = np.full((1, 1), shadow, np.float32) if np.isscalar(shadow) else np.asarray(shadow, np.float32)
+    tex = ctx.texture_array((img.shape[1], img.shape[0], 1), 4, np.repeat(img[..., None], 4, -1).tobytes(), dtype="f4")
+    tex.filter = (ctx.NEAREST, ctx.NEAREST)
+    tex.use(0)
+    fbo = ctx.framebuffer(color_attachments=[ctx.texture((n, 1), 4, dtype="f4")])
+    fbo.use()
+    fbo.clear()
+    uv = np.full((n, 2), 0.5, np.float32) if coords is None else np.asarray(coords, np.float32)
+    vao = ctx.vertex_array(prog, [(ctx.buffer(np.asarray(normals, np.float32).tobytes()), "3f", "normal"),
+                                  (ctx.buffer(uv.tobytes()), "2f", "uv")])
+    vao.render(mode=ctx.POINTS, vertices=n)
+    return np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(n, 4)
+
+
+def test_builtin_catcher_outputs_the_cpu_shadow_ratio(tmp_path):
+    """Unity's own AutoLight path (screen-space shadows, single-pass instanced) run with a shadow map that reads V: the
+    output is shadow_ratio(n, V) per colour (Unity's frame: z flipped, as the client uploads), alpha
+    1 − its luminance; V = 1 leaves the image untouched (ratio 1, alpha 0)."""
+    ctx = _gl_context()
+    p = _catcher_pass()
+    dirs, _ = INCLUDE_SETS["2019.4"]
+    # single-pass instanced stereo (HoloLens' D3D11 path; Quest's multiview reads the same array):
+    # glslang's HLSL front end has no DX9-style sampler2D for the mono variant's tex2Dproj
+    defines = ["SHADER_API_D3D11", "SHADER_TARGET=35", "UNITY_VERSION=201940", "SHADER_STAGE_FRAGMENT",
+               "SHADOWS_SCREEN", "STEREO_INSTANCING_ON"]
+    spv = tmp_path / "catcher_frag.spv"
+    ok, log = compile_pass(p, "fragment", defines, dirs, spv)
+    assert ok, log
+    rng = np.random.default_rng(7)
+    amb = rng.normal(size=(9, 3)) * 0.2
+    amb[0] = [0.9, 0.8, 0.7]
+    d_wire = np.array([0.4, 0.8, -0.45])
+    d_wire /= np.linalg.norm(d_wire)
+    e = np.array([2.5, 2.2, 1.6])
+    A_unity = np.diag([1, 1, -1, 1.0]) @ sh.irradiance_matrices(amb) @ np.diag([1, 1, -1, 1.0])
+    d_unity = d_wire * [1, 1, -1]
+    normals = np.vstack([[0, 1, 0], [0, 0, 1], [0, -1, 0], sh.fibonacci_sphere(29)])
+    values = {"_SHIrradianceR": A_unity[0].T, "_SHIrradianceG": A_unity[1].T, "_SHIrradianceB": A_unity[2].T,
+              "_SHLightCount": 1, "_SHLightDirection": [*d_unity, 0, *[0] * 12],
+              "_SHLightIrradiance": [*e, 0, *[0] * 12], "_ShadowStrength": 1.0}
+    for shadow in (0.0, 0.4, 1.0):
+        out = _run_catcher(ctx, spv, normals, values, shadow)
+        want = shadow_ratio(normals, A_unity, d_unity[None], e[None], [shadow])
+        err = np.abs(out[:, :3] - want).max()
+        print(f"V = {shadow}: max |shader − shadow_ratio| = {err:.2e}")
+        assert err < 2e-5, (shadow, out[:3], want[:3])
+        np.testing.assert_allclose(out[:, 3], 1 - want @ [0.2126, 0.7152, 0.0722], atol=2e-5)
+        if shadow == 1.0:
+            assert np.all(out[:, :3] == 1.0) and np.all(out[:, 3] == 0.0)
+    # half strength: V 0 shows as V 0.5
+    out = _run_catcher(ctx, spv, normals, {**values, "_ShadowStrength": 0.5}, 0.0)
+    np.testing.assert_allclose(out[:, :3], shadow_ratio(normals, A_unity, d_unity[None], e[None], [0.5]), atol=2e-5)
+    if os.environ.get("SHLIGHT_DOCS_SCREENSHOT"):
+        picture(ctx, spv, values, A_unity, d_unity, e)
+
+
+def _disc_visibility(gap_deg, light_deg, occluder_deg):
+    """Fraction of a light disc (angular radius light_deg) left by an occluding disc (occluder_deg)
+    whose centre is gap_deg away (flat-disc overlap)."""
+    r, R, g = np.radians(light_deg), np.radians(occluder_deg), np.radians(gap_deg)
+    r2, R2 = r * r, R * R
+    with np.errstate(invalid="ignore", divide="ignore"):
+        a = r2 * np.arccos(np.clip((g * g + r2 - R2) / (2 * g * r), -1, 1)) + \
+            R2 * np.arccos(np.clip((g * g + R2 - r2) / (2 * g * R), -1, 1)) - \
+            0.5 * np.sqrt(np.clip((-g + r + R) * (g + r - R) * (g - r + R) * (g + r + R), 0, None))
+    overlap = np.where(g >= r + R, 0.0, np.where(g <= np.abs(R - r), np.pi * np.minimum(r, R) ** 2, a))
+    return 1 - overlap / (np.pi * r2)
+
+
+def picture(ctx, spv, values, A_unity, d_unity, e, size=96):
+    """docs/shadows_unity.png: the built-in catcher's output, run, under a sphere (radius 0.3, centre
+    0.8 above a 2 × 2 floor) and a key light of angular radius 6°, the shadow map holding the disc's
+    visibility at each floor point; multiplied onto a stand-in camera image of a floor."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    x, z = np.meshgrid(np.linspace(-1, 1, size), np.linspace(-1, 1, size))
+    floor = np.stack([x, np.zeros_like(x), z], -1)
+    to_sphere = np.array([0, 0.8, 0]) - floor
+    dist = np.linalg.norm(to_sphere, axis=-1)
+    gap = np.degrees(np.arccos(np.clip((to_sphere / dist[..., None]) @ d_unity, -1, 1)))
+    vis = _disc_visibility(gap, 6.0, np.degrees(np.arcsin(0.3 / dist)))
+    coords = np.stack([(np.arange(size * size) % size + 0.5) / size, (np.arange(size * size) // size + 0.5) / size], -1)
+    normals = np.tile([0.0, 1.0, 0.0], (size * size, 1))
+    out = _run_catcher(ctx, spv, normals, values, vis, coords)[:, :3].reshape(size, size, 3)
+    want = shadow_ratio(normals, A_unity, d_unity[None], e[None], vis.reshape(-1, 1)).reshape(size, size, 3)
+    rng = np.random.default_rng(1)
+    camera = (np.array([0.55, 0.47, 0.38]) * (0.85 + 0.15 * ((np.floor(x * 4) + np.floor(z * 4)) % 2))[..., None]
+              + rng.normal(0, 0.015, (size, size, 1)))
+    fig, ax = plt.subplots(1, 3, figsize=(12, 4))
+    ax[0].imshow(np.clip(camera, 0, 1), extent=(-1, 1, 1, -1)); ax[0].set_title("camera image (stand-in)")
+    ax[1].imshow(np.clip(camera * out, 0, 1), extent=(-1, 1, 1, -1))
+    ax[1].set_title("× Shlight/SH9 Shadow Catcher (run)\nkey light 6°, sphere 0.8 above the floor")
+    c = np.argmin(vis.min(axis=1))
+    ax[2].plot(x[c], out[c, :, 1], label="shader output (G)")
+    ax[2].plot(x[c], want[c, :, 1], "k--", label="shadow_ratio (CPU)")
+    ax[2].set_ylim(0, 1.05); ax[2].set_xlabel("x on the floor"); ax[2].legend(loc="lower right")
+    ax[2].set_title("through the umbra")
+    fig.tight_layout()
+    fig.savefig(ROOT / "docs" / "shadows_unity.png", dpi=90)
+    plt.close(fig)
+
+
+def _urp_pass():
+    text = URP_CATCHER.read_text()
+    passes = parse_shader(text, name="Shlight/SH9 Shadow Catcher (URP)")
+    assert [(p["pipeline"], p["lightmode"]) for p in passes] == [("UniversalPipeline", "UniversalForward")]
+    return passes[0]
+
+
+def test_urp_catcher_compiles_against_urp_standins(tmp_path):
+    p = _urp_pass()
+    program = p["program"]
+    assert '#include "Packages/com.unity.render-pipelines.universal/ShaderLibrary/Core.hlsl"' in program
+    assert '#include "Packages/org.shlight.sh9lighting/Shaders/sh9_lights.hlsl"' in program
+    assert "CBUFFER_START(UnityPerMaterial)" in program
+    # the package folder as Unity resolves Packages/org.shlight.sh9lighting/...
+    pkg_root = tmp_path / "resolve" / "Packages"
+    pkg_root.mkdir(parents=True)
+    (pkg_root / "org.shlight.sh9lighting").symlink_to(PKG)
+    glslang = _tool("glslangValidator")
+    count, failed = 0, []
+    for stage in STAGES:
+        for kws in keyword_sets(p, stage):
+            for stereo in STEREO:
+                defines = [f"{d}=1" if "=" not in d else d for d in
+                           [API[stereo], "SHADER_TARGET=35", "UNITY_VERSION=202230", STAGES[stage][1],
+                            *STEREO[stereo], *kws]]
+                body = "\n".join(l for l in program.splitlines() if not l.strip().startswith("#pragma"))
+                src = tmp_path / f"urp_{count}.hlsl"
+                src.write_text(body)                     # HLSLPROGRAM: no CG prefix
+                spv = src.with_suffix(".spv")
+                r = subprocess.run([glslang, "-D", "-V", "-S", STAGES[stage][0], "-e", entry(p, stage), "-o", str(spv),
+                                    *[f"-D{d}" for d in defines], f"-I{URP_STUBS}", f"-I{tmp_path / 'resolve'}",
+                                    f"-I{STUBS}", str(src)], capture_output=True, text=True, timeout=120)
+                count += 1
+                if r.returncode:
+                    failed.append(f"{stage} {stereo} {kws}:\n{(r.stdout + r.stderr)[-1200:]}")
+    assert not failed, f"{len(failed)} of {count} failed:\n" + "\n".join(failed[:3])
+    print(f"\n{count} variants of the URP shadow catcher compiled (URP stand-ins)")
+
+
+def _material(path: Path) -> dict:
+    text = path.read_text()
+    floats = dict((k, float(v)) for k, v in re.findall(r"- (_\w+): ([-\d.]+)", text))
+    guid = re.search(r"m_Shader: \{fileID: 4800000, guid: (\w+), type: 3\}", text).group(1)
+    return {"floats": floats, "guid": guid}
+
+
+def _guid(meta: Path) -> str:
+    return re.search(r"guid: (\w+)", meta.read_text()).group(1)
+
+
+@pytest.mark.parametrize("mode", list(BLENDS))
+def test_shipped_materials_blend_as_documented(mode):
+    builtin = _material(PKG / "Samples~" / "ShadowCatcher" / f"SH9 Shadow Catcher {mode}.mat")
+    assert builtin["guid"] == _guid(CATCHER.with_name(CATCHER.name + ".meta"))
+    urp = _material(PKG / "Samples~" / "ShadowCatcher" / f"SH9 Shadow Catcher URP {mode}.mat")
+    assert urp["guid"] == _guid(URP_CATCHER.with_name(URP_CATCHER.name + ".meta"))
+    for m in (builtin, urp):
+        f = m["floats"]
+        assert (f["_SrcBlend"], f["_DstBlend"], f["_SrcBlendAlpha"], f["_DstBlendAlpha"]) == BLENDS[mode]
+        assert f["_ShadowStrength"] == 1

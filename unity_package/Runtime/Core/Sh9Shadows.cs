@@ -1,0 +1,90 @@
+// Shadows from the room's lights (issue 30; docs/contract.md §10, docs/shadows_consumers.md): which light
+// casts them (the key light), how soft they are (its angular radius), and the ratio a shadow catcher
+// multiplies the camera image by. Plain C#, no UnityEngine: the MonoBehaviour and the Mono tests share it.
+using System;
+
+namespace Shlight.Lighting
+{
+    /// <summary>Unity's two real-time shadow types of a Light (LightShadows.Hard / Soft).</summary>
+    public enum Sh9ShadowType { Hard = 1, Soft = 2 }
+
+    public static class Sh9Shadows
+    {
+        /// <summary>A key light stays key until another is brighter by more than this factor − 1, so that
+        /// two near-equal lamps do not make the shadow jump between them.</summary>
+        public const double KeyHysteresis = 0.1;
+
+        /// <summary>Angular radius (degrees) from which the key light's shadow is Soft: the sun (0.27°) casts
+        /// a penumbra of 2·h·tan r ≈ 1 cm per metre of height, under a shadow-map texel at room scale, so
+        /// Hard; a lamp shade or softbox (several degrees) a visibly blurred one, so Soft.</summary>
+        public const double SoftAboveDeg = 0.5;
+
+        static double Luminance(double[] rgb, int offset)
+        {
+            return 0.2126 * rgb[offset] + 0.7152 * rgb[offset + 1] + 0.0722 * rgb[offset + 2];
+        }
+
+        /// <summary>Index of the key light: the brightest of <paramref name="lights"/> lights (Rec. 709
+        /// luminance of its irradiance, as the provider's webxr export picks its primary light), kept at
+        /// <paramref name="previous"/> while that one is within <see cref="KeyHysteresis"/> of the brightest.
+        /// −1 when there are no lights.</summary>
+        public static int KeyLightIndex(double[] lightIrradiance, int lights, int previous)
+        {
+            if (lightIrradiance == null || lights <= 0 || lightIrradiance.Length < 3 * lights) return -1;
+            int best = 0;
+            double bestY = Luminance(lightIrradiance, 0);
+            for (int i = 1; i < lights; i++)
+            {
+                double y = Luminance(lightIrradiance, 3 * i);
+                if (y > bestY) { best = i; bestY = y; }
+            }
+            if (previous >= 0 && previous < lights &&
+                Luminance(lightIrradiance, 3 * previous) * (1 + KeyHysteresis) >= bestY)
+                return previous;
+            return best;
+        }
+
+        /// <summary>Hard below <see cref="SoftAboveDeg"/>, Soft from there on. Unity's built-in pipeline and
+        /// URP filter soft shadows over a fixed footprint (PCF; URP 14+ lets a light pick Low/Medium/High),
+        /// not over the light's size: this is the one choice the engine leaves to a script at run time.</summary>
+        public static Sh9ShadowType ShadowType(double angularRadiusDeg)
+        {
+            return angularRadiusDeg >= SoftAboveDeg ? Sh9ShadowType.Soft : Sh9ShadowType.Hard;
+        }
+
+        /// <summary>Width (same unit as <paramref name="casterHeight"/>) of the penumbra a disc light of
+        /// angular radius r casts past an edge <paramref name="casterHeight"/> above the receiver: 2·h·tan r.</summary>
+        public static double PenumbraWidth(double angularRadiusDeg, double casterHeight)
+        {
+            if (!(angularRadiusDeg > 0) || !(casterHeight > 0)) return 0;
+            return 2 * casterHeight * Math.Tan(Math.Min(angularRadiusDeg, 89.0) * Math.PI / 180);
+        }
+
+        /// <summary>
+        /// The ratio a shadow catcher multiplies the camera image by (provider/core/lights/shadows.py
+        /// shadow_ratio; SHShadowRatio in sh9_lights.hlsl), per colour, into <paramref name="rgb"/>:
+        /// (E_a(n) + Σ V_k I_k max(0, n·d_k)) / (E_a(n) + Σ I_k max(0, n·d_k)), E_a(n) = max(0, ñᵀAñ);
+        /// 1 where nothing lights the receiver. <paramref name="ambientMatrices"/>: 48 numbers (M_r, M_g, M_b);
+        /// directions (unit, toward each light) and normal in the same frame; <paramref name="visibility"/>:
+        /// k fractions in [0, 1] (null: every light visible).
+        /// </summary>
+        public static void ShadowRatio(double[] ambientMatrices, double[] lightDirections, double[] lightIrradiance,
+                                       int lights, double nx, double ny, double nz, double[] visibility, double[] rgb)
+        {
+            for (int c = 0; c < 3; c++)
+            {
+                double a = Math.Max(Sh9Math.Irradiance(ambientMatrices, c, nx, ny, nz), 0.0), lit = a, open = a;
+                for (int k = 0; k < lights; k++)
+                {
+                    double cos = Math.Max(0.0, nx * lightDirections[3 * k] + ny * lightDirections[3 * k + 1] +
+                                               nz * lightDirections[3 * k + 2]);
+                    double e = lightIrradiance[3 * k + c] * cos;
+                    double v = visibility == null ? 1.0 : Math.Min(1.0, Math.Max(0.0, visibility[k]));
+                    lit += v * e;
+                    open += e;
+                }
+                rgb[c] = open > 0 ? lit / open : 1.0;
+            }
+        }
+    }
+}
