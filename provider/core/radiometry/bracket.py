@@ -38,13 +38,30 @@ from .response import (CameraResponse, ResponseError, _as_lut, _positive_floor, 
 #: that a sample clipped in every frame takes the shortest frame's lower bound (and a black
 #: one the longest frame's value) instead of 0/0.
 END_WEIGHT = 1.0 / 64.0
+#: Weight (times the hat) of a code outside the curve's trusted range: a sample seen there
+#: only (no frame of the bracket has it in the calibrated range) still gets a value, but any
+#: frame that has it inside the range outweighs it 1000 to 1.
+UNTRUSTED_WEIGHT = 1e-3
 
 
-def hat_weights(bits: int = 8) -> np.ndarray:
-    """Debevec's hat ``w(z) = min(z, top − z)`` (0 at black and at clipping), float64."""
+def hat_weights(bits: int = 8, trusted=None) -> np.ndarray:
+    """Debevec's hat ``w(z) = min(z, top − z)`` (0 at black and at clipping), float64.
+
+    ``trusted``: the (lo, hi) 8-bit codes where the curve was calibrated (camera.json's
+    ``params.trusted_codes``); codes outside weigh :data:`UNTRUSTED_WEIGHT` × the hat. Why:
+    a bracket wider than the calibration's puts the extra frames' samples in the toe and
+    the shoulder, where the curve is extrapolated; with the plain hat their weight (code 30
+    weighs 30) moved a room's level by up to 5.5 % between a ±4 and a ±6 EV bracket of one
+    simulated camera (docs/photometry.md)."""
     top = _top(bits)
     z = np.arange(top + 1, dtype=np.float64)
-    return np.minimum(z, top - z)
+    w = np.minimum(z, top - z)
+    if trusted is not None:
+        lo, hi = (int(v) for v in trusted)
+        if bits == 16:
+            lo, hi = lo * 257, hi * 257
+        w[(z < lo) | (z > hi)] *= UNTRUSTED_WEIGHT
+    return w
 
 
 @dataclass
@@ -65,7 +82,7 @@ class Merged:
 
 def _slot_tables(response: CameraResponse, times: np.ndarray, gain: float):
     """Per frame: (numerator table w·g/(t·gain), weight table w) for the hat merge."""
-    w0 = hat_weights(response.bits)
+    w0 = hat_weights(response.bits, response.params.get("trusted_codes"))
     top = _top(response.bits)
     short, long_ = int(np.argmin(times)), int(np.argmax(times))
     out = []
@@ -96,7 +113,8 @@ def merge(frames, times, response: CameraResponse, *, gain: float = 1.0) -> Merg
     """Hat-weighted merge of a bracket into radiance per second of exposure.
 
     ``R = Σ_i w(z_i) g(z_i)/(t_i·gain) / Σ_i w(z_i)`` per channel sample, ``w`` the hat
-    (:func:`hat_weights`): a sample clipped or black in one frame gets weight 0 there and
+    (:func:`hat_weights`, near 0 outside a calibrated curve's trusted codes, so a bracket's
+    span does not move the scale): a sample clipped or black in one frame gets weight 0 there and
     is taken from the others; a sample clipped in every frame gets the shortest frame's
     clip level (``END_WEIGHT``), a lower bound. 8-bit frames go through cv2.LUT, 16-bit
     through numpy gathers.
@@ -276,18 +294,23 @@ def match_slot(slot_exposures, exposure: float) -> int | None:
 
 # -- projecting brackets -----------------------------------------------------------------------
 
-def project_bracket(projector, frames, times, *, gain: float = 1.0):
+def project_bracket(projector, frames, times, *, gain: float = 1.0,
+                    f_number: float | None = None):
     """``shlight compute FRAME@T FRAME@T ...``: the exact hat merge (:func:`merge`) with the
     projector's camera response (sRGB without one), projected; ``stats`` say ``radiometry:
     "merged"``, the exposures, and what clipped in every frame (``clipped_fraction``) and
-    the share of the light it carries (``clipped_light_fraction``, a lower bound)."""
+    the share of the light it carries (``clipped_light_fraction``, a lower bound). With an
+    absolutely calibrated curve (gain = ISO/100, ``f_number`` or the calibration's) the
+    result is in cd/m² (:mod:`.photometry`)."""
     t0 = time.perf_counter()
     frames, times, bits = check_bracket(frames, times)
     response = (projector.response or CameraResponse.srgb()).to_bits(bits)
     m = merge(frames, times, response, gain=gain)
-    result = projector.project(m.radiance)
-    short = float(times.min()) * check_time(gain, "gain")
-    stats = {"clipped_fraction": m.clipped_fraction, "exposures_s": m.times}
+    stats = {}
+    factor = projector.absolute_scale(1.0, f_number, stats)
+    result = projector.project(m.radiance * np.float32(factor) if factor != 1.0 else m.radiance)
+    short = float(times.min()) * check_time(gain, "gain") / factor
+    stats.update({"clipped_fraction": m.clipped_fraction, "exposures_s": m.times})
     if gain != 1.0:
         stats["gain"] = float(gain)
     clipped = projector.clipping(np.minimum.reduce(frames), response.lut(short), {})

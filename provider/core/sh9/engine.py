@@ -37,6 +37,8 @@ from ..lights.extractor import LightExtractor, LinearView
 from ..lights.analysis import model_irradiance
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
+from ..radiometry.photometry import (UNITS_ABSOLUTE, UNITS_RELATIVE, absolute_calibration,
+                                     absolute_factor)
 from ..options import check_lighting, check_options, exposure_scale, freeze_options
 from ..radiometry.float_clean import FloatCleaner
 from ..radiometry.decode import FrameDecoder, image_array, srgb_to_linear  # noqa: F401
@@ -297,7 +299,7 @@ class SH9Projector(FrameDecoder):
     @one_blas_thread
     def project(self, frame: np.ndarray, error_estimate: bool | None = None,
                 tracker=None, *, exposure_s: float | None = None,
-                gain: float = 1.0, work=None) -> SH9Result:
+                gain: float = 1.0, f_number: float | None = None, work=None) -> SH9Result:
         """Coefficients, matrices and statistics of one frame (``error_estimate``: whether
         to estimate SH9's error on this frame; None: as the projector was built).
 
@@ -314,6 +316,9 @@ class SH9Projector(FrameDecoder):
         ``exposure_s`` and ``gain`` (when the source reports them): the coefficients are
         divided by ``exposure_s · gain``, radiance per second of exposure (docs/contract.md §9),
         so that auto exposure does not make the lighting jump; the table is not rebuilt.
+        With a curve that has an absolute scale (camera.json ``params.absolute``, gain =
+        ISO/100) they are also multiplied by C·N² (``f_number``, or the calibration's):
+        cd/m², ``stats["coefficient_units"]`` (:mod:`~provider.core.radiometry.photometry`).
 
         ``stats`` keys: ``compute_ms``, ``clipped_fraction`` (fraction of channel samples at
         the top code value of an integer frame), ``clipped_light_fraction`` (the share of
@@ -335,6 +340,7 @@ class SH9Projector(FrameDecoder):
         stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
         frame = self._prepare(frame)
         k = exposure_scale(exposure_s, gain, stats)
+        k = self.absolute_scale(k, f_number, stats)
         coeffs, small, light_input, clipped = self._project_frame(frame, stats, work=work)
         if k is not None:
             coeffs, clipped = coeffs * k, clipped * k
@@ -350,6 +356,17 @@ class SH9Projector(FrameDecoder):
             result.stats["error_estimate"] = self._estimate_error(small, result.stats["order"])
         result.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
         return result
+
+    def absolute_scale(self, k: float | None, f_number: float | None, stats: dict):
+        """``k`` (1/(t·gain), or None) times the curve's C·N² when it has an absolute scale,
+        with ``coefficient_units`` ("cd/m²" or "relative") and ``f_number`` in ``stats``."""
+        stats["coefficient_units"] = UNITS_RELATIVE
+        factor = absolute_factor(self.response, f_number) if k is not None else None
+        if factor is None:
+            return k
+        stats["coefficient_units"] = UNITS_ABSOLUTE
+        stats["f_number"] = float(f_number or absolute_calibration(self.response)["f_number"])
+        return k * factor
 
     # -- building blocks of brackets (provider.core.radiometry.bracket) ----------------------------------
     def project_part(self, frame: np.ndarray, table: np.ndarray):

@@ -31,6 +31,8 @@ from importlib import resources
 
 import numpy as np
 
+from ...core.radiometry.photometry import UNITS_ABSOLUTE, photometric_fields
+
 
 SCHEMA_VERSION = 1
 FRAME = "rh-y-up"
@@ -39,7 +41,7 @@ UNITS = "input-linear"
 
 _STAT_NUMBERS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
                  "coverage_sr", "negative_energy_fraction", "light_error", "sh9_error",
-                 "clipped_light_fraction", "exposure_s", "gain")
+                 "clipped_light_fraction", "exposure_s", "gain", "f_number", "iso")
 _STAT_INTS = ("negative_pixels", "nonfinite_pixels", "order", "light_candidates")
 #: What the numbers are (docs/contract.md §9): "srgb-assumed", "calibrated", "merged" or "linear";
 #: the camera curve's method; the exposure times of a merged set.
@@ -101,6 +103,10 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
         msg["min_irradiance"] = [float(v) for v in stats["min_irradiance"]]
     if "ringing" in stats:
         msg["ringing"] = bool(stats["ringing"])
+    # Photometry (docs/contract.md "Photometric units"): coefficient_units always; lux, EV100
+    # and each light's lux only when the coefficients are absolute (cd/m²).
+    msg.update(photometric_fields(coeffs, mats, result.lights,
+                                  stats.get("coefficient_units") == UNITS_ABSOLUTE))
     # JsonUtility has no null: 0 means "no window applied".
     msg["window_cutoff"] = float(stats.get("window_cutoff") or 0.0)
     for k, v in extra.items():

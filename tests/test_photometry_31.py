@@ -1,0 +1,247 @@
+"""Issue 31: absolute units from a still's own exposure (EXIF), ``calibrate-response --lux``,
+``illuminance_lux`` / ``ev100`` / ``coefficient_units`` in the message, and a bracket's span
+that no longer moves the scale. Frames come from the simulated filmic camera
+(provider/bench/camera_sim.py) written by Pillow with real EXIF, read by the real command."""
+from __future__ import annotations
+
+import json
+import struct
+import subprocess
+import sys
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from PIL import Image
+from PIL.TiffImagePlugin import IFDRational, ImageFileDirectory_v2
+
+from provider.bench.camera_sim import CameraSim
+from provider.core.radiometry.bracket import merge
+from provider.core.radiometry.exif import exposure_from_tiff, read_still_exposure
+from provider.core.radiometry.photometry import (LUMINANCE_WEIGHTS, NOMINAL_CD_M2, ev100,
+                                                 illuminance_up, luminance)
+from provider.core.radiometry.response_fit import calibrate_best
+from provider.core.sh9.engine import SH9Projector
+from provider.live.wire.message import coefficient_message, validate
+
+from conftest import load_hdri
+
+NOISY = dict(shot=5e-5, read=2e-4)
+#: The simulated camera's own constant: X = k · L · t · (S/100) / N² (an ideal ISO 12232
+#: camera has k = 1 / NOMINAL_CD_M2 ≈ 1.17; this one is 30 % more sensitive).
+CAMERA_K = 1.3 / NOMINAL_CD_M2
+#: Mean luminance (cd/m²) each scene is scaled to: an indoor room, a bright overcast day.
+ROOM_CD_M2 = 60.0
+
+
+def shlight(*args, timeout=300):
+    return subprocess.run([sys.executable, "-m", "provider.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def rational(v: float) -> IFDRational:
+    f = Fraction(v).limit_denominator(1_000_000)
+    return IFDRational(f.numerator, f.denominator)
+
+
+def save_still(path, rgb: np.ndarray, t: float, n: float, iso: float) -> None:
+    """An 8-bit still with EXIF ExposureTime, FNumber and ISO as a camera writes them
+    (JPEG: the Exif IFD; TIFF: Pillow puts the tags in IFD0, which readers accept too)."""
+    img = Image.fromarray(np.ascontiguousarray(rgb))
+    if str(path).endswith(".jpg"):
+        exif = Image.Exif()
+        ifd = exif.get_ifd(0x8769)
+        ifd[0x829A], ifd[0x829D], ifd[0x8827] = rational(t), rational(n), int(iso)
+        img.save(path, exif=exif, quality=95)
+    else:
+        info = ImageFileDirectory_v2()
+        info[0x829A], info[0x829D], info[0x8827] = rational(t), rational(n), int(iso)
+        img.save(path, tiffinfo=info)
+
+
+def exact_illuminance_up(hdr: np.ndarray) -> float:
+    """Rec. 709 luminance of the exact irradiance on an up-facing surface of an equirect
+    radiance map: Σ L Δφ ∫ max(cos θ, 0) sin θ dθ per row (the truth a lux meter reads)."""
+    h, w = hdr.shape[:2]
+    edges = np.linspace(0, np.pi, h + 1)
+    s2 = np.sin(np.minimum(edges, np.pi / 2)) ** 2
+    row = 0.5 * (s2[1:] - s2[:-1]) * (2 * np.pi / w)
+    return float(luminance((hdr * row[:, None, None]).sum(axis=(0, 1))))
+
+
+def exact_mean_luminance(hdr: np.ndarray) -> float:
+    """Mean luminance over the sphere (solid-angle weighted) of an equirect radiance map."""
+    h = hdr.shape[0]
+    edges = np.linspace(0, np.pi, h + 1)
+    row = np.cos(edges[:-1]) - np.cos(edges[1:])
+    return float(luminance((hdr.mean(axis=1) * row[:, None]).sum(axis=0) / row.sum()))
+
+
+def scene(name: str) -> np.ndarray:
+    """The panorama scaled to a room's mean luminance (cd/m²)."""
+    hdr = np.maximum(load_hdri(name), 0).astype(np.float64)
+    return hdr * (ROOM_CD_M2 / float(luminance(hdr.reshape(-1, 3)).mean()))
+
+
+def write_bracket(folder, name, hdr, evs, n, iso, ext="tif", seed=0):
+    """A bracket around a metered exposure (mean luminance → mid-grey, K = 12.5) at f/n
+    and ISO iso: paths of stills whose EXIF carries the exposure (no @SECONDS)."""
+    cam = CameraSim(gain=CAMERA_K * (iso / 100.0) / n ** 2, seed=seed, **NOISY)
+    t0 = 12.5 * n ** 2 / (float(luminance(hdr.reshape(-1, 3)).mean()) * iso)
+    frames, times = cam.bracket(hdr, t0, evs)
+    paths = []
+    for ev, f, t in zip(evs, frames, times):
+        path = folder / f"{name}_{ev:+g}.{ext}"
+        save_still(path, f, t, n, iso)
+        paths.append(path)
+    return paths
+
+
+def message(p):
+    assert p.returncode == 0, p.stderr
+    msg = json.loads(p.stdout)
+    validate(msg)
+    return msg
+
+
+# -- EXIF --------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("ext", ["jpg", "tif"])
+def test_exif_exposure_of_a_still(tmp_path, ext):
+    rgb = np.full((8, 16, 3), 100, np.uint8)
+    path = tmp_path / f"still.{ext}"
+    save_still(path, rgb, 1 / 250, 5.6, 400)
+    e = read_still_exposure(path)
+    assert e.complete
+    assert e.exposure_s == pytest.approx(1 / 250) and e.f_number == pytest.approx(5.6)
+    assert e.iso == 400
+
+
+def test_exif_big_endian_iso_above_65534_and_malformed():
+    # a hand-built big-endian TIFF: IFD0 -> Exif IFD with ExposureTime, FNumber, ISO 65535 and
+    # RecommendedExposureIndex 102400 (EXIF 2.3: the ISO is above 65534)
+    entries = [(0x829A, 5, 1, 1, 8000), (0x829D, 5, 1, 28, 10), (0x8827, 3, 1, 65535, None),
+               (0x8832, 4, 1, 102400, None)]
+    exif_at = 8 + 2 + 12 + 4
+    data_at = exif_at + 2 + 12 * len(entries) + 4
+    ifd0 = struct.pack(">H", 1) + struct.pack(">HHII", 0x8769, 4, 1, exif_at) + b"\0" * 4
+    body, extra = struct.pack(">H", len(entries)), b""
+    for tag, kind, count, a, b in entries:
+        if kind == 5:
+            body += struct.pack(">HHII", tag, kind, count, data_at + len(extra))
+            extra += struct.pack(">II", a, b)
+        elif kind == 3:
+            body += struct.pack(">HHIHH", tag, kind, count, a, 0)
+        else:
+            body += struct.pack(">HHII", tag, kind, count, a)
+    data = b"MM\0*" + struct.pack(">I", 8) + ifd0 + body + b"\0" * 4 + extra
+    e = exposure_from_tiff(data)
+    assert e.exposure_s == pytest.approx(1 / 8000) and e.f_number == pytest.approx(2.8)
+    assert e.iso == 102400
+    for broken in (b"", b"MM\0*\xff\xff\xff\xff", data[:30], b"II*\0" + data[4:]):
+        assert not exposure_from_tiff(broken).complete
+
+
+def test_a_still_without_exif_says_nothing(tmp_path):
+    import cv2
+    path = tmp_path / "plain.jpg"
+    cv2.imwrite(str(path), np.zeros((4, 8, 3), np.uint8))
+    assert read_still_exposure(path).exposure_s is None
+    assert read_still_exposure(tmp_path / "missing.jpg").exposure_s is None
+
+
+# -- the relation and the message --------------------------------------------------------------
+
+def test_ev100_of_a_metered_scene_is_the_cameras_own_setting():
+    # a reflected-light meter puts N²/t = L·S/K: f/4, 1/125 s at ISO 100 is EV100 11 and
+    # the scene that meters so has L = 2**11 · 12.5 / 100 cd/m²
+    assert ev100(2 ** 11 * 12.5 / 100) == pytest.approx(11.0)
+    assert ev100(0.0) is None
+    assert LUMINANCE_WEIGHTS.sum() == pytest.approx(1.0)
+
+
+def test_relative_units_without_calibration_and_no_lux():
+    hdr = np.ones((32, 64, 3), np.float32)
+    result = SH9Projector(64, 32, "equirect").project(hdr)
+    msg = coefficient_message(result)
+    validate(msg)
+    assert msg["coefficient_units"] == "relative"
+    assert "illuminance_lux" not in msg and "ev100" not in msg
+    # a uniform sky of radiance 1 lights an up-facing surface with π (the furnace test)
+    assert illuminance_up(result.matrices) == pytest.approx(np.pi, rel=2e-3)
+
+
+# -- absolute calibration and held-out brackets --------------------------------------------------
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    """camera.json from a ±4 EV bracket of the apartment at f/2, ISO 100 and a lux meter."""
+    folder = tmp_path_factory.mktemp("abs")
+    hdr = scene("apartment")
+    paths = write_bracket(folder, "cal", hdr, (-4, -2, 0, 2, 4), n=2.0, iso=100)
+    lux = exact_illuminance_up(hdr)
+    p = shlight("calibrate-response", *paths, "--lux", lux, "-o", folder / "camera.json")
+    assert p.returncode == 0, p.stderr
+    return folder, p
+
+
+def test_calibrate_response_stores_the_absolute_scale(calibrated):
+    folder, p = calibrated
+    a = json.loads((folder / "camera.json").read_text())["params"]["absolute"]
+    assert a["f_number"] == 2.0 and a["iso"] == 100
+    assert "absolute scale" in p.stdout
+    # the simulated camera is 1.3× more sensitive than ISO 12232's nominal one
+    assert a["vs_iso12232"] == pytest.approx(1 / 1.3, rel=0.08)
+
+
+@pytest.mark.parametrize("name,n,iso", [("forest", 5.6, 400), ("city", 2.8, 800)])
+def test_held_out_bracket_gives_lux_from_exif_alone(calibrated, tmp_path, name, n, iso):
+    folder, _ = calibrated
+    hdr = scene(name)
+    paths = write_bracket(tmp_path, name, hdr, (-6, -4, -2, 0, 2, 4), n=n, iso=iso, seed=3)
+    msg = message(shlight("compute", *paths, "--camera", folder / "camera.json"))
+    assert msg["coefficient_units"] == "cd/m²" and msg["f_number"] == pytest.approx(n)
+    truth = exact_illuminance_up(hdr)
+    assert msg["illuminance_lux"] == pytest.approx(truth, rel=0.05), (msg["illuminance_lux"],
+                                                                       truth)
+    # EV100 of the scene's mean luminance over the sphere (reflected-light meter, K = 12.5)
+    assert msg["ev100"] == pytest.approx(np.log2(exact_mean_luminance(hdr) * 100 / 12.5),
+                                         abs=0.1)
+
+
+def test_one_still_with_exif_is_absolute_too(calibrated, tmp_path):
+    folder, _ = calibrated
+    hdr = scene("forest")
+    (path,) = write_bracket(tmp_path, "one", hdr, (0,), n=4.0, iso=200, ext="jpg")
+    msg = message(shlight("compute", path, "--camera", folder / "camera.json"))
+    assert msg["coefficient_units"] == "cd/m²" and msg["iso"] == 200
+    assert msg["exposure_s"] > 0 and msg["illuminance_lux"] > 0
+    plain = message(shlight("compute", path))
+    assert plain["coefficient_units"] == "relative" and "illuminance_lux" not in plain
+
+
+def test_bad_lux_is_one_line(tmp_path):
+    p = shlight("calibrate-response", "a.png@1", "b.png@2", "c.png@4", "--lux", "-3",
+                "-o", tmp_path / "c.json")
+    assert p.returncode == 2 and "--lux must be a positive" in p.stderr
+    assert "Traceback" not in p.stderr
+
+
+# -- a bracket's span ------------------------------------------------------------------------------
+
+def test_a_wider_bracket_does_not_move_the_scale():
+    """Calibrated on ±4 EV; the ±6 EV bracket's extra frames put samples in the toe the
+    calibration never explained (trusted codes from ~45): they must not move the level.
+    Before the trusted-range weights the green L00 moved by 2.3 % here."""
+    cam = CameraSim(clip_stops=(2.5, 2.45, 2.55), shot=2e-4, read=2e-3)
+    hdr = np.maximum(load_hdri("apartment"), 0)
+    t0 = 0.18 / float(np.median(hdr.mean(axis=-1)))
+    frames, times = cam.bracket(hdr, t0, (-4, -2, 0, 2, 4))
+    response = calibrate_best(frames, times)
+    assert response.params["trusted_codes"][0] > 16
+    projector = SH9Projector(hdr.shape[1], hdr.shape[0], "equirect")
+    levels = []
+    for evs in ((-4, -2, 0, 2, 4), (-6, -4, -2, 0, 2, 4, 6)):
+        f2, t2 = cam.bracket(hdr, t0, evs, seed=1)
+        levels.append(projector.project(merge(f2, t2, response).radiance).coefficients[0])
+    assert np.max(np.abs(levels[1] / levels[0] - 1)) < 0.01, levels
