@@ -31,6 +31,7 @@ from importlib import resources
 
 import numpy as np
 
+from ...core.radiometry.colour_temperature import colour_fields
 from ...core.radiometry.photometry import UNITS_ABSOLUTE, photometric_fields
 
 
@@ -107,6 +108,8 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
     # and each light's lux only when the coefficients are absolute (cd/m²).
     msg.update(photometric_fields(coeffs, mats, result.lights,
                                   stats.get("coefficient_units") == UNITS_ABSOLUTE))
+    # Colour (docs/contract.md "Photometric units"): CCT and Duv of L00 and of each light.
+    msg.update(colour_fields(coeffs, result.lights))
     # JsonUtility has no null: 0 means "no window applied".
     msg["window_cutoff"] = float(stats.get("window_cutoff") or 0.0)
     for k, v in extra.items():
