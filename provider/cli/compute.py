@@ -75,59 +75,23 @@ def wire_message(args, command: str = "compute") -> dict:
         say(command, "note", "the camera has an absolute scale but the frame's exposure time "
                              "is unknown (no @SECONDS, no EXIF ExposureTime): units stay "
                              "relative")
-    extra = {}
     if getattr(args, "lux", None) is not None:
-        result, extra = meter_closed(projector, images, times, gain, f_number, result,
-                                     args.lux, command)
+        result = meter_closed(projector, images, times, gain, f_number, result, args.lux,
+                              command)
     if not result.coefficients[0].any():      # L00 = 0: not one pixel seen is above 0
         say(command, "warning", f"the frame{'s are' if several else ' is'} all zeros where "
                                 "the projection looks: no light, the lighting is black (a "
                                 "lens cap, a black render, the wrong file?)")
     return coefficient_message(result, probe=args.probe, seq=0,
-                               time=os.path.getmtime(paths[0]), projection=args.projection,
-                               **extra)
+                               time=os.path.getmtime(paths[0]), projection=args.projection)
 
 
 def meter_closed(projector, images, times, gain, f_number, result, lux, command):
-    """``--lux``: (the result with the meter's missing light in the clipped blob, the
-    message's meter fields) (:mod:`provider.core.sh9.meter`)."""
-    import math
-
-    import numpy as np
-
-    from ..core.errors import InputError
-    from ..core.geometry.projections import Equirect
-    from ..core.radiometry.bracket import merge
-    from ..core.radiometry.photometry import absolute_factor
-    from ..core.sh9.meter import close_clipped, closure_fields, up_weights
+    """``--lux``: the result with the meter's missing light in the clipped blob
+    (:func:`provider.core.sh9.meter.project_with_meter`), what it closed said on stderr."""
+    from ..core.sh9.meter import project_with_meter
     from .feedback import say
-    if not (math.isfinite(lux) and lux > 0):
-        raise InputError(f"--lux must be a positive number of lux, got {lux:g}")
-    if result.stats.get("coefficient_units") != "cd/m²":
-        raise InputError("--lux needs the frame in absolute units: a --camera calibrated with "
-                         "calibrate-response --lux, and the frame's exposure (EXIF or "
-                         "@SECONDS); without them the clipped light stays a lower bound "
-                         "(clipped_light_fraction)")
-    if images[0].dtype not in (np.uint8, np.uint16):
-        raise InputError("--lux closes what an 8/16-bit frame clipped; this frame is float")
-    bits = 8 if images[0].dtype == np.uint8 else 16
-    response = projector.response.to_bits(bits)
-    factor = np.float32(absolute_factor(response, f_number))
-    if len(images) > 1:
-        radiance = merge(images, times, response, gain=gain).radiance * factor
-    else:
-        radiance = response.linearise(images[0], times[0], gain) * factor
-    clipped = (np.minimum.reduce(images) == (1 << bits) - 1).any(axis=2)
-    height, width = images[0].shape[:2]
-    if isinstance(projector.projection, Equirect) and projector.rotation is None:
-        projection = Equirect(width, height)
-    elif projector.projection.shape == (height, width):
-        projection = projector.projection
-    else:
-        raise InputError("--lux with --downsample needs an equirect frame (or leave "
-                         "--downsample out)")
-    closed, closure = close_clipped(radiance, clipped,
-                                    up_weights(projection, projector.rotation), lux)
+    new, closure = project_with_meter(projector, images, times, gain, f_number, result, lux)
     if closure.note:
         say(command, "note", closure.note)
     else:
@@ -135,12 +99,7 @@ def meter_closed(projector, images, times, gain, f_number, result, lux, command)
         say(command, "note", f"the meter closed {closure.closed_lux:.4g} of its {lux:.4g} lux "
                              f"({closure.closed_lux / lux:.0%}) in the clipped region toward "
                              f"({d}), {closure.solid_angle_sr:.3g} sr")
-    new = projector.project(closed)
-    for key in ("clipped_fraction", "clipped_light_fraction", "exposure_s", "gain",
-                "f_number", "iso", "radiometry", "response", "exposures_s", "coefficient_units"):
-        if key in result.stats:
-            new.stats[key] = result.stats[key]
-    return new, closure_fields(closure)
+    return new
 
 
 def exposure_of(exposures):

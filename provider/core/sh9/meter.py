@@ -105,6 +105,55 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
     return out, closure
 
 
+def project_with_meter(projector, frames, times, gain, f_number, result, lux: float,
+                       tracker=None):
+    """(the frame(s) projected again with the meter's missing light in the clipped blob,
+    :class:`MeterClosure`); ``result``: the same frame(s) already projected in absolute
+    units (its radiometry statistics are kept, the meter's fields added: :func:`closure_fields`).
+    One frame or a bracket (merged with the hat weights). Raises InputError when the frames
+    are not in absolute units, float, or the projection cannot say its pixels' directions."""
+    import math
+
+    from ..errors import InputError
+    from ..radiometry.bracket import merge
+    from ..radiometry.photometry import UNITS_ABSOLUTE, absolute_factor
+    if not (isinstance(lux, (int, float)) and math.isfinite(lux) and lux > 0):
+        raise InputError(f"a lux meter's reading must be a positive number of lux, got {lux!r}")
+    if result.stats.get("coefficient_units") != UNITS_ABSOLUTE:
+        raise InputError("--lux needs the frame in absolute units: a --camera calibrated with "
+                         "calibrate-response --lux, and the frame's exposure (EXIF or "
+                         "@SECONDS); without them the clipped light stays a lower bound "
+                         "(clipped_light_fraction)")
+    frames = list(frames)
+    if frames[0].dtype not in (np.uint8, np.uint16):
+        raise InputError("--lux closes what an 8/16-bit frame clipped; this frame is float")
+    bits = 8 if frames[0].dtype == np.uint8 else 16
+    response = projector.response.to_bits(bits)
+    factor = np.float32(absolute_factor(response, f_number))
+    if len(frames) > 1:
+        radiance = merge(frames, times, response, gain=gain).radiance * factor
+    else:
+        radiance = response.linearise(frames[0], times[0], gain) * factor
+    clipped = (np.minimum.reduce(frames) == (1 << bits) - 1).any(axis=2)
+    height, width = frames[0].shape[:2]
+    if isinstance(projector.projection, Equirect) and projector.rotation is None:
+        projection = Equirect(width, height)
+    elif projector.projection.shape == (height, width):
+        projection = projector.projection
+    else:
+        raise InputError("--lux with --downsample needs an equirect frame (or leave "
+                         "--downsample out)")
+    closed, closure = close_clipped(radiance, clipped,
+                                    up_weights(projection, projector.rotation), lux)
+    new = projector.project(closed, tracker=tracker)
+    for key in ("clipped_fraction", "clipped_light_fraction", "exposure_s", "gain",
+                "f_number", "iso", "radiometry", "response", "exposures_s", "coefficient_units"):
+        if key in result.stats:
+            new.stats[key] = result.stats[key]
+    new.stats.update(closure_fields(closure))
+    return new, closure
+
+
 def closure_fields(closure: MeterClosure) -> dict:
     """The message's meter fields (flat numbers): ``meter_lux``, ``meter_camera_lux``,
     ``meter_closed_lux``, ``meter_direction`` (3), ``meter_solid_angle_sr``."""

@@ -42,12 +42,13 @@ UNITS = "input-linear"
 
 _STAT_NUMBERS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
                  "coverage_sr", "negative_energy_fraction", "light_error", "sh9_error",
-                 "clipped_light_fraction", "exposure_s", "gain", "f_number", "iso")
+                 "clipped_light_fraction", "exposure_s", "gain", "f_number", "iso",
+                 "meter_lux", "meter_camera_lux", "meter_closed_lux", "meter_solid_angle_sr")
 _STAT_INTS = ("negative_pixels", "nonfinite_pixels", "order", "light_candidates")
 #: What the numbers are (docs/contract.md §9): "srgb-assumed", "calibrated", "merged" or "linear";
 #: the camera curve's method; the exposure times of a merged set.
 _STAT_STRINGS = ("radiometry", "response")
-_STAT_LISTS = ("exposures_s",)
+_STAT_LISTS = ("exposures_s", "meter_direction")
 
 
 def _finite(x: float) -> float:
