@@ -245,3 +245,18 @@ def test_a_wider_bracket_does_not_move_the_scale():
         f2, t2 = cam.bracket(hdr, t0, evs, seed=1)
         levels.append(projector.project(merge(f2, t2, response).radiance).coefficients[0])
     assert np.max(np.abs(levels[1] / levels[0] - 1)) < 0.01, levels
+
+
+def test_exact_up_illuminance_of_the_engine():
+    """The engine's up-facing illuminance sums the pixels (SH9 would truncate it): a sky of
+    1 cd/m² over a black ground gives π lux; the camera mounted upside down sees it below."""
+    h, w = 64, 128
+    sky = np.zeros((h, w, 3), np.float32)
+    sky[: h // 2] = 1.0
+    assert SH9Projector(w, h, "equirect").up_illuminance(sky) == pytest.approx(np.pi, rel=1e-4)
+    flip = np.diag([1.0, -1.0, -1.0])                  # 180° about X: the sky goes below
+    assert SH9Projector(w, h, "equirect", rotation=flip).up_illuminance(sky) < 0.01
+    # a fisheye looking up sees the upper hemisphere: π within its pixel quadrature
+    fish = np.ones((128, 128, 3), np.float32)
+    lux = SH9Projector(128, 128, "fisheye").up_illuminance(fish)
+    assert lux == pytest.approx(np.pi, rel=0.02)

@@ -87,10 +87,11 @@ def run(args) -> int:
 
 def absolute_scale(response, images, times, lux, f_number, iso, projection) -> dict:
     """camera.json ``params.absolute``: the bracket merged with its own curve (gain =
-    ISO/100), its up-facing illuminance from SH9, against the lux meter's reading."""
+    ISO/100), its exact up-facing illuminance (over the pixels), against the lux meter's
+    reading."""
     from ..core.errors import InputError
-    from ..core.radiometry.bracket import project_bracket
-    from ..core.radiometry.photometry import calibrate_absolute, illuminance_up
+    from ..core.radiometry.bracket import merge
+    from ..core.radiometry.photometry import calibrate_absolute
     from ..core.sh9.engine import SH9Projector
     if not f_number or not iso:
         raise InputError("--lux needs the bracket's f-number and ISO: the frames' EXIF does "
@@ -98,9 +99,9 @@ def absolute_scale(response, images, times, lux, f_number, iso, projection) -> d
                                                                   ("ISO", iso)) if not v)
                          + " (give --f-number N and --iso S)")
     height, width = images[0].shape[:2]
-    projector = SH9Projector(width, height, projection, response=response)
-    result = project_bracket(projector, images, times, gain=iso / 100.0)
-    return calibrate_absolute(illuminance_up(result.matrices), lux, f_number, iso)
+    projector = SH9Projector(width, height, projection)
+    radiance = merge(images, times, response, gain=iso / 100.0).radiance
+    return calibrate_absolute(projector.up_illuminance(radiance), lux, f_number, iso)
 
 
 def absolute_lines(response) -> list[str]:

@@ -308,7 +308,12 @@ def project_bracket(projector, frames, times, *, gain: float = 1.0,
     m = merge(frames, times, response, gain=gain)
     stats = {}
     factor = projector.absolute_scale(1.0, f_number, stats)
-    result = projector.project(m.radiance * np.float32(factor) if factor != 1.0 else m.radiance)
+    radiance = m.radiance * np.float32(factor) if factor != 1.0 else m.radiance
+    result = projector.project(radiance)
+    if stats.pop("absolute_factor", None) is not None:
+        lux = projector.up_illuminance(radiance)
+        if lux is not None:
+            stats["illuminance_lux"] = lux
     short = float(times.min()) * check_time(gain, "gain") / factor
     stats.update({"clipped_fraction": m.clipped_fraction, "exposures_s": m.times})
     if gain != 1.0:

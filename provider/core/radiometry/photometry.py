@@ -134,13 +134,16 @@ def calibrate_absolute(illuminance_relative: float, lux: float, f_number: float,
             "relation": "L [cd/m²] = cd_m2 · N² · g(z) / (t · ISO/100)"}
 
 
-def photometric_fields(coefficients, matrices, lights=(), absolute: bool = False) -> dict:
+def photometric_fields(coefficients, matrices, lights=(), absolute: bool = False,
+                       exact_lux: float | None = None) -> dict:
     """The message's photometric fields: ``coefficient_units``, and when ``absolute``
-    ``illuminance_lux`` (up-facing), ``ev100`` and ``light_illuminance_lux`` (k numbers:
-    each light's illuminance on a surface facing it)."""
+    ``illuminance_lux`` (up-facing: ``exact_lux``, the engine's sum over the pixels, where
+    it has one, else from the SH9 matrices), ``ev100`` and ``light_illuminance_lux`` (k
+    numbers: each light's illuminance on a surface facing it)."""
     out = {"coefficient_units": UNITS_ABSOLUTE if absolute else UNITS_RELATIVE}
     if absolute:
-        out["illuminance_lux"] = illuminance_up(matrices)
+        out["illuminance_lux"] = (float(exact_lux) if exact_lux is not None
+                                  and math.isfinite(exact_lux) else illuminance_up(matrices))
         ev = ev100(mean_luminance(coefficients))
         if ev is not None:
             out["ev100"] = ev

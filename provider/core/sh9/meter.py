@@ -50,20 +50,22 @@ def up_weights(projection, rotation=None) -> tuple[np.ndarray, np.ndarray, np.nd
     """Per pixel: ``∫ max(d·up, 0) dω`` (sr, the meter's cosine), the solid angle (sr) and
     the world direction (H, W, 3). Equirect without rotation: exact per row
     (Δφ·½(sin²θ_b − sin²θ_t) over the upper hemisphere); otherwise the pixel centre's
-    cosine times the projection's solid angle."""
-    if isinstance(projection, Equirect) and rotation is None:
+    cosine times the pixel's solid angle (equirect: exact per row; others: the
+    projection's)."""
+    directions = projection.directions()
+    if isinstance(projection, Equirect):
         h, w = projection.height, projection.width
         edges = np.linspace(0.0, np.pi, h + 1)
-        s2 = np.sin(np.minimum(edges, np.pi / 2)) ** 2
-        cos_row = 0.5 * (s2[1:] - s2[:-1]) * (2 * np.pi / w)
-        omega_row = (np.cos(edges[:-1]) - np.cos(edges[1:])) * (2 * np.pi / w)
-        directions = projection.directions()
-        return (np.broadcast_to(cos_row[:, None], (h, w)),
-                np.broadcast_to(omega_row[:, None], (h, w)), directions)
-    directions = projection.directions()
+        omega = np.broadcast_to(((np.cos(edges[:-1]) - np.cos(edges[1:])) * (2 * np.pi / w))
+                                [:, None], (h, w))
+        if rotation is None:
+            s2 = np.sin(np.minimum(edges, np.pi / 2)) ** 2
+            cos_row = 0.5 * (s2[1:] - s2[:-1]) * (2 * np.pi / w)
+            return np.broadcast_to(cos_row[:, None], (h, w)), omega, directions
+    else:
+        omega = projection.solid_angle
     if rotation is not None:
         directions = directions @ np.asarray(rotation, np.float64).T
-    omega = projection.solid_angle
     return np.maximum(directions @ UP, 0.0) * omega, omega, directions
 
 
@@ -151,6 +153,9 @@ def project_with_meter(projector, frames, times, gain, f_number, result, lux: fl
         if key in result.stats:
             new.stats[key] = result.stats[key]
     new.stats.update(closure_fields(closure))
+    lux_up = projector.up_illuminance(closed)
+    if lux_up is not None:
+        new.stats["illuminance_lux"] = lux_up
     return new, closure
 
 

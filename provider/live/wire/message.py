@@ -108,7 +108,8 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
     # Photometry (docs/contract.md "Photometric units"): coefficient_units always; lux, EV100
     # and each light's lux only when the coefficients are absolute (cd/m²).
     msg.update(photometric_fields(coeffs, mats, result.lights,
-                                  stats.get("coefficient_units") == UNITS_ABSOLUTE))
+                                  stats.get("coefficient_units") == UNITS_ABSOLUTE,
+                                  stats.get("illuminance_lux")))
     # Colour (docs/contract.md "Photometric units"): CCT and Duv of L00 and of each light.
     msg.update(colour_fields(coeffs, result.lights))
     # JsonUtility has no null: 0 means "no window applied".
