@@ -196,6 +196,12 @@ def _plot(abs_, suns, cols, path):
         err = [100 * (abs_[(s, n, iso)][0] / abs_[(s, n, iso)][1] - 1) for s in names]
         ax[0].bar(np.arange(len(names)) + 0.27 * (j - 1), err, 0.27, label=f"f/{n:g}, ISO {iso}")
     ax[0].axhspan(-5, 5, color="green", alpha=0.1)
+    ax[0].set_ylim(-8, 8)
+    for i, s_ in enumerate(names):
+        worst = min(100 * (abs_[k][0] / abs_[k][1] - 1) for k in abs_ if k[0] == s_)
+        if worst < -8:      # the sun clipped in every frame: a lux meter's job (middle)
+            ax[0].annotate(f"{worst:.0f} %\nsun clipped\nin every frame", (i, -7.5),
+                           ha="center", va="bottom", fontsize=7)
     ax[0].set_xticks(range(len(names)), names, rotation=30)
     ax[0].set_ylabel("illuminance_lux error (%)")
     ax[0].set_title("lux from EXIF alone (calibrated at f/2, ISO 100)")
