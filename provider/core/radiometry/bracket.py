@@ -369,11 +369,18 @@ class BracketProjector:
     def complete(self) -> bool:
         return all(p is not None for p in self.parts)
 
-    def push(self, slot: int, frame: np.ndarray, exposure_s: float, gain: float = 1.0):
+    def push(self, slot: int, frame: np.ndarray, exposure_s: float, gain: float = 1.0,
+             f_number: float | None = None):
+        """(``f_number``: the frame's aperture; with an absolutely calibrated curve the
+        parts are in cd/m², ``coefficient_units``; ``illuminance_lux`` then comes from the
+        merged SH9, the parts' pixels being gone.)"""
         t0 = time.perf_counter()
         if not 0 <= slot < len(self.parts):
             raise InputError(f"bracket slot {slot} out of range (0..{len(self.parts) - 1})")
         k = 1.0 / (check_time(exposure_s, "exposure_s") * check_time(gain, "gain"))
+        units = {}
+        k = self.projector.absolute_scale(k, f_number, units)
+        units.pop("absolute_factor", None)
         bits = 16 if getattr(frame, "dtype", None) == np.uint16 else 8
         coeffs, clipped, stats = self.projector.project_part(
             frame, self._bracket(bits).slot_table(slot))
@@ -388,7 +395,8 @@ class BracketProjector:
         self._fraction[slot] = stats["clipped_fraction"]
         self.exposures[slot] = float(exposure_s) * float(gain)
         if not self.complete:
-            result = self.projector.project(frame, exposure_s=exposure_s, gain=gain)
+            result = self.projector.project(frame, exposure_s=exposure_s, gain=gain,
+                                            f_number=f_number)
             result.stats["bracket_slots"] = sum(p is not None for p in self.parts)
             return result
         total = self.parts[0]
@@ -399,6 +407,7 @@ class BracketProjector:
         stats["exposures_s"] = list(self.exposures)
         self.projector.radiometry_stats(stats, total, self._clipped[short], "merged")
         stats["response"] = self.response.method
+        stats.update(units)
         result = self.projector.result(total, stats)
         result.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
         return result

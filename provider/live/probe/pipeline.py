@@ -302,7 +302,8 @@ class Probe:
                 self._brackets.clear()       # a new bracket (or size) replaces the old one
                 bracket = self._brackets[bkey] = BracketProjector(projector, info["bracket"])
             # A bracket merges per-slot projections, never one linear frame: no lights here.
-            return bracket.push(info["slot"], image, info["exposure_s"], info.get("gain", 1.0))
+            return bracket.push(info["slot"], image, info["exposure_s"], info.get("gain", 1.0),
+                                info.get("f_number"))
         tracker = None
         if projector.lights != "off":
             if self.capture.reconnects != self._tracked_reconnects:   # a new stream
