@@ -260,3 +260,27 @@ def test_exact_up_illuminance_of_the_engine():
     fish = np.ones((128, 128, 3), np.float32)
     lux = SH9Projector(128, 128, "fisheye").up_illuminance(fish)
     assert lux == pytest.approx(np.pi, rel=0.02)
+
+
+def test_calibrate_lux_needs_aperture_and_iso_in_one_line(tmp_path):
+    """Frames without EXIF (PNG@SECONDS) say nothing of their aperture and ISO: --lux asks
+    for them, in one line, and writes nothing; --f-number alone is refused."""
+    import cv2
+    hdr = scene("apartment")
+    args = []
+    cam = CameraSim(gain=CAMERA_K / 4, **NOISY)
+    frames, times = cam.bracket(hdr, 0.01, (-2, 0, 2))
+    for i, (f, t) in enumerate(zip(frames, times)):
+        path = tmp_path / f"f{i}.png"
+        cv2.imwrite(str(path), np.ascontiguousarray(f[..., ::-1]))
+        args.append(f"{path}@{t!r}")
+    out = tmp_path / "c.json"
+    p = shlight("calibrate-response", *args, "--lux", 300, "-o", out)
+    assert p.returncode == 2 and "--f-number N and --iso S" in p.stderr
+    assert "Traceback" not in p.stderr and not out.exists()
+    p = shlight("calibrate-response", *args, "--f-number", 2, "-o", out)
+    assert p.returncode == 2 and "--f-number is for --lux" in p.stderr
+    p = shlight("calibrate-response", *args, "--lux", 300, "--f-number", 2, "--iso", 100,
+                "-o", out)
+    assert p.returncode == 0, p.stderr
+    assert json.loads(out.read_text())["params"]["absolute"]["f_number"] == 2
