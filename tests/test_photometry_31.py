@@ -284,3 +284,30 @@ def test_calibrate_lux_needs_aperture_and_iso_in_one_line(tmp_path):
                 "-o", out)
     assert p.returncode == 0, p.stderr
     assert json.loads(out.read_text())["params"]["absolute"]["f_number"] == 2
+
+
+def test_threejs_exposure_follows_the_rooms_ev100(calibrated, tmp_path):
+    """client-three.js physicalExposure (renderer.toneMappingExposure) from a real message:
+    the room's mean luminance renders at 12.5 / 120 of white whatever its level (the
+    saturation-based exposure 1 / (1.2 · 2^EV100) of the reflected-light meter's EV100)."""
+    import shutil
+    from pathlib import Path
+    node = shutil.which("node")
+    if node is None:
+        pytest.skip("node is not installed")
+    folder, _ = calibrated
+    hdr = scene("forest")
+    (path,) = write_bracket(tmp_path, "one", hdr, (0,), n=4.0, iso=200, ext="jpg")
+    msg = message(shlight("compute", path, "--camera", folder / "camera.json"))
+    client = Path(__file__).resolve().parent.parent / "provider/live/server/static/client-three.js"
+    script = tmp_path / "exposure.mjs"
+    script.write_text(f'import {{ physicalExposure }} from "{client.as_uri()}";\n'
+                      f'const m = {json.dumps(msg)};\n'
+                      'console.log(JSON.stringify([physicalExposure({message: m}), '
+                      'physicalExposure({message: {...m, ev100: undefined}})]));\n')
+    out = subprocess.run([node, str(script)], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    exposure, relative = json.loads(out.stdout)
+    mean = float(luminance(np.array(msg["coefficients"][:3]))) * 0.282095
+    assert mean * exposure == pytest.approx(12.5 / 120, rel=1e-6)
+    assert relative is None
