@@ -311,3 +311,19 @@ def test_threejs_exposure_follows_the_rooms_ev100(calibrated, tmp_path):
     mean = float(luminance(np.array(msg["coefficients"][:3]))) * 0.282095
     assert mean * exposure == pytest.approx(12.5 / 120, rel=1e-6)
     assert relative is None
+
+
+def test_gltf_directional_lights_carry_lux(calibrated, tmp_path):
+    """In absolute units the glTF export's KHR_lights_punctual directional lights are in lux
+    (the spec's unit): Y(color) · intensity is the light's light_illuminance_lux."""
+    folder, _ = calibrated
+    hdr = scene("lab")
+    paths = write_bracket(tmp_path, "lab", hdr, (-6, -4, -2, 0, 2, 4), n=4.0, iso=400)
+    common = [*paths, "--camera", folder / "camera.json", "--lights", "auto"]
+    msg = message(shlight("compute", *common))
+    p = shlight("export", *common, "--to", "gltf")
+    assert p.returncode == 0, p.stderr
+    lights = json.loads(p.stdout)["KHR_lights_punctual"]
+    assert msg["lights"] == len(lights) >= 1
+    lux = [float(luminance(np.array(light["color"]))) * light["intensity"] for light in lights]
+    assert lux == pytest.approx(msg["light_illuminance_lux"], rel=1e-6)
