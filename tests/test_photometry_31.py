@@ -327,3 +327,41 @@ def test_gltf_directional_lights_carry_lux(calibrated, tmp_path):
     assert msg["lights"] == len(lights) >= 1
     lux = [float(luminance(np.array(light["color"]))) * light["intensity"] for light in lights]
     assert lux == pytest.approx(msg["light_illuminance_lux"], rel=1e-6)
+
+
+def test_unity_core_reads_photometry(calibrated, tmp_path):
+    """The Unity package's C# core (compiled with Mono's mcs, no UnityEngine) reads
+    coefficient_units, illuminance_lux, ev100, cct_k and each light's lux from a real absolute
+    message, and gives the physical exposure 1/(1.2·2^EV100); a relative message gives NaN."""
+    import shutil
+    from pathlib import Path
+    mcs, mono = shutil.which("mcs"), shutil.which("mono")
+    if not (mcs and mono):
+        pytest.skip("Mono is not installed")
+    root = Path(__file__).resolve().parent.parent
+    core = sorted((root / "unity_package" / "Runtime" / "Core").glob("*.cs"))
+    exe = tmp_path / "PhotometryTest.exe"
+    r = subprocess.run([mcs, "-nologo", "-warnaserror+", "-nowarn:618", "-target:exe",
+                        f"-out:{exe}", *map(str, core),
+                        str(root / "tests" / "csharp" / "PhotometryTest.cs")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    folder, _ = calibrated
+    paths = write_bracket(tmp_path, "lab", scene("lab"), (-6, -4, -2, 0, 2, 4), n=4.0, iso=400)
+    msg = message(shlight("compute", *paths, "--camera", folder / "camera.json",
+                          "--lights", "auto"))
+    relative = message(shlight("compute", paths[3]))
+    got = []
+    for m in (msg, relative):
+        out = subprocess.run([mono, str(exe)], input=json.dumps(m), capture_output=True,
+                             text=True, timeout=60)
+        assert out.returncode == 0, out.stderr
+        got.append(json.loads(out.stdout))
+    a, rel = got
+    assert a["absolute"] and a["units"] == "cd/m2"
+    assert a["lux"] == pytest.approx(msg["illuminance_lux"]) and a["ev100"] == pytest.approx(msg["ev100"])
+    assert a["exposure"] == pytest.approx(1 / (1.2 * 2 ** msg["ev100"]))
+    assert a["cct"] == pytest.approx(msg["cct_k"]) and a["lights"] == msg["lights"] >= 1
+    assert a["light_lux"] == pytest.approx(msg["light_illuminance_lux"])
+    assert not rel["absolute"] and rel["units"] == "relative" and rel["exposure"] is None
+    assert rel["light_lux"] == []
