@@ -365,3 +365,22 @@ def test_unity_core_reads_photometry(calibrated, tmp_path):
     assert a["light_lux"] == pytest.approx(msg["light_illuminance_lux"])
     assert not rel["absolute"] and rel["units"] == "relative" and rel["exposure"] is None
     assert rel["light_lux"] == []
+
+
+def test_a_fifo_is_not_read_for_exif(tmp_path):
+    """compute reads FIFOs (a writer per image): looking for EXIF must not eat their bytes."""
+    import os
+    import threading
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("POSIX FIFOs")
+    fifo = tmp_path / "frame.jpg"
+    os.mkfifo(fifo)
+    assert read_still_exposure(fifo).exposure_s is None       # returns at once, reads nothing
+    still = tmp_path / "still.jpg"
+    save_still(still, np.full((16, 32, 3), 120, np.uint8), 1 / 100, 2.0, 100)
+    data = still.read_bytes()
+    writer = threading.Thread(target=lambda: fifo.write_bytes(data))
+    writer.start()
+    msg = message(shlight("compute", fifo))
+    writer.join(timeout=30)
+    assert msg["coefficients"][0] > 0 and "exposure_s" not in msg

@@ -16,6 +16,8 @@ an error: the fields are None (the frame then needs ``@SECONDS``, as before).
 from __future__ import annotations
 
 import math
+import os
+import stat
 import struct
 from dataclasses import dataclass
 
@@ -140,8 +142,11 @@ def exif_payload(jpeg: bytes) -> bytes | None:
 
 def read_still_exposure(path) -> StillExposure:
     """What a JPEG or TIFF still says of its exposure (empty for other formats, no EXIF,
-    malformed EXIF or an unreadable file: the caller then asks for ``@SECONDS``)."""
+    malformed EXIF or an unreadable file: the caller then asks for ``@SECONDS``). Only a
+    regular file is opened: a FIFO's bytes belong to the image reader."""
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return StillExposure()
         with open(path, "rb") as f:
             head = f.read(8)
             if head[:2] == b"\xff\xd8":
