@@ -133,6 +133,8 @@ def test_sphere_follows_the_light_and_stale_badge(browser, tmp_path):
             assert re.fullmatch(r"\d+\.\d % \(\d+\.\d % of the light\)",
                                 page.text_content("#s-clipped"))
             assert page.text_content("#s-lights") == "off"
+            # issue 31: no absolute scale here, so the light line says "relative" first
+            assert page.text_content("#s-photometry").startswith("relative")
             page.wait_for_function(
                 "document.getElementById('s-error').textContent.endsWith(' %')")
             l00 = page.eval_on_selector("#bar-0", "e => parseFloat(e.style.width)")

@@ -448,3 +448,17 @@ def _cpu_seconds(pid: int) -> float:
     with open(f"/proc/{pid}/stat") as f:
         fields = f.read().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def test_absolute_units_are_relayed(relay):
+    """Issue 31: an upstream in cd/m² stays cd/m² here; lux, EV100 and CCT are rebuilt from
+    what was accepted (the upstream's exact up-facing lux kept), a forged unit is refused."""
+    up = message(coefficient_units="cd/m²", illuminance_lux=123.0, f_number=2.0, iso=200.0,
+                 ev100=99.0, cct_k=1.0)
+    got, _ = relay.case(up, "frames")
+    [relayed] = [m for m in got if sh9(m) and m["coefficients"] == up["coefficients"]]
+    assert relayed["coefficient_units"] == "cd/m²" and relayed["illuminance_lux"] == 123.0
+    assert relayed["f_number"] == 2.0 and relayed["iso"] == 200.0
+    assert relayed["ev100"] != 99.0 and relayed["cct_k"] != 1.0    # rebuilt, not copied
+    bad = message(coefficient_units="lumens")
+    relay.case(bad, "frames_rejected")

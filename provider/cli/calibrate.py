@@ -15,7 +15,19 @@ def add_arguments(p) -> None:
                      "frames, from mostly dark to mostly clipped, works best.")
     p.add_argument("frames", nargs="+", metavar="FRAME@SECONDS",
                    help="an 8-bit image and its exposure time, a decimal or a fraction "
-                        "such as 1/60 (at least three)")
+                        "such as 1/60 (at least three); a JPEG/TIFF whose EXIF says its "
+                        "ExposureTime needs no @SECONDS")
+    p.add_argument("--lux", type=float, default=None, metavar="E",
+                   help="absolute units: what an up-facing lux meter at the camera read "
+                        "while the bracket was taken; camera.json then turns every later "
+                        "frame's own exposure (time, f-number, ISO) into cd/m² "
+                        "(docs/photometry.md)")
+    p.add_argument("--f-number", type=float, default=None, metavar="N",
+                   help="with --lux: the aperture, where the frames' EXIF does not say it")
+    p.add_argument("--iso", type=float, default=None, metavar="S",
+                   help="with --lux: the ISO, where the frames' EXIF does not say it")
+    p.add_argument("--projection", choices=["equirect", "fisheye"], default="equirect",
+                   help="with --lux: how the frames map directions (default equirect)")
     p.add_argument("-o", "--output", required=True, metavar="CAMERA.json",
                    help="where to write the response; a PNG of the curve beside sRGB is "
                         "written next to it (CAMERA.png)")
@@ -37,10 +49,13 @@ def run(args) -> int:
     from ..core.radiometry.response import DEBEVEC_LAMBDA, DEBEVEC_SAMPLES, calibrate
     from ..core.radiometry.response_fit import calibrate_best, disagreement
     from ..live.probe.camerafile import save_camera
-    from .frames import read_frames
+    from .compute import exposure_of
+    from .frames import read_exposed_frames
     check_arguments(args)
     print(f"reading {len(args.frames)} frames ...", file=sys.stderr, flush=True)
-    images, times, paths = read_frames(args.frames, need_times=True)
+    images, exposures, paths = read_exposed_frames(args.frames, need_times=True)
+    times, gain, f_number = exposure_of(exposures)
+    f_number, iso = args.f_number or f_number, args.iso or exposures[0].iso
     check_frames(images, times, args.samples)
     print(f"calibrating ({args.method}) ...", file=sys.stderr, flush=True)
     if args.method == "auto":
@@ -58,17 +73,56 @@ def run(args) -> int:
         raise InputError("the calibration gave a broken curve (not positive and finite): "
                          "are the frames one static view with these exposure times?")
     response.params["frames"] = [os.path.basename(p) for p in paths]
+    if args.lux is not None:
+        response.params["absolute"] = absolute_scale(response, images, times, args.lux,
+                                                     f_number, iso, args.projection)
     save_camera(response, args.output)
     png = os.path.splitext(args.output)[0] + ".png"
     plot_response(response, png)
-    print("\n".join(summary_lines(response) + quality_lines(response)))
+    print("\n".join(summary_lines(response) + quality_lines(response)
+                    + absolute_lines(response)))
     print(f"wrote {args.output} and {png}")
     return 0
+
+
+def absolute_scale(response, images, times, lux, f_number, iso, projection) -> dict:
+    """camera.json ``params.absolute``: the bracket merged with its own curve (gain =
+    ISO/100), its exact up-facing illuminance (over the pixels), against the lux meter's
+    reading."""
+    from ..core.errors import InputError
+    from ..core.radiometry.bracket import merge
+    from ..core.radiometry.photometry import calibrate_absolute
+    from ..core.sh9.engine import SH9Projector
+    if not f_number or not iso:
+        raise InputError("--lux needs the bracket's f-number and ISO: the frames' EXIF does "
+                         "not say " + " and ".join(n for n, v in (("FNumber", f_number),
+                                                                  ("ISO", iso)) if not v)
+                         + " (give --f-number N and --iso S)")
+    height, width = images[0].shape[:2]
+    projector = SH9Projector(width, height, projection)
+    radiance = merge(images, times, response, gain=iso / 100.0).radiance
+    return calibrate_absolute(projector.up_illuminance(radiance), lux, f_number, iso)
+
+
+def absolute_lines(response) -> list[str]:
+    a = response.params.get("absolute")
+    if not a:
+        return ["units: relative (no --lux: give a lux meter's reading for cd/m² and lux)"]
+    return [f"absolute scale: {a['cd_m2']:.4g} cd/m² per N²·g(z)/(t·ISO/100) from "
+            f"{a['lux']:g} lux at f/{a['f_number']:g}, ISO {a['iso']:g} "
+            f"({a['vs_iso12232']:.2f}× the ISO 12232 nominal camera)"]
 
 
 def check_arguments(args) -> None:
     """Everything about the options, before any frame is read (exit 2, nothing written)."""
     from ..core.errors import InputError
+    if args.lux is not None and not (math.isfinite(args.lux) and args.lux > 0):
+        raise InputError(f"--lux must be a positive number of lux, got {args.lux:g}")
+    for name, v in (("--f-number", args.f_number), ("--iso", args.iso)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"{name} must be a positive number, got {v:g}")
+        if v is not None and args.lux is None:
+            raise InputError(f"{name} is for --lux (the absolute scale)")
     if len(args.frames) < 3:
         raise InputError(f"calibration needs at least 3 frames of one static view, got "
                          f"{len(args.frames)}")

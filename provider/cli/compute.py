@@ -23,6 +23,12 @@ def add_input_arguments(p) -> None:
 
 def add_arguments(p) -> None:
     add_input_arguments(p)
+    p.add_argument("--lux", type=float, default=None, metavar="E",
+                   help="an up-facing lux meter's reading at the camera, taken with the "
+                        "frame: the light it sees beyond what the frame explains goes to the "
+                        "clipped region (a clipped sun), as a light and in SH9; needs absolute "
+                        "units (--camera calibrated with --lux, the frame's exposure known; "
+                        "docs/photometry.md)")
 
 
 def wire_message(args, command: str = "compute") -> dict:
@@ -33,13 +39,14 @@ def wire_message(args, command: str = "compute") -> dict:
     from ..core.options import precompute_note
     from ..live.wire.message import coefficient_message
     from .feedback import Progress, say
-    from .frames import read_frames
+    from .frames import read_exposed_frames
     from .options import engine_options
     from .options import say_fifo_waits, say_frame_warnings
     several = len(args.image) > 1
     say_fifo_waits(args.image, command)
-    images, times, paths = read_frames(args.image, need_times=several,
-                                       max_pixels=args.max_frame_pixels)
+    images, exposures, paths = read_exposed_frames(args.image, need_times=several,
+                                                   max_pixels=args.max_frame_pixels)
+    times, gain, f_number = exposure_of(exposures)
     options = engine_options(args)
     image = images[0]
     say_frame_warnings(args, image, command)
@@ -58,15 +65,59 @@ def wire_message(args, command: str = "compute") -> dict:
     for warning in projector.warnings:
         say(command, "warning", warning)
     if several:
-        result = project_bracket(projector, images, times)
+        result = project_bracket(projector, images, times, gain=gain, f_number=f_number)
     else:
-        result = projector.project(image, exposure_s=times[0])
+        result = projector.project(image, exposure_s=times[0], gain=gain, f_number=f_number)
+    if exposures[0].iso:
+        result.stats["iso"] = exposures[0].iso
+    if projector.response is not None and projector.response.params.get("absolute") \
+            and result.stats.get("coefficient_units") != "cd/m²":
+        say(command, "note", "the camera has an absolute scale but the frame's exposure time "
+                             "is unknown (no @SECONDS, no EXIF ExposureTime): units stay "
+                             "relative")
+    if getattr(args, "lux", None) is not None:
+        result = meter_closed(projector, images, times, gain, f_number, result, args.lux,
+                              command)
     if not result.coefficients[0].any():      # L00 = 0: not one pixel seen is above 0
         say(command, "warning", f"the frame{'s are' if several else ' is'} all zeros where "
                                 "the projection looks: no light, the lighting is black (a "
                                 "lens cap, a black render, the wrong file?)")
     return coefficient_message(result, probe=args.probe, seq=0,
                                time=os.path.getmtime(paths[0]), projection=args.projection)
+
+
+def meter_closed(projector, images, times, gain, f_number, result, lux, command):
+    """``--lux``: the result with the meter's missing light in the clipped blob
+    (:func:`provider.core.sh9.meter.project_with_meter`), what it closed said on stderr."""
+    from ..core.sh9.meter import project_with_meter
+    from .feedback import say
+    new, closure = project_with_meter(projector, images, times, gain, f_number, result, lux)
+    if closure.note:
+        say(command, "note", closure.note)
+    else:
+        d = ", ".join(f"{v:+.2f}" for v in closure.direction)
+        say(command, "note", f"the meter closed {closure.closed_lux:.4g} of its {lux:.4g} lux "
+                             f"({closure.closed_lux / lux:.0%}) in the clipped region toward "
+                             f"({d}), {closure.solid_angle_sr:.3g} sr")
+    return new
+
+
+def exposure_of(exposures):
+    """(times, gain, f_number) for the engine from what the frames say (StillExposure):
+    gain = ISO/100 of the first frame; a bracket whose frames differ in ISO or f-number has
+    that difference folded into its times (t·(S/S₀)·(N₀/N)², the same sensor exposure), so
+    one gain and one f-number describe it."""
+    first = exposures[0]
+    iso0, n0 = first.iso, first.f_number
+    times = []
+    for e in exposures:
+        t = e.exposure_s
+        if t is not None and iso0 and e.iso:
+            t *= e.iso / iso0
+        if t is not None and n0 and e.f_number:
+            t *= (n0 / e.f_number) ** 2
+        times.append(t)
+    return times, (iso0 / 100.0 if iso0 and times[0] is not None else 1.0), n0
 
 
 def locate_ball_note(options: dict, image, command: str) -> dict:

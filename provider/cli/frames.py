@@ -1,6 +1,7 @@
 """``FRAME@SECONDS`` arguments (docs/contract.md §9): an image file and its exposure time.
 
-SECONDS is a decimal (``0.004``) or a fraction (``1/250``). Only a trailing ``@`` followed
+SECONDS is a decimal (``0.004``) or a fraction (``1/250``); a JPEG or TIFF still whose EXIF
+says its ExposureTime needs none (its FNumber and ISO come with it: docs/photometry.md). Only a trailing ``@`` followed
 by something made of digits, dots, signs and one slash is read as a time, and a file that
 exists under the literal name wins, so a path that itself contains ``@`` still works.
 """
@@ -32,18 +33,33 @@ def parse_frame(text: str) -> tuple[str, float | None]:
 
 def read_frames(texts, *, need_times: bool, max_pixels: int = 0):
     """Images and times of ``FRAME@SECONDS`` arguments; with ``need_times`` every frame
-    must have its time (merging, calibrating). ``max_pixels`` (pixels, 0: none): an image
-    whose header declares more is refused (InputError) before it is decoded."""
+    must have its time (merging, calibrating), from ``@SECONDS`` or its EXIF.
+    ``max_pixels`` (pixels, 0: none): an image whose header declares more is refused
+    (InputError) before it is decoded."""
+    images, exposures, paths = read_exposed_frames(texts, need_times=need_times,
+                                                   max_pixels=max_pixels)
+    return images, [e.exposure_s for e in exposures], paths
+
+
+def read_exposed_frames(texts, *, need_times: bool, max_pixels: int = 0):
+    """Images, what each says of its exposure (:class:`~provider.core.radiometry.exif.
+    StillExposure`: ``@SECONDS`` wins over EXIF ExposureTime; f-number and ISO from EXIF)
+    and paths of ``FRAME[@SECONDS]`` arguments."""
+    from ..core.radiometry.exif import StillExposure, read_still_exposure
     from ..core.radiometry.images import read_image
     items = [parse_frame(t) for t in texts]
-    if need_times:
-        missing = [p for p, t in items if t is None]
-        if missing:
-            raise InputError(f"every frame needs its exposure time as FRAME@SECONDS (e.g. "
-                             f"{missing[0]}@1/60); missing for: {', '.join(missing)}")
     for p, _ in items:
         if "@" in p and not os.path.exists(p):
             raise InputError(f"no such file: {p} (an exposure time after '@' is a decimal or "
                              "a fraction such as 1/60)")
-    return ([read_image(p, max_pixels) for p, _ in items], [t for _, t in items],
-            [p for p, _ in items])
+    exposures = []
+    for p, t in items:
+        e = read_still_exposure(p)
+        exposures.append(StillExposure(t or e.exposure_s, e.f_number, e.iso))
+    if need_times:
+        missing = [p for (p, _), e in zip(items, exposures) if e.exposure_s is None]
+        if missing:
+            raise InputError(f"every frame needs its exposure time as FRAME@SECONDS (e.g. "
+                             f"{missing[0]}@1/60) or in its EXIF (ExposureTime); missing "
+                             f"for: {', '.join(missing)}")
+    return ([read_image(p, max_pixels) for p, _ in items], exposures, [p for p, _ in items])

@@ -119,6 +119,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _add_source_arguments(g) -> None:
+    g.add_argument("--lux", default=None, metavar="SOURCE",
+                   help="an up-facing lux meter at the camera closes the clipped sun "
+                        "(docs/photometry.md; needs --camera with an absolute scale): a "
+                        "number of lux, mqtt://HOST[:PORT]/TOPIC (a number or {\"lux\": N}), "
+                        "or i2c:BUS[:bh1750|tsl2591][@ADDRESS] (smbus2)")
     g.add_argument("--fps", type=float, default=None,
                    help="pace of demo/file sources, polling rate of snapshot URLs, most "
                         "messages a second a ws:// relay takes (default 30; at most "
@@ -321,9 +326,17 @@ def build_server(args):
         environment = (EnvironmentSettings(
             32 if ns.environment_size is None else ns.environment_size,
             1.0 if ns.environment_hz is None else ns.environment_hz) if ns.environment else None)
+        meter = None
+        if ns.lux is not None:
+            if not ns.camera:
+                raise InputError(f"probe {name}: --lux needs --camera CAMERA.json with an "
+                                 "absolute scale (shlight calibrate-response --lux)")
+            from ..live.probe.luxmeter import parse_lux_source
+            meter = parse_lux_source(ns.lux)
         probes.append(Probe(name, spec, projection=ns.projection,
                             engine_options=engine_options(ns), temporal=temporal,
-                            backoff_max=ns.reconnect_max, environment=environment))
+                            backoff_max=ns.reconnect_max, environment=environment,
+                            meter=meter))
         from .register import registrar_for
         probes[-1].registrar = registrar_for(ns, name)
     publishers = []

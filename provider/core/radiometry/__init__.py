@@ -7,7 +7,10 @@
   once for every product (transfer function or camera response as a table, exposure);
 * :mod:`.float_clean`: NaN, ±inf and negative samples of float frames, counted;
 * :mod:`.response`, :mod:`.response_fit`: a camera's inverse response and its calibration;
-* :mod:`.bracket`: brackets of one view merged into scene-referred light.
+* :mod:`.bracket`: brackets of one view merged into scene-referred light;
+* :mod:`.exif`: a still's own exposure (ExposureTime, FNumber, ISO) from its EXIF;
+* :mod:`.photometry`: absolute units (cd/m², lux, EV100) from a frame's exposure;
+* :mod:`.colour_temperature`: CCT and Duv of linear Rec. 709 light.
 
 May import: numpy, OpenCV, OpenEXR, :mod:`provider.core.errors`. Nothing of geometry or the
 products.

@@ -38,13 +38,30 @@ from .response import (CameraResponse, ResponseError, _as_lut, _positive_floor, 
 #: that a sample clipped in every frame takes the shortest frame's lower bound (and a black
 #: one the longest frame's value) instead of 0/0.
 END_WEIGHT = 1.0 / 64.0
+#: Weight (times the hat) of a code outside the curve's trusted range: a sample seen there
+#: only (no frame of the bracket has it in the calibrated range) still gets a value, but any
+#: frame that has it inside the range outweighs it 1000 to 1.
+UNTRUSTED_WEIGHT = 1e-3
 
 
-def hat_weights(bits: int = 8) -> np.ndarray:
-    """Debevec's hat ``w(z) = min(z, top − z)`` (0 at black and at clipping), float64."""
+def hat_weights(bits: int = 8, trusted=None) -> np.ndarray:
+    """Debevec's hat ``w(z) = min(z, top − z)`` (0 at black and at clipping), float64.
+
+    ``trusted``: the (lo, hi) 8-bit codes where the curve was calibrated (camera.json's
+    ``params.trusted_codes``); codes outside weigh :data:`UNTRUSTED_WEIGHT` × the hat. Why:
+    a bracket wider than the calibration's puts the extra frames' samples in the toe and
+    the shoulder, where the curve is extrapolated; with the plain hat their weight (code 30
+    weighs 30) moved a room's level by up to 5.5 % between a ±4 and a ±6 EV bracket of one
+    simulated camera (docs/photometry.md)."""
     top = _top(bits)
     z = np.arange(top + 1, dtype=np.float64)
-    return np.minimum(z, top - z)
+    w = np.minimum(z, top - z)
+    if trusted is not None:
+        lo, hi = (int(v) for v in trusted)
+        if bits == 16:
+            lo, hi = lo * 257, hi * 257
+        w[(z < lo) | (z > hi)] *= UNTRUSTED_WEIGHT
+    return w
 
 
 @dataclass
@@ -65,7 +82,7 @@ class Merged:
 
 def _slot_tables(response: CameraResponse, times: np.ndarray, gain: float):
     """Per frame: (numerator table w·g/(t·gain), weight table w) for the hat merge."""
-    w0 = hat_weights(response.bits)
+    w0 = hat_weights(response.bits, response.params.get("trusted_codes"))
     top = _top(response.bits)
     short, long_ = int(np.argmin(times)), int(np.argmax(times))
     out = []
@@ -96,7 +113,8 @@ def merge(frames, times, response: CameraResponse, *, gain: float = 1.0) -> Merg
     """Hat-weighted merge of a bracket into radiance per second of exposure.
 
     ``R = Σ_i w(z_i) g(z_i)/(t_i·gain) / Σ_i w(z_i)`` per channel sample, ``w`` the hat
-    (:func:`hat_weights`): a sample clipped or black in one frame gets weight 0 there and
+    (:func:`hat_weights`, near 0 outside a calibrated curve's trusted codes, so a bracket's
+    span does not move the scale): a sample clipped or black in one frame gets weight 0 there and
     is taken from the others; a sample clipped in every frame gets the shortest frame's
     clip level (``END_WEIGHT``), a lower bound. 8-bit frames go through cv2.LUT, 16-bit
     through numpy gathers.
@@ -276,18 +294,28 @@ def match_slot(slot_exposures, exposure: float) -> int | None:
 
 # -- projecting brackets -----------------------------------------------------------------------
 
-def project_bracket(projector, frames, times, *, gain: float = 1.0):
+def project_bracket(projector, frames, times, *, gain: float = 1.0,
+                    f_number: float | None = None):
     """``shlight compute FRAME@T FRAME@T ...``: the exact hat merge (:func:`merge`) with the
     projector's camera response (sRGB without one), projected; ``stats`` say ``radiometry:
     "merged"``, the exposures, and what clipped in every frame (``clipped_fraction``) and
-    the share of the light it carries (``clipped_light_fraction``, a lower bound)."""
+    the share of the light it carries (``clipped_light_fraction``, a lower bound). With an
+    absolutely calibrated curve (gain = ISO/100, ``f_number`` or the calibration's) the
+    result is in cd/m² (:mod:`.photometry`)."""
     t0 = time.perf_counter()
     frames, times, bits = check_bracket(frames, times)
     response = (projector.response or CameraResponse.srgb()).to_bits(bits)
     m = merge(frames, times, response, gain=gain)
-    result = projector.project(m.radiance)
-    short = float(times.min()) * check_time(gain, "gain")
-    stats = {"clipped_fraction": m.clipped_fraction, "exposures_s": m.times}
+    stats = {}
+    factor = projector.absolute_scale(1.0, f_number, stats)
+    radiance = m.radiance * np.float32(factor) if factor != 1.0 else m.radiance
+    result = projector.project(radiance)
+    if stats.pop("absolute_factor", None) is not None:
+        lux = projector.up_illuminance(radiance)
+        if lux is not None:
+            stats["illuminance_lux"] = lux
+    short = float(times.min()) * check_time(gain, "gain") / factor
+    stats.update({"clipped_fraction": m.clipped_fraction, "exposures_s": m.times})
     if gain != 1.0:
         stats["gain"] = float(gain)
     clipped = projector.clipping(np.minimum.reduce(frames), response.lut(short), {})
@@ -341,11 +369,18 @@ class BracketProjector:
     def complete(self) -> bool:
         return all(p is not None for p in self.parts)
 
-    def push(self, slot: int, frame: np.ndarray, exposure_s: float, gain: float = 1.0):
+    def push(self, slot: int, frame: np.ndarray, exposure_s: float, gain: float = 1.0,
+             f_number: float | None = None):
+        """(``f_number``: the frame's aperture; with an absolutely calibrated curve the
+        parts are in cd/m², ``coefficient_units``; ``illuminance_lux`` then comes from the
+        merged SH9, the parts' pixels being gone.)"""
         t0 = time.perf_counter()
         if not 0 <= slot < len(self.parts):
             raise InputError(f"bracket slot {slot} out of range (0..{len(self.parts) - 1})")
         k = 1.0 / (check_time(exposure_s, "exposure_s") * check_time(gain, "gain"))
+        units = {}
+        k = self.projector.absolute_scale(k, f_number, units)
+        units.pop("absolute_factor", None)
         bits = 16 if getattr(frame, "dtype", None) == np.uint16 else 8
         coeffs, clipped, stats = self.projector.project_part(
             frame, self._bracket(bits).slot_table(slot))
@@ -360,7 +395,8 @@ class BracketProjector:
         self._fraction[slot] = stats["clipped_fraction"]
         self.exposures[slot] = float(exposure_s) * float(gain)
         if not self.complete:
-            result = self.projector.project(frame, exposure_s=exposure_s, gain=gain)
+            result = self.projector.project(frame, exposure_s=exposure_s, gain=gain,
+                                            f_number=f_number)
             result.stats["bracket_slots"] = sum(p is not None for p in self.parts)
             return result
         total = self.parts[0]
@@ -371,6 +407,7 @@ class BracketProjector:
         stats["exposures_s"] = list(self.exposures)
         self.projector.radiometry_stats(stats, total, self._clipped[short], "merged")
         stats["response"] = self.response.method
+        stats.update(units)
         result = self.projector.result(total, stats)
         result.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
         return result

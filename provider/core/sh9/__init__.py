@@ -2,7 +2,8 @@
 
 * :mod:`.engine`: :class:`~provider.core.sh9.engine.SH9Projector` (precompute once, project
   each frame) and :func:`~provider.core.sh9.engine.compute_sh9`;
-* :mod:`.clipping`: samples clipped at the top code and the light they carry.
+* :mod:`.clipping`: samples clipped at the top code and the light they carry;
+* :mod:`.meter`: a lux meter's reading closes what the camera clipped.
 
 May import: geometry, radiometry, :mod:`provider.core.options` and the public classes of
 :mod:`provider.core.lights` (the engine hands its decoded frame to the lights extractor, so

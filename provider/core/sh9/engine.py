@@ -37,6 +37,8 @@ from ..lights.extractor import LightExtractor, LinearView
 from ..lights.analysis import model_irradiance
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
+from ..radiometry.photometry import (UNITS_ABSOLUTE, UNITS_RELATIVE, absolute_calibration,
+                                     absolute_factor, luminance)
 from ..options import check_lighting, check_options, exposure_scale, freeze_options
 from ..radiometry.float_clean import FloatCleaner
 from ..radiometry.decode import FrameDecoder, image_array, srgb_to_linear  # noqa: F401
@@ -153,6 +155,8 @@ class SH9Projector(FrameDecoder):
             else:
                 full = make_projection(projection, width, height, **projection_options)
             self.projection = full if downsample == 1 else full.scaled(downsample)
+            self._full = full
+            self._up = None             # exact up-facing cosine weights (up_illuminance)
         except ProjectionError as exc:
             raise InputError(str(exc)) from None
         #: Allowed but probably wrong (e.g. a 2:1 panorama read as a fisheye): say them.
@@ -297,7 +301,7 @@ class SH9Projector(FrameDecoder):
     @one_blas_thread
     def project(self, frame: np.ndarray, error_estimate: bool | None = None,
                 tracker=None, *, exposure_s: float | None = None,
-                gain: float = 1.0, work=None) -> SH9Result:
+                gain: float = 1.0, f_number: float | None = None, work=None) -> SH9Result:
         """Coefficients, matrices and statistics of one frame (``error_estimate``: whether
         to estimate SH9's error on this frame; None: as the projector was built).
 
@@ -314,6 +318,9 @@ class SH9Projector(FrameDecoder):
         ``exposure_s`` and ``gain`` (when the source reports them): the coefficients are
         divided by ``exposure_s · gain``, radiance per second of exposure (docs/contract.md §9),
         so that auto exposure does not make the lighting jump; the table is not rebuilt.
+        With a curve that has an absolute scale (camera.json ``params.absolute``, gain =
+        ISO/100) they are also multiplied by C·N² (``f_number``, or the calibration's):
+        cd/m², ``stats["coefficient_units"]`` (:mod:`~provider.core.radiometry.photometry`).
 
         ``stats`` keys: ``compute_ms``, ``clipped_fraction`` (fraction of channel samples at
         the top code value of an integer frame), ``clipped_light_fraction`` (the share of
@@ -335,6 +342,11 @@ class SH9Projector(FrameDecoder):
         stats = {"negative_pixels": 0, "nonfinite_pixels": 0}
         frame = self._prepare(frame)
         k = exposure_scale(exposure_s, gain, stats)
+        k = self.absolute_scale(k, f_number, stats)
+        if stats.pop("absolute_factor", None) is not None:
+            lux = self.up_illuminance(frame, k)
+            if lux is not None:
+                stats["illuminance_lux"] = lux
         coeffs, small, light_input, clipped = self._project_frame(frame, stats, work=work)
         if k is not None:
             coeffs, clipped = coeffs * k, clipped * k
@@ -350,6 +362,42 @@ class SH9Projector(FrameDecoder):
             result.stats["error_estimate"] = self._estimate_error(small, result.stats["order"])
         result.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
         return result
+
+    def absolute_scale(self, k: float | None, f_number: float | None, stats: dict):
+        """``k`` (1/(t·gain), or None) times the curve's C·N² when it has an absolute scale,
+        with ``coefficient_units`` ("cd/m²" or "relative") and ``f_number`` in ``stats``."""
+        stats["coefficient_units"] = UNITS_RELATIVE
+        factor = absolute_factor(self.response, f_number) if k is not None else None
+        if factor is None:
+            return k
+        stats["coefficient_units"] = UNITS_ABSOLUTE
+        stats["absolute_factor"] = factor
+        stats["f_number"] = float(f_number or absolute_calibration(self.response)["f_number"])
+        return k * factor
+
+    def up_illuminance(self, frame: np.ndarray, scale: float = 1.0) -> float | None:
+        """Exact Rec. 709 luminance of the irradiance on an up-facing surface (world +Y) of a
+        frame, from its pixels (not SH9, which truncates it: up to 6 % off under a ceiling
+        of lamps): lux in absolute units. An integer frame goes through the projector's
+        table, then times ``scale``. None where the weights are not at hand (a downsampled
+        projection other than equirect, or a cropped frame)."""
+        from .meter import up_weights
+        if self._up is None:
+            full = self._full
+            if not isinstance(full, Equirect) and self.downsample != 1:
+                return None
+            self._up = np.ascontiguousarray(
+                up_weights(full, self.rotation)[0], np.float32).reshape(-1)
+        if frame.shape[0] * frame.shape[1] != self._up.size:
+            return None
+        if frame.dtype in (np.uint8, np.uint16):
+            from ..radiometry.response import apply_lut
+            lin = apply_lut(frame, self._lut(frame.dtype))
+        else:
+            lin = np.maximum(np.nan_to_num(np.asarray(frame, np.float32), nan=0.0,
+                                           posinf=0.0), 0.0) * np.float32(self.exposure)
+        rgb = self._up @ np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
+        return max(float(luminance(rgb)) * float(scale), 0.0)
 
     # -- building blocks of brackets (provider.core.radiometry.bracket) ----------------------------------
     def project_part(self, frame: np.ndarray, table: np.ndarray):

@@ -77,8 +77,11 @@ class Probe:
     def __init__(self, name: str, spec: SourceSpec, *, projection: str = "equirect",
                  engine_options: dict | None = None, temporal: TemporalSettings | None = None,
                  publish=None, backoff_max: float = 10.0,
-                 environment: EnvironmentSettings | None = None):
+                 environment: EnvironmentSettings | None = None, meter=None):
         self.name, self.spec = name, spec
+        #: a :class:`~provider.live.probe.luxmeter.LuxMeter` (``serve --lux``), or None
+        self.meter = meter
+        self.meter_note = ""            # why the meter closed nothing, for the log (once)
         self.projection, self.engine_options = projection, dict(engine_options or {})
         self.temporal = t = temporal or TemporalSettings()
         self.publish = publish or (lambda name, text: None)
@@ -151,6 +154,8 @@ class Probe:
 
         self.capture.notify = notify
         self.capture.start()
+        if self.meter is not None:
+            self.meter.start()
         if self.environment is not None:
             self.environment.start(loop)
         tick = min(max(min(self.temporal.keepalive, self.stale_after) / 4, 0.02), 0.25)
@@ -181,6 +186,8 @@ class Probe:
             if self.registrar is not None:
                 self.registrar.close()
             await asyncio.to_thread(self.capture.stop)
+            if self.meter is not None:
+                await asyncio.to_thread(self.meter.stop)
             if self.environment is not None:
                 await asyncio.to_thread(self.environment.stop)
 
@@ -295,7 +302,8 @@ class Probe:
                 self._brackets.clear()       # a new bracket (or size) replaces the old one
                 bracket = self._brackets[bkey] = BracketProjector(projector, info["bracket"])
             # A bracket merges per-slot projections, never one linear frame: no lights here.
-            return bracket.push(info["slot"], image, info["exposure_s"], info.get("gain", 1.0))
+            return bracket.push(info["slot"], image, info["exposure_s"], info.get("gain", 1.0),
+                                info.get("f_number"))
         tracker = None
         if projector.lights != "off":
             if self.capture.reconnects != self._tracked_reconnects:   # a new stream
@@ -308,14 +316,40 @@ class Probe:
         # decode for both products; at most --environment-hz times a second).
         self._work = (self.environment.work_for(image, projector)
                       if self.environment is not None else None)
-        result = projector.project(image, error_estimate=estimate, tracker=tracker,
+        lux = self.meter.lux() if self.meter is not None else None
+        result = projector.project(image, error_estimate=estimate,
+                                   tracker=None if lux is not None else tracker,
                                    exposure_s=info.get("exposure_s"), gain=info.get("gain", 1.0),
-                                   work=self._work)
+                                   f_number=info.get("f_number"), work=self._work)
+        if lux is not None:
+            result = self._metered(projector, image, info, result, lux, tracker)
         if estimate:
             self._estimated_at, self._error_estimate = now, result.stats.get("error_estimate")
         elif self._error_estimate is not None:
             result.stats["error_estimate"] = self._error_estimate
         return result
+
+    def _metered(self, projector, image, info, result, lux, tracker):
+        """``serve --lux``: the frame again with the meter's missing light in its clipped
+        blob (:func:`~provider.core.sh9.meter.project_with_meter`); a frame that cannot be
+        closed (no exposure, relative units) keeps its result, said once."""
+        from ...core.sh9.meter import project_with_meter
+        try:
+            closed, closure = project_with_meter(
+                projector, [image], [info.get("exposure_s")], info.get("gain", 1.0),
+                info.get("f_number"), result, lux, tracker=tracker)
+        except InputError as exc:
+            if str(exc) != self.meter_note:
+                self.meter_note = str(exc)
+                log.warning("probe %s: lux meter: %s", self.name, exc)
+            return result
+        if closure.note and closure.note[:40] != self.meter_note[:40]:
+            log.info("probe %s: lux meter: %s", self.name, closure.note)
+        self.meter_note = closure.note
+        for key in ("error_estimate",):
+            if key in result.stats:
+                closed.stats[key] = result.stats[key]
+        return closed
 
     def _locate_ball(self, key, image) -> None:
         """``--ball auto``: find the ball in this frame (the first of its size, and again

@@ -65,10 +65,11 @@ class SourceSpec:
             return DemoSource(fps=o.fps or 30.0)
         if self.kind == "image":
             from .files import ImageSource
-            return ImageSource(t, fps=o.fps or 2.0, max_pixels=o.max_pixels, timeout=o.timeout)
+            return ImageSource(t, fps=o.fps or 2.0, max_pixels=o.max_pixels, timeout=o.timeout,
+                               exif=o.query_exposure)
         if self.kind == "sequence":
             return SequenceSource(t, fps=o.fps or 1.0, loop=o.loop,
-                                  max_pixels=o.max_pixels)
+                                  max_pixels=o.max_pixels, exif=o.query_exposure)
         if self.kind == "video":
             from .opencv import VideoFileSource
             return VideoFileSource(t, fps=o.fps, loop=o.loop)

@@ -130,3 +130,12 @@ def frame_info(exposure_s: float | None, gain: float = 1.0, **extra) -> dict:
     if gain and math.isfinite(gain) and gain > 0 and gain != 1.0:
         info["gain"] = float(gain)
     return info
+
+
+def still_info(path) -> dict:
+    """``Frame.info`` of a JPEG/TIFF still from its EXIF (ExposureTime, ISO as gain =
+    ISO/100, FNumber as ``f_number``; issue 31), empty when it says no exposure time."""
+    from ...core.radiometry.exif import read_still_exposure
+    e = read_still_exposure(path)
+    extra = {"f_number": e.f_number} if e.f_number else {}
+    return frame_info(e.exposure_s, (e.iso or 100.0) / 100.0, **extra) if e.exposure_s else {}

@@ -13,6 +13,7 @@ from ...core.errors import InputError
 from ...core.radiometry.image_size import FrameTooLarge
 from ...core.radiometry.images import IMAGE_EXTENSIONS, TransientReadError, read_image
 from .base import Frame, Pacer, Source, SourceError, SourceFinished
+from .exposure import still_info
 
 from .base import codec_messages
 
@@ -47,8 +48,10 @@ class ImageSource(Source):
     fails (the capture retries, its reason "no writer ... yet")."""
 
     def __init__(self, path: str, fps: float = 2.0, max_pixels: int = 0,
-                 timeout: float = 5.0):
+                 timeout: float = 5.0, exif: bool = False):
         super().__init__()
+        #: with --camera: each version's EXIF exposure goes into Frame.info (.exposure.still_info)
+        self.exif, self._still = exif, {}
         self.timeout = timeout
         self.path, self.nominal_fps, self.max_pixels = path, fps, max_pixels
         self._pacer = Pacer(fps)
@@ -110,6 +113,8 @@ class ImageSource(Source):
         else:
             self._image, self._mtime, self._bad, self._failing = image, mtime, None, None
             self._retry_s = 1.0
+            if self.exif and self._fifo is None:
+                self._still = still_info(self.path)
 
     def close(self) -> None:
         if self._fifo is not None:
@@ -118,7 +123,7 @@ class ImageSource(Source):
     def read(self) -> Frame:
         self._pacer.wait(self)
         self._load()
-        info = {"path": self.path}
+        info = {"path": self.path, **self._still}
         if self._bad is not None or self._failing is not None:
             info["bad_file"] = self._failing or self._bad[1]
         if self._too_large is not None:
@@ -215,8 +220,9 @@ class SequenceSource(Source):
     """
 
     def __init__(self, pattern: str, fps: float = 1.0, loop: bool = True,
-                 max_pixels: int = 0):
+                 max_pixels: int = 0, exif: bool = False):
         super().__init__()
+        self.exif = exif        # with --camera: each still's EXIF exposure into Frame.info
         self.pattern, self.loop, self.nominal_fps = pattern, loop, fps
         self.max_pixels = max_pixels
         self._pacer = Pacer(fps)
@@ -263,5 +269,6 @@ class SequenceSource(Source):
                     info["too_large"] = (exc.width, exc.height)
                 return Frame(None, time.time(), info=info)
             self._bad.pop(path, None)
-            return Frame(image, time.time(), info={"path": path})
+            return Frame(image, time.time(),
+                         info={"path": path, **(still_info(path) if self.exif else {})})
         raise SourceError(f"none of the files matching {self.pattern} can be read")

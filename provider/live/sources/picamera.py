@@ -123,11 +123,15 @@ class Picamera2Source(Source):
             return exp, g
 
         self._slots = plan(offsets, t * gain, lambda total: np.prod(settable(total)))
+        # the gains auto white balance had settled on, held (issue 31: the room's colour
+        # temperature is measured, not normalised away)
+        gains = md.get("ColourGains")
+        held = {"ColourGains": tuple(float(v) for v in gains)} if gains else {}
         self._controls = []
         for total in self._slots:
             exp, g = settable(total)
             # white balance frozen too: the slots of one set must share their colour gains
-            self._controls.append({"AeEnable": False, "AwbEnable": False,
+            self._controls.append({"AeEnable": False, "AwbEnable": False, **held,
                                    "ExposureTime": int(round(exp * 1e6)),
                                    "AnalogueGain": float(g)})
         longest = max(c["ExposureTime"] for c in self._controls)

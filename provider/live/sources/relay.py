@@ -64,13 +64,18 @@ _NUMBER_RANGES = {**{k: (0.0, MAX_MAGNITUDE, False)
                                "sh9_error")},
                   "clipped_fraction": (0.0, 1.0, False),
                   "clipped_light_fraction": (0.0, 1.0, False),
-                  "exposure_s": (0.0, MAX_MAGNITUDE, True), "gain": (0.0, MAX_MAGNITUDE, True)}
+                  "exposure_s": (0.0, MAX_MAGNITUDE, True), "gain": (0.0, MAX_MAGNITUDE, True),
+                  # absolute units (contract §14): the upstream's exact up-facing lux and the
+                  # aperture and ISO it used; lux, EV100 and CCT are rebuilt here
+                  "illuminance_lux": (0.0, MAX_MAGNITUDE, False),
+                  "f_number": (0.0, MAX_MAGNITUDE, True), "iso": (0.0, MAX_MAGNITUDE, True)}
 _INT_RANGES = {"negative_pixels": (0, 1 << 53), "nonfinite_pixels": (0, 1 << 53),
                "light_candidates": (0, 1 << 53), "order": (0, 2)}
 _RADIOMETRY = ("srgb-assumed", "calibrated", "merged", "linear")
 #: The optional fields an upstream message may carry that this provider passes on.
 _RELAY_STATS = (*_NUMBER_RANGES, *_INT_RANGES, "radiometry", "response", "ringing",
-                "min_irradiance", "exposures_s")
+                "min_irradiance", "exposures_s", "coefficient_units")
+_COEFFICIENT_UNITS = ("cd/m²", "relative")
 
 
 def _show(value) -> str:
@@ -121,6 +126,8 @@ def _stat_ok(key: str, v) -> bool:
         return isinstance(v, str) and 0 < len(v) <= 64 and v.isprintable()
     if key == "ringing":
         return isinstance(v, bool)
+    if key == "coefficient_units":
+        return v in _COEFFICIENT_UNITS
     if key == "min_irradiance":
         return (isinstance(v, list) and len(v) == 3
                 and all(_is_number(x) and abs(x) <= MAX_MAGNITUDE for x in v))

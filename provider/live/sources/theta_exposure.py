@@ -31,7 +31,12 @@ SPEEDS = (1 / 25000, 1 / 16000, 1 / 12500, 1 / 10000, 1 / 8000, 1 / 6400, 1 / 50
           1 / 60, 1 / 50, 1 / 40, 1 / 30, 1 / 25, 1 / 20, 1 / 15, 1 / 13, 1 / 10, 1 / 8,
           1 / 6, 1 / 5, 0.25, 0.3, 0.4, 0.5, 0.625, 0.8, 1.0, 1.3, 1.6, 2.0, 2.5, 3.2, 4.0,
           5.0, 6.0, 8.0, 10.0, 13.0, 15.0, 20.0, 25.0, 30.0, 60.0)
-OPTIONS = ["exposureProgram", "shutterSpeed", "iso", "shutterSpeedSupport", "isoSupport"]
+OPTIONS = ["exposureProgram", "shutterSpeed", "iso", "shutterSpeedSupport", "isoSupport",
+           "aperture", "whiteBalance"]
+#: The white balance a bracket holds when the camera's is "auto" (issue 31: colour
+#: temperature is measured, not normalised away by the camera; OSC's "daylight" is a
+#: fixed ~5,200 K balance on every Theta; Theta V/Z1 also take "_colorTemperature").
+HELD_WHITE_BALANCE = "daylight"
 
 
 class ThetaExposure:
@@ -42,6 +47,7 @@ class ThetaExposure:
         self.fixed = None               # (shutterSpeed, gain) of a camera in manual mode
         self.slots = self.speeds = None
         self.gain = 1.0
+        self.f_number = None            # OSC "aperture" (a Theta S/V is fixed at f/2.0)
         self.restore = None             # the camera's options before the bracket
         self.slot = 0
 
@@ -66,6 +72,10 @@ class ThetaExposure:
         program, speed, iso = (opts.get("exposureProgram"), opts.get("shutterSpeed") or 0,
                                opts.get("iso") or 0)
         manual = program == 1 and speed > 0 and iso > 0
+        aperture = opts.get("aperture")
+        if isinstance(aperture, (int, float)) and not isinstance(aperture, bool) \
+                and math.isfinite(aperture) and aperture > 0:
+            self.f_number = float(aperture)
         if not o.bracket:
             if manual:
                 self.fixed = (float(speed), iso / 100.0)
@@ -74,15 +84,19 @@ class ThetaExposure:
                          "report the exposure it uses: coefficients are relative to it",
                          self.src.base, program)
             return
-        self.restore = {k: opts[k] for k in ("exposureProgram", "shutterSpeed", "iso")
-                        if k in opts}
+        self.restore = {k: opts[k] for k in ("exposureProgram", "shutterSpeed", "iso",
+                                             "whiteBalance") if k in opts}
         speeds = sorted(float(v) for v in (opts.get("shutterSpeedSupport") or SPEEDS))
         isos = [i for i in (opts.get("isoSupport") or [100]) if i > 0]
         iso = iso if manual else min([i for i in isos if i >= 100] or isos or [100])
         self.gain = iso / 100.0
         nearest = lambda t: min(speeds, key=lambda v: abs(math.log(v / t)))  # noqa: E731
+        held = {"whiteBalance": HELD_WHITE_BALANCE} if opts.get("whiteBalance") == "auto" else {}
         self._set({"exposureProgram": 1, "iso": iso,
-                   "shutterSpeed": speed if manual else nearest(1 / 100)})
+                   "shutterSpeed": speed if manual else nearest(1 / 100), **held})
+        if held:
+            log.info("%s: white balance held at %s while bracketing (auto would normalise "
+                     "the room's colour temperature away)", self.src.base, HELD_WHITE_BALANCE)
         base = speed * self.gain if manual else self._meter(nearest)
         self.slots = X.plan(o.bracket, base, lambda want: nearest(want / self.gain) * self.gain)
         self.speeds = [nearest(t / self.gain) for t in self.slots]
@@ -119,14 +133,19 @@ class ThetaExposure:
         """The next frame: of the next slot when bracketing (after its setOptions settled),
         else the next preview frame with the exposure of a camera in manual mode."""
         if self.slots is None:
-            info = X.frame_info(*self.fixed) if self.fixed else {}
+            info = X.frame_info(*self.fixed, **self._aperture()) if self.fixed else {}
             return Frame(None, time.time(), jpeg=self.src._reader.next_jpeg(), info=info)
         slot = self.slot
         self._set({"shutterSpeed": self.speeds[slot]})
         jpeg = self._settled_jpeg()
         self.slot = (slot + 1) % len(self.slots)
         return Frame(None, time.time(), jpeg=jpeg, info=X.frame_info(
-            self.speeds[slot], self.gain, slot=slot, bracket=tuple(self.slots)))
+            self.speeds[slot], self.gain, slot=slot, bracket=tuple(self.slots),
+            **self._aperture()))
+
+    def _aperture(self) -> dict:
+        """``f_number`` for Frame.info where the camera said its aperture."""
+        return {"f_number": self.f_number} if self.f_number else {}
 
     def close(self) -> None:
         """Give the camera back its own exposure settings (it may be gone)."""

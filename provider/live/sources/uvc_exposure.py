@@ -97,10 +97,25 @@ class UvcExposure:
                 cap.set(cv2.CAP_PROP_AUTO_EXPOSURE, 3)
                 return
         self.slots = slots
+        self._hold_white_balance()
         log.info("camera %s: bracketing %s EV around %.4g s: %s", target,
                  ", ".join(f"{e:+g}" for e in offsets), base,
                  ", ".join(f"{t:.4g} s" for t in slots))
         self._set_slot(0)
+
+    def _hold_white_balance(self) -> None:
+        """Auto white balance off at the temperature it had (V4L2
+        ``white_balance_automatic`` 0, ``white_balance_temperature`` kept): the room's colour
+        temperature is then measured, not normalised away (issue 31). A driver without
+        these controls is said once; its frames stay white-balanced by the camera."""
+        cap, target = self.src._cap, self.src.target
+        kelvin = cap.get(cv2.CAP_PROP_WB_TEMPERATURE)
+        if cap.set(cv2.CAP_PROP_AUTO_WB, 0) and kelvin and kelvin > 0:
+            cap.set(cv2.CAP_PROP_WB_TEMPERATURE, kelvin)
+            log.info("camera %s: white balance held at %.0f K", target, kelvin)
+        else:
+            log.info("camera %s: the driver does not hold white balance (colour temperature "
+                     "is then the camera's normalised one)", target)
 
     def _set_slot(self, slot: int) -> None:
         self.slot = slot

@@ -32,6 +32,9 @@ from importlib import resources
 
 import numpy as np
 
+from ...core.radiometry.colour_temperature import colour_fields
+from ...core.radiometry.photometry import UNITS_ABSOLUTE, photometric_fields
+
 
 SCHEMA_VERSION = 1
 FRAME = "rh-y-up"
@@ -40,12 +43,13 @@ UNITS = "input-linear"
 
 _STAT_NUMBERS = ("compute_ms", "clipped_fraction", "order_error", "error_estimate",
                  "coverage_sr", "negative_energy_fraction", "light_error", "sh9_error",
-                 "clipped_light_fraction", "exposure_s", "gain")
+                 "clipped_light_fraction", "exposure_s", "gain", "f_number", "iso",
+                 "meter_lux", "meter_camera_lux", "meter_closed_lux", "meter_solid_angle_sr")
 _STAT_INTS = ("negative_pixels", "nonfinite_pixels", "order", "light_candidates")
 #: What the numbers are (docs/contract.md §9): "srgb-assumed", "calibrated", "merged" or "linear";
 #: the camera curve's method; the exposure times of a merged set.
 _STAT_STRINGS = ("radiometry", "response")
-_STAT_LISTS = ("exposures_s",)
+_STAT_LISTS = ("exposures_s", "meter_direction")
 
 
 def _finite(x: float) -> float:
@@ -102,6 +106,13 @@ def coefficient_message(result, *, probe: str = "default", seq: int = 0,
         msg["min_irradiance"] = [float(v) for v in stats["min_irradiance"]]
     if "ringing" in stats:
         msg["ringing"] = bool(stats["ringing"])
+    # Photometry (docs/contract.md "Photometric units"): coefficient_units always; lux, EV100
+    # and each light's lux only when the coefficients are absolute (cd/m²).
+    msg.update(photometric_fields(coeffs, mats, result.lights,
+                                  stats.get("coefficient_units") == UNITS_ABSOLUTE,
+                                  stats.get("illuminance_lux")))
+    # Colour (docs/contract.md "Photometric units"): CCT and Duv of L00 and of each light.
+    msg.update(colour_fields(coeffs, result.lights))
     # JsonUtility has no null: 0 means "no window applied".
     msg["window_cutoff"] = float(stats.get("window_cutoff") or 0.0)
     for k, v in extra.items():

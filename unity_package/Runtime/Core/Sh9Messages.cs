@@ -58,12 +58,49 @@ namespace Shlight.Lighting
         /// it, i.e. when a client can show the lights as lights without counting them twice.</summary>
         public bool HasLightSplit { get { return Lights > 0 && AmbientMatrices != null; } }
 
+        // Photometry (docs/contract.md §14, docs/photometry.md): present when the provider's camera has
+        // an absolute scale ("cd/m²"); NaN (or "relative") otherwise.
+        /// <summary>"cd/m²" (absolute: coefficients in cd/m², irradiance in lux) or "relative".</summary>
+        public string CoefficientUnits = "relative";
+        /// <summary>Illuminance on an up-facing surface at the probe, lux (absolute only; NaN otherwise).</summary>
+        public double IlluminanceLux = double.NaN;
+        /// <summary>The EV100 a reflected-light meter sets for the room (absolute only; NaN otherwise).</summary>
+        public double Ev100 = double.NaN;
+        /// <summary>Correlated colour temperature of the mean radiance, kelvin (NaN when it has none).</summary>
+        public double CctK = double.NaN;
+        /// <summary>Duv of the mean radiance (NaN with <see cref="CctK"/>).</summary>
+        public double Duv = double.NaN;
+        /// <summary>k numbers: each light's illuminance at normal incidence, lux (absolute only; empty otherwise).</summary>
+        public double[] LightIlluminanceLux = EmptyNumbers;
+        /// <summary>k numbers: each light's CCT in kelvin, 0 where it has none.</summary>
+        public double[] LightCctK = EmptyNumbers;
+
+        /// <summary>True when the coefficients are in cd/m² (and the lux fields are present).</summary>
+        public bool IsAbsolute { get { return CoefficientUnits == "cd/m²" && !double.IsNaN(Ev100); } }
+
+        /// <summary>The exposure multiplier a physical camera uses for this room, 1 / (1.2 · 2^EV100) (HDRP's
+        /// ConvertEV100ToExposure; for a fixed exposure set the camera's EV100 to <see cref="Ev100"/>);
+        /// NaN for relative lighting.</summary>
+        public double PhysicalExposure { get { return Sh9Photometry.ExposureFromEv100(Ev100); } }
+
         internal static readonly double[] EmptyNumbers = new double[0];
         /// <summary>The marker registration of docs/contract.md §13 (null until the server knows it).</summary>
         public Sh9Registration Registration;
 
         /// <summary>Every field of the message as parsed (numbers are double, arrays List&lt;object&gt;).</summary>
         public Dictionary<string, object> Fields;
+    }
+
+    /// <summary>Photometric conversions (docs/photometry.md).</summary>
+    public static class Sh9Photometry
+    {
+        /// <summary>1 / (1.2 · 2^EV100): the saturation-based exposure of a camera at ISO 100 (Unity HDRP's
+        /// ColorUtils.ConvertEV100ToExposure, Filament's exposure()); NaN for a NaN EV100.</summary>
+        public static double ExposureFromEv100(double ev100)
+        {
+            if (double.IsNaN(ev100) || double.IsInfinity(ev100)) return double.NaN;
+            return 1.0 / (1.2 * Math.Pow(2.0, ev100));
+        }
     }
 
     /// <summary>The "hello" message a server sends first.</summary>
@@ -188,8 +225,27 @@ namespace Shlight.Lighting
                 m.MatricesDerived = true;
             }
             ParseLights(obj, m);
+            ParsePhotometry(obj, m);
             m.Registration = Sh9Registration.Parse(obj);
             return m;
+        }
+
+        // docs/contract.md §14: optional; a light's arrays have k numbers when present.
+        static void ParsePhotometry(Dictionary<string, object> obj, Sh9Message m)
+        {
+            m.CoefficientUnits = GetString(obj, "coefficient_units", "relative");
+            m.IlluminanceLux = GetNumber(obj, "illuminance_lux", double.NaN);
+            m.Ev100 = GetNumber(obj, "ev100", double.NaN);
+            m.CctK = GetNumber(obj, "cct_k", double.NaN);
+            m.Duv = GetNumber(obj, "duv", double.NaN);
+            double[] lux = GetNumbers(obj, "light_illuminance_lux", 0, false);
+            double[] cct = GetNumbers(obj, "light_cct_k", 0, false);
+            if (lux != null && lux.Length != m.Lights)
+                throw new FormatException("\"light_illuminance_lux\" must have lights = " + m.Lights + " numbers, got " + lux.Length);
+            if (cct != null && cct.Length != m.Lights)
+                throw new FormatException("\"light_cct_k\" must have lights = " + m.Lights + " numbers, got " + cct.Length);
+            m.LightIlluminanceLux = lux ?? Sh9Message.EmptyNumbers;
+            m.LightCctK = cct ?? Sh9Message.EmptyNumbers;
         }
 
         /// <summary>Most lights a message may carry (a bound for hostile input; the provider sends a few).</summary>

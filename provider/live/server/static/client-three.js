@@ -71,6 +71,24 @@ export function setLightProbe(lightProbe, lighting, { rotation = null, intensity
 }
 
 /**
+ * The exposure a physical camera sets for this lighting, as three's
+ * `renderer.toneMappingExposure`: 1 / (1.2 · 2^EV100) (the saturation-based conversion
+ * Filament and Unity HDRP use; docs/photometry.md), or null when the provider's lighting is
+ * not in absolute units (no `ev100`: "coefficient_units": "relative"). With it, a LightProbe
+ * at intensity 1 holding cd/m² renders the room's luminance at the room's exposure.
+ */
+export function physicalExposure(lighting) {
+  const m = lighting ? (lighting.message || lighting) : {};
+  return typeof m.ev100 === "number" && isFinite(m.ev100) ? 1 / (1.2 * Math.pow(2, m.ev100)) : null;
+}
+
+/** `options.renderer` given: its toneMappingExposure follows the room's EV100 (issue 31). */
+function followExposure(options, lighting) {
+  const e = options.renderer ? physicalExposure(lighting) : null;
+  if (e !== null) options.renderer.toneMappingExposure = e;
+}
+
+/**
  * connect() (see client.js) and keep `lightProbe` set to the newest lighting. Options as
  * connect()'s, plus `rotation` and `intensity` (read at every message, so they may be
  * changed on the returned connection's `.options`), and, opt-in, `shadows`: an object
@@ -97,6 +115,7 @@ export function connectLightProbe(url, lightProbe, options = {}) {
     onLighting: (lighting, c) => {
       if (shadows) applyShadows(shadows, lightProbe, lighting, settings);
       else setLightProbe(lightProbe, lighting, settings);
+      followExposure(options, lighting);
       if (options.onLighting) options.onLighting(lighting, c);
     },
   });
@@ -247,6 +266,8 @@ export function yawRotation(degrees) {
  *   background  also show the cube as scene.background (default false)
  *   rotation    row-major 3×3, the provider's frame → your world (or `yaw` in degrees)
  *   intensity   scene.environmentIntensity and the LightProbe's intensity (default 1)
+ *   renderer    optional: its toneMappingExposure follows the room's EV100 when the provider
+ *               is in absolute units (physicalExposure; also an option of connectLightProbe)
  * The returned connection also has: texture (the THREE texture, null before the first cube),
  * rotation, setRotation(R), setYaw(degrees), setMarkerPose(worldFromMarker, {markerAxes})
  * (registration: R_world←camera from the tracker's marker pose and the newest message's
@@ -273,6 +294,7 @@ export function connectEnvironment(url, options = {}) {
     environment: true,
     onLighting: (lighting, c) => {
       if (lightProbe) setLightProbe(lightProbe, lighting, settings);
+      followExposure(options, lighting);
       if (options.onLighting) options.onLighting(lighting, c);
     },
     onEnvironment: (cube, c) => {

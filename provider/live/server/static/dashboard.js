@@ -260,6 +260,14 @@
       (Array.isArray(m.exposures_s) && m.exposures_s.length ? ` · ${m.exposures_s.length} shots` : "");
     $("s-clipped").textContent = fmt(100 * m.clipped_fraction, 1, " %") +
       (m.clipped_light_fraction > 0 ? ` (${fmt(100 * m.clipped_light_fraction, 1, " %")} of the light)` : "");
+    // Photometry (contract "Photometric units"): lux and EV100 when absolute, CCT always,
+    // and what a lux meter closed.
+    $("s-photometry").textContent = [
+      typeof m.illuminance_lux === "number" ? `${fmt(m.illuminance_lux, 0, " lx")} up` : m.coefficient_units || "–",
+      typeof m.ev100 === "number" ? `EV100 ${fmt(m.ev100, 1)}` : "",
+      typeof m.cct_k === "number" ? `${fmt(m.cct_k, 0, " K")} (Duv ${fmt(m.duv, 4)})` : "",
+      m.meter_closed_lux > 0 ? `meter closed ${fmt(m.meter_closed_lux, 0, " lx")}` : "",
+    ].filter(Boolean).join(" · ");
     $("s-error").textContent = fmt(100 * m.error_estimate, 1, " %");
     // Lights (contract §10): how many, and the error they leave against SH9 alone.
     $("s-lights").textContent = !(m.lights > 0) ? (typeof m.light_error === "number" ? "none needed" : "off")

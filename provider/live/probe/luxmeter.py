@@ -1,0 +1,271 @@
+"""``shlight serve --lux SOURCE``: an up-facing lux meter beside the camera, read live.
+
+SOURCE is one of
+
+* a number: a fixed reading in lux (a scene whose light does not change, a test);
+* ``mqtt://HOST[:PORT]/TOPIC``: the latest payload published on TOPIC, a number or a JSON
+  object with a ``lux`` number (what Zigbee2MQTT / Tasmota / ESPHome illuminance sensors
+  publish); paho-mqtt in its own thread;
+* ``i2c:BUS[:bh1750|tsl2591][@ADDRESS]``: a BH1750 (default, address 0x23) or TSL2591
+  (0x29) on the Raspberry Pi's I²C bus BUS (``/dev/i2c-BUS``) through smbus2 (the
+  ``sensors`` extra), polled in its own thread.
+
+The probe asks :meth:`LuxMeter.lux` for every frame: the latest reading no older than
+``max_age_s`` (a meter that stopped answering must not hold a stale sun), else None, and
+the frame's clipped light stays a reported lower bound. Sensor protocols, from the data
+sheets:
+
+* BH1750 (ROHM BH1750FVI): opcode 0x01 power on, 0x10 continuous high-resolution mode
+  (1 lx, 120 ms); a read returns two bytes, big-endian; lux = count / 1.2 at the default
+  measurement time (MTreg 69).
+* TSL2591 (ams): every register access is the command byte ``0xA0 | register``; ID (0x12)
+  reads 0x50; ENABLE (0x00) ← 0x03 (power on, ALS on); CONTROL (0x01) ← gain and
+  integration time; C0DATA (0x14-0x15, full spectrum) and C1DATA (0x16-0x17, infrared),
+  little-endian. lux = (C0 − C1)·(1 − C1/C0) / CPL with CPL = ATIME_ms · AGAIN / 408 (the
+  device factor of ams's application note as Adafruit's TSL2591 driver uses it).
+"""
+from __future__ import annotations
+
+import json
+import logging
+import math
+import threading
+import time
+from urllib.parse import urlsplit
+
+from ...core.errors import InputError
+
+log = logging.getLogger("shlight.luxmeter")
+
+#: A reading older than this is not used (seconds).
+MAX_AGE_S = 10.0
+#: Seconds between two sensor reads (the BH1750 integrates 120 ms, the TSL2591 100+ ms).
+POLL_S = 0.25
+
+BH1750_ADDRESS = 0x23
+BH1750_POWER_ON = 0x01
+BH1750_CONTINUOUS_HIGH = 0x10
+
+TSL2591_ADDRESS = 0x29
+TSL2591_COMMAND = 0xA0
+TSL2591_ENABLE, TSL2591_CONTROL, TSL2591_ID = 0x00, 0x01, 0x12
+TSL2591_C0DATAL = 0x14
+TSL2591_ID_VALUE = 0x50
+#: Medium gain (25×), 100 ms: CONTROL = AGAIN << 4 | ATIME.
+TSL2591_AGAIN, TSL2591_GAIN_BITS = 25.0, 0x1
+TSL2591_ATIME_MS, TSL2591_ATIME_BITS = 100.0, 0x0
+TSL2591_LUX_DF = 408.0
+
+
+class LuxMeter:
+    """The latest reading of a meter (thread-safe), no older than ``max_age_s``."""
+
+    def __init__(self, description: str, max_age_s: float = MAX_AGE_S):
+        self.description = description
+        self.max_age_s = max_age_s
+        self._value: float | None = None
+        self._at = -math.inf
+        self._lock = threading.Lock()
+        self.errors = 0
+
+    def set(self, lux: float, at: float | None = None) -> bool:
+        """Store a reading; refuses (counts, logs once in a while) a non-finite or negative
+        one: a broken sensor must not close anything."""
+        try:
+            lux = float(lux)
+        except (TypeError, ValueError):
+            lux = math.nan
+        if not (math.isfinite(lux) and lux >= 0):
+            self.errors += 1
+            if self.errors in (1, 10, 100) or self.errors % 1000 == 0:
+                log.warning("lux meter %s: refused reading %r (%d so far)", self.description,
+                            lux, self.errors)
+            return False
+        with self._lock:
+            self._value, self._at = lux, time.monotonic() if at is None else at
+        return True
+
+    def lux(self) -> float | None:
+        """The latest reading in lux, or None (none yet, or older than ``max_age_s``)."""
+        with self._lock:
+            if self._value is None or time.monotonic() - self._at > self.max_age_s:
+                return None
+            return self._value
+
+    def start(self) -> None:
+        """Start reading (a thread or a client); a fixed meter has nothing to start."""
+
+    def stop(self) -> None:
+        """Stop reading."""
+
+
+class FixedLux(LuxMeter):
+    """A reading given once (``--lux 32000``): never stale."""
+
+    def __init__(self, lux: float):
+        super().__init__(f"{lux:g} lux", max_age_s=math.inf)
+        if not (math.isfinite(lux) and lux > 0):
+            raise InputError(f"--lux must be a positive number of lux, got {lux:g}")
+        self.set(lux)
+
+
+class PolledLuxMeter(LuxMeter):
+    """A sensor read by ``read()`` every ``poll_s`` in its own thread."""
+
+    def __init__(self, description: str, poll_s: float = POLL_S, **kw):
+        super().__init__(description, **kw)
+        self.poll_s = poll_s
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def read(self) -> float:
+        raise NotImplementedError
+
+    def poll_once(self) -> bool:
+        """One reading into :meth:`lux` (an I/O error is counted and logged, not raised)."""
+        try:
+            return self.set(self.read())
+        except OSError as exc:
+            self.errors += 1
+            if self.errors in (1, 10, 100) or self.errors % 1000 == 0:
+                log.warning("lux meter %s: %s (%d errors so far)", self.description, exc,
+                            self.errors)
+            return False
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self.poll_once()
+            self._stop.wait(self.poll_s)
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name=f"lux {self.description}",
+                                        daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+
+
+class BH1750(PolledLuxMeter):
+    """A BH1750 on an smbus2-like ``bus`` (``write_byte``, ``read_i2c_block_data``)."""
+
+    def __init__(self, bus, address: int = BH1750_ADDRESS, **kw):
+        super().__init__(f"BH1750 at 0x{address:02x}", **kw)
+        self.bus, self.address = bus, address
+        self.bus.write_byte(address, BH1750_POWER_ON)
+        self.bus.write_byte(address, BH1750_CONTINUOUS_HIGH)
+
+    def read(self) -> float:
+        hi, lo = self.bus.read_i2c_block_data(self.address, BH1750_CONTINUOUS_HIGH, 2)
+        return ((hi << 8) | lo) / 1.2
+
+
+class TSL2591(PolledLuxMeter):
+    """A TSL2591 on an smbus2-like ``bus`` (``read_byte_data``, ``write_byte_data``,
+    ``read_i2c_block_data``); refuses a device whose ID is not 0x50."""
+
+    def __init__(self, bus, address: int = TSL2591_ADDRESS, **kw):
+        super().__init__(f"TSL2591 at 0x{address:02x}", **kw)
+        self.bus, self.address = bus, address
+        ident = bus.read_byte_data(address, TSL2591_COMMAND | TSL2591_ID)
+        if ident != TSL2591_ID_VALUE:
+            raise InputError(f"no TSL2591 at 0x{address:02x} (ID 0x{ident:02x}, expected "
+                             f"0x{TSL2591_ID_VALUE:02x})")
+        bus.write_byte_data(address, TSL2591_COMMAND | TSL2591_ENABLE, 0x03)
+        bus.write_byte_data(address, TSL2591_COMMAND | TSL2591_CONTROL,
+                            TSL2591_GAIN_BITS << 4 | TSL2591_ATIME_BITS)
+
+    def read(self) -> float:
+        b = self.bus.read_i2c_block_data(self.address, TSL2591_COMMAND | TSL2591_C0DATAL, 4)
+        full, ir = b[0] | b[1] << 8, b[2] | b[3] << 8
+        if full >= 0xFFFF or ir >= 0xFFFF:
+            raise OSError("TSL2591 saturated (too bright for medium gain)")
+        if full == 0:
+            return 0.0
+        cpl = TSL2591_ATIME_MS * TSL2591_AGAIN / TSL2591_LUX_DF
+        return max((full - ir) * (1.0 - ir / full) / cpl, 0.0)
+
+
+class MqttLuxMeter(LuxMeter):
+    """The latest number (or JSON ``{"lux": ...}``) published on an MQTT topic."""
+
+    def __init__(self, host: str, port: int, topic: str, **kw):
+        super().__init__(f"mqtt://{host}:{port}/{topic}", **kw)
+        self.host, self.port, self.topic = host, port, topic
+        self._client = None
+
+    def on_payload(self, payload: bytes) -> bool:
+        """Store a payload's reading (a number, or an object with a ``lux`` number)."""
+        try:
+            value = json.loads(payload.decode("utf-8", "replace"))
+        except ValueError:
+            value = None
+        if isinstance(value, dict):
+            value = value.get("lux", value.get("illuminance_lux", value.get("illuminance")))
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            value = math.nan
+        return self.set(value)
+
+    def start(self) -> None:
+        import paho.mqtt.client as mqtt
+        client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
+        client.on_connect = lambda c, *_: c.subscribe(self.topic, qos=0)
+        client.on_message = lambda c, u, msg: self.on_payload(msg.payload)
+        client.connect_async(self.host, self.port)
+        client.loop_start()
+        self._client = client
+
+    def stop(self) -> None:
+        if self._client is not None:
+            self._client.loop_stop()
+            self._client.disconnect()
+
+
+def parse_lux_source(text: str, *, bus_factory=None) -> LuxMeter:
+    """The meter of a ``--lux`` SOURCE (see the module doc); one clear InputError for
+    anything else. ``bus_factory(bus_number)``: an smbus2-like bus (tests pass a fake)."""
+    text = str(text).strip()
+    try:
+        number = float(text)
+    except ValueError:
+        number = None
+    if number is not None:
+        return FixedLux(number)
+    if text.startswith("mqtt://"):
+        u = urlsplit(text)
+        topic = u.path.lstrip("/")
+        if not u.hostname or not topic:
+            raise InputError(f"--lux {text}: expected mqtt://HOST[:PORT]/TOPIC")
+        try:
+            port = u.port or 1883
+        except ValueError:
+            raise InputError(f"--lux {text}: the port is not a number") from None
+        return MqttLuxMeter(u.hostname, port, topic)
+    if text.startswith("i2c:"):
+        rest, _, addr = text[4:].partition("@")
+        bus_text, _, kind = rest.partition(":")
+        kind = kind or "bh1750"
+        if kind not in ("bh1750", "tsl2591") or not bus_text.isdigit():
+            raise InputError(f"--lux {text}: expected i2c:BUS[:bh1750|tsl2591][@ADDRESS]")
+        try:
+            address = int(addr, 0) if addr else (BH1750_ADDRESS if kind == "bh1750"
+                                                else TSL2591_ADDRESS)
+        except ValueError:
+            raise InputError(f"--lux {text}: the address is not a number (e.g. @0x23)") from None
+        if bus_factory is None:
+            try:
+                from smbus2 import SMBus
+            except ImportError:
+                raise InputError("--lux i2c:... needs smbus2 (pip install "
+                                 "'shlight[sensors]')") from None
+            bus_factory = SMBus
+        try:
+            bus = bus_factory(int(bus_text))
+            return (BH1750 if kind == "bh1750" else TSL2591)(bus, address)
+        except OSError as exc:
+            raise InputError(f"--lux {text}: cannot reach the sensor on /dev/i2c-{bus_text} "
+                             f"at 0x{address:02x}: {exc.strerror or exc}") from None
+    raise InputError(f"--lux {text}: a number of lux, mqtt://HOST[:PORT]/TOPIC or "
+                     "i2c:BUS[:bh1750|tsl2591][@ADDRESS]")

@@ -1,0 +1,184 @@
+"""Issue 31: ``shlight serve --lux SOURCE``: a fixed number, an MQTT topic on a real
+mosquitto, and BH1750 / TSL2591 sensors behind fake I²C buses that speak the devices' real
+register protocols (data sheets: ROHM BH1750FVI, ams TSL2591); then a live server whose
+lighting the meter closes (/latest.json)."""
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+import paho.mqtt.client as mqtt
+import pytest
+
+from provider.core.errors import InputError
+from provider.live.probe.luxmeter import (BH1750, TSL2591, TSL2591_LUX_DF, FixedLux,
+                                         LuxMeter, MqttLuxMeter, parse_lux_source)
+from mqtttools import Mosquitto
+from servertools import ServeProcess, http_get, poll
+
+from test_meter_31 import camera  # noqa: F401  (the absolutely calibrated camera.json)
+from test_photometry_31 import exact_illuminance_up, scene, write_bracket
+
+
+class FakeBH1750Bus:
+    """An smbus2-like bus with a BH1750 at 0x23: opcodes by write_byte, the measurement by
+    a 2-byte read (big-endian count = lux × 1.2), nothing before power-on and a mode."""
+
+    def __init__(self, lux: float, address: int = 0x23):
+        self.lux, self.address = lux, address
+        self.powered, self.mode = False, None
+
+    def _check(self, address):
+        if address != self.address:
+            raise OSError(121, "Remote I/O error")
+
+    def write_byte(self, address, value):
+        self._check(address)
+        if value == 0x01:
+            self.powered = True
+        elif value in (0x10, 0x11, 0x13, 0x20, 0x21, 0x23) and self.powered:
+            self.mode = value
+        else:
+            raise OSError(5, "Input/output error")
+
+    def read_i2c_block_data(self, address, command, length):
+        self._check(address)
+        self.write_byte(address, command)           # smbus2 sends the byte first
+        assert length == 2 and self.mode == 0x10
+        count = min(int(round(self.lux * 1.2)), 0xFFFF)
+        return [count >> 8, count & 0xFF]
+
+
+class FakeTSL2591Bus:
+    """An smbus2-like bus with a TSL2591 at 0x29: registers through the command byte
+    0xA0 | register; ID 0x50; channels 0 (full) and 1 (IR) little-endian, 0 until ENABLE
+    has power and ALS on; counts such that the data sheet's lux formula gives ``lux`` at
+    the CONTROL the driver set (gain 25×, 100 ms)."""
+
+    def __init__(self, lux: float, ir_fraction: float = 0.2, address: int = 0x29):
+        self.lux, self.r, self.address = lux, ir_fraction, address
+        self.registers = {0x12: 0x50, 0x00: 0x00, 0x01: 0x00}
+
+    def _reg(self, address, command):
+        if address != self.address:
+            raise OSError(121, "Remote I/O error")
+        if command & 0xE0 != 0xA0:
+            raise OSError(5, "Input/output error")   # no command bit: the device ignores it
+        return command & 0x1F
+
+    def read_byte_data(self, address, command):
+        return self.registers.get(self._reg(address, command), 0)
+
+    def write_byte_data(self, address, command, value):
+        self.registers[self._reg(address, command)] = value
+
+    def read_i2c_block_data(self, address, command, length):
+        reg = self._reg(address, command)
+        assert reg == 0x14 and length == 4
+        if self.registers[0x00] & 0x03 != 0x03:
+            return [0, 0, 0, 0]
+        again = {0: 1.0, 1: 25.0, 2: 428.0, 3: 9876.0}[(self.registers[0x01] >> 4) & 3]
+        atime = 100.0 * ((self.registers[0x01] & 7) + 1)
+        cpl = atime * again / TSL2591_LUX_DF
+        full = self.lux * cpl / (1 - self.r) ** 2
+        c0, c1 = min(int(round(full)), 0xFFFF), min(int(round(full * self.r)), 0xFFFF)
+        return [c0 & 0xFF, c0 >> 8, c1 & 0xFF, c1 >> 8]
+
+
+def test_bh1750_protocol():
+    bus = FakeBH1750Bus(1234.5)
+    meter = BH1750(bus)
+    assert bus.powered and bus.mode == 0x10
+    assert meter.poll_once() and meter.lux() == pytest.approx(1234.5, abs=1 / 1.2)
+
+
+def test_tsl2591_protocol_and_saturation():
+    bus = FakeTSL2591Bus(321.0)
+    meter = TSL2591(bus)
+    assert bus.registers[0x00] == 0x03
+    assert meter.poll_once() and meter.lux() == pytest.approx(321.0, rel=0.01)
+    bus.lux = 1e6                   # beyond medium gain: counted, not a reading, not raised
+    assert not meter.poll_once() and meter.errors == 1
+    assert meter.lux() == pytest.approx(321.0, rel=0.01)
+    with pytest.raises(InputError, match="no TSL2591"):
+        TSL2591(_WrongId())
+
+
+class _WrongId(FakeTSL2591Bus):
+    def __init__(self):
+        super().__init__(1.0)
+        self.registers[0x12] = 0x44
+
+
+def test_parse_lux_sources():
+    assert parse_lux_source("32000").lux() == 32000
+    meter = parse_lux_source("i2c:1", bus_factory=lambda n: FakeBH1750Bus(50.0))
+    assert isinstance(meter, BH1750) and meter.poll_once() and meter.lux() == pytest.approx(50, abs=1)
+    meter = parse_lux_source("i2c:1:tsl2591@0x29", bus_factory=lambda n: FakeTSL2591Bus(9.0))
+    assert isinstance(meter, TSL2591)
+    m = parse_lux_source("mqtt://127.0.0.1:1884/home/lux")
+    assert isinstance(m, MqttLuxMeter) and (m.port, m.topic) == (1884, "home/lux")
+    for bad, words in (("-5", "positive"), ("i2c:x", "i2c:BUS"), ("mqtt://host", "TOPIC"),
+                       ("lux!", "a number of lux"), ("i2c:1@zz", "address")):
+        with pytest.raises(InputError, match=words):
+            parse_lux_source(bad, bus_factory=lambda n: FakeBH1750Bus(1.0))
+    with pytest.raises(InputError, match="cannot reach the sensor"):
+        parse_lux_source("i2c:1@0x5c", bus_factory=lambda n: FakeBH1750Bus(1.0))
+
+
+def test_stale_and_broken_readings_are_not_used():
+    meter = LuxMeter("test", max_age_s=5.0)
+    assert meter.lux() is None
+    assert meter.set(100.0, at=time.monotonic() - 60) and meter.lux() is None
+    assert not meter.set(math.nan) and not meter.set(-1) and meter.errors == 2
+    assert meter.set(100.0) and meter.lux() == 100.0
+    assert FixedLux(5.0).lux() == 5.0
+
+
+def test_mqtt_topic_meter(tmp_path):
+    with Mosquitto(tmp_path) as broker:
+        meter = MqttLuxMeter("127.0.0.1", broker.port, "garden/lux")
+        meter.start()
+        try:
+            pub = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
+            pub.connect("127.0.0.1", broker.port)
+            pub.loop_start()
+            for payload, want in (("1234.5", 1234.5), ('{"lux": 99}', 99.0),
+                                  ('{"illuminance": 7}', 7.0)):
+                def got(want=want, payload=payload):
+                    pub.publish("garden/lux", payload)   # again until the meter subscribed
+                    return meter.lux() == want
+                poll(got, timeout=20, interval=0.1, what=f"the meter to read {payload}")
+            errors = meter.errors
+            pub.publish("garden/lux", "not a number").wait_for_publish()
+            poll(lambda: meter.errors > errors, timeout=20, what="a refused payload")
+            assert meter.lux() == 7.0
+            pub.loop_stop()
+            pub.disconnect()
+        finally:
+            meter.stop()
+
+
+def test_serve_with_a_meter_closes_the_sun(camera, tmp_path):  # noqa: F811
+    hdr = scene("sky")
+    (frame,) = write_bracket(tmp_path, "sun", hdr, (0,), n=8.0, iso=100, ext="jpg")
+    lux = exact_illuminance_up(hdr)
+    with ServeProcess("--source", str(frame), "--camera", str(camera), "--lux", str(lux),
+                      "--lights", "auto", "--fps", "5") as proc:
+        def latest():
+            status, _, body = http_get(proc.http + "/latest.json")
+            msg = json.loads(body) if status == 200 else {}
+            return msg if msg.get("meter_closed_lux") else None
+        msg = poll(latest, timeout=60, what="a metered message")
+    assert msg["coefficient_units"] == "cd/m²" and msg["meter_lux"] == pytest.approx(lux)
+    assert msg["illuminance_lux"] == pytest.approx(lux, rel=0.05)
+    assert msg["lights"] >= 1 and len(msg["light_illuminance_lux"]) == msg["lights"]
+    assert np.isfinite(msg["ev100"])
+
+
+def test_serve_lux_needs_a_camera():
+    from servertools import run_cli
+    p = run_cli("serve", "--source", "demo", "--lux", "1000")
+    assert p.returncode == 2 and "--lux needs --camera" in p.stderr
