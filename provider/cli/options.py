@@ -42,6 +42,8 @@ PROJECTION_OPTIONS = {
     "center": ("--center", ("fisheye", "mirrorball", "angular")),
     "radius": ("--radius", ("fisheye", "mirrorball", "angular")),
     "calibration": ("--calibration", ("fisheye",)),
+    "lens": ("--lens", ("dual-fisheye",)),
+    "front": ("--front", ("dual-fisheye",)),
     "fill": ("--fill", ("fisheye",)),
     "albedo": ("--albedo", ("fisheye",)),
     "ball_unseen": ("--ball-unseen", ("mirrorball",)),
@@ -274,6 +276,7 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                    help="fisheye pixel radius at fov/2 (default: inscribed circle)")
     g.add_argument("--calibration", default=None,
                    help="JSON file with an OpenCV fisheye calibration {\"K\": 3x3, \"D\": 4}")
+    add_lens_arguments(g)
     g.add_argument("--fill", default=None, choices=["ground", "mirror", "zero"],
                    help="fisheye: model of the unseen hemisphere (default ground)")
     g.add_argument("--albedo", type=finite_float, default=None,
@@ -283,6 +286,35 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                         "are decoded with its curve instead of sRGB")
     from .probe_options import add_probe_arguments
     add_probe_arguments(g)
+
+
+def add_lens_arguments(g) -> None:
+    """``--lens`` and ``--front`` of a dual-fisheye frame (compute, environment, serve,
+    export, register)."""
+    from ..core.geometry.lens_profiles import PROFILES
+    g.add_argument("--lens", default=None, metavar="NAME",
+                   help="dual-fisheye lens profile: " + ", ".join(PROFILES) + " (default "
+                        "equidistant; Ricoh's design curves at each model's frame size, "
+                        "docs/cameras.md)")
+    g.add_argument("--front", default=None, choices=["left", "right"],
+                   help="dual-fisheye: the circle that looks where a stitched panorama's "
+                        "centre does (default: the lens profile's, right for every Theta)")
+
+
+def lens_options(args) -> dict:
+    """The dual-fisheye ``lens`` and ``front`` options given (InputError for an unknown lens)."""
+    opts = {}
+    if getattr(args, "lens", None) is not None:
+        from ..core.geometry.lens_profiles import lens_profile
+        from ..core.geometry.checks import ProjectionError
+        try:
+            lens_profile(args.lens)
+        except ProjectionError as exc:
+            raise InputError(f"--lens: {exc}") from None
+        opts["lens"] = args.lens
+    if getattr(args, "front", None) is not None:
+        opts["front"] = args.front
+    return opts
 
 
 def fisheye_calibration(path: str) -> dict:
@@ -349,8 +381,10 @@ def engine_options(args) -> dict:
             opts["radius"] = args.radius
         if args.calibration:
             opts.update(fisheye_calibration(args.calibration))
-    elif args.projection == "dual-fisheye" and args.fov is not None:
-        opts["fov_deg"] = args.fov
+    elif args.projection == "dual-fisheye":
+        if args.fov is not None:
+            opts["fov_deg"] = args.fov
+        opts.update(lens_options(args))
     elif args.projection in ("mirrorball", "angular"):
         from .probe_options import probe_options
         opts.update(probe_options(args))
