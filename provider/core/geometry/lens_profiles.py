@@ -178,15 +178,19 @@ class LensProfile:
     front: str = "right"
     fov_deg: float = 200.0
     mode: str = ""
+    fitted: LensCurve | None = None      # a per-unit curve (a lens file) instead of a table
+    centre: tuple | None = None          # a per-unit centre (px at the first native size)
 
     def curve(self):
+        if self.fitted is not None:
+            return self.fitted
         return None if self.model is None else ricoh_curve(self.model)
 
     def geometry(self, width: int, height: int):
-        """(centres (px), focal (px: 90° ring / (π/2)), the native size it is scaled from)
+        """(centres (px), focal (px: 90° ring / p(90°)), the native size it is scaled from)
         for a frame of ``width``×``height``."""
         native = next(((w, h, r) for w, h, r in self.rings if (w, h) == (width, height)), None)
-        if native is None and self.model is None:     # today's model: any size
+        if native is None and self.curve() is None:     # today's model: any size
             native = self.rings[0]
         if native is None:
             native = next(((w, h, r) for w, h, r in self.rings
@@ -203,7 +207,11 @@ class LensProfile:
             cs = ((319.5 * s, 319.5 * s), (959.5 * s, 319.5 * s))
         else:
             cs = ((width / 4, height / 2), (3 * width / 4, height / 2))
-        return cs, ring / (math.pi / 2), (w, h)
+        if self.centre is not None:     # the calibrated lens's centre, in its own half
+            c = (self.centre[0] * width / w, self.centre[1] * width / w)
+            cs = (c, cs[1]) if c[0] < width / 2 else (cs[0], c)
+        curve = self.curve()
+        return cs, ring / float(math.pi / 2 if curve is None else curve.radius(math.pi / 2)), (w, h)
 
 
 def _ring(model: str, mm_per_px: float) -> float:

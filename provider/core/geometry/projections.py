@@ -336,8 +336,8 @@ class Fisheye(Projection):
 
     Default mount (docs/contract.md §1): optical axis +Y (looking up), image right = +X, image
     top = +Z; equidistant lens r = f·θ with the image circle inscribed in the frame
-    (``radius`` = the pixel radius at ``fov/2``). A calibration ``K, D`` (cv2.fisheye)
-    replaces the equidistant model.
+    (``radius`` = the pixel radius at ``fov/2``). A calibration ``K, D`` (cv2.fisheye), or a
+    ``curve`` (:class:`~.lens_profiles.LensCurve`, ``shlight calibrate-lens``), replaces it.
 
     The directions the lens does not see (the cap beyond ``fov/2``) are filled by
     ``fill`` (all linear in the pixels, so folded into the precomputed weights):
@@ -354,7 +354,7 @@ class Fisheye(Projection):
 
     def __init__(self, width, height, *, fov_deg=180.0, center=None, radius=None,
                  K=None, D=None, forward=(0, 1, 0), right=(1, 0, 0),
-                 fill="ground", albedo=0.1):
+                 fill="ground", albedo=0.1, curve=None):
         super().__init__(width, height)
         if fill not in FILL_MODELS:
             raise ProjectionError(f"unknown fill model {fill!r}; choose from {FILL_MODELS}")
@@ -373,8 +373,9 @@ class Fisheye(Projection):
         radius = finite(radius, "fisheye radius")
         if radius <= 0:
             raise ProjectionError(f"fisheye radius must be positive, got {radius:g}")
-        focal = radius / math.radians(fov_deg / 2)
-        self.lens = FisheyeLens(cx, cy, focal, fov_deg, tuple(forward), tuple(right), K, D)
+        th = math.radians(fov_deg / 2)   # radius at fov/2, by the curve (a lens file) if given
+        focal = radius / (th if curve is None else float(curve.radius(min(th, curve.theta_limit))))
+        self.lens = FisheyeLens(cx, cy, focal, fov_deg, tuple(forward), tuple(right), K, D, curve=curve)
         check_lens_in_frame(self.lens, 0, 0, width, height, "the fisheye")
         self.fill, self.albedo = fill, float(albedo)
         if width >= 1.8 * height:
