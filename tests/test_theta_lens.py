@@ -170,3 +170,17 @@ def test_compute_takes_the_lens_by_name(tmp_path):
         res = run_cli("compute", str(path), *argv)
         assert res.returncode == 2 and "Traceback" not in res.stderr
         assert len(res.stderr.strip().splitlines()) == 1 and line in res.stderr
+
+
+if __name__ == "__main__":      # the table of docs/cameras.md: PYTHONPATH=. python tests/test_theta_lens.py
+    import sys
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
+    from conftest import load_hdri
+    for scene in "apartment city venice lab bridge dawn forest night sky".split():
+        pano = np.maximum(load_hdri(scene), 0)
+        truth = SH9Projector(pano.shape[1], pano.shape[0]).project(pano).coefficients
+        frame = fisheye_from_equirect(pano, DualFisheye(W, H, lens="theta-s")).astype(np.float32)
+        print(scene, {k: f"{100 * v:.2f} %" for k, v in _errors(frame, truth).items()})
+    truth = SH9Projector(1024, 512).project(render_equirect(studio, 1024, 512, 4)).coefficients
+    print("studio", {k: f"{100 * v:.2f} %" for k, v in
+                     _errors(render_dual(DualFisheye(W, H, lens="theta-s"), studio), truth).items()})
