@@ -90,11 +90,13 @@ def test_default_fisheye_mount_looks_up_with_image_top_toward_plus_z():
 
 
 def test_dual_fisheye_front_lens_looks_down_minus_z():
+    """The right circle is the front (Ricoh's sample pair, tests/test_theta_front.py)."""
     p = DualFisheye(1280, 720)
     d = p.directions()
-    assert d[319, 319] @ [0, 0, -1] > 0.999   # left circle centre: −Z (panorama front)
-    assert d[319, 959] @ [0, 0, 1] > 0.999    # right circle centre: +Z
-    assert d[319, 600] @ [1, 0, 0] > 0.9      # left lens, image right: +X
+    assert d[319, 959] @ [0, 0, -1] > 0.999   # right circle centre: −Z (panorama front)
+    assert d[319, 319] @ [0, 0, 1] > 0.999    # left circle centre: +Z
+    assert d[319, 1240] @ [1, 0, 0] > 0.9     # right lens, image right: +X
+    assert DualFisheye(1280, 720, front="left").directions()[319, 319] @ [0, 0, -1] > 0.999
 
 
 def test_cubemap_faces_follow_opengl_order():

@@ -31,6 +31,8 @@ COMMANDS = (
     ("bench", "bench", "speed against error: Markdown table and PNG plot"),
     ("calibrate-response", "calibrate",
      "a camera's response curve from FRAME@SECONDS brackets -> camera.json"),
+    ("calibrate-lens", "lens",
+     "a fisheye lens's curve from chessboard photos of one lens -> a lens file (--lens FILE)"),
     ("locate-ball", "locate", "find a mirror ball in a frame: its circle as JSON (for --ball)"),
     ("environment", "environment",
      "one image's reflection cube (GGX-prefiltered mips) -> KTX2 (-o cube.ktx2)"),
@@ -71,6 +73,9 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     try:
+        if getattr(args, "projection", None) == "auto":
+            from .options import auto_projection
+            args.projection = auto_projection(args)
         code = _run(args)
         sys.stdout.flush()      # what a command printed fails here, not at exit
         return code

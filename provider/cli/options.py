@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 
 from ..core.errors import InputError
@@ -42,6 +43,8 @@ PROJECTION_OPTIONS = {
     "center": ("--center", ("fisheye", "mirrorball", "angular")),
     "radius": ("--radius", ("fisheye", "mirrorball", "angular")),
     "calibration": ("--calibration", ("fisheye",)),
+    "lens": ("--lens", ("dual-fisheye", "fisheye")),
+    "front": ("--front", ("dual-fisheye",)),
     "fill": ("--fill", ("fisheye",)),
     "albedo": ("--albedo", ("fisheye",)),
     "ball_unseen": ("--ball-unseen", ("mirrorball",)),
@@ -63,6 +66,7 @@ CONFLICTS = (
     ("ball", "center", None, "both give the ball's circle"),
     ("ball", "radius", None, "both give the ball's circle"),
     ("no_hlsl", "require_hlsl", None, "contradict each other (skip HLSL, and fail without it)"),
+    ("calibration", "lens", None, "both give the fisheye's lens model"),
 )
 
 
@@ -241,11 +245,13 @@ def add_budget_argument(g, default: int, what: str) -> None:
 def add_engine_arguments(p: argparse.ArgumentParser) -> None:
     """Projection and engine options shared by `compute`, `serve` and `bench`."""
     g = p.add_argument_group("projection and engine options")
-    g.add_argument("--projection", default="equirect",
-                   choices=["equirect", "fisheye", "dual-fisheye", "cubemap", "mirrorball",
-                            "angular", "cross"],
-                   help="image geometry (default: equirect, 2:1; mirrorball: a chrome ball, "
-                        "angular: Debevec's angular map, cross: a 4×3 or 3×4 cube cross)")
+    g.add_argument("--projection", default="auto",
+                   choices=["auto", "equirect", "fisheye", "dual-fisheye", "cubemap",
+                            "mirrorball", "angular", "cross", "exr-latlong", "exr-cube"],
+                   help="image geometry (default auto: an OpenEXR file's own envmap "
+                        "attribute, latlong or cube, in OpenEXR's conventions, else equirect, "
+                        "2:1; mirrorball: a chrome ball, angular: Debevec's angular map, "
+                        "cross: a 4×3 or 3×4 cube cross)")
     g.add_argument("--encoding", default="auto", choices=["auto", "srgb", "linear"],
                    help="transfer function of 8/16-bit input (auto = sRGB; float is linear)")
     g.add_argument("--exposure", type=finite_float, default=1.0,
@@ -274,6 +280,7 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                    help="fisheye pixel radius at fov/2 (default: inscribed circle)")
     g.add_argument("--calibration", default=None,
                    help="JSON file with an OpenCV fisheye calibration {\"K\": 3x3, \"D\": 4}")
+    add_lens_arguments(g)
     g.add_argument("--fill", default=None, choices=["ground", "mirror", "zero"],
                    help="fisheye: model of the unseen hemisphere (default ground)")
     g.add_argument("--albedo", type=finite_float, default=None,
@@ -283,6 +290,78 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                         "are decoded with its curve instead of sRGB")
     from .probe_options import add_probe_arguments
     add_probe_arguments(g)
+
+
+def add_lens_arguments(g) -> None:
+    """``--lens`` and ``--front`` (compute, environment, export, serve, register)."""
+    from ..core.geometry.lens_profiles import PROFILES
+    g.add_argument("--lens", default=None, metavar="NAME|FILE",
+                   help="dual-fisheye lens profile: " + ", ".join(PROFILES) + " (default "
+                        "equidistant; Ricoh's design curves at each model's frame size), or a "
+                        "lens file of shlight calibrate-lens (fisheye or dual-fisheye; "
+                        "docs/cameras.md)")
+    g.add_argument("--front", default=None, choices=["left", "right"],
+                   help="dual-fisheye: the circle that looks where a stitched panorama's "
+                        "centre does (default: the lens profile's, right for every Theta)")
+
+
+def _lens_file(path: str) -> dict:
+    try:
+        with open(path) as f:
+            data = json.load(f)
+    except UnicodeDecodeError:
+        raise InputError(f"--lens {path}: not a JSON lens file (shlight calibrate-lens)") from None
+    except (OSError, ValueError) as exc:
+        raise InputError(f"--lens {path}: {exc}") from None
+    if not isinstance(data, dict):
+        raise InputError(f"--lens {path}: not a lens file (shlight calibrate-lens)")
+    return data
+
+
+def lens_options(args, projection: str) -> dict:
+    """The ``lens`` (a profile name, or a lens file read here) and ``front`` options of a
+    dual-fisheye or fisheye frame, as projection options (InputError in one line)."""
+    from ..core.geometry.checks import ProjectionError
+    from ..core.geometry.lens_calibration import calibrated_profile, lens_from_dict
+    from ..core.geometry.lens_profiles import lens_profile
+    opts, lens = {}, getattr(args, "lens", None)
+    try:
+        if lens is not None and (os.path.exists(lens) or lens.lower().endswith(".json")):
+            data = _lens_file(lens)
+            if projection == "dual-fisheye":
+                opts["lens"] = calibrated_profile(data, lens)
+            else:
+                cal = lens_from_dict(data, lens)
+                fov = cal["fov_deg"] if args.fov is None else args.fov
+                opts.update(curve=cal["curve"], center=cal["center"], fov_deg=fov,
+                            radius=cal["focal"] * float(cal["curve"].radius(
+                                min(math.radians(fov / 2), cal["curve"].theta_limit))))
+        elif lens is not None:
+            lens_profile(lens)
+            if projection != "dual-fisheye":
+                raise InputError(f"--lens {lens} is a dual-fisheye profile; a fisheye takes a "
+                                 "lens file of shlight calibrate-lens")
+            opts["lens"] = lens
+    except ProjectionError as exc:
+        raise InputError(f"--lens: {exc}") from None
+    if getattr(args, "front", None) is not None:
+        opts["front"] = args.front
+    return opts
+
+
+def auto_projection(args) -> str:
+    """``--projection auto``: "exr-latlong" or "exr-cube" for one OpenEXR input whose header
+    says ``envmap`` (docs/cameras.md), else "equirect" (also for a live source)."""
+    from ..core.radiometry.images import exr_envmap
+    inputs = getattr(args, "image", None)
+    inputs = [inputs] if isinstance(inputs, str) else list(inputs or [])
+    kinds = set()
+    for text in inputs:
+        path = text if os.path.exists(text) else re.sub(r"@[0-9./]+$", "", text)
+        kinds.add(exr_envmap(path))
+    if len(kinds) == 1 and None not in kinds:
+        return "exr-" + kinds.pop()
+    return "equirect"
 
 
 def fisheye_calibration(path: str) -> dict:
@@ -341,6 +420,7 @@ def engine_options(args) -> dict:
         opts["response"] = load_camera(args.camera)
     if args.projection == "fisheye":
         opts.update(fill=args.fill or DEFAULT_FILL, albedo=albedo)
+        opts.update(lens_options(args, "fisheye"))
         if args.fov is not None:
             opts["fov_deg"] = args.fov
         if args.center is not None:
@@ -349,8 +429,10 @@ def engine_options(args) -> dict:
             opts["radius"] = args.radius
         if args.calibration:
             opts.update(fisheye_calibration(args.calibration))
-    elif args.projection == "dual-fisheye" and args.fov is not None:
-        opts["fov_deg"] = args.fov
+    elif args.projection == "dual-fisheye":
+        if args.fov is not None:
+            opts["fov_deg"] = args.fov
+        opts.update(lens_options(args, "dual-fisheye"))
     elif args.projection in ("mirrorball", "angular"):
         from .probe_options import probe_options
         opts.update(probe_options(args))

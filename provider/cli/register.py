@@ -37,6 +37,8 @@ def add_projection_arguments(p) -> None:
                    help="fisheye pixel radius at fov/2 (default: inscribed circle)")
     g.add_argument("--calibration", default=None,
                    help="JSON file with an OpenCV fisheye calibration {\"K\": 3x3, \"D\": 4}")
+    from .options import add_lens_arguments
+    add_lens_arguments(g)
 
 
 def add_arguments(p) -> None:
@@ -66,6 +68,9 @@ def projection_options(args) -> dict:
         if not 0 < args.fov <= 360:
             raise InputError(f"--fov {args.fov:g}: a field of view is in (0, 360] degrees")
         opts["fov_deg"] = args.fov
+    if args.projection in ("dual-fisheye", "fisheye"):
+        from .options import lens_options
+        opts.update(lens_options(args, args.projection))
     if args.projection != "fisheye":
         return opts
     if args.center is not None:
@@ -149,7 +154,7 @@ def registrar_for(ns, name: str):
     from ..live.probe.registration import Registrar
     from .options import engine_options
     opts = {k: v for k, v in engine_options(ns).items()
-            if k in ("fov_deg", "center", "radius", "K", "D")}
+            if k in ("fov_deg", "center", "radius", "K", "D", "lens", "front", "curve")}
     return Registrar(ns.marker, ns.marker_size, ns.projection, opts, ns.register_every, name)
 
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import asyncio
 import logging
 import math
@@ -142,6 +143,16 @@ def _add_source_arguments(g) -> None:
     g.add_argument("--theta-api", choices=["auto", "2.0", "2.1"], default="auto",
                    help="Theta OSC API: 2.1 camera.getLivePreview, 2.0 _getLivePreview "
                         "(auto: try 2.1, fall back to 2.0)")
+    g.add_argument("--theta-option", action="append", default=[], type=_theta_option,
+                   metavar="NAME=VALUE",
+                   help="an OSC option the Theta is set to at every connection and set to "
+                        "again when it has lost it (sleep, power cycle), e.g. "
+                        "whiteBalance=daylight, iso=200, exposureProgram=1, "
+                        "'previewFormat={\"width\":1024,\"height\":512,\"framerate\":8}' "
+                        "(VALUE: JSON, or a word); repeatable")
+    g.add_argument("--theta-check", type=float, default=30.0, metavar="SECONDS",
+                   help="how often the Theta's settings, battery and temperature are checked "
+                        "(default 30 s)")
     g.add_argument("--bracket", nargs="?", const="-9,-6,-3,0,3", default=None, type=_offsets,
                    metavar="EVS",
                    help="cycle the exposure over these EV offsets around auto exposure and "
@@ -154,6 +165,23 @@ def _add_source_arguments(g) -> None:
                    help="UVC cameras: the unit of the driver's CAP_PROP_EXPOSURE (V4L2: "
                         "100us; DirectShow/MSMF: log2s). Without it the exposure OpenCV "
                         "reports is not used (its unit differs by back end)")
+
+
+#: Theta options a bracket sets itself (it would fight a fixed value).
+_BRACKET_OPTIONS = ("exposureProgram", "shutterSpeed", "iso")
+
+
+def _theta_option(text: str) -> tuple:
+    """``NAME=VALUE`` -> (NAME, VALUE as JSON, else the word)."""
+    import json
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip() or not value.strip():
+        raise argparse.ArgumentTypeError(f"{text!r}: expected NAME=VALUE, e.g. whiteBalance=daylight")
+    try:
+        parsed = json.loads(value)
+    except ValueError:
+        parsed = value.strip()
+    return name.strip(), parsed
 
 
 def _add_temporal_arguments(g) -> None:
@@ -247,6 +275,7 @@ def _check_numbers(ns, where: str = "") -> None:
               ("--change-threshold", ns.change_threshold, ns.change_threshold >= 0),
               ("--source-timeout", ns.source_timeout, ns.source_timeout > 0),
               ("--reconnect-max", ns.reconnect_max, ns.reconnect_max > 0),
+              ("--theta-check", ns.theta_check, ns.theta_check > 0),
               ("--fps", ns.fps, ns.fps is None or 0 < ns.fps <= MAX_FPS),
               ("--exposure", ns.exposure, ns.exposure > 0),
               ("--downsample", ns.downsample, ns.downsample >= 1)]
@@ -287,6 +316,9 @@ def build_server(args):
             raise InputError(f"--probe-args {name}: {exc}") from None
         overrides[name] = _probe_parser().parse_args(words, namespace=argparse.Namespace(**vars(args)))
         given[name] = _given(words)
+    for ns in (args, *overrides.values()):
+        if getattr(ns, "projection", None) == "auto":   # live sources: no OpenEXR header
+            ns.projection = "equirect"
     _check_option_use(args, [n for n, _ in named], overrides, given)
     s = ServeSettings(host=args.host, port=args.port, token=args.token,
                       allowed_origins=tuple(args.allow_origin), max_clients=args.max_clients,
@@ -317,7 +349,16 @@ def build_server(args):
                                 theta_api=ns.theta_api, bracket=ns.bracket,
                                 exposure_unit=ns.exposure_unit, query_exposure=bool(ns.camera),
                                 max_pixels=ns.max_frame_pixels)
+        fixed = [k for k, _ in ns.theta_option if k in _BRACKET_OPTIONS]
+        if fixed and ns.bracket:
+            raise InputError(f"--theta-option {fixed[0]} and --bracket both set the exposure: "
+                             "give one")
+        options = dataclasses.replace(options, theta_settings=tuple(ns.theta_option),
+                                      theta_check_s=ns.theta_check)
         spec = parse_source(text, options)
+        if ns.theta_option and spec.kind != "theta":
+            raise InputError(f"--theta-option has no effect on a {spec.kind} source (only "
+                             "theta:// reads it): leave it out")
         _check_radiometry(name, spec, ns)
         _file_frame_warnings(name, spec, ns)
         temporal = TemporalSettings(smoothing=ns.smoothing, snap=ns.snap,

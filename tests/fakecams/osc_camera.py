@@ -72,6 +72,11 @@ class FakeOscCamera:
                         "shutterSpeedSupport": SPEEDS, "isoSupport": [100, 125, 160, 200,
                                                                        400, 800, 1600]}
         self.options.update(options or {})
+        self.defaults = dict(self.options)      # what a power cycle brings back
+        #: What POST /osc/state reports (OSC's camera state; Theta X names its temperatures).
+        self.state = {"batteryLevel": 0.82, "_batteryState": "disconnect", "_boardTemp": 41.5}
+        self.generation = 0                      # a power cycle ends the streams of before
+        self.state_calls = 0
         self.commands, self.set_calls = [], []
         #: The JPEG that camera.takePicture "takes" (None: the command is unknown).
         self.still: bytes | None = None
@@ -128,6 +133,10 @@ class FakeOscCamera:
 
         class StatusHandler(Handler):   # /osc/commands/status: the picture is ready
             def do_POST(self):
+                if self.path == "/osc/state":
+                    self.rfile.read(int(self.headers.get("Content-Length") or 0))
+                    cam.state_calls += 1     # not a command (/osc/commands/execute)
+                    return self._json(200, {"fingerprint": "FIG_0001", "state": cam.state})
                 if self.path != "/osc/commands/status":
                     return Handler.do_POST(self)
                 self.rfile.read(int(self.headers["Content-Length"]))
@@ -152,9 +161,19 @@ class FakeOscCamera:
         return auto_exposure(self.hdr)
 
     def frames(self):
-        """The live preview's JPEGs, each rendered when it is sent, until close()."""
-        while not self.closed:
+        """The live preview's JPEGs, each rendered when it is sent, until close() or a power
+        cycle."""
+        generation = self.generation
+        while not self.closed and self.generation == generation:
             yield self.render()
+
+    def forget(self, *, drop_stream: bool = False):
+        """The camera slept or was power-cycled: its options are its defaults again; with
+        ``drop_stream`` the live preview ends too (the client must reconnect)."""
+        with self._lock:
+            self.options = dict(self.defaults)
+        if drop_stream:
+            self.generation += 1
 
     def render(self) -> bytes:
         rgb = self.camera.capture(self.hdr, self.exposure())

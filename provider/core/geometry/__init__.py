@@ -5,6 +5,9 @@
 * :mod:`.projections`: per-pixel directions and exact solid angles, one class per
   projection (equirect, fisheye, dual fisheye, cube map), and their SH weights;
 * :mod:`.projections_probe`: light-probe projections (mirror ball, angular map, cube cross);
+* :mod:`.projections_exr`: OpenEXR's own environment maps (latlong, cube) in its conventions;
+* :mod:`.lens_profiles`: fisheye lens curves and the Ricoh Theta profiles (Ricoh's tables);
+* :mod:`.lens_calibration`: a lens curve from chessboard photos (cv2.fisheye), lens files;
 * :mod:`.cubemap`: cube-map texel directions, solid angles and pooling (§12);
 * :mod:`.sphere_views`: pinhole views rendered from any projection;
 * :mod:`.checks`: :class:`~provider.core.geometry.checks.ProjectionError` and the checks of

@@ -40,6 +40,28 @@ def check_fov(fov_deg) -> float:
     return fov
 
 
+def check_fisheye_calibration(K, D, fov_deg: float):
+    """An OpenCV fisheye calibration (Kannala-Brandt) as float arrays ``K`` (3×3), ``D`` (4;
+    None: zeros), refused unless finite with positive focal lengths and below 180°."""
+    import numpy as np
+    try:
+        K = np.asarray(K, np.float64).reshape(3, 3)
+        D = np.zeros(4) if D is None else np.asarray(D, np.float64).ravel()
+    except (TypeError, ValueError):
+        raise ProjectionError("an OpenCV fisheye calibration has K (3×3 numbers) and "
+                              "D (4 numbers)") from None
+    if D.size != 4:
+        raise ProjectionError("OpenCV fisheye distortion D must have 4 coefficients")
+    if not (np.all(np.isfinite(K)) and np.all(np.isfinite(D)) and K[0, 0] > 0 and K[1, 1] > 0):
+        raise ProjectionError("the fisheye calibration K, D must be finite, with "
+                              "positive focal lengths K[0][0], K[1][1]")
+    if fov_deg >= 180:
+        raise ProjectionError(
+            "cv2.fisheye (Kannala-Brandt) calibrations are valid below 180°: "
+            "pass --fov < 180, or use the equidistant model with a focal length")
+    return K, D
+
+
 def check_lens_in_frame(lens, x0: float, y0: float, x1: float, y1: float, what: str) -> None:
     """Refuse a lens whose centre is outside the pixel rectangle [x0, x1] × [y0, y1], or
     whose image circle is too small to integrate (``lens``: a FisheyeLens)."""

@@ -23,12 +23,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import sh
-from .checks import ProjectionError, check_fov, check_lens_in_frame, finite  # noqa: F401
+from .checks import (ProjectionError, check_fisheye_calibration, check_fov,  # noqa: F401
+                     check_lens_in_frame, finite)
+from .lens_profiles import LensCurve, lens_profile
 
 #: Lower-hemisphere fill models for a fisheye (see :class:`Fisheye`).
 FILL_MODELS = ("zero", "ground", "mirror")
-
-
 
 
 def _gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -240,7 +240,9 @@ class FisheyeLens:
     """One circular fisheye image: centre (pixels), focal length (pixels per radian for the
     equidistant model r = f·θ), field of view (degrees), and its mount: the world direction
     of the optical axis and of the image's +x (right). Or an OpenCV fisheye calibration
-    (Kannala-Brandt: ``K`` 3×3, ``D`` 4), valid below 180°."""
+    (Kannala-Brandt: ``K`` 3×3, ``D`` 4), valid below 180°. ``curve``: a
+    :class:`~.lens_profiles.LensCurve` (r = focal·p(θ), e.g. Ricoh's design table) instead
+    of the equidistant r = focal·θ."""
 
     cx: float
     cy: float
@@ -251,41 +253,33 @@ class FisheyeLens:
     K: np.ndarray | None = None
     D: np.ndarray | None = None
     frame: tuple = field(init=False, repr=False)
+    curve: LensCurve | None = None
 
     def __post_init__(self):
         self.fov_deg = check_fov(self.fov_deg)
         if self.K is not None:
-            try:
-                self.K = np.asarray(self.K, np.float64).reshape(3, 3)
-                self.D = np.zeros(4) if self.D is None else np.asarray(self.D, np.float64).ravel()
-            except (TypeError, ValueError):
-                raise ProjectionError("an OpenCV fisheye calibration has K (3×3 numbers) and "
-                                      "D (4 numbers)") from None
-            if self.D.size != 4:
-                raise ProjectionError("OpenCV fisheye distortion D must have 4 coefficients")
-            if not (np.all(np.isfinite(self.K)) and np.all(np.isfinite(self.D))
-                    and self.K[0, 0] > 0 and self.K[1, 1] > 0):
-                raise ProjectionError("the fisheye calibration K, D must be finite, with "
-                                      "positive focal lengths K[0][0], K[1][1]")
-            if self.fov_deg >= 180:
-                raise ProjectionError(
-                    "cv2.fisheye (Kannala-Brandt) calibrations are valid below 180°: "
-                    "pass --fov < 180, or use the equidistant model with a focal length")
+            self.K, self.D = check_fisheye_calibration(self.K, self.D, self.fov_deg)
             self.cx, self.cy = float(self.K[0, 2]), float(self.K[1, 2])
         elif not (math.isfinite(self.focal) and self.focal > 0):
             raise ProjectionError(f"fisheye focal length must be positive, got {self.focal:g}")
         self.cx = finite(self.cx, "fisheye centre x")
         self.cy = finite(self.cy, "fisheye centre y")
         self.frame = _orthonormal_frame(self.forward, self.right)
+        if self.curve is not None:   # a curve replaces the equidistant model, not K, D
+            self.curve.check_covers(self.theta_max, "the fisheye", self.K is not None)
 
     @property
     def circle_radius(self) -> float:
-        """Pixel radius of the image circle at the edge of the field of view (the
-        equidistant model's; for a calibration, its focal length times θ_max, close enough
-        to tell a usable circle from a few pixels)."""
-        focal = self.focal if self.K is None else float(min(self.K[0, 0], self.K[1, 1]))
-        return focal * self.theta_max
+        """Pixel radius of the image circle at the edge of the field of view (the lens
+        curve's; for a calibration, its focal length times θ_max, close enough to tell a
+        usable circle from a few pixels)."""
+        if self.K is None:
+            return float(self.radius_of(self.theta_max))
+        return float(min(self.K[0, 0], self.K[1, 1])) * self.theta_max
 
+    def radius_of(self, theta):
+        """Pixel radius of angles ``theta`` (rad) from the axis (not for a K, D calibration)."""
+        return self.focal * (theta if self.curve is None else self.curve.radius(theta))
 
     @property
     def theta_max(self) -> float:
@@ -297,8 +291,9 @@ class FisheyeLens:
         dy = np.asarray(py, np.float64) - self.cy
         if self.K is None:
             theta = np.hypot(dx, dy) / self.focal
-            psi = np.arctan2(-dy, dx)
-            return theta, psi
+            if self.curve is not None:
+                theta = self.curve.theta(theta)
+            return theta, np.arctan2(-dy, dx)
         import cv2
         pts = np.stack([np.asarray(px, np.float64), np.asarray(py, np.float64)], -1)
         und = cv2.fisheye.undistortPoints(pts.reshape(-1, 1, 2), self.K, self.D)
@@ -308,11 +303,17 @@ class FisheyeLens:
         return theta, psi
 
     def jacobian(self, px, py):
-        """Equidistant lens: dω = sin θ dθ dψ and r = fθ give dω/dA = sin θ / (θ f²)."""
+        """dω = sin θ dθ dψ and dA = r dr dψ: dω/dA = sin θ / (r · dr/dθ). Equidistant
+        (r = fθ): sin θ / (θ f²); a curve r = f·p(θ): sin θ / (f² p(θ) p′(θ))."""
         if self.K is not None:
             return None
-        theta = np.hypot(np.asarray(px) - self.cx, np.asarray(py) - self.cy) / self.focal
-        return np.sinc(theta / np.pi) / self.focal ** 2
+        rho = np.hypot(np.asarray(px) - self.cx, np.asarray(py) - self.cy) / self.focal
+        if self.curve is None:
+            return np.sinc(rho / np.pi) / self.focal ** 2
+        theta = self.curve.theta(rho)   # rho = p(θ); at the axis sin θ / p → 1 / p′(0)
+        ratio = np.where(rho > 1e-12, np.sin(theta) / np.maximum(rho, 1e-12),
+                         1.0 / self.curve.coefficients[0])
+        return ratio / (self.curve.slope(theta) * self.focal ** 2)
 
     def to_world(self, theta, psi):
         f, r, u = self.frame
@@ -327,7 +328,7 @@ class FisheyeLens:
     def scaled(self, factor: int) -> "FisheyeLens":
         K = None if self.K is None else self.K * np.array([[1 / factor], [1 / factor], [1]])
         return FisheyeLens(self.cx / factor, self.cy / factor, self.focal / factor,
-                           self.fov_deg, self.forward, self.right, K, self.D)
+                           self.fov_deg, self.forward, self.right, K, self.D, curve=self.curve)
 
 
 class Fisheye(Projection):
@@ -335,8 +336,8 @@ class Fisheye(Projection):
 
     Default mount (docs/contract.md §1): optical axis +Y (looking up), image right = +X, image
     top = +Z; equidistant lens r = f·θ with the image circle inscribed in the frame
-    (``radius`` = the pixel radius at ``fov/2``). A calibration ``K, D`` (cv2.fisheye)
-    replaces the equidistant model.
+    (``radius`` = the pixel radius at ``fov/2``). A calibration ``K, D`` (cv2.fisheye), or a
+    ``curve`` (:class:`~.lens_profiles.LensCurve`, ``shlight calibrate-lens``), replaces it.
 
     The directions the lens does not see (the cap beyond ``fov/2``) are filled by
     ``fill`` (all linear in the pixels, so folded into the precomputed weights):
@@ -353,7 +354,7 @@ class Fisheye(Projection):
 
     def __init__(self, width, height, *, fov_deg=180.0, center=None, radius=None,
                  K=None, D=None, forward=(0, 1, 0), right=(1, 0, 0),
-                 fill="ground", albedo=0.1):
+                 fill="ground", albedo=0.1, curve=None):
         super().__init__(width, height)
         if fill not in FILL_MODELS:
             raise ProjectionError(f"unknown fill model {fill!r}; choose from {FILL_MODELS}")
@@ -372,8 +373,9 @@ class Fisheye(Projection):
         radius = finite(radius, "fisheye radius")
         if radius <= 0:
             raise ProjectionError(f"fisheye radius must be positive, got {radius:g}")
-        focal = radius / math.radians(fov_deg / 2)
-        self.lens = FisheyeLens(cx, cy, focal, fov_deg, tuple(forward), tuple(right), K, D)
+        th = math.radians(fov_deg / 2)   # radius at fov/2, by the curve (a lens file) if given
+        focal = radius / (th if curve is None else float(curve.radius(min(th, curve.theta_limit))))
+        self.lens = FisheyeLens(cx, cy, focal, fov_deg, tuple(forward), tuple(right), K, D, curve=curve)
         check_lens_in_frame(self.lens, 0, 0, width, height, "the fisheye")
         self.fill, self.albedo = fill, float(albedo)
         if width >= 1.8 * height:
@@ -432,45 +434,52 @@ class Fisheye(Projection):
 
 
 class DualFisheye(Projection):
-    """The raw two-circle frame of a Ricoh Theta (USB live mode), integrated lens by lens
-    with no stitching.
+    """The raw two-circle frame of a Ricoh Theta (USB live mode, dual-fisheye stills),
+    integrated lens by lens with no stitching.
 
-    Left circle: optical axis −Z (the panorama's front), image right +X, up +Y. Right
-    circle: axis +Z, image right −X, up +Y (lens-to-lens yaw 180°). Each circle sits in a
-    (width/2)-square. Defaults are one Theta S at 1280×720 (docs/contract.md §8): centres
-    (319, 319) and (959, 319), 90° ring at radius 284 px, 200° lenses, scaled to other
-    sizes; calibrate per unit with ``centers``, ``focal`` and ``fov_deg``.
-
-    Directions both lenses see are shared by a partition of unity that fades each lens
-    out toward its rim: w_A = s_A / (s_A + s_B), s = θ_max − θ.
+    ``lens``: a profile of :mod:`.lens_profiles` ("equidistant": r = f·θ, 90° ring 284 px at
+    1280×720; "theta-s", "-sc", "-sc2", "-v", "-z1", "-x": Ricoh's design curves at each
+    model's frame size): curve, centres, ring, field of view; ``centers``, ``focal`` (90°
+    ring / (π/2), px) and ``fov_deg`` given here (a per-unit calibration) override them.
+    ``front``: the circle whose axis is −Z (docs/contract.md §8), "left" or "right": image
+    right +X, up +Y; the other's axis +Z, right −X, up +Y. Directions both lenses see are
+    shared by a partition of unity: w_A = s_A / (s_A + s_B), s = θ_max − θ.
     """
 
     name = "dual-fisheye"
     nodes_per_axis = 2
 
-    def __init__(self, width, height, *, fov_deg=200.0, centers=None, focal=None,
-                 yaw_deg=0.0):
+    def __init__(self, width, height, *, fov_deg=None, centers=None, focal=None,
+                 yaw_deg=0.0, lens="equidistant", front=None):
         super().__init__(width, height)
-        if width < 2 * height * 0.9 and width != 2 * height:
-            pass  # Theta S USB frames are 16:9; only require two side-by-side circles fit
         if width < height:
             raise ProjectionError(
                 f"a dual-fisheye frame holds two circles side by side; got {width}×{height}")
-        scale = width / 1280.0
-        if centers is None:
-            centers = ((319.5 * scale, 319.5 * scale), (959.5 * scale, 319.5 * scale))
-        if focal is None:
-            focal = 284.0 * scale / (math.pi / 2)
+        profile = lens_profile(lens)
+        if centers is None or focal is None:
+            p_centers, p_focal, _ = profile.geometry(width, height)
+            centers = p_centers if centers is None else centers
+            focal = p_focal if focal is None else focal
+        fov_deg = profile.fov_deg if fov_deg is None else fov_deg
+        front = profile.front if front is None else front
+        if front not in ("left", "right"):
+            raise ProjectionError(f"the front circle is 'left' or 'right', not {front!r}")
         R = sh.rotation_from_euler(finite(yaw_deg, "dual-fisheye yaw"))
         focal = finite(focal, "dual-fisheye focal length")
-        self.lenses = (
-            FisheyeLens(*centers[0], focal, fov_deg, tuple(R @ [0, 0, -1]), tuple(R @ [1, 0, 0])),
-            FisheyeLens(*centers[1], focal, fov_deg, tuple(R @ [0, 0, 1]), tuple(R @ [-1, 0, 0])),
-        )
-        half = width / 2
-        check_lens_in_frame(self.lenses[0], 0, 0, half, height, "the left lens's")
-        check_lens_in_frame(self.lenses[1], half, 0, width, height, "the right lens's")
-        self._yaw = yaw_deg
+        mounts = [(R @ [0, 0, -1], R @ [1, 0, 0]), (R @ [0, 0, 1], R @ [-1, 0, 0])]
+        if front == "right":
+            mounts.reverse()
+        self.lenses = tuple(
+            FisheyeLens(*c, focal, fov_deg, tuple(f), tuple(r), curve=profile.curve())
+            for c, (f, r) in zip(centers, mounts))
+        self._check_lenses()
+        self.lens_name, self.front, self._yaw = profile.name, front, yaw_deg
+
+    def _check_lenses(self, what=""):
+        half = self.width / 2
+        check_lens_in_frame(self.lenses[0], 0, 0, half, self.height, f"{what}the left lens's")
+        check_lens_in_frame(self.lenses[1], half, 0, self.width, self.height,
+                            f"{what}the right lens's")
 
     def _lens_index(self, px):
         return (np.asarray(px) >= self.width / 2).astype(int)
@@ -501,10 +510,15 @@ class DualFisheye(Projection):
         return np.where(total > 0, own / np.where(total > 0, total, 1.0), 0.0)
 
     def scaled(self, factor: int) -> "DualFisheye":
-        a, b = self.lenses
-        return DualFisheye(self.width // factor, self.height // factor, fov_deg=a.fov_deg,
-                           centers=((a.cx / factor, a.cy / factor), (b.cx / factor, b.cy / factor)),
-                           focal=a.focal / factor, yaw_deg=self._yaw)
+        p = DualFisheye.__new__(DualFisheye)
+        Projection.__init__(p, self.width // factor, self.height // factor)
+        p.lenses = tuple(lens.scaled(factor) for lens in self.lenses)
+        p._check_lenses(f"after --downsample {factor}, ")
+        p.lens_name, p.front, p._yaw = self.lens_name, self.front, self._yaw
+        return p
+
+    def describe(self):
+        return {**super().describe(), "lens": self.lens_name, "front": self.front}
 
 
 class CubeMap(Projection):

@@ -32,7 +32,7 @@ def _lens_to_pixel(lens: FisheyeLens, d: np.ndarray):
     theta = np.arccos(cos_t)
     psi = np.arctan2(d @ u, d @ r)
     if lens.K is None:
-        rad = lens.focal * theta
+        rad = lens.radius_of(theta)
         return lens.cx + rad * np.cos(psi), lens.cy - rad * np.sin(psi), theta
     # Kannala-Brandt (cv2.fisheye): normalised undistorted point (tanθ cosψ, −tanθ sinψ).
     tan_t = np.tan(np.minimum(theta, math.radians(89.9)))

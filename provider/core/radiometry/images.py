@@ -213,6 +213,34 @@ def _check_png_chunks(path: str, data: bytes) -> None:
 _EXR_LINES = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256}
 
 
+def exr_envmap(path) -> str | None:
+    """The ``envmap`` attribute of an OpenEXR file's header: "latlong", "cube", or None (not
+    OpenEXR, no such attribute, or a header this small parser does not read). Reads only
+    the first bytes (magic, version, then name\0type\0size value … up to an empty name)."""
+    import struct
+    if not os.path.isfile(path):        # a FIFO or a device: never opened here (it may block)
+        return None
+    try:
+        with open(os.fspath(path), "rb") as f:
+            data = f.read(HEADER_BYTES)
+    except OSError:
+        return None
+    if data[:4] != EXR_MAGIC or data[5] & 0x1E:      # long names, multi-part: not read here
+        return None
+    pos = 8
+    try:
+        while data[pos] != 0:
+            end = data.index(b"\0", pos)
+            end2 = data.index(b"\0", end + 1)
+            size = struct.unpack_from("<i", data, end2 + 1)[0]
+            if data[pos:end] == b"envmap" and data[end + 1:end2] == b"envmap" and size >= 1:
+                return {0: "latlong", 1: "cube"}.get(data[end2 + 5])
+            pos = end2 + 5 + size
+    except (IndexError, ValueError, struct.error):
+        return None
+    return None
+
+
 def _check_exr_complete(path: str, data: bytes) -> None:
     """Refuse a single-part scan-line OpenEXR file (``data``: its bytes) whose last chunk
     lies beyond its end (a copy cut short): the OpenEXR library would print its own words

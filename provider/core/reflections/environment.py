@@ -38,6 +38,7 @@ import numpy as np
 from ..geometry import cubemap
 from . import prefilter
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
+from ..geometry import projections_exr  # noqa: F401  (registers exr-latlong, exr-cube)
 from ..radiometry.decode import FrameDecoder, image_array
 from ..options import check_options, exposure_scale, freeze_options
 from ..blas import one_blas_thread

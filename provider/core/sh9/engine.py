@@ -37,6 +37,7 @@ from ..lights.extractor import LightExtractor, LinearView
 from ..lights.analysis import model_irradiance
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
+from ..geometry import projections_exr  # noqa: F401  (registers exr-latlong, exr-cube)
 from ..radiometry.photometry import (UNITS_ABSOLUTE, UNITS_RELATIVE, absolute_calibration,
                                      absolute_factor, luminance)
 from ..options import check_lighting, check_options, exposure_scale, freeze_options

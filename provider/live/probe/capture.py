@@ -105,6 +105,14 @@ class Capture:
                 return None
             return self._latest.pop(next(iter(self._latest)))
 
+    def source_health(self) -> dict:
+        """What the connected source says of its camera (a Theta: settings, battery,
+        temperature), or {}."""
+        attempt = self._attempt
+        source = attempt.source if attempt is not None else None
+        health = getattr(source, "health", None)
+        return health() if callable(health) else {}
+
     @property
     def fps(self) -> float:
         """Frames per second delivered over the last two seconds or so."""

@@ -510,6 +510,9 @@ class Probe:
             health["ball"] = self.ball
         if self.registrar is not None:  # --marker: found or not, tries and misses
             health["registration"] = self.registrar.health(now)
+        camera = self.capture.source_health()
+        if camera:                      # a Theta: its settings, battery, temperature
+            health["camera"] = camera
         return health
 
 

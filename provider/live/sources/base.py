@@ -124,6 +124,9 @@ class SourceOptions:
                                       # refused from their header (0: no budget)
     query_exposure: bool = False      # ask the camera for its exposure where that costs a
                                       # command (the Theta's getOptions); see .exposure
+    theta_settings: tuple = ()        # Theta: (OSC option, value) pairs set at every open and
+                                      # set again when the camera has lost them (.theta)
+    theta_check_s: float = 30.0       # Theta: seconds between checks of its settings and state
 
 
 class Source:

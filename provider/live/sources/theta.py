@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import json
 import logging
+import threading
+import time
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -14,6 +16,13 @@ from .http import MultipartJpegReader, http_opener
 from .theta_exposure import ThetaExposure
 
 log = logging.getLogger("shlight.source")
+
+#: Times each camera (its base URL) had its settings applied in this process: a later open is
+#: a reconnection (the camera slept, was power-cycled, or the Wi-Fi dropped).
+_APPLIED: dict = {}
+_APPLIED_LOCK = threading.Lock()
+#: OSC errors that say a setting is wrong (logged, the stream goes on) rather than the API.
+_BAD_SETTING = ("invalidParameterValue", "invalidParameterName")
 
 
 class OscCommandError(SourceError):
@@ -56,6 +65,11 @@ class ThetaSource(Source):
         self._resp, self._reader, self._session = None, None, None
         self.api_used = None
         self.exposure = ThetaExposure(self)
+        #: What /healthz shows of the camera: its settings, when they were (re)applied, its
+        #: battery and temperature when OSC's /osc/state reports them.
+        self.settings = dict(options.theta_settings or ())
+        self.status: dict = {}
+        self._next_check = 0.0
 
     def _execute(self, name: str, parameters: dict, *, stream: bool = False,
                  timeout: float | None = None):
@@ -105,6 +119,7 @@ class ThetaSource(Source):
     def _open_preview(self) -> None:
         if self.api in ("auto", "2.1"):
             try:
+                self._apply_settings()
                 self._preview(self._execute("camera.getLivePreview", {}, stream=True))
                 self.api_used = "2.1"
                 return
@@ -116,12 +131,89 @@ class ThetaSource(Source):
         self._session = (reply.get("results") or {}).get("sessionId")
         if not self._session:
             raise SourceError("camera.startSession gave no sessionId")
+        self._apply_settings()
         self._preview(self._execute("camera._getLivePreview", {"sessionId": self._session},
                                     stream=True))
         self.api_used = "2.0"
 
     def read(self) -> Frame:
+        if time.monotonic() >= self._next_check:
+            self._next_check = time.monotonic() + self.options.theta_check_s
+            self._check()
         return self.exposure.read()
+
+    # -- the camera's settings and state (issue 32) ------------------------------------------
+    def _apply_settings(self, why: str = "") -> None:
+        """``camera.setOptions`` with the settings asked for (before the preview starts, so
+        that previewFormat holds); says in the log whether this is a re-application."""
+        if not self.settings:
+            return
+        try:
+            self.exposure._set(dict(self.settings))
+        except OscCommandError as exc:
+            if exc.code not in _BAD_SETTING:
+                raise                   # the API itself (e.g. 2.0 wants a session): not here
+            log.warning("%s: the Theta refused its settings %s (%s): left as they are",
+                        self.base, self._shown(), exc)
+            self.status["settings_error"] = str(exc)
+            return
+        with _APPLIED_LOCK:
+            n = _APPLIED[self.base] = _APPLIED.get(self.base, 0) + 1
+        why = why or ("after a reconnection (sleep, power cycle or Wi-Fi)" if n > 1 else "")
+        log.info("%s: %s Theta settings %s%s", self.base, "re-applied" if n > 1 else "applied",
+                 self._shown(), f" {why}" if why else "")
+        self.status.update(settings=dict(self.settings), settings_applied=n,
+                           settings_applied_at=round(time.time(), 3),
+                           settings_reason=why or "first connection")
+        self.status.pop("settings_error", None)
+
+    def _shown(self) -> str:
+        return ", ".join(f"{k}={json.dumps(v)}" for k, v in self.settings.items())
+
+    def _check(self) -> None:
+        """Battery and temperature from ``/osc/state``; the settings from getOptions, set
+        again where the camera lost them (it slept or was power-cycled without the stream
+        dropping). A camera that answers neither is left alone."""
+        try:
+            state = self._state()
+        except SourceError as exc:
+            log.debug("%s: /osc/state: %s", self.base, exc)
+            state = {}
+        for key, name in (("batteryLevel", "battery_level"), ("_batteryState", "battery_state"),
+                          ("_cameraTemperature", "temperature_c"), ("_boardTemp", "temperature_c"),
+                          ("_batteryTemp", "battery_temperature_c")):
+            if key in state and isinstance(state[key], (int, float, str)):
+                self.status[name] = state[key]
+        if not self.settings:
+            return
+        try:
+            reply = self._execute("camera.getOptions", self.exposure._params(
+                optionNames=sorted(self.settings)))
+        except SourceError as exc:
+            log.debug("%s: camera.getOptions: %s", self.base, exc)
+            return
+        now = (reply.get("results") or {}).get("options") or {}
+        lost = {k: now.get(k) for k, v in self.settings.items() if now.get(k) != v}
+        if lost:
+            self.status["settings_lost"] = self.status.get("settings_lost", 0) + 1
+            self._apply_settings("after the camera lost them (" + ", ".join(
+                f"{k} was {json.dumps(v)}" for k, v in lost.items()) + "; it slept or was "
+                "power-cycled)")
+
+    def _state(self) -> dict:
+        req = urllib.request.Request(self.base + "/osc/state", data=b"", method="POST", headers={
+            "Content-Type": "application/json;charset=utf-8", "Accept": "application/json",
+            "X-XSRF-Protected": "1", "User-Agent": USER_AGENT})
+        try:
+            with self._open(req, timeout=self.options.timeout) as resp:
+                reply = json.loads(resp.read(1 << 16))
+        except (urllib.error.URLError, OSError, ValueError) as exc:
+            raise SourceError(str(exc)) from None
+        return (reply.get("state") or {}) if isinstance(reply, dict) else {}
+
+    def health(self) -> dict:
+        """The camera's part of /healthz (see ``status``)."""
+        return dict(self.status)
 
     def close(self) -> None:
         self.exposure.close()
