@@ -88,6 +88,14 @@ def halves(rgba: np.ndarray) -> tuple[float, float]:
     return float(lum[:, : w // 2][left].mean()), float(lum[:, w // 2:][right].mean())
 
 
+def page_wait(page, expression: str, timeout: float = 30000):
+    """Wait (up to ``timeout`` ms) until ``expression`` is true in the page. Playwright's
+    wait_for_function compiles a string predicate with eval while it polls, which the
+    dashboard's Content-Security-Policy (script-src 'self') refuses once the first look
+    finds it false (a slow machine); page.evaluate is not subject to it."""
+    return wait_for(lambda: page.evaluate(expression), timeout / 1000, expression)
+
+
 def wait_for(predicate, timeout: float, what: str, interval: float = 0.1):
     deadline = time.monotonic() + timeout
     while True:
@@ -123,7 +131,8 @@ def test_sphere_follows_the_light_and_stale_badge(browser, tmp_path):
             assert left > 1.5 * right, f"light at -X, yet left {left:.1f} right {right:.1f}"
 
             # The numbers and bars are filled in.
-            page.wait_for_function(
+            page_wait(
+                page,
                 "document.getElementById('s-compute').textContent.endsWith(' ms')")
             assert page.text_content("#s-latency").endswith("ms")
             assert page.text_content("#s-source") == "image"
@@ -135,11 +144,13 @@ def test_sphere_follows_the_light_and_stale_badge(browser, tmp_path):
             assert page.text_content("#s-lights") == "off"
             # issue 31: no absolute scale here, so the light line says "relative" first
             assert page.text_content("#s-photometry").startswith("relative")
-            page.wait_for_function(
+            page_wait(
+                page,
                 "document.getElementById('s-error').textContent.endsWith(' %')")
             l00 = page.eval_on_selector("#bar-0", "e => parseFloat(e.style.width)")
             assert l00 > 0
-            page.wait_for_function(
+            page_wait(
+                page,
                 "document.getElementById('thumb').naturalWidth === 64", timeout=20000)
             assert page.is_hidden("#stale")
             page.screenshot(path=str(tmp_path / "dashboard-left.png"))
@@ -191,10 +202,12 @@ def test_demo_with_token_and_two_probes(browser, tmp_path):
             top, bottom = lum[:128][drawn[:128]].mean(), lum[128:][drawn[128:]].mean()
             assert top > 1.1 * bottom, f"top {top:.1f}, bottom {bottom:.1f}"
             # The demo's sun becomes a light, and the page says what it bought.
-            page.wait_for_function(
+            page_wait(
+                page,
                 "/^[1-4] · error \\d+\\.\\d % \\(SH9 alone \\d+\\.\\d %\\)$/"
                 ".test(document.getElementById('s-lights').textContent)", timeout=20000)
-            page.wait_for_function(
+            page_wait(
+                page,
                 "document.getElementById('thumb').naturalWidth > 0", timeout=20000)
             # The demo's sun circles the horizon: the sphere changes by itself.
             second = wait_for(
@@ -203,9 +216,9 @@ def test_demo_with_token_and_two_probes(browser, tmp_path):
                 interval=0.3)
             assert second is not None
             page.select_option("#probe", "desk")
-            page.wait_for_function("document.getElementById('s-probe').textContent === 'desk'")
+            page_wait(page, "document.getElementById('s-probe').textContent === 'desk'")
             page.select_option("#probe", "room")
-            page.wait_for_function("document.getElementById('s-probe').textContent === 'room'")
+            page_wait(page, "document.getElementById('s-probe').textContent === 'room'")
             time.sleep(1.2)                                # a fresh thumbnail and rate
             shot = tmp_path / "dashboard-demo.png"
             page.screenshot(path=str(shot))

@@ -106,6 +106,8 @@ function followExposure(options, lighting) {
  * LightProbe holds the rest of the SH9, and the catcher's opacity is the key light's share
  * of the catcher's irradiance; the connection's `.shadows` holds { light, catcher, key }.
  * Without lights in the messages, the light is off and the catcher transparent.
+ * A top-level `renderer` (a WebGLRenderer) has its toneMappingExposure follow the room's
+ * EV100 when the lighting is in absolute units (physicalExposure; issue 31).
  */
 export function connectLightProbe(url, lightProbe, options = {}) {
   const settings = { rotation: options.rotation || null, intensity: options.intensity ?? 1 };
