@@ -41,7 +41,7 @@ MAX_RESIDUAL_SHARE = 0.1
 @dataclass
 class _FoldedLens:
     """One lens's folded square: centre twice (X, Y, integers), pairs per axis (nx, ny),
-    lens→world SH rotation D (9, 9), parity groups, quarter tables (ny·nx, k) float32."""
+    lens→world SH rotation D (9, 9), parity groups, quarter tables (k, ny·nx) float32."""
 
     X: int
     Y: int
@@ -86,7 +86,7 @@ class LensFold:
     def new(self) -> dict:
         return {"stash": [(np.empty((L.ny, L.nx, 3), np.float32),
                            np.empty((L.ny, L.nx, 3), np.float32)) for L in self.lenses],
-                "acc": [[np.zeros((3, len(k)), np.float32) for _, k, _ in L.groups]
+                "acc": [[np.zeros((3, len(k))) for _, k, _ in L.groups]
                         for L in self.lenses],
                 "res": np.zeros((3, 9), np.float32)}
 
@@ -107,8 +107,15 @@ class LensFold:
                 et, ot = st_e[s0:s1], st_o[s0:s1]
                 folded = {("E", "E"): cv2.add(e, et), ("E", "O"): cv2.subtract(e, et),
                           ("O", "E"): cv2.add(o, ot), ("O", "O"): cv2.subtract(o, ot)}
+                lo, hi = s0 * L.nx, s1 * L.nx
                 for a, (parity, _, table) in zip(acc, L.groups):
-                    a += folded[parity].reshape(-1, 3).T @ table[s0 * L.nx:s1 * L.nx]
+                    # One contiguous dot product per channel and weight (BLAS sdot): a
+                    # matrix product with 3 rows and 1–4 columns wastes most of its lanes.
+                    planes = cv2.split(folded[parity])
+                    for c, plane in enumerate(planes):
+                        flat = plane.reshape(-1)
+                        for j, row in enumerate(table):
+                            a[c, j] += float(np.dot(flat, row[lo:hi]))
         if self._res_index.size:
             lo, hi = np.searchsorted(self._res_index, [r0 * self.width, r1 * self.width])
             if hi > lo:
@@ -168,8 +175,8 @@ def _fold_lens(lens, region, weights, height):
             if np.max(np.abs(w[..., k] - sign * q[..., k])) > tol:
                 return None
         groups.setdefault(("E" if sx > 0 else "O", "E" if sy > 0 else "O"), []).append(k)
-    tables = [(parity, ks, np.ascontiguousarray(q[..., ks].reshape(ny * nx, len(ks)),
-                                                np.float32))
+    tables = [(parity, ks, np.ascontiguousarray(q[..., ks].reshape(ny * nx, len(ks)).T,
+                                                np.float32))      # (k, ny·nx): one row a weight
               for parity, ks in sorted(groups.items())]
     mask = np.zeros(weights.shape[:2], bool)
     rows = np.r_[yt - ny:yt, yb:yb + ny]
