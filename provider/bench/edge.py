@@ -58,7 +58,8 @@ def edge_frame(width: int, height: int, seed: int = 0):
     import numpy as np
     rng = np.random.default_rng(seed)
     y, x = np.mgrid[0:height, 0:width]
-    walls = 80 + 60 * np.sin(x / (width / 14.0))[..., None] + 40 * np.cos(y / (height / 10.0))[..., None]
+    walls = (80 + 60 * np.sin(x / (width / 14.0))[..., None]
+             + 40 * np.cos(y / (height / 10.0))[..., None])
     frame = np.clip(walls + rng.integers(0, 20, (height, width, 3)), 0, 255).astype(np.uint8)
     r = max(2, width // 100)
     cv2.circle(frame, (int(width * 0.23), int(height * 0.28)), r, (255, 255, 255), -1)
