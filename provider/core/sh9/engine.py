@@ -276,19 +276,10 @@ class SH9Projector(FrameDecoder):
         # Fast path: area-average the *linear* frame, then project the small one.
         clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
                    if integer else 0.0)
+        lin = self._linearise(frame, lut) if integer else self._clean_float(frame, stats)
         bw, bh = self._block
-        ds, pw, ph = self.downsample, self.projection.width, self.projection.height
-        if integer and self._extractor is None and (bw, bh) == (pw * ds, ph * ds):
-            # Decode and block-average band by band while each band is in cache: no float
-            # copy of the whole frame (the lights, when on, read the full linear frame).
-            small, lin = np.empty((ph, pw, 3), np.float32), None
-            rows = max(1, self.BAND_ROWS // ds) * ds
-            for r0 in range(0, bh, rows):
-                band = self._linearise(frame[r0:r0 + rows, :bw], lut)
-                small[r0 // ds:(r0 + band.shape[0]) // ds] = block_mean(band, ds)
-        else:
-            lin = self._linearise(frame, lut) if integer else self._clean_float(frame, stats)
-            small = cv2.resize(lin[:bh, :bw], (pw, ph), interpolation=cv2.INTER_AREA)
+        small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
+                           interpolation=cv2.INTER_AREA)
         self._accumulate(small, 0, acc)
         return self._coefficients(acc) * scale, small, lin, clipped
 
@@ -488,17 +479,6 @@ class SH9Projector(FrameDecoder):
         if self.dering == "auto":
             out, _ = sh.dering(out)
         return sh.truncate_order(out, order)
-
-
-def block_mean(band: np.ndarray, f: int) -> np.ndarray:
-    """Means of f×f blocks of an (h·f, w·f, 3) float32 band: rows summed first (contiguous
-    adds), then OpenCV's integer-factor area resize on the f-times smaller band."""
-    h, w = band.shape[0] // f, band.shape[1]
-    if f == 2:      # OpenCV's 2×2 area resize has a SIMD path of its own
-        return cv2.resize(band[:2 * h], (w // 2, h), interpolation=cv2.INTER_AREA)
-    rows = np.add.reduce(band[:h * f].reshape(h, f, w * 3), axis=1)
-    rows *= np.float32(1.0 / f)
-    return cv2.resize(rows.reshape(h, w, 3), (w // f, h), interpolation=cv2.INTER_AREA)
 
 
 _PROJECTOR_CACHE: dict = {}
