@@ -155,16 +155,17 @@ def _fold_lens(lens, region, weights, height):
         return None
     f, r, u = lens.frame
     D = sh.sh_rotation(np.stack([r, u, f], axis=1))     # lens frame -> world
-    local = weights @ D                                   # (H, W, 9): w_world = D w_local
+    local = weights[:, a:b] @ D          # (H, b − a, 9), the lens's columns: w_world = D w_local
     xl, xr, yt, yb = X // 2, X - X // 2, Y // 2, Y - Y // 2
+    cl, cr = xl - a, xr - a              # the same columns in ``local``
     quads = {  # (x parity sign source, y parity sign source): the quadrant's weights
-        (1, 1): local[yb:yb + ny, xr:xr + nx],
-        (-1, 1): local[yb:yb + ny, xl - nx:xl][:, ::-1],
-        (1, -1): local[yt - ny:yt, xr:xr + nx][::-1],
-        (-1, -1): local[yt - ny:yt, xl - nx:xl][::-1, ::-1],
+        (1, 1): local[yb:yb + ny, cr:cr + nx],
+        (-1, 1): local[yb:yb + ny, cl - nx:cl][:, ::-1],
+        (1, -1): local[yt - ny:yt, cr:cr + nx][::-1],
+        (-1, -1): local[yt - ny:yt, cl - nx:cl][::-1, ::-1],
     }
     q = quads[(1, 1)]
-    scale = np.abs(local[:, a:b]).max(axis=(0, 1))
+    scale = np.abs(local).max(axis=(0, 1))
     groups = {}
     for k in range(9):
         tol = SYMMETRY_TOLERANCE * max(scale[k], 1e-300)
@@ -199,9 +200,7 @@ def lens_fold(projection, weights: np.ndarray) -> LensFold | None:
     folded, covered = [], np.zeros((h, w), bool)
     for i, lens in enumerate(lenses):
         region = _lens_region(projection, i, len(lenses))
-        sub = np.zeros_like(dense)
-        sub[:, region[0]:region[1]] = dense[:, region[0]:region[1]]
-        made = _fold_lens(lens, region, sub, h)
+        made = _fold_lens(lens, region, dense, h)
         if made is None:
             return None
         folded.append(made[0])
