@@ -1,6 +1,6 @@
-"""The folded fisheye projection (provider.core.sh9.lens_fold) gives the coefficients of the
-dense per-pixel table, to float32 rounding, for every frame type and path; lenses whose
-pixel grid is not symmetric keep the dense table."""
+"""The folded fisheye and probe-disc projection (provider.core.sh9.lens_fold) gives the
+coefficients of the dense per-pixel table, to float32 rounding, for every frame type and
+path; lenses whose pixel grid is not symmetric keep the dense table."""
 import numpy as np
 import pytest
 
@@ -22,6 +22,10 @@ CASES = {
     "mirror fill": (320, 240, "fisheye", {"fill": "mirror", "albedo": 0.3}),
     "narrow lens, far from the frame edge": (400, 300, "fisheye", {"fov_deg": 120,
                                                                     "radius": 100}),
+    "mirror ball": (400, 400, "mirrorball", {}),
+    "angular map": (401, 401, "angular", {}),
+    "mirror ball in a window of the frame": (640, 480, "mirrorball",
+                                             {"center": (300, 200), "radius": 150}),
 }
 
 

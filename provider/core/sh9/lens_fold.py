@@ -1,4 +1,4 @@
-"""Fisheye and dual-fisheye SH9 without streaming a per-pixel 9-weight table (no I/O).
+"""Fisheye, dual-fisheye and probe-disc SH9 without a per-pixel 9-weight table (no I/O).
 
 A fisheye lens is radially symmetric about its centre, and the SH basis in the lens's own
 frame (x image right, y image up, z the optical axis) has a definite parity under each
@@ -133,6 +133,29 @@ class LensFold:
         return out
 
 
+@dataclass
+class _DiscAxes:
+    """A light probe's disc (mirror ball, angular map) as a lens: its centre, and the
+    camera's axes (looking along −Z, image right +X, up +Y: the lens frame is the world's)."""
+
+    cx: float
+    cy: float
+    frame: tuple = ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0))   # (axis, right, up)
+
+
+def _lenses(projection) -> tuple:
+    """The radially symmetric images of a projection: its fisheye lenses, or a probe's disc."""
+    lenses = getattr(projection, "lenses", None)
+    if lenses:
+        return tuple(lenses)
+    lens = getattr(projection, "lens", None)
+    if lens is not None:
+        return (lens,)
+    if hasattr(projection, "normalised") and hasattr(projection, "cx"):
+        return (_DiscAxes(projection.cx, projection.cy),)
+    return ()
+
+
 def _lens_region(projection, i, n):
     """Columns [a, b) whose weights belong to lens ``i`` of ``n``."""
     w = projection.width
@@ -186,13 +209,11 @@ def _fold_lens(lens, region, weights, height):
 
 
 def lens_fold(projection, weights: np.ndarray) -> LensFold | None:
-    """The folded projection of a fisheye (``projection.lens``) or dual fisheye
-    (``projection.lenses``) with dense world weights ``weights`` (H·W, 9), or None (not a
-    lens geometry, a grid not symmetric about a centre, too many unpaired pixels)."""
-    lenses = getattr(projection, "lenses", None)
-    if lenses is None:
-        lens = getattr(projection, "lens", None)
-        lenses = None if lens is None else (lens,)
+    """The folded projection of a fisheye (``projection.lens``), dual fisheye
+    (``projection.lenses``) or probe disc (mirror ball, angular map: ``cx``, ``cy``) with dense
+    world weights ``weights`` (H·W, 9), or None (not such a geometry, a grid not symmetric
+    about a centre, too many unpaired pixels)."""
+    lenses = _lenses(projection)
     if not lenses:
         return None
     h, w = projection.height, projection.width
