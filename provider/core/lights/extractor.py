@@ -256,8 +256,12 @@ class LightExtractor:
         if f == 1:
             mid[r0:r0 + band.shape[0]] = band
             return
-        h = band.shape[0] // f
-        mid[r0 // f:r0 // f + h] = cv2.resize(band, (band.shape[1] // f, h),
+        h, w = band.shape[0] // f, band.shape[1]
+        # Rows first (a sum of f contiguous rows), then columns on a 1/f-size band: the
+        # same block means as one area resize, at a quarter of its instructions (f = 4).
+        rows = np.add.reduce(band[:h * f].reshape(h, f, w * 3), axis=1)
+        rows *= np.float32(1.0 / f)
+        mid[r0 // f:r0 // f + h] = cv2.resize(rows.reshape(h, w, 3), (w // f, h),
                                               interpolation=cv2.INTER_AREA)
 
     def analyse(self, frame: np.ndarray, coefficients: np.ndarray) -> Analysis:

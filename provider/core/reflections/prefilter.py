@@ -172,7 +172,9 @@ class SparseOperator:
         order = np.lexsort((cols, rows))
         rows, cols, vals = rows[order], cols[order], vals[order]
         self.shape = shape
-        self.cols = cols.astype(np.int32)
+        # intp: numpy's gather casts other index types on every call; the columns are in
+        # range by construction, so ``take`` needs no per-element bounds check (mode="clip").
+        self.cols = cols.astype(np.intp)
         self.vals = vals.astype(np.float32)
         counts = np.bincount(rows, minlength=shape[0])
         if np.any(counts == 0):
@@ -189,5 +191,6 @@ class SparseOperator:
         out = np.empty((self.shape[0], x.shape[1]), np.float32)
         for c in range(x.shape[1]):
             xc = np.ascontiguousarray(x[:, c])
-            out[:, c] = np.add.reduceat(np.take(xc, self.cols) * self.vals, self.starts)
+            out[:, c] = np.add.reduceat(np.take(xc, self.cols, mode="clip") * self.vals,
+                                        self.starts)
         return out

@@ -67,7 +67,7 @@ class ClippedLight:
         p = self.p
         if self._l00 is None:                  # the L00 weight of every source pixel (once)
             ds = p.downsample
-            small = p._weights[:, 0].reshape(p.projection.height, p.projection.width)
+            small = p._l00_weights.reshape(p.projection.height, p.projection.width)
             full = np.zeros((h, w), np.float32)
             bw, bh = p._block
             full[:bh, :bw] = np.repeat(np.repeat(small, ds, 0), ds, 1) / float(ds * ds)

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..geometry import sh
 from .clipping import ClippedLight
+from .lens_fold import lens_fold
 from ..blas import one_blas_thread
 from ..errors import InputError
 from ..lights.extractor import LightExtractor, LinearView
@@ -180,6 +181,7 @@ class SH9Projector(FrameDecoder):
         # Pixel-independent precomputation.
         p = self.projection
         self._block = full.scaled_source_size(downsample)
+        self._fold = None
         if isinstance(p, Equirect):
             rows, cols = p.row_integrals(), p.col_integrals()
             self._rows = rows.astype(np.float32)          # (6, H)
@@ -188,9 +190,15 @@ class SH9Projector(FrameDecoder):
         else:
             p.progress = progress
             try:
-                self._weights = p.sh_weights.astype(np.float32)  # (H·W, 9)
+                dense = p.sh_weights                          # (H·W, 9) float64
             finally:
                 p.progress = None
+            # Lenses symmetric about their centres: quarter tables instead of the dense one.
+            self._fold = lens_fold(p, dense)
+            self._weights = (dense.astype(np.float32) if self._fold is None
+                             else np.zeros((0, 9), np.float32))
+            #: L00 weight of each pixel (H·W,): what the clipped samples carry.
+            self._l00_weights = dense[:, 0].astype(np.float32)
         self._clipped = ClippedLight(self)
         self._estimator = None
         self._coverage = 4 * math.pi if isinstance(p, Equirect) else p.coverage
@@ -211,15 +219,21 @@ class SH9Projector(FrameDecoder):
         h, w = lin.shape[:2]
         if self._weights is None:
             acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
+        elif self._fold is not None:
+            self._fold.add(lin, r0, acc)
         else:
             acc += lin.reshape(-1, 3).T @ self._weights[r0 * w:(r0 + h) * w]
 
-    def _new_accumulator(self) -> np.ndarray:
+    def _new_accumulator(self):
+        if self._fold is not None:
+            return self._fold.new()
         w = self.projection.width
         return np.zeros((6, w * 3) if self._weights is None else (3, 9), np.float32)
 
     def _coefficients(self, acc: np.ndarray) -> np.ndarray:
         """(9, 3) float64 coefficients from an accumulator."""
+        if self._fold is not None:
+            return self._fold.coefficients(acc)
         if self._weights is not None:
             return acc.T.astype(np.float64)
         w = self.projection.width

@@ -1,0 +1,234 @@
+"""Fisheye, dual-fisheye and probe-disc SH9 without a per-pixel 9-weight table (no I/O).
+
+A fisheye lens is radially symmetric about its centre, and the SH basis in the lens's own
+frame (x image right, y image up, z the optical axis) has a definite parity under each
+mirror of the image: 1, z, 3z²−1 and x²−y² are even in x and y; x and xz odd in x; y and yz
+odd in y; xy odd in both. So when the pixel grid is symmetric about the lens centre (its
+centre at a pixel corner or a pixel centre, as the defaults and most calibrations are), the
+four pixels (±dx, ±dy) carry the same lens-frame weights up to those signs, and
+
+    Σ_p w_k(p) I(p) = Σ_quarter w_k(q) (I(+,+) ± I(−,+) ± I(+,−) ± I(−,−)),
+
+exactly. Per frame each lens's square around its centre is folded (two adds and two
+subtractions of its halves, then of its rows against the stored mirror rows), and the
+folded quarter meets a quarter table of one weight per coefficient: 9 floats per 4 pixels
+instead of 36, the lens-frame coefficients turned to the world by the lens's SH rotation.
+Pixels with no mirror partner (a centre row or column, a circle clipped by the frame's
+edge) keep their own 9 world weights (a short list). The fold is checked against the dense
+table when it is built: a lens whose weights are not symmetric to 1e-7 (an off-grid centre,
+a skewed calibration) keeps the dense table (:func:`lens_fold` returns None).
+
+The lens is reached only through the projection's dense weights and its
+:class:`~provider.core.geometry.projections.FisheyeLens` (centre, ``frame``): whatever its
+r(θ) curve, the check decides.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..geometry import sh
+
+#: Largest |mirror weight − sign × weight| accepted, relative to the coefficient's largest
+#: weight: float64 rounding is ~1e-13; float32 tables round at 6e-8.
+SYMMETRY_TOLERANCE = 1e-7
+#: Most pixels left unfolded (residual list), as a share of the pixels that see anything.
+MAX_RESIDUAL_SHARE = 0.1
+
+
+@dataclass
+class _FoldedLens:
+    """One lens's folded square: centre twice (X, Y, integers), pairs per axis (nx, ny),
+    lens→world SH rotation D (9, 9), parity groups, quarter tables (k, ny·nx) float32."""
+
+    X: int
+    Y: int
+    nx: int
+    ny: int
+    D: np.ndarray
+    groups: list            # [(("E"|"O", "E"|"O"), k indices, table (ny·nx, len(k)))]
+
+    @property
+    def top(self):          # rows [Y//2 − ny, Y//2) mirror the bottom rows [Yb, Yb + ny)
+        return self.Y // 2 - self.ny, self.Y // 2
+
+    @property
+    def bottom(self):
+        yb = self.Y - self.Y // 2
+        return yb, yb + self.ny
+
+    def x_fold(self, rows: np.ndarray):
+        """(E, O) (h, nx, 3): right half + and − the mirrored left half."""
+        xl, xr = self.X // 2, self.X - self.X // 2
+        right = rows[:, xr:xr + self.nx]
+        left = cv2.flip(rows[:, xl - self.nx:xl], 1)
+        return cv2.add(right, left), cv2.subtract(right, left)
+
+
+class LensFold:
+    """The folded projection of one fisheye or dual-fisheye geometry: :meth:`new` an
+    accumulator per frame, :meth:`add` rows in increasing order (bands, or the whole
+    frame), :meth:`coefficients` at the end."""
+
+    def __init__(self, lenses, residual_index, residual_weights, width):
+        self.lenses = lenses
+        self.width = width
+        self._res_index = residual_index            # sorted flat pixel indices
+        self._res_weights = residual_weights        # (R, 9) float32, world frame
+
+    @property
+    def table_floats(self) -> int:
+        """Weights read per frame (floats): quarter tables and the residual list."""
+        return sum(t.size for L in self.lenses for _, _, t in L.groups) + self._res_weights.size
+
+    def new(self) -> dict:
+        return {"stash": [(np.empty((L.ny, L.nx, 3), np.float32),
+                           np.empty((L.ny, L.nx, 3), np.float32)) for L in self.lenses],
+                "acc": [[np.zeros((3, len(k))) for _, k, _ in L.groups]
+                        for L in self.lenses],
+                "res": np.zeros((3, 9), np.float32)}
+
+    def add(self, lin: np.ndarray, r0: int, state: dict) -> None:
+        """Add linear float32 rows [r0, r0 + len(lin)) (full width) of the frame."""
+        r1 = r0 + lin.shape[0]
+        for L, (st_e, st_o), acc in zip(self.lenses, state["stash"], state["acc"]):
+            t0, t1 = max(L.top[0], r0), min(L.top[1], r1)
+            if t0 < t1:     # top rows: folded in x, stored by distance from the centre row
+                e, o = L.x_fold(lin[t0 - r0:t1 - r0])
+                s0, s1 = L.Y // 2 - t1, L.Y // 2 - t0
+                st_e[s0:s1] = e[::-1]
+                st_o[s0:s1] = o[::-1]
+            b0, b1 = max(L.bottom[0], r0), min(L.bottom[1], r1)
+            if b0 < b1:     # bottom rows meet their mirror rows: the four parities
+                e, o = L.x_fold(lin[b0 - r0:b1 - r0])
+                s0, s1 = b0 - L.bottom[0], b1 - L.bottom[0]
+                et, ot = st_e[s0:s1], st_o[s0:s1]
+                folded = {("E", "E"): cv2.add(e, et), ("E", "O"): cv2.subtract(e, et),
+                          ("O", "E"): cv2.add(o, ot), ("O", "O"): cv2.subtract(o, ot)}
+                lo, hi = s0 * L.nx, s1 * L.nx
+                for a, (parity, _, table) in zip(acc, L.groups):
+                    # One contiguous dot product per channel and weight (BLAS sdot): a
+                    # matrix product with 3 rows and 1–4 columns wastes most of its lanes.
+                    planes = cv2.split(folded[parity])
+                    for c, plane in enumerate(planes):
+                        flat = plane.reshape(-1)
+                        for j, row in enumerate(table):
+                            a[c, j] += float(np.dot(flat, row[lo:hi]))
+        if self._res_index.size:
+            lo, hi = np.searchsorted(self._res_index, [r0 * self.width, r1 * self.width])
+            if hi > lo:
+                px = lin.reshape(-1, 3)[self._res_index[lo:hi] - r0 * self.width]
+                state["res"] += px.T @ self._res_weights[lo:hi]
+
+    def coefficients(self, state: dict) -> np.ndarray:
+        """(9, 3) float64 world-frame coefficients of the rows added."""
+        out = state["res"].T.astype(np.float64)
+        for L, acc in zip(self.lenses, state["acc"]):
+            local = np.zeros((9, 3))
+            for a, (_, k, _) in zip(acc, L.groups):
+                local[k] = a.T
+            out += L.D @ local
+        return out
+
+
+@dataclass
+class _DiscAxes:
+    """A light probe's disc (mirror ball, angular map) as a lens: its centre, and the
+    camera's axes (looking along −Z, image right +X, up +Y: the lens frame is the world's)."""
+
+    cx: float
+    cy: float
+    frame: tuple = ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0))   # (axis, right, up)
+
+
+def _lenses(projection) -> tuple:
+    """The radially symmetric images of a projection: its fisheye lenses, or a probe's disc."""
+    lenses = getattr(projection, "lenses", None)
+    if lenses:
+        return tuple(lenses)
+    lens = getattr(projection, "lens", None)
+    if lens is not None:
+        return (lens,)
+    if hasattr(projection, "normalised") and hasattr(projection, "cx"):
+        return (_DiscAxes(projection.cx, projection.cy),)
+    return ()
+
+
+def _lens_region(projection, i, n):
+    """Columns [a, b) whose weights belong to lens ``i`` of ``n``."""
+    w = projection.width
+    if n == 1:
+        return 0, w
+    return (0, w // 2) if i == 0 else (w - w // 2, w)
+
+
+def _fold_lens(lens, region, weights, height):
+    """A :class:`_FoldedLens` of ``lens`` over columns ``region`` of the (H, W, 9) world
+    weights, and the mask of the pixels it folds; None where the grid is not symmetric."""
+    X, Y = 2 * lens.cx, 2 * lens.cy
+    if abs(X - round(X)) > 1e-9 or abs(Y - round(Y)) > 1e-9:
+        return None
+    X, Y = int(round(X)), int(round(Y))
+    a, b = region
+    nx = min(X // 2 - a, b - (X - X // 2))
+    ny = min(Y // 2, height - (Y - Y // 2))
+    if nx < 1 or ny < 1:
+        return None
+    f, r, u = lens.frame
+    D = sh.sh_rotation(np.stack([r, u, f], axis=1))     # lens frame -> world
+    local = weights[:, a:b] @ D          # (H, b − a, 9), the lens's columns: w_world = D w_local
+    xl, xr, yt, yb = X // 2, X - X // 2, Y // 2, Y - Y // 2
+    cl, cr = xl - a, xr - a              # the same columns in ``local``
+    quads = {  # (x parity sign source, y parity sign source): the quadrant's weights
+        (1, 1): local[yb:yb + ny, cr:cr + nx],
+        (-1, 1): local[yb:yb + ny, cl - nx:cl][:, ::-1],
+        (1, -1): local[yt - ny:yt, cr:cr + nx][::-1],
+        (-1, -1): local[yt - ny:yt, cl - nx:cl][::-1, ::-1],
+    }
+    q = quads[(1, 1)]
+    scale = np.abs(local).max(axis=(0, 1))
+    groups = {}
+    for k in range(9):
+        tol = SYMMETRY_TOLERANCE * max(scale[k], 1e-300)
+        sx = 1 if np.sum(quads[(-1, 1)][..., k] * q[..., k]) >= 0 else -1
+        sy = 1 if np.sum(quads[(1, -1)][..., k] * q[..., k]) >= 0 else -1
+        for (mx, my), w in quads.items():
+            sign = (sx if mx < 0 else 1) * (sy if my < 0 else 1)
+            if np.max(np.abs(w[..., k] - sign * q[..., k])) > tol:
+                return None
+        groups.setdefault(("E" if sx > 0 else "O", "E" if sy > 0 else "O"), []).append(k)
+    tables = [(parity, ks, np.ascontiguousarray(q[..., ks].reshape(ny * nx, len(ks)).T,
+                                                np.float32))      # (k, ny·nx): one row a weight
+              for parity, ks in sorted(groups.items())]
+    mask = np.zeros(weights.shape[:2], bool)
+    rows = np.r_[yt - ny:yt, yb:yb + ny]
+    mask[np.ix_(rows, np.r_[xl - nx:xl, xr:xr + nx])] = True
+    return _FoldedLens(X, Y, nx, ny, D, tables), mask
+
+
+def lens_fold(projection, weights: np.ndarray) -> LensFold | None:
+    """The folded projection of a fisheye (``projection.lens``), dual fisheye
+    (``projection.lenses``) or probe disc (mirror ball, angular map: ``cx``, ``cy``) with dense
+    world weights ``weights`` (H·W, 9), or None (not such a geometry, a grid not symmetric
+    about a centre, too many unpaired pixels)."""
+    lenses = _lenses(projection)
+    if not lenses:
+        return None
+    h, w = projection.height, projection.width
+    dense = np.asarray(weights, np.float64).reshape(h, w, 9)
+    folded, covered = [], np.zeros((h, w), bool)
+    for i, lens in enumerate(lenses):
+        region = _lens_region(projection, i, len(lenses))
+        made = _fold_lens(lens, region, dense, h)
+        if made is None:
+            return None
+        folded.append(made[0])
+        covered |= made[1]
+    seen = np.any(dense != 0, axis=-1)
+    residual = np.flatnonzero((seen & ~covered).reshape(-1))
+    if residual.size > MAX_RESIDUAL_SHARE * max(int(seen.sum()), 1):
+        return None
+    return LensFold(folded, residual.astype(np.int64),
+                    dense.reshape(-1, 9)[residual].astype(np.float32), w)

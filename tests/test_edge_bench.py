@@ -1,0 +1,31 @@
+"""The edge bench's instruction count (provider.bench.edge): callgrind's steady-state
+instructions per frame, and what the section says without valgrind."""
+import shutil
+from argparse import Namespace
+
+import pytest
+
+from provider.bench import edge
+from provider.core.sh9.engine import SH9Projector
+
+
+@pytest.mark.skipif(shutil.which("valgrind") is None,
+                    reason="valgrind is not installed (apt-get install valgrind)")
+def test_instructions_per_frame_are_counted():
+    """callgrind's steady-state count of one small fisheye frame: start-up and the first
+    frame cancel out, leaving the frame's own work (more than its 64×48×3 samples, far less
+    than the start-up's hundreds of millions)."""
+    per = edge.instructions_per_frame(SH9Projector(64, 48, "fisheye"), edge.edge_frame(64, 48))
+    assert 64 * 48 * 3 < per < 5e7
+
+
+def test_without_valgrind_the_section_says_so(tmp_path, monkeypatch):
+    monkeypatch.setattr(edge.shutil, "which", lambda name: None)
+    monkeypatch.setattr(edge, "edge_workloads", lambda quick=False: {
+        "pi": ("Pi camera 640×480 fisheye, SH9 exact",
+               lambda: SH9Projector(64, 48, "fisheye"), edge.edge_frame(64, 48))})
+    edge.bench_edge(None, tmp_path, Namespace(quick=True, instructions=True))
+    text = (tmp_path / "fisheye_edge.md").read_text()
+    assert "valgrind is not installed" in text and "n/a (valgrind not installed)" in text
+    assert "estimate" in text
+    assert edge.main(["pi"]) == 1
