@@ -53,3 +53,18 @@ def test_the_engine_runs_blas_on_one_thread_and_gives_the_pool_back():
         pytest.skip("numpy here has no BLAS that threadpoolctl knows")
     assert seen["during"] == [[1]], seen        # one thread inside the call
     assert seen["after"] == [2], seen           # the caller's two threads after it
+
+
+def test_the_bench_measures_the_library_beside_a_hog(tmp_path):
+    """`shlight bench --sections speed` ends with the library beside a CPU hog: the three
+    cases, each a time and its ratio to the pool sized to one, written as a table (numbers
+    only: speed is the bench's, not a test's)."""
+    from provider.bench.speed import library_beside_a_hog, write_library_beside_a_hog
+    rows = library_beside_a_hog(n=3, size=(256, 128))
+    assert [r["case"] for r in rows] == ["BLAS pool sized to 1 before numpy loads",
+                                         "as a library (the engine's own limit)",
+                                         "as a library, the limit taken out"]
+    assert all(r["ms"] > 0 for r in rows) and rows[0]["ratio"] == 1.0
+    write_library_beside_a_hog(rows, tmp_path)
+    table = (tmp_path / "library_beside_a_hog.md").read_text()
+    assert table.count("\n| ") == 4 and "× pool sized to 1" in table

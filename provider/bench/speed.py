@@ -82,6 +82,71 @@ def bench_speed(hdri, out: Path, args):
                                  ms=ms, ratio=ms / floor, floor_ms=floor, err_max=max(errs),
                                  err_mean=float(np.mean(errs)), err_hdr=float(np.max(errs_hdr))))
     _write_speed(rows, out, panoramas, args)
+    _progress("bench: the library beside a CPU hog")
+    write_library_beside_a_hog(library_beside_a_hog(n=9 if args.quick else 31), out)
+
+
+#: One frame after another through the library (no command line to size BLAS first); the
+#: median ms per frame on stdout. argv: width height frames [no-limit].
+_LIBRARY = r"""
+import json, sys, time
+import numpy as np
+w, h, n = (int(a) for a in sys.argv[1:4])
+if sys.argv[4:] == ["no-limit"]:            # the engine as it was before issue 33
+    import provider.core.blas as blas
+    blas._blas = lambda: None
+from provider.core.sh9.engine import SH9Projector
+rng = np.random.default_rng(0)
+frames = [rng.integers(0, 256, (h, w, 3), dtype=np.uint8) for _ in range(3)]
+p = SH9Projector(w, h)
+p.project(frames[0])
+ts = []
+for i in range(n):
+    t = time.perf_counter()
+    p.project(frames[i % 3])
+    ts.append(time.perf_counter() - t)
+print(json.dumps(sorted(ts)[len(ts) // 2] * 1000))
+"""
+
+
+def library_beside_a_hog(n: int = 31, size=(1920, 960)) -> list[dict]:
+    """``SH9Projector.project`` on 8-bit frames of ``size``, imported as a library, beside
+    one process that spins on a core: BLAS's pool sized to one before numpy loads (the
+    floor: what the command line does), as shipped (the engine limits its own calls), and
+    with that limit taken out (what issue 33's audit measured: 16× on 2 cores)."""
+    import json
+    import subprocess
+    base = {k: v for k, v in os.environ.items()
+            if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    cases = [("BLAS pool sized to 1 before numpy loads", {"OPENBLAS_NUM_THREADS": "1"}, []),
+             ("as a library (the engine's own limit)", {}, []),
+             ("as a library, the limit taken out", {}, ["no-limit"])]
+    hog = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        rows = []
+        for label, extra, flag in cases:
+            out = subprocess.run([sys.executable, "-c", _LIBRARY, str(size[0]), str(size[1]),
+                                  str(n), *flag], env={**base, **extra}, capture_output=True,
+                                 text=True, timeout=600, check=True).stdout
+            rows.append({"case": label, "ms": float(json.loads(out.strip().splitlines()[-1]))})
+    finally:
+        hog.kill()
+        hog.wait()
+    for r in rows:
+        r["ratio"] = r["ms"] / rows[0]["ms"]
+    return rows
+
+
+def write_library_beside_a_hog(rows: list[dict], out: Path) -> None:
+    lines = ["# The library beside a CPU hog", "",
+             f"`SH9Projector.project`, 1920×960 8-bit, imported as a library; one process spins "
+             f"beside it; {os.cpu_count()} cores. Median ms per frame, and its ratio to the "
+             "first row, measured in the same run (issue 33's target: the library within 1.5×).",
+             "", "| case | ms/frame | × pool sized to 1 |", "|---|---:|---:|"]
+    lines += [f"| {r['case']} | {r['ms']:.1f} | {r['ratio']:.2f} |" for r in rows]
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "library_beside_a_hog.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
 
 
 def _dirty_float_rows(frames, w, h, floor, cycles):
