@@ -156,6 +156,9 @@ class SH9Projector(FrameDecoder):
                 full = projection
             else:
                 full = make_projection(projection, width, height, **projection_options)
+            withdrawn = isinstance(full, Equirect) and downsample > 1
+            if withdrawn:
+                downsample = 1
             self.projection = full if downsample == 1 else full.scaled(downsample)
             self._full = full
             self._up = None             # exact up-facing cosine weights (up_illuminance)
@@ -163,6 +166,13 @@ class SH9Projector(FrameDecoder):
             raise InputError(str(exc)) from None
         #: Allowed but probably wrong (e.g. a 2:1 panorama read as a fisheye): say them.
         self.warnings = list(full.warnings)
+        if withdrawn:
+            # The exact equirect weights are separable (a row and a column integral), so its
+            # exact pass costs about what the area average alone does: measured slower at
+            # every size with it (1.25-1.9×, docs/accuracy.md), it is withdrawn (issue 34).
+            self.warnings.append(
+                "--downsample on an equirect frame is withdrawn: its exact path is faster "
+                "(separable weights), so the frame is projected exactly")
         #: (x0, y0, x1, y1): the part of each frame the projection covers (a ball's box).
         self.window = getattr(full, "window", None)
         self.downsample = downsample
