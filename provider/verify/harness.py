@@ -63,25 +63,33 @@ void main() {
 }
 """
 
-def glsl_evaluator(function: str = "shIrradiance") -> str:
-    """The GLSL fragment program that writes ``function(n)`` and its unclamped variant for the
-    normal read at each pixel (pasted after the shipped GLSL that defines them)."""
+def glsl_evaluator(function: str = "shIrradiance", *, args: str = "n", uniforms: str = "",
+                   unclamped: bool = True) -> str:
+    """The GLSL fragment program that writes ``function(args)`` and its unclamped variant
+    (or, with ``unclamped=False``, the same value twice) for the normal ``n`` read at each
+    pixel, pasted after the shipped GLSL that defines them; ``uniforms``: declarations the
+    arguments need."""
+    second = f"vec4({function}Unclamped({args}), 1.0)" if unclamped else "clampedOut"
     return f"""
 uniform sampler2D normals;   // one unit normal per pixel (RGB32F)
+{uniforms}
 layout(location = 0) out vec4 clampedOut;
 layout(location = 1) out vec4 unclampedOut;
 void main() {{
     vec3 n = texelFetch(normals, ivec2(gl_FragCoord.xy), 0).xyz;
-    clampedOut = vec4({function}(n), 1.0);
-    unclampedOut = vec4({function}Unclamped(n), 1.0);
+    clampedOut = vec4({function}({args}), 1.0);
+    unclampedOut = {second};
 }}
 """
 
 
-def hlsl_evaluator(include: str = "sh9_irradiance.hlsl", function: str = "SHIrradiance") -> str:
+def hlsl_evaluator(include: str = "sh9_irradiance.hlsl", function: str = "SHIrradiance", *,
+                   args: str = "n", uniforms: str = "", unclamped: bool = True) -> str:
     """The HLSL pixel shader that does the same with the shipped HLSL ``include``."""
+    second = f"float4({function}Unclamped({args}), 1.0)" if unclamped else "t.clamped"
     return f"""#include "{include}"
 Texture2D<float4> _Normals;   // one unit normal per pixel
+{uniforms}
 struct Targets
 {{
     float4 clamped : SV_Target0;
@@ -91,8 +99,8 @@ Targets main(float4 position : SV_Position)
 {{
     float3 n = _Normals.Load(int3(position.xy, 0)).xyz;
     Targets t;
-    t.clamped = float4({function}(n), 1.0);
-    t.unclamped = float4({function}Unclamped(n), 1.0);
+    t.clamped = float4({function}({args}), 1.0);
+    t.unclamped = {second};
     return t;
 }}
 """

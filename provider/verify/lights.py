@@ -341,35 +341,12 @@ def compare(ctx, path: str, normals, panoramas, vectors, tolerance) -> list[Comp
 
 # -- the shadow ratio (shShadowRatio / SHShadowRatio) -------------------------------------------
 
-SHADOW_GLSL_EVALUATOR = """
-uniform sampler2D normals;   // one unit normal per pixel (RGB32F)
-uniform vec4 shadowVisibility;
-layout(location = 0) out vec4 clampedOut;
-layout(location = 1) out vec4 unclampedOut;
-void main() {
-    vec3 n = texelFetch(normals, ivec2(gl_FragCoord.xy), 0).xyz;
-    clampedOut = vec4(shShadowRatio(n, shadowVisibility), 1.0);
-    unclampedOut = clampedOut;
-}
-"""
-
-SHADOW_HLSL_EVALUATOR = """#include "sh9_lights.hlsl"
-Texture2D<float4> _Normals;   // one unit normal per pixel
-float4 _ShadowVisibility;
-struct Targets
-{
-    float4 clamped : SV_Target0;
-    float4 unclamped : SV_Target1;
-};
-Targets main(float4 position : SV_Position)
-{
-    float3 n = _Normals.Load(int3(position.xy, 0)).xyz;
-    Targets t;
-    t.clamped = float4(SHShadowRatio(n, _ShadowVisibility), 1.0);
-    t.unclamped = t.clamped;
-    return t;
-}
-"""
+SHADOW_GLSL_EVALUATOR = glsl_evaluator("shShadowRatio", args="n, shadowVisibility",
+                                       uniforms="uniform vec4 shadowVisibility;",
+                                       unclamped=False)
+SHADOW_HLSL_EVALUATOR = hlsl_evaluator("sh9_lights.hlsl", "SHShadowRatio",
+                                       args="n, _ShadowVisibility",
+                                       uniforms="float4 _ShadowVisibility;", unclamped=False)
 
 #: Visibilities of lights 0..3 per shadow case: all visible (ratio exactly 1), none, mixed,
 #: and out of [0, 1] (the shaders clamp; the CPU reference gets the clamped values).
