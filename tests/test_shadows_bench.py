@@ -24,18 +24,11 @@ GRID = 24
 
 def disc_sky(radius_deg: float, elevation_deg: float = 50.0, flux: float = 30.0,
              background: float = 0.0, width: int = 512) -> np.ndarray:
-    """An equirect holding one uniform disc (exact coverage, 4 × 4 samples a pixel) toward
-    azimuth +X at ``elevation_deg``, on a uniform ``background``."""
-    h, sub = width // 2, 4
+    """An equirect holding one white uniform disc (exact coverage, 4 × 4 samples a pixel)
+    toward azimuth +X at ``elevation_deg``, on a uniform ``background``."""
     e = math.radians(elevation_deg)
-    toward = np.array([math.cos(e), math.sin(e), 0.0])
-    py, px = np.mgrid[0:h * sub, 0:width * sub] + 0.5
-    theta, phi = math.pi * py / (h * sub), 2 * math.pi * (px / (width * sub) - 0.5)
-    d = np.stack([np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)], -1)
-    cover = ((d @ toward) >= math.cos(math.radians(radius_deg))).reshape(
-        h, sub, width, sub).mean(axis=(1, 3))
-    radiance = flux / (2 * math.pi * (1 - math.cos(math.radians(radius_deg))))
-    return (background + cover[..., None] * radiance * np.ones(3)).astype(np.float32)
+    return bench.disc_equirect(width, radius_deg, (math.cos(e), math.sin(e), 0.0), flux,
+                               background, colour=(1.0, 1.0, 1.0))
 
 
 def test_the_sphere_cone_and_the_disc_visibility_are_geometry():

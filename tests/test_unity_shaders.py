@@ -400,6 +400,25 @@ def _gl_context():
         pytest.skip(f"no OpenGL 3.3 context ({exc}); on Debian: apt-get install libegl1 libgl1-mesa-dri")
 
 
+def bind_uniform_blocks(ctx, prog, refl, values: dict) -> list:
+    """Fill each uniform block spirv-cross reflected (``refl``) with ``values`` at its
+    members' offsets (others zero), bind block k to binding k, and return the buffers (keep
+    them alive while drawing). Unity's ``$Global`` block is ``_Global`` in the GLSL."""
+    import numpy as np
+    buffers = []
+    for binding, ubo in enumerate(refl["ubos"]):
+        data = np.zeros(ubo["block_size"] // 4, np.float32)
+        for m in refl["types"][ubo["type"]]["members"]:
+            if m["name"] in values:
+                v = np.asarray(values[m["name"]], np.float32).reshape(-1)
+                data[m["offset"] // 4: m["offset"] // 4 + v.size] = v
+        buf = ctx.buffer(data.tobytes())
+        buf.bind_to_uniform_block(binding)
+        prog["_Global" if ubo["name"] == "$Global" else ubo["name"]].binding = binding
+        buffers.append(buf)
+    return buffers
+
+
 def run_fragment(ctx, p: dict, defines: list[str], normals, values: dict, tmp_path: Path):
     """Run pass `p`'s fragment stage once per normal (one point per pixel), with the uniform block
     members in `values` (by name; others 0) and a white 1×1 _MainTex. Returns (N, 4) float32."""
@@ -419,18 +438,7 @@ def run_fragment(ctx, p: dict, defines: list[str], normals, values: dict, tmp_pa
     prog = ctx.program(vertex_shader=vertex, fragment_shader=glsl)
     n = len(normals)
     prog["width"].value = float(n)
-    buffers = []
-    for binding, ubo in enumerate(refl["ubos"]):
-        data = np.zeros(ubo["block_size"] // 4, np.float32)
-        for m in refl["types"][ubo["type"]]["members"]:
-            if m["name"] in values:
-                v = np.asarray(values[m["name"]], np.float32).reshape(-1)
-                data[m["offset"] // 4: m["offset"] // 4 + v.size] = v
-        name = "_Global" if ubo["name"] == "$Global" else ubo["name"]
-        buf = ctx.buffer(data.tobytes())
-        buf.bind_to_uniform_block(binding)
-        prog[name].binding = binding
-        buffers.append(buf)
+    buffers = bind_uniform_blocks(ctx, prog, refl, values)
     texture = ctx.texture((1, 1), 4, np.ones(4, np.float32).tobytes(), dtype="f4")
     texture.use(0)
     fbo = ctx.framebuffer(color_attachments=[ctx.texture((n, 1), 4, dtype="f4")])

@@ -27,8 +27,9 @@ import pytest
 from provider.core.geometry import sh
 from provider.core.lights.shadows import shadow_ratio
 
-from test_unity_shaders import (API, INCLUDE_SETS, STAGES, STEREO, _gl_context, _tool, compile_pass,
-                                entry, keyword_sets, layer_depends_on_instance_id, parse_shader, reflect)
+from test_unity_shaders import (API, INCLUDE_SETS, STAGES, STEREO, _gl_context, _tool,
+                                bind_uniform_blocks, compile_pass, entry, keyword_sets,
+                                layer_depends_on_instance_id, parse_shader, reflect)
 
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "unity_package"
@@ -104,17 +105,7 @@ def _run_catcher(ctx, spv: Path, normals, values: dict, shadow, coords=None) -> 
     prog = ctx.program(vertex_shader=vertex, fragment_shader=glsl)
     n = len(normals)
     prog["width"].value = float(n)
-    keep = []
-    for binding, ubo in enumerate(refl["ubos"]):
-        data = np.zeros(ubo["block_size"] // 4, np.float32)
-        for m in refl["types"][ubo["type"]]["members"]:
-            if m["name"] in values:
-                v = np.asarray(values[m["name"]], np.float32).reshape(-1)
-                data[m["offset"] // 4: m["offset"] // 4 + v.size] = v
-        buf = ctx.buffer(data.tobytes())
-        buf.bind_to_uniform_block(binding)
-        prog["_Global" if ubo["name"] == "$Global" else ubo["name"]].binding = binding
-        keep.append(buf)
+    keep = bind_uniform_blocks(ctx, prog, refl, values)
     img = np.full((1, 1), shadow, np.float32) if np.isscalar(shadow) else np.asarray(shadow, np.float32)
     tex = ctx.texture_array((img.shape[1], img.shape[0], 1), 4, np.repeat(img[..., None], 4, -1).tobytes(), dtype="f4")
     tex.filter = (ctx.NEAREST, ctx.NEAREST)

@@ -322,10 +322,11 @@ def picture(results: dict, path: Path) -> None:
 
 
 def disc_equirect(width: int, radius_deg: float, toward=(0.3, 0.8, -0.5), flux: float = 30.0,
-                  background: float = 0.5, sub: int = 4) -> np.ndarray:
+                  background: float = 0.5, sub: int = 4,
+                  colour=(1.0, 0.9, 0.8)) -> np.ndarray:
     """(width/2, width, 3) float32 equirect: a uniform disc of ``radius_deg`` about ``toward``
-    (total flux ``flux``, radiance × sr) on a uniform ``background``; each pixel holds the
-    disc's exact share of it (``sub`` × ``sub`` samples a pixel)."""
+    (total flux ``flux``, radiance × sr, times ``colour``) on a uniform ``background``; each
+    pixel holds the disc's exact share of it (``sub`` × ``sub`` samples a pixel)."""
     toward = np.asarray(toward, np.float64) / np.linalg.norm(toward)
     h = width // 2
     py, px = np.mgrid[0:h * sub, 0:width * sub] + 0.5
@@ -334,7 +335,7 @@ def disc_equirect(width: int, radius_deg: float, toward=(0.3, 0.8, -0.5), flux: 
     cover = ((d @ toward) >= math.cos(math.radians(radius_deg))).reshape(
         h, sub, width, sub).mean(axis=(1, 3))
     radiance = flux / (2 * math.pi * (1 - math.cos(math.radians(radius_deg))))
-    return (background + cover[..., None] * radiance * np.array([1.0, 0.9, 0.8])).astype(np.float32)
+    return (background + cover[..., None] * radiance * np.asarray(colour)).astype(np.float32)
 
 
 def disc_radius_table(quick: bool = False) -> list[str]:
