@@ -319,16 +319,29 @@ namespace UnityEngine
         LightType lightType = LightType.Point;
         Color lightColor = Color.white;
         float lightIntensity = 1f;
-        bool colorTemperature;
+        bool usesColorTemperature;
         LightShadows lightShadows = LightShadows.None;
 
         public LightType type { get { return lightType; } set { lightType = value; } }
         public Color color { get { return lightColor; } set { lightColor = value; } }
         public float intensity { get { return lightIntensity; } set { lightIntensity = value; } }
-        public bool useColorTemperature { get { return colorTemperature; } set { colorTemperature = value; } }
+        public bool useColorTemperature { get { return usesColorTemperature; } set { usesColorTemperature = value; } }
         public LightShadows shadows { get { return lightShadows; } set { lightShadows = value; } }
         float lightShadowStrength = 1f;
         public float shadowStrength { get { return lightShadowStrength; } set { lightShadowStrength = value; } }
+        float lightColorTemperature = 6570f;
+        public float colorTemperature { get { return lightColorTemperature; } set { lightColorTemperature = value; } }
+    }
+
+    // Unity 2022.2's physical camera properties (what HDRP's Exposure "Physical Camera" mode reads).
+    public sealed class Camera : Behaviour
+    {
+        float cameraAperture = 16f;
+        int cameraIso = 200;
+        float cameraShutterSpeed = 0.005f;
+        public float aperture { get { return cameraAperture; } set { cameraAperture = value; } }
+        public int iso { get { return cameraIso; } set { cameraIso = value; } }
+        public float shutterSpeed { get { return cameraShutterSpeed; } set { cameraShutterSpeed = value; } }
     }
 
     public enum ColorSpace { Uninitialized = -1, Gamma = 0, Linear = 1 }
@@ -582,6 +595,23 @@ namespace UnityEngine
         public static float Max(float a, float b) { return a > b ? a : b; }
         public static float Min(float a, float b) { return a < b ? a : b; }
         public static float Clamp(float value, float min, float max) { return value < min ? min : value > max ? max : value; }
+        // Stand-in only (Unity's own fit is native): a blackbody's linear Rec. 709 colour, brightest channel 1,
+        // from Krystek's (1985) CIE 1960 uv of the Planckian locus; what matters to the package is that it is
+        // linear RGB of the temperature's chromaticity.
+        public static Color CorrelatedColorTemperatureToRGB(float kelvin)
+        {
+            double t = Math.Max(1000.0, Math.Min(40000.0, kelvin));
+            double u = (0.860117757 + 1.54118254e-4 * t + 1.28641212e-7 * t * t) / (1 + 8.42420235e-4 * t + 7.08145163e-7 * t * t);
+            double v = (0.317398726 + 4.22806245e-5 * t + 4.20481691e-8 * t * t) / (1 - 2.89741816e-5 * t + 1.61456053e-7 * t * t);
+            double x = 3 * u / (2 * u - 8 * v + 4), y = 2 * v / (2 * u - 8 * v + 4);
+            double X = x / y, Z = (1 - x - y) / y;
+            double r = 3.2404542 * X - 1.5371385 - 0.4985314 * Z;
+            double g = -0.9692660 * X + 1.8760108 + 0.0415560 * Z;
+            double b = 0.0556434 * X - 0.2040259 + 1.0572252 * Z;
+            r = Math.Max(0, r); g = Math.Max(0, g); b = Math.Max(0, b);
+            double m = Math.Max(r, Math.Max(g, b));
+            return new Color((float)(r / m), (float)(g / m), (float)(b / m), 1f);
+        }
         // The curves of UnityCG.cginc's GammaToLinearSpaceExact / LinearToGammaSpaceExact.
         public static float GammaToLinearSpace(float value)
         {
@@ -653,6 +683,8 @@ namespace UnityEngine.Rendering
     {
         static bool linearIntensity;
         public static bool lightsUseLinearIntensity { get { return linearIntensity; } set { linearIntensity = value; } }
+        static bool colorTemperature;
+        public static bool lightsUseColorTemperature { get { return colorTemperature; } set { colorTemperature = value; } }
     }
 
     public struct SphericalHarmonicsL2

@@ -62,6 +62,23 @@ namespace Shlight.Lighting
                  "stand-in to darken the passthrough image where the key light is blocked.")]
         [SerializeField] bool keyLightShadows = false;
 
+        [Header("Photometry (docs/unity.md: a provider calibrated with a lux meter)")]
+        [Tooltip("Relative: as sent × Intensity (default). Camera Image (URP/built-in, passthrough): absolute lighting " +
+                 "× 1/(1.2·2^EV100), a surface renders at the brightness of a camera exposed for the room. Physical " +
+                 "Camera (HDRP): SH9 and the Directional Light in lux, the camera takes the EV100. Relative messages " +
+                 "stay as sent in every mode.")]
+        [SerializeField] Sh9ExposureMode exposureMode = Sh9ExposureMode.Relative;
+        [Tooltip("Stops added to the room's exposure (+1: twice as bright); absolute lighting only.")]
+        [SerializeField] float exposureCompensation = 0f;
+        [Tooltip("Physical Camera mode, Unity 2022.2+: this camera's shutterSpeed is set so that its aperture and " +
+                 "ISO give the room's EV100 (HDRP Exposure override in Physical Camera mode). Empty: read CameraEv100.")]
+        [SerializeField] Camera physicalCamera;
+        [Tooltip("Colour the Directional Light by the light's colour temperature (light_cct_k, else cct_k) " +
+                 "instead of its RGB, with its luminance kept. Needs the linear colour space; turns on " +
+                 "GraphicsSettings.lightsUseLinearIntensity and lightsUseColorTemperature (restored on disable). " +
+                 "A message without CCT keeps the RGB colour.")]
+        [SerializeField] bool useColorTemperature = false;
+
         static readonly int IdR = Shader.PropertyToID("_SHIrradianceR");
         static readonly int IdG = Shader.PropertyToID("_SHIrradianceG");
         static readonly int IdB = Shader.PropertyToID("_SHIrradianceB");
@@ -91,6 +108,17 @@ namespace Shlight.Lighting
         float appliedIntensity = float.NaN;
         Light appliedLight;
         Sh9LightColorSpace appliedColorSpace = (Sh9LightColorSpace)(-1);
+        Sh9ExposureMode appliedMode;
+        float appliedCompensation;
+        bool appliedUseTemperature;
+        Sh9Exposure exposure = Sh9Exposure.Resolve(null, Sh9ExposureMode.Relative, 0);
+        double appliedKelvin = double.NaN;
+        bool changedGraphicsSettings, savedLinearIntensity, savedUseTemperature, warnedGammaTemperature;
+#if UNITY_2022_2_OR_NEWER
+        Camera savedCamera;
+        float savedShutterSpeed;
+#endif
+        float savedLightTemperature;
         bool savedAmbient;
         AmbientMode savedAmbientMode;
         SphericalHarmonicsL2 savedAmbientProbe;
@@ -160,6 +188,18 @@ namespace Shlight.Lighting
         /// <summary>True while <see cref="DirectionalLight"/> shows a light the server split off.</summary>
         public bool LightActive { get { return lightDriven; } }
 
+        public Sh9ExposureMode ExposureMode { get { return exposureMode; } set { exposureMode = value; } }
+        public float ExposureCompensation { get { return exposureCompensation; } set { exposureCompensation = value; } }
+        public Camera PhysicalCamera { get { return physicalCamera; } set { physicalCamera = value; } }
+        public bool UseColorTemperature { get { return useColorTemperature; } set { useColorTemperature = value; } }
+        /// <summary>The exposure applied to the last message (Scale 1, CameraEv100 NaN for relative lighting).</summary>
+        public Sh9Exposure AppliedExposure { get { return exposure; } }
+        /// <summary>The EV100 a physical camera should use (Physical Camera mode, absolute lighting); NaN otherwise.
+        /// HDRP: a Volume's Exposure override in Fixed mode takes it as fixedExposure.</summary>
+        public float CameraEv100 { get { return (float)exposure.CameraEv100; } }
+        /// <summary>The colour temperature (kelvin) the Directional Light shows; NaN when it shows RGB.</summary>
+        public float LightColorTemperatureK { get { return lightDriven ? (float)appliedKelvin : float.NaN; } }
+
         void OnEnable()
         {
             LastSeq = -1;
@@ -172,6 +212,8 @@ namespace Shlight.Lighting
             Disconnect();
             RestoreAmbient();
             RestoreLight();
+            RestoreCamera();
+            RestoreGraphicsSettings();
             Shader.SetGlobalFloat(IdMainLightScale, 0f);
             Shader.SetGlobalInt(IdLightCount, 0);
         }
@@ -266,20 +308,29 @@ namespace Shlight.Lighting
             Sh9Snapshot snap = client == null ? null : client.Latest;
             Quaternion rotation = ProbeRotation;
             Light light = UsableLight();
+            PrepareColorTemperature();
             Sh9LightColorSpace colorSpace = CurrentLightColorSpace();
             if (snap != null)
             {
                 if (snap.Version != appliedVersion || !SameRotation(rotation, appliedRotation) || intensity != appliedIntensity ||
-                    light != appliedLight || colorSpace != appliedColorSpace)
+                    light != appliedLight || colorSpace != appliedColorSpace || exposureMode != appliedMode ||
+                    exposureCompensation != appliedCompensation || useColorTemperature != appliedUseTemperature)
                 {
-                    values.Set(snap, rotation.x, rotation.y, rotation.z, rotation.w, intensity, light != null);
+                    exposure = Sh9Exposure.Resolve(snap.Message, exposureMode, exposureCompensation);
+                    values.Set(snap, rotation.x, rotation.y, rotation.z, rotation.w, intensity * exposure.Scale, light != null);
+                    appliedKelvin = useColorTemperature ? Sh9LightTemperature.KeyLightCctK(snap.Message, snap.DrawnLight)
+                                                        : double.NaN;
                     appliedVersion = snap.Version;
                     appliedRotation = rotation;
                     appliedIntensity = intensity;
                     appliedLight = light;
                     appliedColorSpace = colorSpace;
+                    appliedMode = exposureMode;
+                    appliedCompensation = exposureCompensation;
+                    appliedUseTemperature = useColorTemperature;
                     CopyValues();
                     ApplyLight(light, colorSpace);
+                    ApplyCamera();
                     HasLighting = true;
                     LastMessage = snap.Message;
                     LastSeq = snap.Message.Seq;
@@ -292,6 +343,7 @@ namespace Shlight.Lighting
                 // no data yet: a uniform fallback (re-evaluated so that colour/intensity edits show)
                 Color linear = fallbackRadiance.linear;
                 values.SetUniform(linear.r * intensity, linear.g * intensity, linear.b * intensity);
+                appliedKelvin = double.NaN;
                 CopyValues();
                 ApplyLight(light, colorSpace);
             }
@@ -385,6 +437,7 @@ namespace Shlight.Lighting
                 savedLightIntensity = light.intensity;
                 savedLightRotation = light.transform.rotation;
                 savedLightColorTemperature = light.useColorTemperature;
+                savedLightTemperature = light.colorTemperature;
                 savedLightShadows = light.shadows;
                 savedLightShadowStrength = light.shadowStrength;
                 WarnAboutOtherDirectionalLights(light);
@@ -430,9 +483,17 @@ namespace Shlight.Lighting
             Sh9Math.LookRotation(-d[0], -d[1], -d[2], lightRotation);
             light.transform.rotation = new Quaternion((float)lightRotation[0], (float)lightRotation[1],
                                                       (float)lightRotation[2], (float)lightRotation[3]);
-            // Unity's Lambert is albedo × light × N·L with no 1/π; ours is ρE/π: give it E/π
-            Sh9Math.LightColorFromLinear(e[0] / Math.PI, e[1] / Math.PI, e[2] / Math.PI, colorSpace, lightColor);
-            light.useColorTemperature = false;
+            // Built-in/URP Lambert is albedo × light × N·L with no 1/π; ours is ρE/π: give it E/π. HDRP's
+            // has the 1/π: give it E, lux (LightFactor).
+            double f = exposure.LightFactor;
+            Color kelvinRgb = Color.white;
+            bool temperature = !double.IsNaN(appliedKelvin);
+            if (temperature) kelvinRgb = Mathf.CorrelatedColorTemperatureToRGB((float)appliedKelvin);
+            temperature = Sh9LightTemperature.LightColor(e[0] * f, e[1] * f, e[2] * f, colorSpace, appliedKelvin,
+                                                         kelvinRgb.r, kelvinRgb.g, kelvinRgb.b, lightColor);
+            if (!temperature) appliedKelvin = double.NaN; // not shown as a temperature (gamma space, or none)
+            light.useColorTemperature = temperature;
+            if (temperature) light.colorTemperature = (float)appliedKelvin;
             light.color = new Color((float)lightColor[0], (float)lightColor[1], (float)lightColor[2], 1f);
             light.intensity = (float)lightColor[3];
             if (keyLightShadows)
@@ -461,8 +522,75 @@ namespace Shlight.Lighting
             light.intensity = savedLightIntensity;
             light.transform.rotation = savedLightRotation;
             light.useColorTemperature = savedLightColorTemperature;
+            light.colorTemperature = savedLightTemperature;
             light.shadows = savedLightShadows;
             light.shadowStrength = savedLightShadowStrength;
+        }
+
+        // Unity shows Light.colorTemperature only in the linear colour space with lightsUseLinearIntensity and
+        // lightsUseColorTemperature on (URP and HDRP turn both on; the built-in pipeline does not): turn them on
+        // while Use Color Temperature is, and put them back after.
+        void PrepareColorTemperature()
+        {
+            if (!useColorTemperature)
+            {
+                RestoreGraphicsSettings();
+                return;
+            }
+            if (QualitySettings.activeColorSpace != ColorSpace.Linear)
+            {
+                if (!warnedGammaTemperature && logToConsole)
+                    Debug.LogWarning("[SH9] Use Color Temperature needs the linear colour space: the light keeps its RGB colour", this);
+                warnedGammaTemperature = true;
+                return;
+            }
+            if (GraphicsSettings.lightsUseLinearIntensity && GraphicsSettings.lightsUseColorTemperature) return;
+            if (!changedGraphicsSettings)
+            {
+                savedLinearIntensity = GraphicsSettings.lightsUseLinearIntensity;
+                savedUseTemperature = GraphicsSettings.lightsUseColorTemperature;
+                changedGraphicsSettings = true;
+                if (logToConsole)
+                    Debug.LogWarning("[SH9] Use Color Temperature: GraphicsSettings.lightsUseLinearIntensity and " +
+                                     "lightsUseColorTemperature turned on (every light's intensity is then linear)", this);
+            }
+            GraphicsSettings.lightsUseLinearIntensity = true;
+            GraphicsSettings.lightsUseColorTemperature = true;
+        }
+
+        void RestoreGraphicsSettings()
+        {
+            if (!changedGraphicsSettings) return;
+            GraphicsSettings.lightsUseLinearIntensity = savedLinearIntensity;
+            GraphicsSettings.lightsUseColorTemperature = savedUseTemperature;
+            changedGraphicsSettings = false;
+        }
+
+        // Physical Camera mode: the camera's shutter speed gives the room's EV100 at its own aperture and ISO
+        // (Camera.aperture/iso/shutterSpeed are Unity 2022.2's; before, read CameraEv100).
+        void ApplyCamera()
+        {
+#if UNITY_2022_2_OR_NEWER
+            Camera camera = exposureMode == Sh9ExposureMode.PhysicalCamera ? physicalCamera : null;
+            if (camera != savedCamera) RestoreCamera();
+            if (camera == null || !exposure.Applied) return;
+            if (savedCamera == null)
+            {
+                savedCamera = camera;
+                savedShutterSpeed = camera.shutterSpeed;
+            }
+            double t = Sh9Exposure.ShutterSeconds(exposure.CameraEv100, camera.aperture, camera.iso);
+            if (t > 0) camera.shutterSpeed = (float)t;
+#endif
+        }
+
+        void RestoreCamera()
+        {
+#if UNITY_2022_2_OR_NEWER
+            Camera camera = savedCamera;
+            savedCamera = null;
+            if (camera != null) camera.shutterSpeed = savedShutterSpeed;
+#endif
         }
 
         void RestoreAmbient()
