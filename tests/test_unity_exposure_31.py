@@ -251,3 +251,52 @@ def test_lighting_client_glue_compiles_against_the_standin(tmp_path, defines):
     Mathf.CorrelatedColorTemperatureToRGB) type-check against the UnityEngine stand-in, with and without
     Unity 2022.2's camera properties."""
     _compile(tmp_path / "Runtime.dll", [*CORE, *RUNTIME, STANDIN], target="library", defines=defines)
+
+
+# ---- live: the component against `shlight serve` with absolute lighting ---------------------------------
+
+from servertools import ServeProcess  # noqa: E402
+from test_meter_31 import camera  # noqa: E402,F401  (an absolutely calibrated camera.json)
+from test_photometry_31 import exact_illuminance_up, scene, write_bracket  # noqa: E402
+from test_unity import S4, _LiveClient, build_dir, live_exe  # noqa: E402,F401
+
+
+def test_live_client_applies_the_rooms_exposure_and_colour_temperature(live_exe, camera, tmp_path):  # noqa: F811
+    """SH9LightingClient (compiled with the stand-in, Unity's player loop played by tests/csharp/LiveClient.cs)
+    against `shlight serve --camera camera.json --lux E --lights auto`: in Camera Image mode with +1 EV of
+    compensation the SH9 globals are the ambient SH9 × 2 / (1.2 · 2^EV100) of the message, and with Use Color
+    Temperature the Directional Light shows the light's colour temperature (light_cct_k, else cct_k) with
+    GraphicsSettings.lightsUseColorTemperature turned on, at the luminance Y(E)/π × the same exposure."""
+    from provider.core.geometry import sh
+    hdr = scene("sky")
+    (frame,) = write_bracket(tmp_path, "sun", hdr, (0,), n=8.0, iso=100, ext="jpg")
+    with ServeProcess("--source", str(frame), "--camera", str(camera), "--lux", str(exact_illuminance_up(hdr)),
+                      "--lights", "auto", "--max-lights", "1", "--keepalive", "0.25") as server:
+        client = _LiveClient(live_exe, server.url, "-", "default", "90", "--light", "--color-space=linear",
+                             "--exposure=camera_image", "--exposure-compensation=1", "--color-temperature")
+        try:
+            _, ev = client.wait_for("an absolute message with a light",
+                                    lambda e: e["event"] == "applied" and e["lights"] >= 1
+                                    and e["wire_units"] == "cd/m²", timeout=90)
+            assert client.quit() == 0
+        finally:
+            client.kill()
+    exposure = 2 / (1.2 * 2 ** ev["wire_ev100"])
+    assert ev["exposure_scale"] == pytest.approx(exposure, rel=1e-12) and ev["camera_ev100"] is None
+    amb = np.array(ev["wire_ambient_coefficients"]).reshape(9, 3)
+    expected = S4 @ sh.irradiance_matrices(amb) @ S4 * exposure
+    applied = np.array(ev["matrices"]).reshape(3, 4, 4)
+    assert np.allclose(applied, expected, rtol=0, atol=1e-6 * np.abs(expected).max())
+    light_k = ev["wire_light_cct_k"][0] if ev["wire_light_cct_k"] and ev["wire_light_cct_k"][0] > 0 else None
+    kelvin = light_k or ev["wire_cct_k"]
+    assert kelvin, "the provider sends a colour temperature for a room in cd/m²"
+    lt = ev["light"]
+    print(f"\nEV100 {ev['wire_ev100']:.3f}, exposure {exposure:.3g}, light {kelvin:.0f} K "
+          f"({'light_cct_k' if light_k else 'cct_k'}), intensity {lt['intensity']:.4g}")
+    assert ev["light_active"] and lt["enabled"] and lt["use_color_temperature"]
+    assert ev["lights_use_color_temperature"]          # turned on by the component (off in the stand-in)
+    assert lt["color_temperature"] == pytest.approx(kelvin, rel=1e-6)
+    assert ev["light_color_temperature_k"] == pytest.approx(kelvin, rel=1e-6)
+    e = np.array(ev["wire_light_irradiance"][:3])
+    assert float(REC709 @ np.array(lt["light_seen"])) == pytest.approx(float(REC709 @ e) / math.pi * exposure,
+                                                                       rel=1e-4)

@@ -26,6 +26,9 @@
 //
 // usage: LiveClient.exe URL TOKEN PROBE SECONDS [QX QY QZ QW] [--token-in-query] [--intensity=X]
 //        [--light] [--shadows] [--color-space=linear|gamma] [--linear-intensity]
+//        [--exposure=relative|camera_image|physical_camera] [--exposure-compensation=EV] [--color-temperature]
+//   (issue 31: the component's Exposure Mode, Exposure Compensation and Use Color Temperature; "light_seen"
+//   is the linear colour the shaders get from the light, its colour temperature included)
 //   TOKEN or PROBE "-": empty. QX..QW: the rotation of the component's transform.
 using System;
 using System.Globalization;
@@ -75,6 +78,21 @@ static class LiveClient
         return (Action)m.CreateDelegate(typeof(Action), target);
     }
 
+    static string NumberOrNull(double v)
+    {
+        return double.IsNaN(v) || double.IsInfinity(v) ? "null" : MiniJson.Number(v);
+    }
+
+    // What Unity's shaders get from the light, linear (GraphicsSettings.lightsUseLinearIntensity on:
+    // color.linear × intensity, × the temperature's linear RGB when the light uses one).
+    static double[] LightSeen(Light light)
+    {
+        Color c = light.color.linear;
+        Color k = light.useColorTemperature && UnityEngine.Rendering.GraphicsSettings.lightsUseColorTemperature
+            ? Mathf.CorrelatedColorTemperatureToRGB(light.colorTemperature) : Color.white;
+        return new double[] { c.r * k.r * light.intensity, c.g * k.g * light.intensity, c.b * k.b * light.intensity };
+    }
+
     static string LightJson(Light light)
     {
         if (light == null) return "null";
@@ -85,6 +103,8 @@ static class LiveClient
                ",\"color\":" + Array(new double[] { c.r, c.g, c.b }) +
                ",\"intensity\":" + MiniJson.Number(light.intensity) +
                ",\"use_color_temperature\":" + (light.useColorTemperature ? "true" : "false") +
+               ",\"color_temperature\":" + NumberOrNull(light.colorTemperature) +
+               ",\"light_seen\":" + Array(LightSeen(light)) +
                ",\"shadows\":\"" + light.shadows + "\",\"shadow_strength\":" + MiniJson.Number(light.shadowStrength) + "}";
     }
 
@@ -175,6 +195,12 @@ static class LiveClient
             else if (f == "--color-space=gamma") QualitySettings.StandInColorSpace = ColorSpace.Gamma;
             else if (f == "--color-space=linear") QualitySettings.StandInColorSpace = ColorSpace.Linear;
             else if (f == "--linear-intensity") UnityEngine.Rendering.GraphicsSettings.lightsUseLinearIntensity = true;
+            else if (f == "--exposure=camera_image") component.ExposureMode = Sh9ExposureMode.CameraImage;
+            else if (f == "--exposure=physical_camera") component.ExposureMode = Sh9ExposureMode.PhysicalCamera;
+            else if (f == "--exposure=relative") component.ExposureMode = Sh9ExposureMode.Relative;
+            else if (f.StartsWith("--exposure-compensation="))
+                component.ExposureCompensation = float.Parse(f.Substring(24), CultureInfo.InvariantCulture);
+            else if (f == "--color-temperature") component.UseColorTemperature = true;
             else throw new ArgumentException("unknown option " + f);
         }
         if (args.Length >= 8)
@@ -306,6 +332,15 @@ static class LiveClient
                          ",\"ambient_mode\":\"" + RenderSettings.ambientMode + "\"" +
                          ",\"lights\":" + msg.Lights + ",\"light_active\":" + (component.LightActive ? "true" : "false") +
                          ",\"light\":" + LightJson(light) +
+                         ",\"wire_units\":" + MiniJson.Quote(msg.CoefficientUnits) +
+                         ",\"wire_ev100\":" + NumberOrNull(msg.Ev100) +
+                         ",\"wire_cct_k\":" + NumberOrNull(msg.CctK) +
+                         ",\"wire_light_cct_k\":" + Array(msg.LightCctK) +
+                         ",\"exposure_scale\":" + NumberOrNull(component.AppliedExposure.Scale) +
+                         ",\"camera_ev100\":" + NumberOrNull(component.CameraEv100) +
+                         ",\"light_color_temperature_k\":" + NumberOrNull(component.LightColorTemperatureK) +
+                         ",\"lights_use_color_temperature\":" +
+                         (UnityEngine.Rendering.GraphicsSettings.lightsUseColorTemperature ? "true" : "false") +
                          ",\"main_light_scale\":" + MiniJson.Number(GlobalFloat("_SHMainLightScale")) +
                          ",\"wire_light_directions\":" + Array(msg.LightDirections) +
                          ",\"wire_light_irradiance\":" + Array(msg.LightIrradiance) +
