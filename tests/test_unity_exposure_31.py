@@ -300,3 +300,45 @@ def test_live_client_applies_the_rooms_exposure_and_colour_temperature(live_exe,
     e = np.array(ev["wire_light_irradiance"][:3])
     assert float(REC709 @ np.array(lt["light_seen"])) == pytest.approx(float(REC709 @ e) / math.pi * exposure,
                                                                        rel=1e-4)
+
+
+def test_live_client_sets_the_physical_camera_for_hdrp(camera, tmp_path):  # noqa: F811
+    """Physical Camera mode (HDRP, Unity 2022.2+: the component built with UNITY_2022_2_OR_NEWER) against
+    `shlight serve --camera camera.json --lights auto`: the camera's shutter speed at its own aperture and
+    ISO gives the message's EV100 − c, the SH9 globals stay in lux (the ambient SH9 unscaled), and the
+    Directional Light is E itself, lux (HDRP's Lambert divides by π): Y of what the shaders see is the
+    message's light_illuminance_lux."""
+    from provider.core.geometry import sh
+    exe = _compile(tmp_path / "LiveClient2022.exe",
+                   [*CORE, *RUNTIME, STANDIN, ROOT / "tests" / "csharp" / "LiveClient.cs"],
+                   defines=("UNITY_2022_2_OR_NEWER",))
+    hdr = scene("lab")
+    (frame,) = write_bracket(tmp_path, "lab", hdr, (0,), n=4.0, iso=400, ext="jpg")
+    with ServeProcess("--source", str(frame), "--camera", str(camera), "--lights", "auto", "--max-lights", "1",
+                      "--keepalive", "0.25") as server:
+        client = _LiveClient(exe, server.url, "-", "default", "90", "--light", "--color-space=linear",
+                             "--linear-intensity", "--exposure=physical_camera", "--exposure-compensation=-0.5",
+                             "--physical-camera=2.8,400")
+        try:
+            _, ev = client.wait_for("an absolute message with a light",
+                                    lambda e: e["event"] == "applied" and e["lights"] >= 1
+                                    and e["wire_units"] == "cd/m²", timeout=90)
+            assert client.quit() == 0
+        finally:
+            client.kill()
+    ev100 = ev["wire_ev100"] + 0.5
+    cam = ev["camera"]
+    assert ev["camera_ev100"] == pytest.approx(ev100, rel=1e-6) and ev["exposure_scale"] == 1.0
+    assert cam["aperture"] == pytest.approx(2.8) and cam["iso"] == 400
+    assert math.log2(cam["aperture"] ** 2 / cam["shutter_speed"] * 100 / cam["iso"]) == pytest.approx(ev100, abs=1e-5)
+    amb = np.array(ev["wire_ambient_coefficients"]).reshape(9, 3)
+    expected = S4 @ sh.irradiance_matrices(amb) @ S4
+    applied = np.array(ev["matrices"]).reshape(3, 4, 4)
+    assert np.allclose(applied, expected, rtol=0, atol=1e-6 * np.abs(expected).max())
+    lt = ev["light"]
+    assert ev["light_active"] and lt["enabled"] and not lt["use_color_temperature"]
+    e = np.array(ev["wire_light_irradiance"][:3])
+    assert np.allclose(lt["light_seen"], e, rtol=1e-4)
+    assert float(REC709 @ np.array(lt["light_seen"])) == pytest.approx(ev["wire_light_illuminance_lux"][0], rel=1e-4)
+    print(f"\nEV100 {ev100:.3f} at f/2.8 ISO 400: 1/{1 / cam['shutter_speed']:.0f} s; light "
+          f"{float(REC709 @ np.array(lt['light_seen'])):.1f} lux")

@@ -27,6 +27,7 @@
 // usage: LiveClient.exe URL TOKEN PROBE SECONDS [QX QY QZ QW] [--token-in-query] [--intensity=X]
 //        [--light] [--shadows] [--color-space=linear|gamma] [--linear-intensity]
 //        [--exposure=relative|camera_image|physical_camera] [--exposure-compensation=EV] [--color-temperature]
+//        [--physical-camera=APERTURE,ISO]
 //   (issue 31: the component's Exposure Mode, Exposure Compensation and Use Color Temperature; "light_seen"
 //   is the linear colour the shaders get from the light, its colour temperature included)
 //   TOKEN or PROBE "-": empty. QX..QW: the rotation of the component's transform.
@@ -179,6 +180,7 @@ static class LiveClient
 
         var component = new SH9LightingClient();
         Light light = null;
+        Camera camera = null;
         foreach (string f in flags)
         {
             if (f == "--token-in-query") SetField(component, "tokenInQuery", true);
@@ -201,6 +203,14 @@ static class LiveClient
             else if (f.StartsWith("--exposure-compensation="))
                 component.ExposureCompensation = float.Parse(f.Substring(24), CultureInfo.InvariantCulture);
             else if (f == "--color-temperature") component.UseColorTemperature = true;
+            else if (f.StartsWith("--physical-camera="))
+            {
+                string[] ni = f.Substring(18).Split(',');
+                camera = new GameObject("Camera").AddComponent<Camera>();
+                camera.aperture = float.Parse(ni[0], CultureInfo.InvariantCulture);
+                camera.iso = int.Parse(ni[1], CultureInfo.InvariantCulture);
+                component.PhysicalCamera = camera;
+            }
             else throw new ArgumentException("unknown option " + f);
         }
         if (args.Length >= 8)
@@ -336,9 +346,13 @@ static class LiveClient
                          ",\"wire_ev100\":" + NumberOrNull(msg.Ev100) +
                          ",\"wire_cct_k\":" + NumberOrNull(msg.CctK) +
                          ",\"wire_light_cct_k\":" + Array(msg.LightCctK) +
+                         ",\"wire_light_illuminance_lux\":" + Array(msg.LightIlluminanceLux) +
                          ",\"exposure_scale\":" + NumberOrNull(component.AppliedExposure.Scale) +
                          ",\"camera_ev100\":" + NumberOrNull(component.CameraEv100) +
                          ",\"light_color_temperature_k\":" + NumberOrNull(component.LightColorTemperatureK) +
+                         ",\"camera\":" + (camera == null ? "null" : "{\"aperture\":" + MiniJson.Number(camera.aperture) +
+                                             ",\"iso\":" + camera.iso + ",\"shutter_speed\":" +
+                                             MiniJson.Number(camera.shutterSpeed) + "}") +
                          ",\"lights_use_color_temperature\":" +
                          (UnityEngine.Rendering.GraphicsSettings.lightsUseColorTemperature ? "true" : "false") +
                          ",\"main_light_scale\":" + MiniJson.Number(GlobalFloat("_SHMainLightScale")) +

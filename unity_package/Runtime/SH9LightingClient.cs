@@ -111,6 +111,7 @@ namespace Shlight.Lighting
         Sh9ExposureMode appliedMode;
         float appliedCompensation;
         bool appliedUseTemperature;
+        Camera appliedCamera;
         Sh9Exposure exposure = Sh9Exposure.Resolve(null, Sh9ExposureMode.Relative, 0);
         double appliedKelvin = double.NaN;
         bool changedGraphicsSettings, savedLinearIntensity, savedUseTemperature, warnedGammaTemperature;
@@ -314,7 +315,8 @@ namespace Shlight.Lighting
             {
                 if (snap.Version != appliedVersion || !SameRotation(rotation, appliedRotation) || intensity != appliedIntensity ||
                     light != appliedLight || colorSpace != appliedColorSpace || exposureMode != appliedMode ||
-                    exposureCompensation != appliedCompensation || useColorTemperature != appliedUseTemperature)
+                    exposureCompensation != appliedCompensation || useColorTemperature != appliedUseTemperature ||
+                    physicalCamera != appliedCamera)
                 {
                     exposure = Sh9Exposure.Resolve(snap.Message, exposureMode, exposureCompensation);
                     values.Set(snap, rotation.x, rotation.y, rotation.z, rotation.w, intensity * exposure.Scale, light != null);
@@ -328,6 +330,7 @@ namespace Shlight.Lighting
                     appliedMode = exposureMode;
                     appliedCompensation = exposureCompensation;
                     appliedUseTemperature = useColorTemperature;
+                    appliedCamera = physicalCamera;
                     CopyValues();
                     ApplyLight(light, colorSpace);
                     ApplyCamera();

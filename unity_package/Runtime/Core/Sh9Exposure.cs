@@ -19,7 +19,7 @@ namespace Shlight.Lighting
         CameraImage = 1,
         /// <summary>HDRP: the SH9 stays in lux and the drawn directional light is in lux (HDRP's Lambert has the
         /// 1/π that Unity's built-in/URP Lambert lacks); the camera takes the EV100 (EV100 − c). Relative
-        /// lighting: as <see cref="Relative"/>, and no EV100.</summary>
+        /// lighting: the SH9 as sent, the light still in HDRP's convention (E, not E/π), no EV100.</summary>
         PhysicalCamera = 2,
     }
 
