@@ -535,7 +535,7 @@ namespace Shlight.Lighting
         // while Use Color Temperature is, and put them back after.
         void PrepareColorTemperature()
         {
-            if (!useColorTemperature)
+            if (!useColorTemperature || directionalLight == null) // nothing to colour: leave the project alone
             {
                 RestoreGraphicsSettings();
                 return;
