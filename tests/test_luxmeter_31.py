@@ -182,3 +182,35 @@ def test_serve_lux_needs_a_camera():
     from servertools import run_cli
     p = run_cli("serve", "--source", "demo", "--lux", "1000")
     assert p.returncode == 2 and "--lux needs --camera" in p.stderr
+
+
+def test_serve_with_a_meter_toward_a_low_sun(camera, tmp_path):  # noqa: F811
+    """serve --lux E --lux-facing AZ,EL --lux-cct K,DUV: the live message closes the dawn
+    sun (4° up) as compute does, and says where the meter faced."""
+    from provider.core.geometry.projections import Equirect
+    from provider.core.sh9.engine import SH9Projector
+    from test_meter_31 import facing_reading, relative_rms
+    hdr = scene("dawn")
+    (frame,) = write_bracket(tmp_path, "dawn", hdr, (0,), n=8.0, iso=100, ext="jpg")
+    h, w = hdr.shape[:2]
+    r, c = np.unravel_index(np.argmax(hdr.sum(axis=2)), (h, w))
+    sun = Equirect(w, h).directions()[r, c]
+    az, el = np.degrees(np.arctan2(sun[0], -sun[2])), np.degrees(np.arcsin(sun[1]))
+    lux, (cct, duv) = facing_reading(hdr, sun)
+    with ServeProcess("--source", str(frame), "--camera", str(camera), "--lux", str(lux),
+                      "--lux-facing", f"{az:.1f},{el:.1f}", "--lux-cct", f"{cct:.0f},{duv:.4f}",
+                      "--fps", "5") as proc:
+        def latest():
+            status, _, body = http_get(proc.http + "/latest.json")
+            msg = json.loads(body) if status == 200 else {}
+            return msg if msg.get("meter_closed_lux") else None
+        msg = poll(latest, timeout=60, what="a metered message")
+    truth = SH9Projector(w, h, "equirect").project(hdr.astype(np.float32)).coefficients
+    assert relative_rms(np.reshape(msg["coefficients"], (9, 3)), truth) < 0.10
+    assert np.dot(msg["meter_facing"], sun) > np.cos(np.radians(1))
+
+
+def test_serve_meter_options_need_lux():
+    from servertools import run_cli
+    p = run_cli("serve", "--source", "demo", "--lux-facing", "sun")
+    assert p.returncode == 2 and "are for --lux" in p.stderr and "Traceback" not in p.stderr

@@ -125,6 +125,8 @@ def _add_source_arguments(g) -> None:
                         "(docs/photometry.md; needs --camera with an absolute scale): a "
                         "number of lux, mqtt://HOST[:PORT]/TOPIC (a number or {\"lux\": N}), "
                         "or i2c:BUS[:bh1750|tsl2591][@ADDRESS] (smbus2)")
+    from .compute import add_meter_arguments
+    add_meter_arguments(g)
     g.add_argument("--fps", type=float, default=None,
                    help="pace of demo/file sources, polling rate of snapshot URLs, most "
                         "messages a second a ws:// relay takes (default 30; at most "
@@ -372,8 +374,14 @@ def build_server(args):
             if not ns.camera:
                 raise InputError(f"probe {name}: --lux needs --camera CAMERA.json with an "
                                  "absolute scale (shlight calibrate-response --lux)")
+            from ..core.sh9.meter import parse_facing, parse_meter_colour
             from ..live.probe.luxmeter import parse_lux_source
+            facing = parse_facing(ns.lux_facing or "up")
+            colour = parse_meter_colour(ns.lux_cct)
             meter = parse_lux_source(ns.lux)
+            meter.facing, meter.colour = facing, colour
+        elif ns.lux_facing is not None or ns.lux_cct is not None:
+            raise InputError(f"probe {name}: --lux-facing and --lux-cct are for --lux")
         probes.append(Probe(name, spec, projection=ns.projection,
                             engine_options=engine_options(ns), temporal=temporal,
                             backoff_max=ns.reconnect_max, environment=environment,

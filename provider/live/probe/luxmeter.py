@@ -67,6 +67,10 @@ class LuxMeter:
         self._at = -math.inf
         self._lock = threading.Lock()
         self.errors = 0
+        #: where the meter faces (``--lux-facing``: :func:`provider.core.sh9.meter.parse_facing`;
+        #: None: up) and a chroma meter's (CCT K, Duv) (``--lux-cct``; None: neutral)
+        self.facing = None
+        self.colour = None
 
     def set(self, lux: float, at: float | None = None) -> bool:
         """Store a reading; refuses (counts, logs once in a while) a non-finite or negative

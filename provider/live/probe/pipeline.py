@@ -82,6 +82,7 @@ class Probe:
         #: a :class:`~provider.live.probe.luxmeter.LuxMeter` (``serve --lux``), or None
         self.meter = meter
         self.meter_note = ""            # why the meter closed nothing, for the log (once)
+        self.meter_warning = ""         # an ill-conditioned closure (a low sun), logged once
         self.projection, self.engine_options = projection, dict(engine_options or {})
         self.temporal = t = temporal or TemporalSettings()
         self.publish = publish or (lambda name, text: None)
@@ -337,7 +338,9 @@ class Probe:
         try:
             closed, closure = project_with_meter(
                 projector, [image], [info.get("exposure_s")], info.get("gain", 1.0),
-                info.get("f_number"), result, lux, tracker=tracker)
+                info.get("f_number"), result, lux, tracker=tracker,
+                facing=getattr(self.meter, "facing", None),
+                colour=getattr(self.meter, "colour", None))
         except InputError as exc:
             if str(exc) != self.meter_note:
                 self.meter_note = str(exc)
@@ -346,6 +349,9 @@ class Probe:
         if closure.note and closure.note[:40] != self.meter_note[:40]:
             log.info("probe %s: lux meter: %s", self.name, closure.note)
         self.meter_note = closure.note
+        if closure.warning and closure.warning[:40] != self.meter_warning[:40]:
+            log.warning("probe %s: lux meter: %s", self.name, closure.warning)
+        self.meter_warning = closure.warning
         for key in ("error_estimate",):
             if key in result.stats:
                 closed.stats[key] = result.stats[key]
