@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import time
 
 import numpy as np
@@ -15,7 +16,7 @@ import pytest
 from provider.core.errors import InputError
 from provider.live.probe.luxmeter import (BH1750, TSL2591, TSL2591_LUX_DF, FixedLux,
                                          LuxMeter, MqttLuxMeter, parse_lux_source)
-from mqtttools import Mosquitto
+from mqtttools import MOSQUITTO_PASSWD, Mosquitto
 from servertools import ServeProcess, http_get, poll
 
 from test_meter_31 import camera  # noqa: F401  (the absolutely calibrated camera.json)
@@ -119,8 +120,12 @@ def test_parse_lux_sources():
     meter = parse_lux_source("i2c:1:tsl2591@0x29", bus_factory=lambda n: FakeTSL2591Bus(9.0))
     assert isinstance(meter, TSL2591)
     m = parse_lux_source("mqtt://127.0.0.1:1884/home/lux")
-    assert isinstance(m, MqttLuxMeter) and (m.port, m.topic) == (1884, "home/lux")
+    assert isinstance(m, MqttLuxMeter) and (m.target.port, m.topic) == (1884, "home/lux")
+    m = parse_lux_source("mqtts://lamp:p%40ss@broker.local/home/lux")
+    assert (m.target.tls, m.target.port, m.target.username, m.target.password) == \
+        (True, 8883, "lamp", "p@ss") and "p@ss" not in m.description
     for bad, words in (("-5", "positive"), ("i2c:x", "i2c:BUS"), ("mqtt://host", "TOPIC"),
+                       ("mqtts://host/a/#", "or #fragment"), ("mqtt://host/a/+", "may not"), ("mqtt://host:99999/t", "range"),
                        ("lux!", "a number of lux"), ("i2c:1@zz", "address")):
         with pytest.raises(InputError, match=words):
             parse_lux_source(bad, bus_factory=lambda n: FakeBH1750Bus(1.0))
@@ -139,7 +144,7 @@ def test_stale_and_broken_readings_are_not_used():
 
 def test_mqtt_topic_meter(tmp_path):
     with Mosquitto(tmp_path) as broker:
-        meter = MqttLuxMeter("127.0.0.1", broker.port, "garden/lux")
+        meter = parse_lux_source(f"mqtt://127.0.0.1:{broker.port}/garden/lux")
         meter.start()
         try:
             pub = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
@@ -214,3 +219,40 @@ def test_serve_meter_options_need_lux():
     from servertools import run_cli
     p = run_cli("serve", "--source", "demo", "--lux-facing", "sun")
     assert p.returncode == 2 and "are for --lux" in p.stderr and "Traceback" not in p.stderr
+
+
+@pytest.mark.skipif(not os.path.exists(MOSQUITTO_PASSWD), reason="no mosquitto_passwd")
+def test_mqtts_meter_with_a_password_and_a_private_ca(tmp_path):
+    """--lux mqtts://USER:PASS@HOST/TOPIC --lux-ca FILE: the link serve --mqtt uses (TLS,
+    a password with characters URLs escape); a wrong password is refused, logged, and the
+    meter says nothing rather than something stale."""
+    from test_tls import make_certificate
+    cert, key = make_certificate(tmp_path)
+    with Mosquitto(tmp_path, tls=(cert, key), users={"lamp": "p@ss word"}) as broker:
+        url = f"mqtts://lamp:p%40ss%20word@localhost:{broker.port}/garden/lux"
+        meter = parse_lux_source(url, ca_file=str(cert))
+        assert "p@ss" not in meter.description and "p%40ss" not in meter.description
+        wrong = parse_lux_source(url.replace("word@", "wrong@"), ca_file=str(cert))
+        meter.start()
+        wrong.start()
+        try:
+            pub = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
+            pub.username_pw_set("lamp", "p@ss word")
+            pub.tls_set(ca_certs=str(cert))
+            pub.connect("localhost", broker.port)
+            pub.loop_start()
+
+            def got():
+                pub.publish("garden/lux", '{"lux": 4321}')   # again until subscribed
+                return meter.lux() == 4321.0
+            poll(got, timeout=30, interval=0.1, what="the mqtts meter to read 4321")
+            assert wrong.lux() is None and not wrong.connected.is_set()
+            pub.loop_stop()
+            pub.disconnect()
+        finally:
+            meter.stop()
+            wrong.stop()
+    with pytest.raises(InputError, match="--lux-ca"):
+        parse_lux_source(url, ca_file=str(tmp_path / "no-such.pem"))
+    with pytest.raises(InputError, match="--lux-ca is for"):
+        parse_lux_source("1000", ca_file=str(cert))
