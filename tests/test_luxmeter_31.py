@@ -256,3 +256,56 @@ def test_mqtts_meter_with_a_password_and_a_private_ca(tmp_path):
         parse_lux_source(url, ca_file=str(tmp_path / "no-such.pem"))
     with pytest.raises(InputError, match="--lux-ca is for"):
         parse_lux_source("1000", ca_file=str(cert))
+
+
+def test_serve_meter_closes_a_live_bracket(monkeypatch, tmp_path):
+    """serve --bracket --lux: a Raspberry Pi camera (the fake picamera2) cycles a -9…+3 EV
+    bracket of the sunny panorama, whose sun clips in every slot; the meter closes the merged
+    slots' pixels, every merged message says so, and the lighting is within 10 % RMS and
+    half the error of the same bracket without the meter (measured 3.4 % against 10.9 %)."""
+    import sys
+    from pathlib import Path
+    import cv2
+    from provider.bench.camera_sim import CameraSim
+    from provider.core.sh9.engine import SH9Projector
+    from provider.live.wire.message import validate
+    from conftest import load_hdri
+    from servertools import ServerThread, connect, recv_json, recv_until
+    from test_meter_31 import relative_rms
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parent / "fakecams"))
+    monkeypatch.delitem(sys.modules, "picamera2", raising=False)
+    import picamera2
+    hdr = cv2.resize(np.maximum(load_hdri("sky"), 0), (128, 64), interpolation=cv2.INTER_AREA)
+    cam = CameraSim()
+    picamera2.film(hdr, cam)
+    # the fake's radiance per (t · gain) is the panorama's: C · N² = 1 at the Pi's f/2
+    response = cam.true_response()
+    response.params["absolute"] = {"cd_m2": 0.25, "f_number": 2.0, "iso": 100.0, "lux": 1.0}
+    path = tmp_path / "camera.json"
+    path.write_text(json.dumps(response.to_dict()))
+    lux = exact_illuminance_up(hdr.astype(np.float64))
+    truth = SH9Projector(128, 64).project(hdr.astype(np.float32)).coefficients
+
+    def merged(*lux_args):
+        with ServerThread("--source", "picamera2", "--capture-size", "128x64", "--camera",
+                          str(path), "--bracket", *lux_args,
+                          "--change-threshold", "0") as srv, connect(srv.url) as ws:
+            recv_json(ws)
+            first = recv_until(ws, lambda m: m.get("type") == "sh9" and m.get(
+                "radiometry") == "merged" and (m.get("meter_closed_lux") or not lux_args),
+                timeout=60)
+            return [first] + [recv_until(ws, lambda m: m.get("type") == "sh9", timeout=10)
+                              for _ in range(3)]
+    try:
+        (plain, *_), closed = merged(), merged("--lux", str(lux))
+    finally:
+        sys.modules.pop("picamera2", None)
+    assert plain["clipped_light_fraction"] > 0.1 and "meter_lux" not in plain
+    missed = relative_rms(np.reshape(plain["coefficients"], (9, 3)), truth)   # ~11 %
+    for m in closed:
+        validate(m)
+        assert m["radiometry"] == "merged" and m["meter_closed_lux"] > 0.1 * lux
+        assert m["coefficient_units"] == "cd/m²" and len(m["exposures_s"]) == 5
+        assert m["illuminance_lux"] == pytest.approx(lux, rel=0.05)
+        assert relative_rms(np.reshape(m["coefficients"], (9, 3)), truth) < min(0.10,
+                                                                                 missed / 2)

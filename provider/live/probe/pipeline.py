@@ -302,9 +302,17 @@ class Probe:
             if bracket is None:
                 self._brackets.clear()       # a new bracket (or size) replaces the old one
                 bracket = self._brackets[bkey] = BracketProjector(projector, info["bracket"])
+                bracket.keep_frames = self.meter is not None
             # A bracket merges per-slot projections, never one linear frame: no lights here.
-            return bracket.push(info["slot"], image, info["exposure_s"], info.get("gain", 1.0),
-                                info.get("f_number"))
+            result = bracket.push(info["slot"], image, info["exposure_s"],
+                                  info.get("gain", 1.0), info.get("f_number"))
+            lux = self.meter.lux() if self.meter is not None else None
+            if lux is not None and bracket.complete and all(f is not None
+                                                            for f in bracket.frames):
+                # the meter closes the merged pixels (the slots' newest frames, t·gain each)
+                result = self._metered(projector, bracket.frames, bracket.exposures, 1.0,
+                                       info.get("f_number"), result, lux, None)
+            return result
         tracker = None
         if projector.lights != "off":
             if self.capture.reconnects != self._tracked_reconnects:   # a new stream
@@ -323,22 +331,24 @@ class Probe:
                                    exposure_s=info.get("exposure_s"), gain=info.get("gain", 1.0),
                                    f_number=info.get("f_number"), work=self._work)
         if lux is not None:
-            result = self._metered(projector, image, info, result, lux, tracker)
+            result = self._metered(projector, [image], [info.get("exposure_s")],
+                                   info.get("gain", 1.0), info.get("f_number"), result, lux,
+                                   tracker)
         if estimate:
             self._estimated_at, self._error_estimate = now, result.stats.get("error_estimate")
         elif self._error_estimate is not None:
             result.stats["error_estimate"] = self._error_estimate
         return result
 
-    def _metered(self, projector, image, info, result, lux, tracker):
-        """``serve --lux``: the frame again with the meter's missing light in its clipped
-        blob (:func:`~provider.core.sh9.meter.project_with_meter`); a frame that cannot be
+    def _metered(self, projector, frames, times, gain, f_number, result, lux, tracker):
+        """``serve --lux``: the frame (or a bracket's newest frame of each slot, merged)
+        again with the meter's missing light in its clipped blob
+        (:func:`~provider.core.sh9.meter.project_with_meter`); a frame that cannot be
         closed (no exposure, relative units) keeps its result, said once."""
         from ...core.sh9.meter import project_with_meter
         try:
             closed, closure = project_with_meter(
-                projector, [image], [info.get("exposure_s")], info.get("gain", 1.0),
-                info.get("f_number"), result, lux, tracker=tracker,
+                projector, frames, times, gain, f_number, result, lux, tracker=tracker,
                 facing=getattr(self.meter, "facing", None),
                 colour=getattr(self.meter, "colour", None))
         except InputError as exc:
