@@ -124,6 +124,8 @@ def test_parse_lux_sources():
     m = parse_lux_source("mqtts://lamp:p%40ss@broker.local/home/lux")
     assert (m.target.tls, m.target.port, m.target.username, m.target.password) == \
         (True, 8883, "lamp", "p@ss") and "p@ss" not in m.description
+    m.colour = (5600.0, 0.0)                      # --lux-cct: when a reading says none
+    assert m.colour == (5600.0, 0.0)
     for bad, words in (("-5", "positive"), ("i2c:x", "i2c:BUS"), ("mqtt://host", "TOPIC"),
                        ("mqtts://host/a/#", "or #fragment"), ("mqtt://host/a/+", "may not"), ("mqtt://host:99999/t", "range"),
                        ("lux!", "a number of lux"), ("i2c:1@zz", "address")):
@@ -156,10 +158,18 @@ def test_mqtt_topic_meter(tmp_path):
                     pub.publish("garden/lux", payload)   # again until the meter subscribed
                     return meter.lux() == want
                 poll(got, timeout=20, interval=0.1, what=f"the meter to read {payload}")
-            errors = meter.errors
-            pub.publish("garden/lux", "not a number").wait_for_publish()
-            poll(lambda: meter.errors > errors, timeout=20, what="a refused payload")
-            assert meter.lux() == 7.0
+            assert meter.colour is None                  # a plain lux meter: neutral
+            pub.publish("garden/lux", '{"lux": 500, "cct": 3200, "duv": 0.002}')
+            poll(lambda: meter.lux() == 500, timeout=20, what="a chroma meter's reading")
+            assert meter.colour == (3200.0, 0.002)
+            for bad in ("not a number", '{"lux": 9, "cct": 90}', '{"lux": 9, "cct": "warm"}'):
+                errors = meter.errors
+                pub.publish("garden/lux", bad).wait_for_publish()
+                poll(lambda: meter.errors > errors, timeout=20, what="a refused payload")
+                assert meter.lux() == 500.0 and meter.colour == (3200.0, 0.002)
+            pub.publish("garden/lux", "7").wait_for_publish()
+            poll(lambda: meter.lux() == 7.0, timeout=20, what="a plain reading again")
+            assert meter.colour is None
             pub.loop_stop()
             pub.disconnect()
         finally:

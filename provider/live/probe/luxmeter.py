@@ -70,13 +70,26 @@ class LuxMeter:
         self._lock = threading.Lock()
         self.errors = 0
         #: where the meter faces (``--lux-facing``: :func:`provider.core.sh9.meter.parse_facing`;
-        #: None: up) and a chroma meter's (CCT K, Duv) (``--lux-cct``; None: neutral)
+        #: None: up)
         self.facing = None
-        self.colour = None
+        self._fixed_colour = None
+        self._reading_colour = None
 
-    def set(self, lux: float, at: float | None = None) -> bool:
-        """Store a reading; refuses (counts, logs once in a while) a non-finite or negative
-        one: a broken sensor must not close anything."""
+    @property
+    def colour(self) -> tuple[float, float] | None:
+        """A chroma meter's (CCT K, Duv) of its latest reading (an MQTT payload's ``cct``),
+        else the fixed one (``--lux-cct``), else None (the closed light is neutral)."""
+        with self._lock:
+            return self._reading_colour or self._fixed_colour
+
+    @colour.setter
+    def colour(self, value) -> None:
+        self._fixed_colour = value
+
+    def set(self, lux: float, at: float | None = None, colour=None) -> bool:
+        """Store a reading (and its (CCT, Duv) when the meter says it); refuses (counts,
+        logs once in a while) a non-finite or negative one: a broken sensor must not close
+        anything."""
         try:
             lux = float(lux)
         except (TypeError, ValueError):
@@ -89,6 +102,7 @@ class LuxMeter:
             return False
         with self._lock:
             self._value, self._at = lux, time.monotonic() if at is None else at
+            self._reading_colour = colour
         return True
 
     def lux(self) -> float | None:
@@ -194,6 +208,10 @@ class TSL2591(PolledLuxMeter):
         return max((full - ir) * (1.0 - ir / full) / cpl, 0.0)
 
 
+def _is_number(v) -> bool:
+    return not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+
+
 class MqttLuxMeter(LuxMeter):
     """The latest number (or JSON ``{"lux": ...}``) published on an MQTT topic
     (``target.prefix``), over the link ``serve --mqtt`` uses (user, password, TLS).
@@ -222,16 +240,30 @@ class MqttLuxMeter(LuxMeter):
         self.connected.set()
 
     def on_payload(self, payload: bytes) -> bool:
-        """Store a payload's reading (a number, or an object with a ``lux`` number)."""
+        """Store a payload's reading: a number, or an object with a ``lux`` number (or
+        ``illuminance_lux``, ``illuminance``) and, from a chroma meter, its CCT in kelvin
+        (``cct``, ``cct_k``, ``color_temperature`` or ``colour_temperature``) and ``duv``
+        (default 0). A CCT that is not a number within 1,000-25,000 K (or a Duv beyond
+        ±0.05) refuses the whole reading: a colour sensor gone wrong must not tint the sun."""
         try:
             value = json.loads(payload.decode("utf-8", "replace"))
         except ValueError:
             value = None
+        colour = None
         if isinstance(value, dict):
+            cct = next((value[k] for k in ("cct", "cct_k", "color_temperature",
+                                           "colour_temperature") if k in value), None)
+            duv = value.get("duv", 0.0)
             value = value.get("lux", value.get("illuminance_lux", value.get("illuminance")))
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            if cct is not None:
+                if (_is_number(cct) and _is_number(duv) and 1000 <= cct <= 25000
+                        and abs(duv) <= 0.05):
+                    colour = (float(cct), float(duv))
+                else:
+                    value = math.nan
+        if not _is_number(value):
             value = math.nan
-        return self.set(value)
+        return self.set(value, colour=colour)
 
     def start(self) -> None:
         self._client.connect_async(self.target.host, self.target.port)
