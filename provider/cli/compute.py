@@ -130,9 +130,12 @@ def meter_closed(projector, images, times, gain, f_number, result, lux, command,
         say(command, "note", closure.note)
     else:
         d = ", ".join(f"{v:+.2f}" for v in closure.direction)
-        say(command, "note", f"the meter closed {closure.closed_lux:.4g} of its {lux:.4g} lux "
-                             f"({closure.closed_lux / lux:.0%}) in the clipped region toward "
-                             f"({d}), {closure.solid_angle_sr:.3g} sr")
+        f = ", ".join(f"{v:+.2f}" for v in closure.facing)
+        rgb = ":".join(f"{v:.2f}" for v in closure.colour)
+        say(command, "note", f"the meter (facing ({f})) closed {closure.closed_lux:.4g} of its "
+                             f"{lux:.4g} lux ({closure.closed_lux / lux:.0%}) in the clipped "
+                             f"region toward ({d}), {closure.solid_angle_sr:.3g} sr, "
+                             + (f"coloured R:G:B {rgb} by its CCT" if colour else "neutral"))
     return new
 
 
