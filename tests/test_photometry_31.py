@@ -117,6 +117,46 @@ def test_exif_exposure_of_a_still(tmp_path, ext):
     assert e.iso == 400
 
 
+PADDING = b"\x00\x17" + b"\xff\x01" + b"\xff\xff"
+
+
+def padded_jpeg(data: bytes) -> bytes:
+    """The same JPEG with what decoders tolerate before every header segment but the first
+    (ITU T.81 B.1.1.2; libjpeg skips it with a warning): stray bytes, a TEM marker (no
+    length) and fill bytes (0xFF 0xFF 0xFF before the marker). Walked strictly by hand."""
+    out, pos = bytearray(data[:2]), 2
+    while True:
+        pad = PADDING if pos > 2 else b""
+        if data[pos + 1] == 0xDA:
+            return bytes(out + pad + data[pos:])
+        (length,) = struct.unpack(">H", data[pos + 2:pos + 4])
+        out += pad + data[pos:pos + 2 + length]
+        pos += 2 + length
+
+
+def test_exif_of_a_jpeg_with_fill_and_stray_bytes(tmp_path):
+    """EXIF is found where a decoder finds the frame: one segment walk serves both (the
+    frame budget's header_size and the still's exposure)."""
+    import cv2
+    from provider.core.radiometry.image_size import header_size
+    rgb = np.full((8, 16, 3), 100, np.uint8)
+    save_still(tmp_path / "still.jpg", rgb, 1 / 250, 5.6, 400)
+    data = padded_jpeg((tmp_path / "still.jpg").read_bytes())
+    assert PADDING + b"\xff\xe1" in data and data.count(PADDING) >= 3   # before the EXIF too
+    (tmp_path / "padded.jpg").write_bytes(data)
+    decoded = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert decoded.shape[:2] == (8, 16)                     # a real decoder reads it
+    assert header_size(data) == (16, 8)
+    e = read_still_exposure(tmp_path / "padded.jpg")
+    assert e.exposure_s == pytest.approx(1 / 250) and e.f_number == pytest.approx(5.6)
+    assert e.iso == 400
+    # truncated inside the EXIF segment: no exposure, no error
+    cut = data.index(b"Exif\0\0") + 20
+    (tmp_path / "cut.jpg").write_bytes(data[:cut])
+    assert not read_still_exposure(tmp_path / "cut.jpg").complete
+    assert header_size(data[:cut]) is None
+
+
 def test_exif_big_endian_iso_above_65534_and_malformed():
     # a hand-built big-endian TIFF: IFD0 -> Exif IFD with ExposureTime, FNumber, ISO 65535 and
     # RecommendedExposureIndex 102400 (EXIF 2.3: the ISO is above 65534)

@@ -462,3 +462,18 @@ def test_absolute_units_are_relayed(relay):
     assert relayed["ev100"] != 99.0 and relayed["cct_k"] != 1.0    # rebuilt, not copied
     bad = message(coefficient_units="lumens")
     relay.case(bad, "frames_rejected")
+
+
+def test_what_the_upstream_meter_closed_is_relayed(relay):
+    """Issue 31: the meter_* fields of an upstream with a lux meter pass on as said (they
+    describe its frame, not anything rebuilt here); a malformed one is refused."""
+    fields = dict(meter_lux=98000.0, meter_camera_lux=31000.0, meter_closed_lux=67000.0,
+                  meter_direction=[0.6, 0.8, 0.0], meter_facing=[0.0, 1.0, 0.0],
+                  meter_solid_angle_sr=0.002)
+    up = message(coefficient_units="cd/m²", illuminance_lux=98000.0, **fields)
+    got, _ = relay.case(up, "frames")
+    [relayed] = [m for m in got if sh9(m) and m["coefficients"] == up["coefficients"]]
+    assert {k: relayed.get(k) for k in fields} == fields
+    for bad in (dict(meter_closed_lux=-1.0), dict(meter_facing=[0.0, 2.0, 0.0]),
+                dict(meter_direction=[0.0, "up", 0.0]), dict(meter_lux=True)):
+        relay.case(message(**bad), "frames_rejected")

@@ -26,7 +26,7 @@ from ..core.radiometry.images import read_image
 from ..core.radiometry.photometry import NOMINAL_CD_M2, calibrate_absolute, luminance
 from ..core.radiometry.response_fit import calibrate_best
 from ..core.sh9.engine import SH9Projector
-from ..core.sh9.meter import close_clipped, up_weights
+from ..core.sh9.meter import UP, close_clipped, up_weights
 from .camera_sim import CameraSim, auto_exposure
 
 HDRI = Path(__file__).resolve().parent.parent / "data" / "hdri"
@@ -98,8 +98,29 @@ def span(names):
     return out
 
 
+#: How the simulated meter is used in :func:`sun`: (label, where it faces, reads CCT/Duv).
+#: "up": +Y; "sun": held toward the true sun, told ``--lux-facing sun`` (the closure faces
+#: the largest clipped blob); "az,el": held toward the true sun, its direction said 5° off
+#: (a user's aim).
+METER_CASES = (("up, lux", "up", False), ("up, lux + CCT", "up", True),
+               ("sun, lux + CCT", "sun", True), ("AZ,EL, lux", "az,el", False),
+               ("AZ,EL, lux + CCT", "az,el", True))
+AIM_ERROR_DEG = 5.0
+
+
+def _meter_reading(hdr, normal):
+    """(lux, (CCT K, Duv)) a meter with ``normal`` reads: Σ Y(L) max(d·n, 0) dω over the
+    panorama's pixels, and the CCT/Duv of the light it sees (a chroma meter)."""
+    _, omega, dirs = up_weights(Equirect(hdr.shape[1], hdr.shape[0]))
+    rgb = np.tensordot(np.maximum(dirs @ normal, 0) * omega, hdr.astype(np.float64),
+                       axes=([0, 1], [0, 1]))
+    return float(luminance(rgb)), cct_duv(rgb)
+
+
 def sun(names):
-    """{scene: (RMS irradiance error of one auto-exposed frame, with a lux meter)}."""
+    """{scene: (RMS irradiance error of one auto-exposed frame, then with the meter of each
+    :data:`METER_CASES`)}. The true sun is the panorama's brightest pixel; the meter's
+    reading is exact (its own tolerance is not simulated)."""
     cam = CameraSim()
     response = cam.true_response()
     weights = up_weights(Equirect(512, 256))
@@ -111,10 +132,23 @@ def sun(names):
         t = auto_exposure(hdr)
         frame = cam.capture(hdr, t)
         radiance = response.linearise(frame, t)
-        closed, _ = close_clipped(radiance, (frame == 255).any(axis=2), weights,
-                                  _truth_lux(hdr.astype(np.float64)))
+        clipped = (frame == 255).any(axis=2)
+        brightest = np.unravel_index(np.argmax(luminance(hdr)), hdr.shape[:2])
+        sun_direction = weights[2][brightest]
+        # the direction the user says: the sun's, tilted AIM_ERROR_DEG toward the zenith
+        tilt = np.cross(np.cross(sun_direction, UP), sun_direction)
+        tilt /= max(np.linalg.norm(tilt), 1e-12)
+        a = np.radians(AIM_ERROR_DEG)
+        said = np.cos(a) * sun_direction + np.sin(a) * tilt
+        closed = [radiance]
+        for _, facing, chroma in METER_CASES:
+            lux, cct = _meter_reading(hdr, UP if facing == "up" else sun_direction)
+            r, _ = close_clipped(radiance, clipped, weights, lux,
+                                 facing={"up": None, "sun": "sun", "az,el": said}[facing],
+                                 colour=cct if chroma else None)
+            closed.append(r)
         errs = []
-        for r in (radiance, closed):
+        for r in closed:
             e = sh.sphere_irradiance(projector.project(r).coefficients)
             errs.append(float(np.sqrt(np.mean((e - truth) ** 2)) / np.sqrt(np.mean(truth ** 2))))
         out[name] = tuple(errs)
@@ -174,10 +208,10 @@ def main(argv=None) -> int:
         print(f"  {name:9s} trusted-range weights {100 * trusted:+5.2f} %   plain hat "
               f"{100 * plain:+5.2f} %")
     suns = sun(["sky", "dawn", "bridge", "city"])
-    print("one auto-exposed frame, RMS irradiance error over all normals:")
-    for name, (before, after) in suns.items():
-        print(f"  {name:7s} without a meter {100 * before:5.1f} %   with a lux meter "
-              f"{100 * after:5.1f} %")
+    print("one auto-exposed frame, RMS irradiance error over all normals: without a meter; "
+          "with one " + "; ".join(c[0] for c in METER_CASES) + ":")
+    for name, errs in suns.items():
+        print(f"  {name:7s} " + "  ".join(f"{100 * e:5.1f} %" for e in errs))
     cols = colour(["apartment", "forest", "city"])
     print("colour temperature of blackbody-tinted scenes (bracket −6…+2 EV):")
     for (name, t_k), read in cols.items():
@@ -207,14 +241,17 @@ def _plot(abs_, suns, cols, path):
     ax[0].set_title("lux from EXIF alone (calibrated at f/2, ISO 100)")
     ax[0].legend(fontsize=8)
     s = list(suns)
-    ax[1].bar(np.arange(len(s)) - 0.2, [100 * suns[k][0] for k in s], 0.4, label="one frame")
-    ax[1].bar(np.arange(len(s)) + 0.2, [100 * suns[k][1] for k in s], 0.4,
-              label="+ lux meter")
+    labels = ("one frame",) + tuple(c[0] for c in METER_CASES)
+    width = 0.8 / len(labels)
+    for j, label in enumerate(labels):
+        ax[1].bar(np.arange(len(s)) + width * (j - (len(labels) - 1) / 2),
+                  [100 * suns[k][j] for k in s], width, label=label)
+    ax[1].set_ylim(0, 40)
     ax[1].axhline(10, color="green", ls="--", lw=1)
     ax[1].set_xticks(range(len(s)), s)
     ax[1].set_ylabel("RMS irradiance error (%)")
     ax[1].set_title("a clipped sun closed by a lux meter")
-    ax[1].legend(fontsize=8)
+    ax[1].legend(fontsize=7)
     temps = sorted({k[1] for k in cols})
     for name in sorted({k[0] for k in cols}):
         ax[2].plot(temps, [100 * (cols[(name, t)] / t - 1) for t in temps], "o-", label=name)

@@ -29,6 +29,20 @@ def add_arguments(p) -> None:
                         "clipped region (a clipped sun), as a light and in SH9; needs absolute "
                         "units (--camera calibrated with --lux, the frame's exposure known; "
                         "docs/photometry.md)")
+    add_meter_arguments(p)
+
+
+def add_meter_arguments(p) -> None:
+    """``--lux-facing`` and ``--lux-cct`` (compute and serve)."""
+    p.add_argument("--lux-facing", default=None, metavar="up|sun|AZ,EL",
+                   help="with --lux: where the meter faces: up (default), sun (held toward "
+                        "the sun: the largest clipped region), or AZ,EL degrees (azimuth from "
+                        "the panorama's front, -Z, toward +X; elevation). Hold it toward a "
+                        "low sun: face up, a sun 4° high is seen at sin 4°")
+    p.add_argument("--lux-cct", default=None, metavar="K[,DUV]",
+                   help="with --lux: a chroma meter's CCT (and Duv) of the same reading: the "
+                        "closed light takes the colour the camera does not explain (else "
+                        "neutral)")
 
 
 def wire_message(args, command: str = "compute") -> dict:
@@ -42,6 +56,7 @@ def wire_message(args, command: str = "compute") -> dict:
     from .frames import read_exposed_frames
     from .options import engine_options
     from .options import say_fifo_waits, say_frame_warnings
+    check_meter_arguments(args)
     several = len(args.image) > 1
     say_fifo_waits(args.image, command)
     images, exposures, paths = read_exposed_frames(args.image, need_times=several,
@@ -77,7 +92,7 @@ def wire_message(args, command: str = "compute") -> dict:
                              "relative")
     if getattr(args, "lux", None) is not None:
         result = meter_closed(projector, images, times, gain, f_number, result, args.lux,
-                              command)
+                              command, args)
     if not result.coefficients[0].any():      # L00 = 0: not one pixel seen is above 0
         say(command, "warning", f"the frame{'s are' if several else ' is'} all zeros where "
                                 "the projection looks: no light, the lighting is black (a "
@@ -86,19 +101,41 @@ def wire_message(args, command: str = "compute") -> dict:
                                time=os.path.getmtime(paths[0]), projection=args.projection)
 
 
-def meter_closed(projector, images, times, gain, f_number, result, lux, command):
+def check_meter_arguments(args) -> None:
+    """``--lux-facing`` / ``--lux-cct`` are for ``--lux`` and must parse: said before any
+    work (one line, exit 2)."""
+    from ..core.errors import InputError
+    from ..core.sh9.meter import parse_facing, parse_meter_colour
+    for name in ("lux_facing", "lux_cct"):
+        if getattr(args, name, None) is not None and getattr(args, "lux", None) is None:
+            raise InputError(f"--{name.replace('_', '-')} is for --lux (a lux meter's reading)")
+    parse_facing(getattr(args, "lux_facing", None) or "up")
+    parse_meter_colour(getattr(args, "lux_cct", None))
+
+
+def meter_closed(projector, images, times, gain, f_number, result, lux, command,
+                 command_args=None):
     """``--lux``: the result with the meter's missing light in the clipped blob
     (:func:`provider.core.sh9.meter.project_with_meter`), what it closed said on stderr."""
     from ..core.sh9.meter import project_with_meter
     from .feedback import say
-    new, closure = project_with_meter(projector, images, times, gain, f_number, result, lux)
+    from ..core.sh9.meter import parse_facing, parse_meter_colour
+    facing = parse_facing(getattr(command_args, "lux_facing", None) or "up")
+    colour = parse_meter_colour(getattr(command_args, "lux_cct", None))
+    new, closure = project_with_meter(projector, images, times, gain, f_number, result, lux,
+                                      facing=facing, colour=colour)
+    if closure.warning:
+        say(command, "warning", closure.warning)
     if closure.note:
         say(command, "note", closure.note)
     else:
         d = ", ".join(f"{v:+.2f}" for v in closure.direction)
-        say(command, "note", f"the meter closed {closure.closed_lux:.4g} of its {lux:.4g} lux "
-                             f"({closure.closed_lux / lux:.0%}) in the clipped region toward "
-                             f"({d}), {closure.solid_angle_sr:.3g} sr")
+        f = ", ".join(f"{v:+.2f}" for v in closure.facing)
+        rgb = ":".join(f"{v:.2f}" for v in closure.colour)
+        say(command, "note", f"the meter (facing ({f})) closed {closure.closed_lux:.4g} of its "
+                             f"{lux:.4g} lux ({closure.closed_lux / lux:.0%}) in the clipped "
+                             f"region toward ({d}), {closure.solid_angle_sr:.3g} sr, "
+                             + (f"coloured R:G:B {rgb} by its CCT" if colour else "neutral"))
     return new
 
 

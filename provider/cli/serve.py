@@ -123,8 +123,14 @@ def _add_source_arguments(g) -> None:
     g.add_argument("--lux", default=None, metavar="SOURCE",
                    help="an up-facing lux meter at the camera closes the clipped sun "
                         "(docs/photometry.md; needs --camera with an absolute scale): a "
-                        "number of lux, mqtt://HOST[:PORT]/TOPIC (a number or {\"lux\": N}), "
+                        "number of lux, mqtt[s]://[USER:PASS@]HOST[:PORT]/TOPIC (a number or "
+                        "{\"lux\": N}), "
                         "or i2c:BUS[:bh1750|tsl2591][@ADDRESS] (smbus2)")
+    g.add_argument("--lux-ca", metavar="FILE", default=None,
+                   help="with --lux mqtts://...: the broker's CA certificate (PEM); default: "
+                        "the system's trust store")
+    from .compute import add_meter_arguments
+    add_meter_arguments(g)
     g.add_argument("--fps", type=float, default=None,
                    help="pace of demo/file sources, polling rate of snapshot URLs, most "
                         "messages a second a ws:// relay takes (default 30; at most "
@@ -372,8 +378,15 @@ def build_server(args):
             if not ns.camera:
                 raise InputError(f"probe {name}: --lux needs --camera CAMERA.json with an "
                                  "absolute scale (shlight calibrate-response --lux)")
+            from ..core.sh9.meter import parse_facing, parse_meter_colour
             from ..live.probe.luxmeter import parse_lux_source
-            meter = parse_lux_source(ns.lux)
+            facing = parse_facing(ns.lux_facing or "up")
+            colour = parse_meter_colour(ns.lux_cct)
+            meter = parse_lux_source(ns.lux, ca_file=ns.lux_ca)
+            meter.facing, meter.colour = facing, colour
+        elif ns.lux_facing is not None or ns.lux_cct is not None or ns.lux_ca is not None:
+            raise InputError(f"probe {name}: --lux-facing, --lux-cct and --lux-ca are for "
+                             "--lux")
         probes.append(Probe(name, spec, projection=ns.projection,
                             engine_options=engine_options(ns), temporal=temporal,
                             backoff_max=ns.reconnect_max, environment=environment,

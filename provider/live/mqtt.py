@@ -21,66 +21,16 @@ broker (which may have lost its retained messages) has the current lighting at o
 from __future__ import annotations
 
 import logging
-import re
 import socket
 import sys
 import time
-import uuid
-from dataclasses import dataclass
-from urllib.parse import unquote, urlsplit
 
-from ..core.errors import InputError
+# The broker's URL and client are shared with the lux meter's subscriber (wire.mqtt_link).
+from .wire.mqtt_link import DEFAULT_PREFIX, MqttTarget, paho_client, parse_mqtt_url
+
+__all__ = ["DEFAULT_PREFIX", "MqttPublisher", "MqttTarget", "parse_mqtt_url"]
 
 log = logging.getLogger("shlight.mqtt")
-
-DEFAULT_PREFIX = "shlight"
-
-
-@dataclass(frozen=True)
-class MqttTarget:
-    """Where to publish: parsed from an ``mqtt://`` or ``mqtts://`` URL."""
-
-    tls: bool
-    host: str
-    port: int
-    prefix: str
-    username: str | None = None
-    password: str | None = None
-
-    @property
-    def url(self) -> str:
-        """The URL without the password (for logs, /healthz and the dashboard)."""
-        user = f"{self.username}@" if self.username else ""
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"mqtt{'s' if self.tls else ''}://{user}{host}:{self.port}/{self.prefix}"
-
-    def topic(self, probe: str) -> str:
-        return f"{self.prefix}/{probe}"
-
-
-def parse_mqtt_url(text: str) -> MqttTarget:
-    """``mqtt[s]://[USER[:PASS]@]HOST[:PORT][/PREFIX]`` → :class:`MqttTarget`
-    (:class:`InputError` with one line on anything else)."""
-    try:
-        parts = urlsplit(text.strip())
-        port = parts.port
-    except ValueError as exc:
-        raise InputError(f"--mqtt {text}: {exc}") from None
-    if parts.scheme not in ("mqtt", "mqtts"):
-        raise InputError(f"--mqtt {text}: expected mqtt://HOST:PORT/PREFIX or mqtts://...")
-    if not parts.hostname:
-        raise InputError(f"--mqtt {text}: no broker host")
-    if parts.query or parts.fragment:
-        raise InputError(f"--mqtt {text}: no ?query or #fragment expected")
-    prefix = unquote(parts.path).strip("/") or DEFAULT_PREFIX
-    if re.search(r"[+#\x00]", prefix) or "//" in prefix:
-        raise InputError(f"--mqtt {text}: the topic prefix {prefix!r} may not contain '+', "
-                         "'#' or empty levels")
-    tls = parts.scheme == "mqtts"
-    return MqttTarget(tls=tls, host=parts.hostname, port=port or (8883 if tls else 1883),
-                      prefix=prefix,
-                      username=unquote(parts.username) if parts.username else None,
-                      password=unquote(parts.password) if parts.password is not None else None)
 
 
 class MqttPublisher:
@@ -115,22 +65,8 @@ class MqttPublisher:
         self._loop = None
         self._stopping = False
         self._ok = paho.MQTT_ERR_SUCCESS
-        self._client = client = paho.Client(paho.CallbackAPIVersion.VERSION2,
-                                            client_id=f"shlight-{uuid.uuid4().hex[:12]}",
-                                            protocol=paho.MQTTv311, clean_session=True)
+        self._client = client = paho_client(target, ca_file)
         client.reconnect_delay_set(0.5, backoff_max)   # paho accepts float seconds
-        if target.username:
-            client.username_pw_set(target.username, target.password)
-        if target.tls:
-            import ssl
-            try:
-                context = ssl.create_default_context(cafile=ca_file)
-            except (OSError, ssl.SSLError, ValueError) as exc:
-                raise InputError(f"--mqtt-ca {ca_file}: {getattr(exc, 'strerror', None) or exc}"
-                                 ) from None
-            client.tls_set_context(context)
-        elif ca_file:
-            raise InputError("--mqtt-ca is for mqtts:// brokers")
         client.on_connect = self._on_connect
         client.on_connect_fail = self._on_connect_fail
         client.on_disconnect = self._on_disconnect

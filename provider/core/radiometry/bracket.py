@@ -355,6 +355,10 @@ class BracketProjector:
         self._clipped: list = [None] * n
         self._fraction: list = [None] * n
         self.exposures: list = [None] * n
+        #: each slot's newest frame, kept only when ``keep_frames`` (a lux meter closes the
+        #: merged pixels: serve --lux with a bracket); None else
+        self.keep_frames = False
+        self.frames: list = [None] * n
         self.restarts = 0
         self._bracket(8)  # validates the slots now
 
@@ -390,8 +394,11 @@ class BracketProjector:
             total = sum(float(np.sum(p[0])) for p in self.parts)
             if abs(float(np.sum(coeffs[0])) - float(np.sum(old[0]))) > self.restart * abs(total):
                 self.parts = [None] * len(self.parts)
+                self.frames = [None] * len(self.parts)
                 self.restarts += 1
         self.parts[slot], self._clipped[slot] = coeffs, clipped
+        if self.keep_frames:      # a copy: a source may reuse its buffer for the next frame
+            self.frames[slot] = np.array(frame, copy=True)
         self._fraction[slot] = stats["clipped_fraction"]
         self.exposures[slot] = float(exposure_s) * float(gain)
         if not self.complete:

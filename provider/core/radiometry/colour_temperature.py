@@ -89,6 +89,22 @@ def cct_duv(rgb) -> tuple[float, float] | None:
     return cct, duv
 
 
+def rgb_of_cct(t_k: float, duv: float = 0.0) -> np.ndarray:
+    """Linear Rec. 709 RGB of unit luminance (Y = 1) whose CCT is ``t_k`` (K) and Duv
+    ``duv``: the locus point (u, v) moved ``duv`` along the locus's normal (positive toward
+    +v, Ohno's sign) → (x, y) → XYZ → RGB: the inverse of :func:`cct_duv`. What a chroma
+    meter's reading (lux, CCT, Duv) is in the frame's colour space."""
+    t = float(t_k)
+    on = planck_uv(t)
+    tangent = planck_uv(t * 1.001) - planck_uv(t / 1.001)
+    normal = np.array([-tangent[1], tangent[0]]) / np.hypot(*tangent)
+    normal *= np.sign(normal[1]) or 1.0
+    u, v = on + float(duv) * normal
+    d = 2 * u - 8 * v + 4
+    x, y = 3 * u / d, 2 * v / d
+    return np.linalg.solve(RGB709_TO_XYZ, np.array([x / y, 1.0, (1 - x - y) / y]))
+
+
 def colour_fields(coefficients, lights=()) -> dict:
     """The message's colour fields: ``cct_k`` and ``duv`` of the mean radiance (L00) when it
     has a CCT, and per light ``light_cct_k`` / ``light_duv`` (k numbers, 0 where a light

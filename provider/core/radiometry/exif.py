@@ -21,6 +21,8 @@ import stat
 import struct
 from dataclasses import dataclass
 
+from .image_size import jpeg_segments
+
 #: The JPEG header is read up to here at most (EXIF lives in APP1, at most 64 KiB, near the
 #: start; a Theta still puts its XMP and EXIF in its first segments).
 JPEG_SCAN_BYTES = 1 << 20
@@ -119,24 +121,13 @@ def exposure_from_tiff(data: bytes) -> StillExposure:
 
 
 def exif_payload(jpeg: bytes) -> bytes | None:
-    """The TIFF structure of a JPEG's EXIF APP1 segment, or None."""
+    """The TIFF structure of a JPEG's EXIF APP1 segment, or None (the segments walked by
+    :func:`~provider.core.radiometry.image_size.jpeg_segments`)."""
     if jpeg[:2] != b"\xff\xd8":
         return None
-    at = 2
-    while at + 4 <= len(jpeg):
-        if jpeg[at] != 0xFF:
-            return None
-        marker = jpeg[at + 1]
-        if marker == 0xFF:          # fill byte
-            at += 1
-            continue
-        if marker in (0xD9, 0xDA):  # end of image, start of scan: no EXIF before the pixels
-            return None
-        (length,) = struct.unpack(">H", jpeg[at + 2:at + 4])
-        body = jpeg[at + 4:at + 2 + length]
-        if marker == 0xE1 and body[:6] == b"Exif\x00\x00":
-            return body[6:]
-        at += 2 + length
+    for marker, start, end in jpeg_segments(jpeg):
+        if marker == 0xE1 and jpeg[start:start + 6] == b"Exif\x00\x00":
+            return jpeg[start + 6:end]
     return None
 
 

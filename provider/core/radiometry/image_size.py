@@ -164,14 +164,20 @@ def header_size(data: bytes) -> tuple[int, int] | None:
     return None
 
 
-def _jpeg(data: bytes) -> tuple[int, int] | None:
-    """The first frame header (SOF0-SOF15 but DHT, JPG and DAC) before the first scan."""
+def jpeg_segments(data: bytes):
+    """The marker segments of a JPEG's header, in order, up to its first scan (SOS) or end
+    (EOI): ``(marker, start, end)`` with ``data[start:end]`` the segment's payload after its
+    two length bytes (``end`` clamped to the data: a truncated segment is cut short, not
+    dropped). Tolerant as decoders are (ITU T.81 B.1.1.2): fill bytes (0xFF 0xFF…),
+    markers without a length (SOI, TEM, RST0-7) and stray bytes between segments are
+    skipped. ``data`` starts with SOI (the caller checks it). One walk for the frame header
+    (:func:`header_size`) and the EXIF segment (:func:`provider.core.radiometry.exif.exif_payload`)."""
     pos = 2
     while pos + 4 <= len(data):
         if data[pos] != 0xFF:              # bytes between segments: skip to the next marker
             pos = data.find(b"\xff", pos)
             if pos < 0:
-                return None
+                return
             continue
         marker = data[pos + 1]
         if marker == 0xFF:                 # fill byte
@@ -180,14 +186,21 @@ def _jpeg(data: bytes) -> tuple[int, int] | None:
         if marker in (0x01, 0xD8) or 0xD0 <= marker <= 0xD7:     # no length
             pos += 2
             continue
-        if marker in (0xD9, 0xDA):         # end of image, or a scan before any frame header
-            return None
+        if marker in (0xD9, 0xDA):         # end of image, or the first scan: the header ends
+            return
+        length = struct.unpack_from(">H", data, pos + 2)[0]
+        yield marker, pos + 4, min(pos + 2 + length, len(data))
+        pos += 2 + length
+
+
+def _jpeg(data: bytes) -> tuple[int, int] | None:
+    """The first frame header (SOF0-SOF15 but DHT, JPG and DAC) before the first scan."""
+    for marker, start, end in jpeg_segments(data):
         if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
-            if pos + 9 > len(data):
+            if start + 5 > end:
                 return None
-            height, width = struct.unpack_from(">HH", data, pos + 5)
+            height, width = struct.unpack_from(">HH", data, start + 1)
             return width, height
-        pos += 2 + struct.unpack_from(">H", data, pos + 2)[0]
     return None
 
 

@@ -17,6 +17,21 @@ light finder sees the sun as a light, SH9 holds it, and the message says what th
 closed (:func:`closure_fields`). A meter reading below what the camera already sees closes
 nothing (the calibration or the meter is off: said, not hidden); a blob the meter cannot
 see (below its horizon) cannot be closed by it.
+
+Where the meter faces (:func:`parse_facing`): up (the default), toward the sun, or a given
+direction. An up-facing meter sees a low sun at sin(elevation): at 4° a few degrees of error
+in the blob's direction scale the closed light by sin(10°)/sin(4°); a meter held toward the
+sun sees it at cos(a few degrees) ≈ 1, so its reading fixes the sun's light whatever the
+blob's exact direction. "sun" faces the largest clipped blob's mean direction; a clipped sky
+is no sun, so for a wide blob the meter's direction is better said as AZ,EL.
+
+The colour of the closed light: the clipped pixels do not say it, so without more it is
+neutral. A chroma meter (or a sensor with colour channels) also reads the CCT and Duv of the
+light it sees: then the meter's light is E · RGB(CCT, Duv) (unit luminance,
+:func:`~provider.core.radiometry.colour_temperature.rgb_of_cct`), the camera explains
+Σ L · max(d·n, 0) · dω of it per channel, and the rest, clamped at 0 per channel, is the
+closed light's colour. A low sun is far from neutral (dawn: R:G:B ≈ 2.1 : 0.7 : 0.4), and
+its colour is most of what a neutral closure misses.
 """
 from __future__ import annotations
 
@@ -25,10 +40,16 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..errors import InputError
 from ..geometry.projections import Equirect
+from ..radiometry.colour_temperature import rgb_of_cct
 from ..radiometry.photometry import luminance
 
 UP = np.array([0.0, 1.0, 0.0])
+#: An up-facing meter sees a blob lower than this (degrees) at grazing incidence: warned.
+LOW_SUN_DEG = 15.0
+#: A blob wider than this (degrees from its mean direction) is no sun: "sun" facing warns.
+WIDE_BLOB_DEG = 30.0
 
 
 @dataclass
@@ -36,7 +57,10 @@ class MeterClosure:
     """What the meter closed. ``lux``: its reading; ``camera_lux``: what the frame explains
     (exact, from the pixels); ``closed_lux``: what was added (0 when nothing);
     ``direction``: the blob's mean direction (world frame; zeros when nothing);
-    ``solid_angle_sr``: the blob's solid angle; ``note``: why nothing was closed, or ''."""
+    ``solid_angle_sr``: the blob's solid angle; ``note``: why nothing was closed, or '';
+    ``facing``: the meter's normal (world frame); ``colour``: the closed light's linear RGB
+    per unit luminance ((1, 1, 1): neutral); ``warning``: a closure that is ill-conditioned
+    (a low blob seen by an up-facing meter, a wide blob taken as the sun), or ''."""
 
     lux: float
     camera_lux: float
@@ -44,6 +68,47 @@ class MeterClosure:
     direction: tuple = (0.0, 0.0, 0.0)
     solid_angle_sr: float = 0.0
     note: str = ""
+    facing: tuple = (0.0, 1.0, 0.0)
+    colour: tuple = (1.0, 1.0, 1.0)
+    warning: str = ""
+
+
+def parse_facing(text) -> np.ndarray | str:
+    """Where the meter faces, from ``--lux-facing``: ``up`` (the default: +Y), ``sun``
+    (returned as the string: the largest clipped blob, resolved per frame), or ``AZ,EL`` in
+    degrees: azimuth from the panorama's front (−Z) toward +X (clockwise seen from above:
+    with the front to the north, a compass bearing), elevation above the horizon; returned
+    as a unit world vector (sin az cos el, sin el, −cos az cos el). One InputError else."""
+    t = str(text).strip().lower()
+    if t in ("", "up"):
+        return UP.copy()
+    if t == "sun":
+        return "sun"
+    try:
+        az, el = (float(v) for v in t.split(","))
+    except ValueError:
+        raise InputError(f"--lux-facing {text}: expected up, sun or AZ,EL in degrees "
+                         "(e.g. 120,5)") from None
+    if not (np.isfinite(az) and np.isfinite(el) and -90.0 <= el <= 90.0):
+        raise InputError(f"--lux-facing {text}: the elevation must be within -90..90 degrees")
+    a, e = np.radians(az), np.radians(el)
+    return np.array([np.sin(a) * np.cos(e), np.sin(e), -np.cos(a) * np.cos(e)])
+
+
+def parse_meter_colour(text) -> tuple[float, float] | None:
+    """``--lux-cct K[,DUV]``: a chroma meter's CCT (K, 1,000-25,000) and Duv (default 0), or
+    None for ``None``. One InputError else."""
+    if text is None:
+        return None
+    try:
+        parts = [float(v) for v in str(text).split(",")]
+    except ValueError:
+        parts = []
+    if len(parts) not in (1, 2) or not 1000.0 <= parts[0] <= 25000.0 or \
+            (len(parts) == 2 and not abs(parts[1]) <= 0.05):
+        raise InputError(f"--lux-cct {text}: expected K[,DUV], K within 1000..25000 and "
+                         "|DUV| ≤ 0.05 (e.g. 5600 or 3200,0.004)")
+    return parts[0], parts[1] if len(parts) == 2 else 0.0
 
 
 def up_weights(projection, rotation=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -69,23 +134,56 @@ def up_weights(projection, rotation=None) -> tuple[np.ndarray, np.ndarray, np.nd
     return np.maximum(directions @ UP, 0.0) * omega, omega, directions
 
 
-def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float):
+def _facing_weights(omega, directions, normal) -> np.ndarray:
+    """Per pixel ``max(d·n, 0) · dω`` (sr): the meter's cosine for normal ``n``."""
+    return np.maximum(directions @ np.asarray(normal, np.float64), 0.0) * omega
+
+
+def _angle_deg(a, b) -> float:
+    return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1.0, 1.0))))
+
+
+def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float,
+                  facing=None, colour=None):
     """(radiance with the meter's missing light in the clipped blob, :class:`MeterClosure`).
 
     ``radiance``: (H, W, 3) float32 in cd/m²; ``clipped``: (H, W) bool, samples clipped in
     every frame; ``weights``: :func:`up_weights` of the frame's projection; ``lux``: the
-    up-facing meter's reading."""
+    meter's reading; ``facing``: where it faces (:func:`parse_facing`: None or +Y for up, a
+    unit vector, or "sun"); ``colour``: (CCT K, Duv) of a chroma meter's reading, or None
+    (the closed light is neutral)."""
     cosw, omega, directions = weights
-    camera = float(luminance(np.tensordot(cosw, np.nan_to_num(radiance, nan=0.0),
-                                          axes=([0, 1], [0, 1]))))
-    closure = MeterClosure(float(lux), camera)
+    omega = np.asarray(omega)
+    n, labels = cv2.connectedComponents(clipped.astype(np.uint8), connectivity=8)
+    normal = UP if facing is None else facing
+    wide = ""
+    if isinstance(normal, str):                 # "sun": the largest clipped blob's direction
+        if n <= 1:
+            normal = UP
+        else:
+            sizes = np.bincount(labels.reshape(-1), weights=omega.reshape(-1), minlength=n)
+            sun = labels == int(np.argmax(sizes[1:])) + 1
+            mean = (directions[sun] * omega[sun][:, None]).sum(axis=0)
+            normal = mean / max(np.linalg.norm(mean), 1e-12)
+            spread = float(np.degrees(np.arccos(np.clip(directions[sun] @ normal, -1, 1))).max())
+            if spread > WIDE_BLOB_DEG:
+                wide = (f"the largest clipped region spans {spread:.0f}° from its centre: it is "
+                        "more than the sun (a clipped sky?), so 'sun' is only its centre; "
+                        "say where the meter faced as --lux-facing AZ,EL")
+    normal = np.asarray(normal, np.float64)
+    if not np.array_equal(normal, UP):
+        cosw = _facing_weights(omega, directions, normal)
+    seen_rgb = np.tensordot(cosw, np.nan_to_num(radiance, nan=0.0).astype(np.float64),
+                            axes=([0, 1], [0, 1]))
+    camera = float(luminance(seen_rgb))
+    closure = MeterClosure(float(lux), camera, facing=tuple(float(v) for v in normal),
+                           warning=wide)
     missing = float(lux) - camera
     if missing <= 0:
         closure.note = (f"the meter reads {lux:.4g} lux, no more than the {camera:.4g} lux "
                         "the camera already sees: nothing to close (is the absolute scale "
-                        "right, the meter beside the camera and facing up?)")
+                        "right, the meter beside the camera and facing as said?)")
         return radiance, closure
-    n, labels = cv2.connectedComponents(clipped.astype(np.uint8), connectivity=8)
     if n <= 1:
         closure.note = (f"the meter sees {missing:.4g} lux more than the camera but nothing "
                         "clipped: nothing to put it in")
@@ -97,26 +195,38 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
         closure.note = "the clipped light is below the meter's horizon: it cannot close it"
         return radiance, closure
     blob = labels == best
+    rgb = np.ones(3)
+    if colour is not None:                      # a chroma meter: the rest of its light's colour
+        rest = np.maximum(float(lux) * rgb_of_cct(*colour) - seen_rgb, 0.0)
+        if float(luminance(rest)) > 0:
+            rgb = rest / float(luminance(rest))
     out = radiance.copy()
-    out[blob] += np.float32(missing / seen[best - 1])     # neutral: luminance = each channel
-    w = np.asarray(omega)[blob]
+    out[blob] += (np.float32(missing / seen[best - 1]) * rgb).astype(np.float32)
+    w = omega[blob]
     mean = (directions[blob] * w[:, None]).sum(axis=0)
     closure.closed_lux = missing
     closure.direction = tuple(float(v) for v in mean / max(np.linalg.norm(mean), 1e-12))
     closure.solid_angle_sr = float(w.sum())
+    closure.colour = tuple(float(v) for v in rgb)
+    elevation = float(np.degrees(np.arcsin(np.clip(closure.direction[1], -1, 1))))
+    if np.array_equal(normal, UP) and elevation < LOW_SUN_DEG:
+        closure.warning = (f"the clipped region is {elevation:.0f}° above the horizon: an "
+                           "up-facing meter sees it at grazing incidence, so a few degrees "
+                           "of error in its direction scale the closed light; hold the meter "
+                           "toward the sun and say --lux-facing sun (or AZ,EL)")
     return out, closure
 
 
 def project_with_meter(projector, frames, times, gain, f_number, result, lux: float,
-                       tracker=None):
+                       tracker=None, facing=None, colour=None):
     """(the frame(s) projected again with the meter's missing light in the clipped blob,
     :class:`MeterClosure`); ``result``: the same frame(s) already projected in absolute
     units (its radiometry statistics are kept, the meter's fields added: :func:`closure_fields`).
-    One frame or a bracket (merged with the hat weights). Raises InputError when the frames
+    One frame or a bracket (merged with the hat weights); ``facing``, ``colour``: as
+    :func:`close_clipped`. Raises InputError when the frames
     are not in absolute units, float, or the projection cannot say its pixels' directions."""
     import math
 
-    from ..errors import InputError
     from ..radiometry.bracket import merge
     from ..radiometry.photometry import UNITS_ABSOLUTE, absolute_factor
     if not (isinstance(lux, (int, float)) and math.isfinite(lux) and lux > 0):
@@ -146,7 +256,8 @@ def project_with_meter(projector, frames, times, gain, f_number, result, lux: fl
         raise InputError("--lux with --downsample needs an equirect frame (or leave "
                          "--downsample out)")
     closed, closure = close_clipped(radiance, clipped,
-                                    up_weights(projection, projector.rotation), lux)
+                                    up_weights(projection, projector.rotation), lux,
+                                    facing=facing, colour=colour)
     new = projector.project(closed, tracker=tracker)
     for key in ("clipped_fraction", "clipped_light_fraction", "exposure_s", "gain",
                 "f_number", "iso", "radiometry", "response", "exposures_s", "coefficient_units"):
@@ -161,8 +272,10 @@ def project_with_meter(projector, frames, times, gain, f_number, result, lux: fl
 
 def closure_fields(closure: MeterClosure) -> dict:
     """The message's meter fields (flat numbers): ``meter_lux``, ``meter_camera_lux``,
-    ``meter_closed_lux``, ``meter_direction`` (3), ``meter_solid_angle_sr``."""
+    ``meter_closed_lux``, ``meter_direction`` (3), ``meter_solid_angle_sr``,
+    ``meter_facing`` (3: the meter's normal)."""
     return {"meter_lux": closure.lux, "meter_camera_lux": closure.camera_lux,
             "meter_closed_lux": closure.closed_lux,
             "meter_direction": [float(v) for v in closure.direction],
+            "meter_facing": [float(v) for v in closure.facing],
             "meter_solid_angle_sr": closure.solid_angle_sr}

@@ -3,9 +3,11 @@
 SOURCE is one of
 
 * a number: a fixed reading in lux (a scene whose light does not change, a test);
-* ``mqtt://HOST[:PORT]/TOPIC``: the latest payload published on TOPIC, a number or a JSON
-  object with a ``lux`` number (what Zigbee2MQTT / Tasmota / ESPHome illuminance sensors
-  publish); paho-mqtt in its own thread;
+* ``mqtt[s]://[USER[:PASS]@]HOST[:PORT]/TOPIC``: the latest payload published on TOPIC, a
+  number or a JSON object with a ``lux`` number (what Zigbee2MQTT / Tasmota / ESPHome
+  illuminance sensors publish); paho-mqtt in its own thread, the URL and the client (user,
+  password, TLS with system trust or ``--lux-ca``) those of ``serve --mqtt``
+  (:mod:`provider.live.wire.mqtt_link`);
 * ``i2c:BUS[:bh1750|tsl2591][@ADDRESS]``: a BH1750 (default, address 0x23) or TSL2591
   (0x29) on the Raspberry Pi's I²C bus BUS (``/dev/i2c-BUS``) through smbus2 (the
   ``sensors`` extra), polled in its own thread.
@@ -31,9 +33,9 @@ import logging
 import math
 import threading
 import time
-from urllib.parse import urlsplit
 
 from ...core.errors import InputError
+from ..wire.mqtt_link import MqttTarget, paho_client, parse_mqtt_url
 
 log = logging.getLogger("shlight.luxmeter")
 
@@ -67,10 +69,27 @@ class LuxMeter:
         self._at = -math.inf
         self._lock = threading.Lock()
         self.errors = 0
+        #: where the meter faces (``--lux-facing``: :func:`provider.core.sh9.meter.parse_facing`;
+        #: None: up)
+        self.facing = None
+        self._fixed_colour = None
+        self._reading_colour = None
 
-    def set(self, lux: float, at: float | None = None) -> bool:
-        """Store a reading; refuses (counts, logs once in a while) a non-finite or negative
-        one: a broken sensor must not close anything."""
+    @property
+    def colour(self) -> tuple[float, float] | None:
+        """A chroma meter's (CCT K, Duv) of its latest reading (an MQTT payload's ``cct``),
+        else the fixed one (``--lux-cct``), else None (the closed light is neutral)."""
+        with self._lock:
+            return self._reading_colour or self._fixed_colour
+
+    @colour.setter
+    def colour(self, value) -> None:
+        self._fixed_colour = value
+
+    def set(self, lux: float, at: float | None = None, colour=None) -> bool:
+        """Store a reading (and its (CCT, Duv) when the meter says it); refuses (counts,
+        logs once in a while) a non-finite or negative one: a broken sensor must not close
+        anything."""
         try:
             lux = float(lux)
         except (TypeError, ValueError):
@@ -83,6 +102,7 @@ class LuxMeter:
             return False
         with self._lock:
             self._value, self._at = lux, time.monotonic() if at is None else at
+            self._reading_colour = colour
         return True
 
     def lux(self) -> float | None:
@@ -188,61 +208,87 @@ class TSL2591(PolledLuxMeter):
         return max((full - ir) * (1.0 - ir / full) / cpl, 0.0)
 
 
-class MqttLuxMeter(LuxMeter):
-    """The latest number (or JSON ``{"lux": ...}``) published on an MQTT topic."""
+def _is_number(v) -> bool:
+    return not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
 
-    def __init__(self, host: str, port: int, topic: str, **kw):
-        super().__init__(f"mqtt://{host}:{port}/{topic}", **kw)
-        self.host, self.port, self.topic = host, port, topic
-        self._client = None
+
+class MqttLuxMeter(LuxMeter):
+    """The latest number (or JSON ``{"lux": ...}``) published on an MQTT topic
+    (``target.prefix``), over the link ``serve --mqtt`` uses (user, password, TLS).
+    Connection problems are logged (once per kind) and paho reconnects; the reading then
+    goes stale after ``max_age_s``."""
+
+    def __init__(self, target: MqttTarget, ca_file: str | None = None, **kw):
+        super().__init__(target.url, **kw)
+        self.target, self.topic = target, target.prefix
+        self._client = paho_client(target, ca_file, ca_option="--lux-ca")
+        self._client.reconnect_delay_set(0.5, 10.0)
+        self._client.on_connect = self._on_connect
+        self._client.on_message = lambda c, u, msg: self.on_payload(msg.payload)
+        self._said = ""
+        self.connected = threading.Event()
+
+    def _on_connect(self, client, userdata, flags, reason_code, properties) -> None:
+        if reason_code.is_failure:
+            if str(reason_code) != self._said:
+                self._said = str(reason_code)
+                log.warning("lux meter %s: the broker refused: %s", self.description,
+                            reason_code)
+            return
+        self._said = ""
+        client.subscribe(self.topic, qos=0)
+        self.connected.set()
 
     def on_payload(self, payload: bytes) -> bool:
-        """Store a payload's reading (a number, or an object with a ``lux`` number)."""
+        """Store a payload's reading: a number, or an object with a ``lux`` number (or
+        ``illuminance_lux``, ``illuminance``) and, from a chroma meter, its CCT in kelvin
+        (``cct``, ``cct_k``, ``color_temperature`` or ``colour_temperature``) and ``duv``
+        (default 0). A CCT that is not a number within 1,000-25,000 K (or a Duv beyond
+        ±0.05) refuses the whole reading: a colour sensor gone wrong must not tint the sun."""
         try:
             value = json.loads(payload.decode("utf-8", "replace"))
         except ValueError:
             value = None
+        colour = None
         if isinstance(value, dict):
+            cct = next((value[k] for k in ("cct", "cct_k", "color_temperature",
+                                           "colour_temperature") if k in value), None)
+            duv = value.get("duv", 0.0)
             value = value.get("lux", value.get("illuminance_lux", value.get("illuminance")))
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            if cct is not None:
+                if (_is_number(cct) and _is_number(duv) and 1000 <= cct <= 25000
+                        and abs(duv) <= 0.05):
+                    colour = (float(cct), float(duv))
+                else:
+                    value = math.nan
+        if not _is_number(value):
             value = math.nan
-        return self.set(value)
+        return self.set(value, colour=colour)
 
     def start(self) -> None:
-        import paho.mqtt.client as mqtt
-        client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
-        client.on_connect = lambda c, *_: c.subscribe(self.topic, qos=0)
-        client.on_message = lambda c, u, msg: self.on_payload(msg.payload)
-        client.connect_async(self.host, self.port)
-        client.loop_start()
-        self._client = client
+        self._client.connect_async(self.target.host, self.target.port)
+        self._client.loop_start()
 
     def stop(self) -> None:
-        if self._client is not None:
-            self._client.loop_stop()
-            self._client.disconnect()
+        self._client.disconnect()
+        self._client.loop_stop()
 
 
-def parse_lux_source(text: str, *, bus_factory=None) -> LuxMeter:
+def parse_lux_source(text: str, *, bus_factory=None, ca_file: str | None = None) -> LuxMeter:
     """The meter of a ``--lux`` SOURCE (see the module doc); one clear InputError for
-    anything else. ``bus_factory(bus_number)``: an smbus2-like bus (tests pass a fake)."""
+    anything else. ``bus_factory(bus_number)``: an smbus2-like bus (tests pass a fake);
+    ``ca_file``: ``--lux-ca``, the CA of an ``mqtts://`` broker (else system trust)."""
     text = str(text).strip()
     try:
         number = float(text)
     except ValueError:
         number = None
+    if ca_file and not text.startswith("mqtts://"):
+        raise InputError("--lux-ca is for --lux mqtts://...")
     if number is not None:
         return FixedLux(number)
-    if text.startswith("mqtt://"):
-        u = urlsplit(text)
-        topic = u.path.lstrip("/")
-        if not u.hostname or not topic:
-            raise InputError(f"--lux {text}: expected mqtt://HOST[:PORT]/TOPIC")
-        try:
-            port = u.port or 1883
-        except ValueError:
-            raise InputError(f"--lux {text}: the port is not a number") from None
-        return MqttLuxMeter(u.hostname, port, topic)
+    if text.startswith(("mqtt://", "mqtts://")):
+        return MqttLuxMeter(parse_mqtt_url(text, "--lux", default_topic=None), ca_file)
     if text.startswith("i2c:"):
         rest, _, addr = text[4:].partition("@")
         bus_text, _, kind = rest.partition(":")
@@ -267,5 +313,5 @@ def parse_lux_source(text: str, *, bus_factory=None) -> LuxMeter:
         except OSError as exc:
             raise InputError(f"--lux {text}: cannot reach the sensor on /dev/i2c-{bus_text} "
                              f"at 0x{address:02x}: {exc.strerror or exc}") from None
-    raise InputError(f"--lux {text}: a number of lux, mqtt://HOST[:PORT]/TOPIC or "
+    raise InputError(f"--lux {text}: a number of lux, mqtt[s]://[USER:PASS@]HOST[:PORT]/TOPIC or "
                      "i2c:BUS[:bh1750|tsl2591][@ADDRESS]")

@@ -82,6 +82,7 @@ class Probe:
         #: a :class:`~provider.live.probe.luxmeter.LuxMeter` (``serve --lux``), or None
         self.meter = meter
         self.meter_note = ""            # why the meter closed nothing, for the log (once)
+        self.meter_warning = ""         # an ill-conditioned closure (a low sun), logged once
         self.projection, self.engine_options = projection, dict(engine_options or {})
         self.temporal = t = temporal or TemporalSettings()
         self.publish = publish or (lambda name, text: None)
@@ -301,9 +302,17 @@ class Probe:
             if bracket is None:
                 self._brackets.clear()       # a new bracket (or size) replaces the old one
                 bracket = self._brackets[bkey] = BracketProjector(projector, info["bracket"])
+                bracket.keep_frames = self.meter is not None
             # A bracket merges per-slot projections, never one linear frame: no lights here.
-            return bracket.push(info["slot"], image, info["exposure_s"], info.get("gain", 1.0),
-                                info.get("f_number"))
+            result = bracket.push(info["slot"], image, info["exposure_s"],
+                                  info.get("gain", 1.0), info.get("f_number"))
+            lux = self.meter.lux() if self.meter is not None else None
+            if lux is not None and bracket.complete and all(f is not None
+                                                            for f in bracket.frames):
+                # the meter closes the merged pixels (the slots' newest frames, t·gain each)
+                result = self._metered(projector, bracket.frames, bracket.exposures, 1.0,
+                                       info.get("f_number"), result, lux, None)
+            return result
         tracker = None
         if projector.lights != "off":
             if self.capture.reconnects != self._tracked_reconnects:   # a new stream
@@ -322,22 +331,26 @@ class Probe:
                                    exposure_s=info.get("exposure_s"), gain=info.get("gain", 1.0),
                                    f_number=info.get("f_number"), work=self._work)
         if lux is not None:
-            result = self._metered(projector, image, info, result, lux, tracker)
+            result = self._metered(projector, [image], [info.get("exposure_s")],
+                                   info.get("gain", 1.0), info.get("f_number"), result, lux,
+                                   tracker)
         if estimate:
             self._estimated_at, self._error_estimate = now, result.stats.get("error_estimate")
         elif self._error_estimate is not None:
             result.stats["error_estimate"] = self._error_estimate
         return result
 
-    def _metered(self, projector, image, info, result, lux, tracker):
-        """``serve --lux``: the frame again with the meter's missing light in its clipped
-        blob (:func:`~provider.core.sh9.meter.project_with_meter`); a frame that cannot be
+    def _metered(self, projector, frames, times, gain, f_number, result, lux, tracker):
+        """``serve --lux``: the frame (or a bracket's newest frame of each slot, merged)
+        again with the meter's missing light in its clipped blob
+        (:func:`~provider.core.sh9.meter.project_with_meter`); a frame that cannot be
         closed (no exposure, relative units) keeps its result, said once."""
         from ...core.sh9.meter import project_with_meter
         try:
             closed, closure = project_with_meter(
-                projector, [image], [info.get("exposure_s")], info.get("gain", 1.0),
-                info.get("f_number"), result, lux, tracker=tracker)
+                projector, frames, times, gain, f_number, result, lux, tracker=tracker,
+                facing=getattr(self.meter, "facing", None),
+                colour=getattr(self.meter, "colour", None))
         except InputError as exc:
             if str(exc) != self.meter_note:
                 self.meter_note = str(exc)
@@ -346,6 +359,9 @@ class Probe:
         if closure.note and closure.note[:40] != self.meter_note[:40]:
             log.info("probe %s: lux meter: %s", self.name, closure.note)
         self.meter_note = closure.note
+        if closure.warning and closure.warning[:40] != self.meter_warning[:40]:
+            log.warning("probe %s: lux meter: %s", self.name, closure.warning)
+        self.meter_warning = closure.warning
         for key in ("error_estimate",):
             if key in result.stats:
                 closed.stats[key] = result.stats[key]

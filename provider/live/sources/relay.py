@@ -68,13 +68,19 @@ _NUMBER_RANGES = {**{k: (0.0, MAX_MAGNITUDE, False)
                   # absolute units (contract §14): the upstream's exact up-facing lux and the
                   # aperture and ISO it used; lux, EV100 and CCT are rebuilt here
                   "illuminance_lux": (0.0, MAX_MAGNITUDE, False),
-                  "f_number": (0.0, MAX_MAGNITUDE, True), "iso": (0.0, MAX_MAGNITUDE, True)}
+                  "f_number": (0.0, MAX_MAGNITUDE, True), "iso": (0.0, MAX_MAGNITUDE, True),
+                  # what the upstream's lux meter closed (contract §14): passed on as said
+                  **{k: (0.0, MAX_MAGNITUDE, False)
+                     for k in ("meter_lux", "meter_camera_lux", "meter_closed_lux",
+                               "meter_solid_angle_sr")}}
+#: The meter's unit vectors (meter_direction may be zeros: nothing closed).
+_METER_VECTORS = ("meter_direction", "meter_facing")
 _INT_RANGES = {"negative_pixels": (0, 1 << 53), "nonfinite_pixels": (0, 1 << 53),
                "light_candidates": (0, 1 << 53), "order": (0, 2)}
 _RADIOMETRY = ("srgb-assumed", "calibrated", "merged", "linear")
 #: The optional fields an upstream message may carry that this provider passes on.
 _RELAY_STATS = (*_NUMBER_RANGES, *_INT_RANGES, "radiometry", "response", "ringing",
-                "min_irradiance", "exposures_s", "coefficient_units")
+                "min_irradiance", "exposures_s", "coefficient_units", *_METER_VECTORS)
 _COEFFICIENT_UNITS = ("cd/m²", "relative")
 
 
@@ -128,6 +134,9 @@ def _stat_ok(key: str, v) -> bool:
         return isinstance(v, bool)
     if key == "coefficient_units":
         return v in _COEFFICIENT_UNITS
+    if key in _METER_VECTORS:
+        return (isinstance(v, list) and len(v) == 3 and all(_is_number(x) for x in v)
+                and math.hypot(*v) <= 1.0 + 1e-6)
     if key == "min_irradiance":
         return (isinstance(v, list) and len(v) == 3
                 and all(_is_number(x) and abs(x) <= MAX_MAGNITUDE for x in v))

@@ -49,7 +49,7 @@ _STAT_INTS = ("negative_pixels", "nonfinite_pixels", "order", "light_candidates"
 #: What the numbers are (docs/contract.md §9): "srgb-assumed", "calibrated", "merged" or "linear";
 #: the camera curve's method; the exposure times of a merged set.
 _STAT_STRINGS = ("radiometry", "response")
-_STAT_LISTS = ("exposures_s", "meter_direction")
+_STAT_LISTS = ("exposures_s", "meter_direction", "meter_facing")
 
 
 def _finite(x: float) -> float:
