@@ -144,6 +144,20 @@ def test_stale_and_broken_readings_are_not_used():
     assert FixedLux(5.0).lux() == 5.0
 
 
+def test_a_reading_is_its_lux_and_colour_together():
+    """The pipeline takes one reading's lux and colour at once: a chroma meter's new reading
+    cannot pair one reading's lux with another's colour."""
+    meter = LuxMeter("test", max_age_s=5.0)
+    meter.colour = (5000.0, 0.0)                       # --lux-cct: used while a reading has none
+    assert meter.reading() == (None, (5000.0, 0.0))
+    assert meter.set(200.0, colour=(2700.0, 0.001))
+    assert meter.reading() == (200.0, (2700.0, 0.001))
+    assert meter.set(300.0)                            # a reading without colour: the fixed one
+    assert meter.reading() == (300.0, (5000.0, 0.0))
+    assert meter.set(400.0, at=time.monotonic() - 60)  # stale: no lux
+    assert meter.reading()[0] is None
+
+
 def test_mqtt_topic_meter(tmp_path):
     with Mosquitto(tmp_path) as broker:
         meter = parse_lux_source(f"mqtt://127.0.0.1:{broker.port}/garden/lux")

@@ -107,10 +107,16 @@ class LuxMeter:
 
     def lux(self) -> float | None:
         """The latest reading in lux, or None (none yet, or older than ``max_age_s``)."""
+        return self.reading()[0]
+
+    def reading(self) -> tuple[float | None, tuple[float, float] | None]:
+        """``(lux, colour)`` of one reading, taken together (a new MQTT reading may arrive
+        between two separate calls): :meth:`lux` and :attr:`colour` of the same moment."""
         with self._lock:
+            colour = self._reading_colour or self._fixed_colour
             if self._value is None or time.monotonic() - self._at > self.max_age_s:
-                return None
-            return self._value
+                return None, colour
+            return self._value, colour
 
     def start(self) -> None:
         """Start reading (a thread or a client); a fixed meter has nothing to start."""

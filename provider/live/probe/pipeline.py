@@ -306,12 +306,12 @@ class Probe:
             # A bracket merges per-slot projections, never one linear frame: no lights here.
             result = bracket.push(info["slot"], image, info["exposure_s"],
                                   info.get("gain", 1.0), info.get("f_number"))
-            lux = self.meter.lux() if self.meter is not None else None
+            lux, colour = self.meter.reading() if self.meter is not None else (None, None)
             if lux is not None and bracket.complete and all(f is not None
                                                             for f in bracket.frames):
                 # the meter closes the merged pixels (the slots' newest frames, t·gain each)
                 result = self._metered(projector, bracket.frames, bracket.exposures, 1.0,
-                                       info.get("f_number"), result, lux, None)
+                                       info.get("f_number"), result, lux, None, colour)
             return result
         tracker = None
         if projector.lights != "off":
@@ -325,7 +325,7 @@ class Probe:
         # decode for both products; at most --environment-hz times a second).
         self._work = (self.environment.work_for(image, projector)
                       if self.environment is not None else None)
-        lux = self.meter.lux() if self.meter is not None else None
+        lux, colour = self.meter.reading() if self.meter is not None else (None, None)
         result = projector.project(image, error_estimate=estimate,
                                    tracker=None if lux is not None else tracker,
                                    exposure_s=info.get("exposure_s"), gain=info.get("gain", 1.0),
@@ -333,14 +333,15 @@ class Probe:
         if lux is not None:
             result = self._metered(projector, [image], [info.get("exposure_s")],
                                    info.get("gain", 1.0), info.get("f_number"), result, lux,
-                                   tracker)
+                                   tracker, colour)
         if estimate:
             self._estimated_at, self._error_estimate = now, result.stats.get("error_estimate")
         elif self._error_estimate is not None:
             result.stats["error_estimate"] = self._error_estimate
         return result
 
-    def _metered(self, projector, frames, times, gain, f_number, result, lux, tracker):
+    def _metered(self, projector, frames, times, gain, f_number, result, lux, tracker,
+                 colour=None):
         """``serve --lux``: the frame (or a bracket's newest frame of each slot, merged)
         again with the meter's missing light in its clipped blob
         (:func:`~provider.core.sh9.meter.project_with_meter`); a frame that cannot be
@@ -350,7 +351,7 @@ class Probe:
             closed, closure = project_with_meter(
                 projector, frames, times, gain, f_number, result, lux, tracker=tracker,
                 facing=getattr(self.meter, "facing", None),
-                colour=getattr(self.meter, "colour", None))
+                colour=colour)
         except InputError as exc:
             if str(exc) != self.meter_note:
                 self.meter_note = str(exc)
