@@ -95,6 +95,17 @@ vec3 shOccludedAmbient(vec3 n, vec3 toOccluder, float sinHalfAngle) {
     return max(radiance, vec3(0.0)) * cap;
 }
 
+// shOccludedAmbient for a receiver at point p and an occluding sphere (xyz: centre, w: radius,
+// in p's frame, e.g. world space; w <= 0: no occluder, 0 returned). A receiver at the centre
+// counts as inside (the hemisphere about n).
+vec3 shOccludedAmbientOfSphere(vec3 n, vec3 p, vec4 sphere) {
+    if (sphere.w <= 0.0) return vec3(0.0);
+    vec3 toCentre = sphere.xyz - p;
+    float dist = length(toCentre);
+    vec3 d = dist > 0.0 ? toCentre / dist : n;
+    return shOccludedAmbient(n, d, sphere.w / max(dist, 1e-30));
+}
+
 // shShadowRatio with the occluder's ambient occlusion: occludedAmbient (≥ 0, normally
 // shOccludedAmbient(n, ...)) is taken off the ambient in the numerator, never below zero:
 //     ratio = (max(E_a(n) − O, 0) + Σ_k V_k I_k max(0, n·d_k)) / (E_a(n) + Σ_k I_k max(0, n·d_k))

@@ -122,6 +122,19 @@ float3 SHOccludedAmbient(float3 n, float3 toOccluder, float sinHalfAngle)
     return max(radiance, 0.0) * cap;
 }
 
+// SHOccludedAmbient for a receiver at point p and an occluding sphere (xyz: centre, w: radius,
+// in p's frame, e.g. world space; w <= 0: no occluder, 0 returned). A receiver at the centre
+// counts as inside (the hemisphere about n).
+float3 SHOccludedAmbientOfSphere(float3 n, float3 p, float4 sphere)
+{
+    if (sphere.w <= 0.0)
+        return 0.0;
+    float3 toCentre = sphere.xyz - p;
+    float dist = length(toCentre);
+    float3 d = dist > 0.0 ? toCentre / dist : n;
+    return SHOccludedAmbient(n, d, sphere.w / max(dist, 1e-30));
+}
+
 // SHShadowRatio with the occluder's ambient occlusion: occludedAmbient (≥ 0, normally
 // SHOccludedAmbient(n, ...)) is taken off the ambient in the numerator, never below zero:
 //     ratio = (max(E_a(n) − O, 0) + Σ_k V_k I_k max(0, n·d_k)) / (E_a(n) + Σ_k I_k max(0, n·d_k))

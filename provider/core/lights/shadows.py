@@ -52,7 +52,7 @@ import numpy as np
 from ..geometry import sh
 
 __all__ = ["shadow_ratio", "lit_irradiance", "occluded_ambient", "ambient_radiance",
-           "cap_projected_solid_angle"]
+           "cap_projected_solid_angle", "sphere_occluder"]
 
 
 def lit_irradiance(normals, ambient_matrices, light_directions, light_irradiance,
@@ -141,8 +141,25 @@ def occluded_ambient(normals, ambient_matrices, to_occluder, sin_half_angle) -> 
     n = np.asarray(normals, np.float64)
     d = np.broadcast_to(np.asarray(to_occluder, np.float64), n.shape)
     s = np.asarray(sin_half_angle, np.float64)
-    if not (np.all(np.isfinite(s)) and np.all(s >= 0)):
-        raise ValueError("sin_half_angle = R/|c - p| is a finite number >= 0")
+    if np.any(np.isnan(s)) or np.any(s < 0):
+        raise ValueError("sin_half_angle = R/|c - p| is a number >= 0")
     radiance = np.maximum(ambient_radiance(ambient_matrices, d), 0.0)
     cap = cap_projected_solid_angle(np.sum(n * d, axis=-1), np.minimum(s, 1.0))
     return radiance * cap[..., None]
+
+
+def sphere_occluder(points, centre, radius) -> tuple[np.ndarray, np.ndarray]:
+    """(to_occluder (..., 3) unit, sin_half_angle (...,)) of a sphere of ``centre`` (3,) and
+    ``radius`` (same length unit as the points, > 0) seen from receivers at ``points``
+    (..., 3): d = (c − p)/|c − p|, sin α = R/|c − p| (≥ 1 inside). A receiver at the centre
+    gets d = +Y and sin α = inf (inside). The arguments of :func:`occluded_ambient`."""
+    p = np.asarray(points, np.float64)
+    to_c = np.asarray(centre, np.float64) - p
+    dist = np.linalg.norm(to_c, axis=-1)
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError("the occluder's radius is a length > 0")
+    safe = np.where(dist > 0, dist, 1.0)
+    d = np.where((dist > 0)[..., None], to_c / safe[..., None], [0.0, 1.0, 0.0])
+    with np.errstate(divide="ignore"):
+        s = np.where(dist > 0, float(radius) / safe, np.inf)
+    return d, s
