@@ -122,3 +122,26 @@ def test_the_bench_section_writes_its_table_and_picture(tmp_path):
     assert "| 8.5 | " in table                          # the synthetic discs' radii
     png = (tmp_path / "out" / "shadows.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
+
+
+def test_bridge_still_misses_and_a_second_light_is_not_on_offer(hdri):
+    """The one held-out miss of the shipped ratio (docs/shadows.md): bridge's bright region is one
+    thin strip of sky through the zenith. The shipped ratio improves on discs but stays above the
+    target; the light's own shape is within it (the miss is the ambient's smooth glow standing in
+    for the rest of the strip); and allowing four lights still gives one: every detection level's
+    candidate is the same connected region."""
+    from provider.core.sh9.engine import compute_sh9
+    image = hdri("bridge")
+    res = bench.floor_shadow(image, grid=GRID)
+    e = res["errors"]
+    assert e["discs_ao"][0] < e["discs"][0] and e["discs_ao"][1] < e["discs"][1]
+    assert e["discs_ao"][0] > bench.TARGET_RMS
+    assert e["discs_vs_lights_only"][0] <= bench.TARGET_RMS
+    result = compute_sh9(image, lights="auto", max_lights=4, error_estimate=False)
+    assert len(result.lights) == 1
+    from provider.core.geometry.projections import Equirect
+    from provider.core.lights.extractor import LightExtractor
+    h, w = image.shape[:2]
+    analysis = LightExtractor(Equirect(w, h), max_lights=4).analyse(np.maximum(image, 0),
+                                                                     result.coefficients)
+    assert len(analysis.candidates) >= 4 and len({c.group for c in analysis.candidates}) == 1
