@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from provider.core.geometry import sh
-from provider.core.lights.shadows import lit_irradiance, shadow_ratio
+from provider.core.lights.shadows import (ambient_radiance, cap_projected_solid_angle,
+                                          lit_irradiance, occluded_ambient, shadow_ratio)
 from provider.verify import contract, harness, lights
 
 from conftest import HDRI_DIR
@@ -87,6 +88,80 @@ def test_a_visibility_outside_zero_one_is_refused(v):
         shadow_ratio(NORMALS[:4], np.zeros((3, 4, 4)), d[None], irr[None], v)
 
 
+# ---- the occluder's ambient occlusion (CPU) ------------------------------------------------
+
+def test_the_ambient_radiance_from_the_matrices_is_the_sh9_radiance():
+    """L_a(d) recovered from the irradiance matrices alone equals Σ L_lm Y_lm(d) of the
+    coefficients they were built from (to the matrices' 6-digit constants)."""
+    L = np.random.default_rng(5).normal(size=(9, 3))
+    d = NORMALS[:2000]
+    got = ambient_radiance(sh.irradiance_matrices(L), d)
+    assert np.abs(got - sh.sh_basis(d) @ L).max() < 1e-5 * np.abs(L).sum()
+
+
+@pytest.mark.parametrize("sin_half", [0.2, 1 / 3, 0.7, 0.95, 1.0])
+def test_the_cap_projected_solid_angle_is_the_integral_over_the_cap(sin_half):
+    """∫_cap max(0, n·ω) dω by summing 2 million evenly spread directions, for the cap's axis
+    above, across and below the receiver's horizon (the horizon-cut formula included)."""
+    w = harness.dense_normals(2_000_000).astype(np.float64)
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    cos_a = math.sqrt(1 - sin_half ** 2)
+    n = np.array([0.0, 1.0, 0.0])
+    for theta in (0, 30, 60, 80, 88, 90, 95, 110, 150, 180):
+        t = math.radians(theta)
+        d = np.array([math.sin(t), math.cos(t), 0.0])
+        brute = 4 * math.pi * np.mean(np.maximum(w @ n, 0) * ((w @ d) >= cos_a))
+        got = float(cap_projected_solid_angle(math.cos(t), sin_half))
+        assert got == pytest.approx(brute, abs=2e-3 * math.pi), (theta, got, brute)
+    above = float(cap_projected_solid_angle(0.9, sin_half)) if sin_half < 0.9 else None
+    if above is not None:
+        assert above == pytest.approx(math.pi * sin_half ** 2 * 0.9, rel=1e-12)
+
+
+def test_under_a_sphere_in_a_uniform_room_the_ratio_is_one_minus_sin_squared():
+    """Uniform radiance 1, no lights, a sphere straight above a floor (sin α = R/|c − p|):
+    the floor loses π sin²α of its π, ratio 1 − sin²α; with occluded_ambient=None, 1."""
+    A = sh.irradiance_matrices(contract.furnace_coefficients())
+    up = np.array([[0.0, 1.0, 0.0]])
+    none = (np.zeros((0, 3)), np.zeros((0, 3)), [])
+    for s in (0.1, 1 / 3, 0.6):
+        o = occluded_ambient(up, A, [0.0, 1.0, 0.0], s)
+        assert np.allclose(o, math.pi * s * s, rtol=1e-5)
+        assert np.allclose(shadow_ratio(up, A, *none, occluded_ambient=o), 1 - s * s, rtol=1e-5)
+    assert np.all(shadow_ratio(up, A, *none) == 1.0)
+    # a sphere below the floor's horizon hides nothing of it
+    assert np.all(occluded_ambient(up, A, [0.0, -1.0, 0.0], 0.5) == 0.0)
+
+
+def test_the_occluded_ratio_stays_in_zero_one_and_keeps_the_lights():
+    """An occluded ambient larger than the ambient takes it to 0, never below; the lights'
+    share is untouched (a shadowed light and a fully occluded ambient give 0, a visible
+    light its share)."""
+    A = sh.irradiance_matrices(contract.furnace_coefficients(0.1))
+    d, irr = contract.ONE_SIDED_LIGHT
+    toward = d[None]
+    huge = np.full((1, 3), 1e3)
+    assert np.allclose(shadow_ratio(toward, A, d[None], irr[None], [0.0], huge), 0.0)
+    got = shadow_ratio(toward, A, d[None], irr[None], [1.0], huge)[0]
+    assert np.allclose(got, irr / (0.1 * math.pi + irr))
+    o = occluded_ambient(NORMALS, A, d, 0.5)
+    r = shadow_ratio(NORMALS, A, d[None], irr[None], [0.4], o)
+    assert r.min() >= 0 and r.max() <= 1 + 1e-12
+
+
+@pytest.mark.parametrize("bad", [{"sin_half_angle": -0.1}, {"sin_half_angle": math.nan},
+                                 {"occluded": -1.0}, {"occluded": math.inf}])
+def test_a_bad_occluder_is_refused(bad):
+    A = sh.irradiance_matrices(contract.furnace_coefficients())
+    d, irr = contract.ONE_SIDED_LIGHT
+    with pytest.raises(ValueError):
+        if "sin_half_angle" in bad:
+            occluded_ambient(NORMALS[:4], A, d, bad["sin_half_angle"])
+        else:
+            shadow_ratio(NORMALS[:4], A, d[None], irr[None], [1.0],
+                         np.full((4, 3), bad["occluded"]))
+
+
 # ---- the shaders ---------------------------------------------------------------------------
 
 @pytest.fixture(scope="module", params=["glsl", "hlsl"])
@@ -134,6 +209,54 @@ def test_the_harness_catches_a_swapped_visibility(ctx):
     assert not lights.compare_shadow(case, v, "glsl", ratio, NORMALS).passed
 
 
+@pytest.fixture(scope="module", params=["glsl", "hlsl"])
+def shader_path(request, ctx):
+    from provider.verify.hlsl import HlslToolsMissing
+    try:
+        lights.OccludedEvaluator(ctx, request.param, "ambient")
+    except HlslToolsMissing as exc:
+        if os.environ.get("SHLIGHT_REQUIRE_HLSL"):
+            raise
+        pytest.skip(str(exc))
+    return request.param
+
+
+def test_every_occluder_case_matches_the_cpu(ctx, shader_path):
+    """shOccludedAmbient / SHOccludedAmbient and the occluded ratio against the CPU for
+    occluders overhead, wide and tilted, and around the receiver, over a random ambient with
+    four lights and a panorama's (every receiver horizon crossed by the dense normals)."""
+    cases = lights.occluded_cases(NORMALS, PANORAMAS)
+    results = lights.run_occluded_cases(ctx, shader_path, cases, NORMALS)
+    names = {r.case for r in results}
+    assert {"shadow:occluded_ambient:4_random:tilted_wide",
+            "shadow:occluded_ratio:panorama:apartment:overhead",
+            "shadow:occluded_ratio:4_random:inside"} <= names
+    failed = [r.line() for r in results if not r.passed]
+    assert not failed, "\n".join(failed)
+
+
+def test_the_gpu_floor_under_a_sphere_in_a_uniform_room_keeps_one_minus_sin_squared(ctx, shader_path):
+    """Independent answer: uniform radiance 1, no lights, sphere straight overhead at
+    sin α = 1/3: the floor's ratio is 8/9 on the GPU too; facing away from it, 1."""
+    ev = lights.OccludedEvaluator(ctx, shader_path, "ratio")
+    ev.occluder = np.array([0.0, 1.0, 0.0, 1 / 3], np.float32)
+    ev.set_lights(np.zeros((0, 3)), np.zeros((0, 3)))
+    A = sh.irradiance_matrices(contract.furnace_coefficients())
+    ratio, _ = ev.evaluate(A, [[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]])
+    assert np.allclose(ratio[0], 8 / 9, atol=1e-5) and np.allclose(ratio[1], 1.0, atol=1e-6)
+
+
+def test_the_harness_catches_a_wrong_occluder_size(ctx):
+    """Negative control: rendered with sin α = 0.3 but judged as 1/3 fails."""
+    case, what, occluder, v = next(c for c in lights.occluded_cases(NORMALS, [])
+                                   if c[0].name == "shadow:occluded_ambient:4_random:overhead")
+    ev = lights.OccludedEvaluator(ctx, "glsl", what)
+    ev.occluder = np.array([0.0, 1.0, 0.0, 0.3], np.float32)
+    ev.set_lights(case.directions, case.irradiance, case.count)
+    value, _ = ev.evaluate(case.matrices, NORMALS)
+    assert not lights.compare_occluded(case, occluder, v, what, "glsl", value, NORMALS).passed
+
+
 def test_validate_shaders_checks_the_shadow_ratio_on_both_paths(ctx, tmp_path):
     r = subprocess.run([sys.executable, "-m", "provider.cli", "validate-shaders",
                         str(HDRI_DIR / "lab.exr"), "--normals", "1024", "--no-pictures",
@@ -141,7 +264,9 @@ def test_validate_shaders_checks_the_shadow_ratio_on_both_paths(ctx, tmp_path):
                        cwd=ROOT)
     assert r.returncode == 0, r.stdout + r.stderr
     for path in ("glsl", "hlsl"):
-        for case in ("shadow:one_sided:mixed", "shadow:panorama:lab:clamped"):
+        for case in ("shadow:one_sided:mixed", "shadow:panorama:lab:clamped",
+                     "shadow:occluded_ambient:panorama:lab:tilted_wide",
+                     "shadow:occluded_ratio:4_random:overhead"):
             assert f"PASS  {path}  {case}" in r.stdout, (path, case)
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["failed"] == 0

@@ -75,6 +75,8 @@ def test_held_out_panoramas_where_discs_meet_the_target_and_beat_points(name, hd
     rms, worst = res["errors"]["discs"]
     assert rms <= bench.TARGET_RMS and worst <= bench.TARGET_WORST, res["errors"]
     assert rms < res["errors"]["points"][0] and worst < res["errors"]["points"][1]
+    rms, worst = res["errors"]["discs_ao"]                # the shipped ratio keeps it
+    assert rms <= bench.TARGET_RMS and worst <= bench.TARGET_WORST, res["errors"]
 
 
 @pytest.mark.parametrize("name", ["city", "venice", "forest"])
@@ -82,7 +84,8 @@ def test_where_discs_miss_the_miss_is_the_spheres_ambient_occlusion(name, hdri):
     """The held-out panoramas where discs miss the target: against a truth in which the
     sphere hides only the lights' own pixels the disc model is within the target (the
     light's shape is not what misses); what the sphere hides of the rest of the room is.
-    Adding the sphere's occlusion of the ambient (a bench-only model) meets the target."""
+    The shipped ratio with the occluder's ambient occlusion (discs + occluder AO) meets
+    the target, with under half the discs' RMS."""
     res = bench.floor_shadow(hdri(name), grid=GRID)
     e = res["errors"]
     assert e["discs"][0] > bench.TARGET_RMS or e["discs"][1] > bench.TARGET_WORST
@@ -90,6 +93,7 @@ def test_where_discs_miss_the_miss_is_the_spheres_ambient_occlusion(name, hdri):
     assert e["discs_vs_lights_only"][1] <= bench.TARGET_WORST
     assert e["ambient_occlusion"][0] > bench.TARGET_RMS
     assert e["discs_ao"][0] <= bench.TARGET_RMS and e["discs_ao"][1] <= bench.TARGET_WORST
+    assert e["discs_ao"][0] < e["discs"][0] / 2
 
 
 def test_sh9_alone_misses_the_sun_shadow(hdri):
@@ -111,7 +115,33 @@ def test_the_bench_section_writes_its_table_and_picture(tmp_path):
                        capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert r.returncode == 0, r.stdout + r.stderr
     table = (tmp_path / "out" / "shadows.md").read_text()
-    assert "| sky | 1 (" in table and "| city | 0 (none)" in table and "missed" in table
+    assert "| sky | 1 (" in table and "| city | 0 (none)" in table
+    city = next(line for line in table.splitlines() if line.startswith("| city | 0"))
+    assert city.endswith("| met |")                   # judged on the shipped ratio
+    assert "discs + occluder AO (shipped)" in table
     assert "| 8.5 | " in table                          # the synthetic discs' radii
     png = (tmp_path / "out" / "shadows.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
+
+
+def test_bridge_still_misses_and_a_second_light_is_not_on_offer(hdri):
+    """The one held-out miss of the shipped ratio (docs/shadows.md): bridge's bright region is one
+    thin strip of sky through the zenith. The shipped ratio improves on discs but stays above the
+    target; the light's own shape is within it (the miss is the ambient's smooth glow standing in
+    for the rest of the strip); and allowing four lights still gives one: every detection level's
+    candidate is the same connected region."""
+    from provider.core.sh9.engine import compute_sh9
+    image = hdri("bridge")
+    res = bench.floor_shadow(image, grid=GRID)
+    e = res["errors"]
+    assert e["discs_ao"][0] < e["discs"][0] and e["discs_ao"][1] < e["discs"][1]
+    assert e["discs_ao"][0] > bench.TARGET_RMS
+    assert e["discs_vs_lights_only"][0] <= bench.TARGET_RMS
+    result = compute_sh9(image, lights="auto", max_lights=4, error_estimate=False)
+    assert len(result.lights) == 1
+    from provider.core.geometry.projections import Equirect
+    from provider.core.lights.extractor import LightExtractor
+    h, w = image.shape[:2]
+    analysis = LightExtractor(Equirect(w, h), max_lights=4).analyse(np.maximum(image, 0),
+                                                                     result.coefficients)
+    assert len(analysis.candidates) >= 4 and len({c.group for c in analysis.candidates}) == 1

@@ -257,11 +257,112 @@ XR_TOP_VIEW = """(points) => { const s = window.shlight, THREE = s.THREE;
 }"""
 
 
+def occluded_share(ambient_matrices, total_luminance, points, centre, radius, up=(0.0, 1.0, 0.0)):
+    """The CPU's share of the floor's light that a sphere hides of the ambient at floor points
+    (n, 3): Rec. 709 luminance of min(occluded_ambient, max(E_a(up), 0)) over the open
+    irradiance's luminance (provider.core.lights.shadows)."""
+    from provider.core.geometry import sh
+    from provider.core.lights.shadows import occluded_ambient, sphere_occluder
+    A = np.reshape(ambient_matrices, (3, 4, 4))
+    n = np.broadcast_to(np.asarray(up, float), (len(points), 3))
+    o = occluded_ambient(n, A, *sphere_occluder(points, centre, radius))
+    a = np.maximum(sh.irradiance_from_matrices(A, n), 0.0)
+    return (np.minimum(o, a) @ [0.2126, 0.7152, 0.0722]) / total_luminance
+
+
+def test_the_catchers_glsl_is_the_shipped_glsl():
+    """client-three.js's occluder GLSL is a verbatim copy of shaders/sh9_lights.glsl's functions."""
+    import re
+    shipped = (ROOT / "shaders" / "sh9_lights.glsl").read_text()
+    js = (ROOT / "provider" / "live" / "server" / "static" / "client-three.js").read_text()
+    for name in ("shRadianceFromMatrix", "shOccludedAmbient", "shOccludedAmbientOfSphere"):
+        body = re.search(r"^(float|vec3) " + name + r"\(.*?^}\n", shipped, re.S | re.M).group(0)
+        assert body in js, name
+
+
+def test_the_occluder_darkens_the_floor_around_the_sphere_as_the_cpu(browser, tmp_path):
+    """connectLightProbe's `shadows.occluder` = the sphere: the catcher's alpha is the key light's
+    share in its umbra plus, everywhere, the share of the floor's light the sphere hides of the
+    ambient (per pixel, from its bounding sphere), as the CPU computes (occluded_ambient), within
+    UMBRA_TOL; far from the sphere it fades to 0."""
+    import json
+    pano = tmp_path / "sun.hdr"
+    write_sun_and_sky(pano)
+    with ServeProcess("--source", str(pano), "--lights", "auto", "--keepalive", "60") as proc:
+        poll(lambda: (r := http_get(proc.http + "/latest.json"))[0] == 200 and r, what="first lighting")
+        with page_of(browser, proc.http + "/healthz") as page:
+            page.evaluate(PAGE, [THREE_URL.format(version=three_version()), proc.http])
+            page.wait_for_function("window.keys > 0", timeout=60000)
+            page.evaluate("() => { window.t.conn.shadows.occluder = window.t.sphere; }")
+            got = page.evaluate("""() => { const s = window.t.conn.shadows;
+              const b = window.t.a.occluderSphere(window.t.THREE, window.t.sphere);
+              return { key: s.key.index, share: s.key.share, msg: window.t.conn.latest.message,
+                       centre: b.center.toArray(), radius: b.radius }; }""")
+            msg = got["msg"]
+            np.testing.assert_allclose(got["centre"], [0, 0.8, 0], atol=1e-6)
+            assert abs(got["radius"] - 0.3) < 1e-3                     # the sphere's own, not its box's
+            page.evaluate("window.t.onlyCatcher(true)")
+            alpha = _alpha(page)
+    S = alpha.shape[0]
+    k = msg["lights"]
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    d = np.reshape(msg["light_directions"], (k, 3))[got["key"]]
+    total = (np.maximum(np.reshape(msg["ambient_matrices"], (3, 16))[:, 15]
+                        + np.reshape(msg["ambient_matrices"], (3, 4, 4))[:, 1, 1]
+                        + 2 * np.reshape(msg["ambient_matrices"], (3, 4, 4))[:, 1, 3], 0) @ lum
+             + sum(np.reshape(msg["light_irradiance"], (k, 3))[i] @ lum
+                   * max(0.0, np.reshape(msg["light_directions"], (k, 3))[i][1]) for i in range(k)))
+    rows, cols = np.mgrid[0:S, 0:S]
+    x, z = -2 + 4 * (cols + 0.5) / S, -2 + 4 * (rows + 0.5) / S
+    points = np.stack([x.ravel(), np.zeros(x.size), z.ravel()], -1)
+    occ = occluded_share(msg["ambient_matrices"], total, points, [0, 0.8, 0], 0.3).reshape(S, S)
+    umbra_centre = np.array([0.0, 0.8, 0.0]) - 0.8 / d[1] * d
+    dist = np.hypot(x - umbra_centre[0], z - umbra_centre[2])
+    open_ = dist > 0.7                                   # the key light's shadow does not reach
+    umbra = dist < 0.1
+    print(f"occluded share: max {occ.max():.4f}; open floor |alpha − CPU| max "
+          f"{np.abs(alpha - occ)[open_].max():.4f}; umbra alpha {alpha[umbra].mean():.4f} vs "
+          f"{(got['share'] + occ)[umbra].mean():.4f}")
+    assert occ.max() > 0.05                              # the sphere does hide a visible share
+    assert np.abs(alpha - occ)[open_].max() < UMBRA_TOL
+    assert np.abs(alpha - np.minimum(1, got["share"] + occ))[umbra].max() < UMBRA_TOL
+    assert alpha[np.hypot(x, z) > 1.9].max() < 0.02      # it fades away from the sphere
+    if os.environ.get("SHLIGHT_DOCS_SCREENSHOT"):
+        occluder_picture(alpha, occ, x, z, umbra_centre)
+
+
+def occluder_picture(alpha, occ, x, z, umbra_centre):
+    """docs/shadows_three_occluder.png: the catcher's darkening (its alpha) with the sphere as the
+    occluder, the CPU's occluded share alone, and a profile through the sphere's foot and the umbra."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(1, 3, figsize=(13, 4.2))
+    ext = (-2, 2, 2, -2)
+    ax[0].imshow(alpha, vmin=0, vmax=0.7, cmap="gray_r", extent=ext)
+    ax[0].set_title("three.js catcher alpha (darkening), occluder on\nsphere r 0.3, centre 0.8 above, 3° sun")
+    ax[1].imshow(occ, vmin=0, vmax=0.7, cmap="gray_r", extent=ext)
+    ax[1].set_title("CPU: share of the floor's light the sphere\nhides of the ambient (occluded_ambient)")
+    S = alpha.shape[0]
+    row = S // 2
+    ax[2].plot(x[row], alpha[row], label="catcher alpha (8-bit, run)")
+    ax[2].plot(x[row], occ[row], "k--", label="CPU occluded share (no key shadow)")
+    ax[2].set_xlabel("x on the floor, z = 0"); ax[2].set_ylim(0, 0.7); ax[2].legend(loc="upper right", fontsize=8)
+    ax[2].set_title("through the sphere's foot (x = 0)")
+    for a_ in ax[:2]:
+        a_.set_xlabel("x"); a_.set_ylabel("z")
+    fig.tight_layout()
+    fig.savefig(ROOT / "docs" / "shadows_three_occluder.png", dpi=80)
+    plt.close(fig)
+
+
 def test_webxr_page_shadow_from_xr_estimated_light(browser, tmp_path):
     """xr.html?shadows=1: in the preview the key light of the sh9 messages casts the shadow;
     in a session three's XREstimatedLight (fed by the polyfill) does, its catcher's opacity is
     the primary light's share computed from the server's webxr export and equals 1 − the CPU
-    shadow_ratio of the sh9 message; the umbra shows it, the rest of the floor is untouched."""
+    shadow_ratio of the sh9 message; the umbra shows it plus the share of the ambient that the
+    sphere (the page's occluder) hides there, and the rest of the floor that share alone (CPU:
+    occluded_ambient with the export's SH)."""
     from provider.core.geometry import sh
     from test_xr_polyfill import INLINE_LE, START_SESSION, webxr_latest
     from browsertools import REFUSED, canvas_rgba
@@ -312,9 +413,15 @@ def test_webxr_page_shadow_from_xr_estimated_light(browser, tmp_path):
             alpha = canvas_rgba(page)[..., 3].astype(np.float32) / 255
             vals = [float(cv2.remap(alpha, np.float32([[x]]), np.float32([[y]]), cv2.INTER_LINEAR)[0, 0])
                     for x, y in at]
-            print(f"XR umbra alpha {vals[0]:.4f}, share {held['share']:.4f}; away {vals[1:]}")
-            assert abs(vals[0] - held["share"]) < UMBRA_TOL, (vals[0], held["share"])
-            assert vals[1:] == [0.0, 0.0, 0.0], vals
+            # the occluder (the page's sphere: radius 1 at the origin, the catcher 1.3 below) also
+            # hides part of the estimate's ambient from each floor point: its CPU share, added
+            occ = occluded_share(sh.irradiance_matrices(np.reshape(latest["sphericalHarmonicsCoefficients"], (9, 3))),
+                                 e_probe + key, np.array([[x, -1.3, z] for x, z in points]), [0, 0, 0], 1.0)
+            want = [min(1.0, held["share"] + occ[0]), *occ[1:]]
+            print(f"XR umbra alpha {vals[0]:.4f}, share {held['share']:.4f} + occluded {occ[0]:.4f}; "
+                  f"away {vals[1:]} vs occluded {occ[1:]}")
+            assert np.all(np.abs(np.array(vals) - want) < UMBRA_TOL), (vals, want)
+            assert max(occ[1:]) < 0.1 < occ[0]
             if os.environ.get("SHLIGHT_DOCS_SCREENSHOT"):
                 xr_picture(canvas_rgba(page), held)
 
@@ -330,8 +437,8 @@ def xr_picture(rgba, held):
     fig, ax = plt.subplots(figsize=(4.6, 4.6))
     ax.imshow(shown)
     ax.set_axis_off()
-    ax.set_title(f"WebXR: XREstimatedLight's primary light\nshare {held['share']:.3f}, "
-                 f"angular radius {held['radius']:.2f}°")
+    ax.set_title(f"WebXR: XREstimatedLight's primary light (share {held['share']:.3f},\n"
+                 f"angular radius {held['radius']:.2f}°) + the sphere's occluded ambient", fontsize=9)
     fig.tight_layout()
     fig.savefig(ROOT / "docs" / "shadows_webxr.png", dpi=90)
     plt.close(fig)

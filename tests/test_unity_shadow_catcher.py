@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from provider.core.geometry import sh
-from provider.core.lights.shadows import shadow_ratio
+from provider.core.lights.shadows import occluded_ambient, shadow_ratio, sphere_occluder
 
 from test_unity_shaders import (API, INCLUDE_SETS, STAGES, STEREO, _gl_context, _tool,
                                 bind_uniform_blocks, compile_pass, entry, keyword_sets,
@@ -82,10 +82,11 @@ def test_builtin_catcher_compiles_with_unity_includes(tmp_path):
     print(f"\n{total} variants of the built-in shadow catcher compiled ({', '.join(n for n, _, _ in sets)})")
 
 
-def _run_catcher(ctx, spv: Path, normals, values: dict, shadow, coords=None) -> np.ndarray:
+def _run_catcher(ctx, spv: Path, normals, values: dict, shadow, coords=None, positions=None) -> np.ndarray:
     """The fragment stage, once per normal; the screen-space shadow texture (an array: single-pass
     instanced stereo) reads `shadow` everywhere (a number), or is `shadow` (an (h, w) array) read
-    at `coords` ((n, 2) texture coordinates, one per normal)."""
+    at `coords` ((n, 2) texture coordinates, one per normal); the world position is `positions`
+    ((n, 3), one per normal; default the origin)."""
     glsl = subprocess.run([_tool("spirv-cross"), str(spv), "--version", "430", "--no-es", "--no-420pack-extension"],
                           capture_output=True, text=True, timeout=60).stdout
     refl = reflect(spv)
@@ -94,11 +95,13 @@ def _run_catcher(ctx, spv: Path, normals, values: dict, shadow, coords=None) -> 
     for _, t, n in inputs:
         if "Normal" in n:
             body.append(f"  {n} = normal;")
+        elif "worldPos" in n or "positionWS" in n:
+            body.append(f"  {n} = position;")
         elif "ShadowCoord" in n:
             body.append(f"  {n} = {t}(uv, 0.5, 1.0);")             # screen position, w = 1
         else:
             body.append(f"  {n} = {t}(0.0);")
-    vertex = ("#version 430\nin vec3 normal;\nin vec2 uv;\nuniform float width;\n" +
+    vertex = ("#version 430\nin vec3 normal;\nin vec3 position;\nin vec2 uv;\nuniform float width;\n" +
               "".join(f"{layout}out {t} {n};\n" for layout, t, n in inputs) +
               "void main() {\n  gl_Position = vec4((float(gl_VertexID) + 0.5) / width * 2.0 - 1.0, 0.0, 0.0, 1.0);\n"
               "  gl_PointSize = 1.0;\n" + "\n".join(body) + "\n}\n")
@@ -114,8 +117,12 @@ def _run_catcher(ctx, spv: Path, normals, values: dict, shadow, coords=None) -> 
     fbo.use()
     fbo.clear()
     uv = np.full((n, 2), 0.5, np.float32) if coords is None else np.asarray(coords, np.float32)
-    vao = ctx.vertex_array(prog, [(ctx.buffer(np.asarray(normals, np.float32).tobytes()), "3f", "normal"),
-                                  (ctx.buffer(uv.tobytes()), "2f", "uv")])
+    pos = np.zeros((n, 3), np.float32) if positions is None else np.asarray(positions, np.float32)
+    attributes = [(ctx.buffer(np.asarray(normals, np.float32).tobytes()), "3f", "normal"),
+                  (ctx.buffer(uv.tobytes()), "2f", "uv")]
+    if "position" in prog:
+        attributes.append((ctx.buffer(pos.tobytes()), "3f", "position"))
+    vao = ctx.vertex_array(prog, attributes)
     vao.render(mode=ctx.POINTS, vertices=n)
     return np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(n, 4)
 
@@ -160,6 +167,48 @@ def test_builtin_catcher_outputs_the_cpu_shadow_ratio(tmp_path):
     np.testing.assert_allclose(out[:, :3], shadow_ratio(normals, A_unity, d_unity[None], e[None], [0.5]), atol=2e-5)
     if os.environ.get("SHLIGHT_DOCS_SCREENSHOT"):
         picture(ctx, spv, values, A_unity, d_unity, e)
+
+
+def test_builtin_catcher_takes_off_the_occluders_ambient_occlusion(tmp_path):
+    """With _SHOccluderSphere set (what SH9ShadowOccluder uploads: the hologram's bounding sphere in
+    world space), the run fragment is shadow_ratio(n, V, occluded_ambient) of the CPU for floor points
+    around and under the sphere and for tilted receivers, at V 0.4 and 1 (in the open the floor under
+    the sphere still darkens: the ambient it hides); w = 0 turns the occluder off."""
+    ctx = _gl_context()
+    p = _catcher_pass()
+    dirs, _ = INCLUDE_SETS["2019.4"]
+    defines = ["SHADER_API_D3D11", "SHADER_TARGET=35", "UNITY_VERSION=201940", "SHADER_STAGE_FRAGMENT",
+               "SHADOWS_SCREEN", "STEREO_INSTANCING_ON"]
+    spv = tmp_path / "catcher_frag.spv"
+    ok, log = compile_pass(p, "fragment", defines, dirs, spv)
+    assert ok, log
+    rng = np.random.default_rng(8)
+    amb = rng.normal(size=(9, 3)) * 0.2
+    amb[0] = [0.9, 0.8, 0.7]
+    A_unity = np.diag([1, 1, -1, 1.0]) @ sh.irradiance_matrices(amb) @ np.diag([1, 1, -1, 1.0])
+    d_unity = np.array([0.4, 0.8, 0.45]) / np.linalg.norm([0.4, 0.8, 0.45])
+    e = np.array([2.5, 2.2, 1.6])
+    centre, radius = np.array([0.2, 0.8, -0.1]), 0.3
+    x, z = np.meshgrid(np.linspace(-1.5, 1.5, 9), np.linspace(-1.5, 1.5, 9))
+    floor = np.stack([x.ravel(), np.zeros(x.size), z.ravel()], -1)
+    tilted = rng.uniform(-1, 1, size=(40, 3)) * [1.5, 0.6, 1.5]
+    normals = np.vstack([np.tile([0.0, 1.0, 0.0], (len(floor), 1)), sh.fibonacci_sphere(40)])
+    points = np.vstack([floor, tilted])
+    values = {"_SHIrradianceR": A_unity[0].T, "_SHIrradianceG": A_unity[1].T, "_SHIrradianceB": A_unity[2].T,
+              "_SHLightCount": 1, "_SHLightDirection": [*d_unity, 0, *[0] * 12],
+              "_SHLightIrradiance": [*e, 0, *[0] * 12], "_ShadowStrength": 1.0,
+              "_SHOccluderSphere": [*centre, radius]}
+    o = occluded_ambient(normals, A_unity, *sphere_occluder(points, centre, radius))
+    assert o[:len(floor)].max() > 0.05 * np.abs(A_unity).max()            # it does hide something
+    for shadow in (0.4, 1.0):
+        out = _run_catcher(ctx, spv, normals, values, shadow, positions=points)
+        want = shadow_ratio(normals, A_unity, d_unity[None], e[None], [shadow], occluded_ambient=o)
+        err = np.abs(out[:, :3] - want).max()
+        print(f"V = {shadow}, occluder: max |shader − shadow_ratio| = {err:.2e}")
+        assert err < 2e-5, (shadow, err)
+    assert out[:len(floor), :3].min() < 0.97                          # darker under the sphere when open
+    off = _run_catcher(ctx, spv, normals, {**values, "_SHOccluderSphere": [*centre, 0.0]}, 1.0, positions=points)
+    assert np.all(off[:, :3] == 1.0)
 
 
 def _disc_visibility(gap_deg, light_deg, occluder_deg):

@@ -21,7 +21,7 @@ import pytest
 
 from provider.core.conventions.formats import light_sh
 from provider.core.geometry import sh
-from provider.core.lights.shadows import shadow_ratio
+from provider.core.lights.shadows import occluded_ambient, shadow_ratio, sphere_occluder
 
 from servertools import ServeProcess
 from test_unity import (CORE, CSHARP, S3, S4, _compile, _LiveClient, _mono_tools, _serve_help,  # noqa: F401
@@ -42,10 +42,18 @@ def _ratio_cases(rng) -> list[dict]:
         n /= np.linalg.norm(n)
         v = rng.uniform(0, 1, size=k)
         A = sh.irradiance_matrices(amb)
+        # an occluding sphere near the receiver: above, cut by its horizon, below, or around it (i % 4 == 3)
+        point = rng.normal(size=3)
+        centre = point + rng.normal(size=3) * (0.05 if i % 4 == 3 else 1.0)
+        radius = float(rng.uniform(0.1, 0.6))
+        o = occluded_ambient(n, A, *sphere_occluder(point, centre, radius))
         cases.append({"name": f"case{i}", "lights": k, "ambient_matrices": A.reshape(-1).tolist(),
                       "light_directions": d.reshape(-1).tolist(), "light_irradiance": e.reshape(-1).tolist(),
                       "normal": n.tolist(), "visibility": v.tolist(),
-                      "ratio": shadow_ratio(n, A, d.reshape(-1, 3), e.reshape(-1, 3), v).tolist()})
+                      "ratio": shadow_ratio(n, A, d.reshape(-1, 3), e.reshape(-1, 3), v).tolist(),
+                      "point": point.tolist(), "occluder": [*centre, radius], "occluded_ambient": o.tolist(),
+                      "occluded_ratio": shadow_ratio(n, A, d.reshape(-1, 3), e.reshape(-1, 3), v,
+                                                     occluded_ambient=o).tolist()})
     return cases
 
 
@@ -83,6 +91,8 @@ def test_shadow_logic_under_mono(build_dir, tmp_path):
     assert report["cases"] == 43
     assert report["checks"]["radius_refused"]["count"] == 6
     print(f"\nshadow_ratio C# vs Python: max abs {report['checks']['shadow_ratio']['max_abs']:.2e}")
+    assert report["checks"]["occluded_ambient"]["count"] == 40 * 3     # 40 cases, RGB
+    print(f"occluded ratio C# vs Python: max abs {report['checks']['occluded_ratio']['max_abs']:.2e}")
 
 
 def test_live_client_key_light_casts_soft_shadows(live_exe, tmp_path):
@@ -115,3 +125,18 @@ def test_live_client_key_light_casts_soft_shadows(live_exe, tmp_path):
     np.testing.assert_allclose(ev["sh_light_direction"][:3], d @ S3, atol=1e-6)
     np.testing.assert_allclose(ev["sh_light_irradiance"][:3], irr[key], rtol=1e-6)
     assert np.allclose(ev["light"]["forward"], -(d @ S3), atol=1e-5)
+
+
+def test_occluder_component_uploads_the_holograms_bounding_sphere(build_dir):
+    """SH9ShadowOccluder under Mono against the UnityEngine stand-in (not Unity): _SHOccluderSphere is the
+    bounding sphere of the renderers' union box, follows them each LateUpdate, leaves a disabled renderer
+    out, takes the radius scale, is cleared (radius 0) on disable; the last enabled occluder wins."""
+    from test_unity import RUNTIME, STANDIN
+    exe = _compile(build_dir / "OccluderTest.exe", [*CORE, *RUNTIME, STANDIN, CSHARP / "Checks.cs",
+                                                    CSHARP / "OccluderTest.cs"])
+    _, mono = _mono_tools()
+    r = subprocess.run([mono, str(exe)], capture_output=True, text=True, timeout=60)
+    report = json.loads(r.stdout.strip().splitlines()[-1])
+    assert r.returncode == 0 and not report["failures"], json.dumps(report, indent=1)
+    assert {"union_sphere", "follows", "disabled_renderer_left_out", "radius_scale", "cleared_on_disable",
+            "last_enabled_wins", "no_renderers_no_occluder"} <= set(report["checks"])

@@ -21,6 +21,14 @@ the light sets above at several visibilities (all visible: exactly 1; none; mixe
 range, which the shaders clamp). Its error measure follows from r = N/D with N and D each
 off by at most c·ε·S (S the magnitude sum above): ``|r_gpu − r_cpu| / (2 S / D)`` ≤ the
 same 32 float32 round-offs (D ≤ 0, where the ratio is 1 by definition, is not judged).
+
+The occluder's ambient occlusion (``shOccludedAmbient`` / ``SHOccludedAmbient``, and
+``shShadowRatioOccluded`` / ``SHShadowRatioOccluded`` fed with it) against
+:func:`~provider.core.lights.shadows.occluded_ambient` and ``shadow_ratio(...,
+occluded_ambient=...)``, the occluder a uniform (``occluder`` / ``_Occluder``: direction,
+sin α), for occluders overhead, wide and tilted, and around the receiver (sin α > 1), over a
+random ambient with four lights and a panorama's: ``shadow:occluded_ambient:*`` and
+``shadow:occluded_ratio:*``, within :data:`OCCLUDED_TOLERANCE` (acos and atan in shaders).
 """
 from __future__ import annotations
 
@@ -32,7 +40,7 @@ import cv2
 import numpy as np
 
 from ..core.geometry import sh
-from ..core.lights.shadows import shadow_ratio
+from ..core.lights.shadows import occluded_ambient, shadow_ratio
 from ..core.sh9.engine import compute_sh9
 from ..core.radiometry.images import read_image
 from . import contract
@@ -335,8 +343,10 @@ def compare(ctx, path: str, normals, panoramas, vectors, tolerance) -> list[Comp
     if vectors is not None:
         cases += vector_light_cases(vectors)
     out = run_light_cases(evaluator, cases, normals, tolerance)
-    return out + run_shadow_cases(ShadowEvaluator(ctx, path), shadow_cases(normals, panoramas),
-                                  normals, tolerance)
+    out += run_shadow_cases(ShadowEvaluator(ctx, path), shadow_cases(normals, panoramas),
+                            normals, tolerance)
+    return out + run_occluded_cases(ctx, path, occluded_cases(normals, panoramas), normals,
+                                    tolerance * OCCLUDED_TOLERANCE / FLOAT32_TOLERANCE)
 
 
 # -- the shadow ratio (shShadowRatio / SHShadowRatio) -------------------------------------------
@@ -417,6 +427,135 @@ def run_shadow_cases(evaluator: ShadowEvaluator, cases, normals,
         evaluator.set_lights(case.directions, case.irradiance, case.count)
         ratio, _ = evaluator.evaluate(case.matrices, normals)
         out.append(compare_shadow(case, v, evaluator.path, ratio, normals, tolerance))
+    return out
+
+
+# -- the occluder's ambient occlusion (shOccludedAmbient, shShadowRatioOccluded) ---------------
+
+OCCLUDED_GLSL_EVALUATORS = {
+    "ambient": glsl_evaluator("shOccludedAmbient", args="n, occluder.xyz, occluder.w",
+                              uniforms="uniform vec4 occluder;", unclamped=False),
+    "ratio": glsl_evaluator("shShadowRatioOccluded",
+                            args="n, shadowVisibility, shOccludedAmbient(n, occluder.xyz, "
+                                 "occluder.w)",
+                            uniforms="uniform vec4 shadowVisibility;\nuniform vec4 occluder;",
+                            unclamped=False)}
+OCCLUDED_HLSL_EVALUATORS = {
+    "ambient": hlsl_evaluator("sh9_lights.hlsl", "SHOccludedAmbient",
+                              args="n, _Occluder.xyz, _Occluder.w",
+                              uniforms="float4 _Occluder;", unclamped=False),
+    "ratio": hlsl_evaluator("sh9_lights.hlsl", "SHShadowRatioOccluded",
+                            args="n, _ShadowVisibility, SHOccludedAmbient(n, _Occluder.xyz, "
+                                 "_Occluder.w)",
+                            uniforms="float4 _ShadowVisibility;\nfloat4 _Occluder;",
+                            unclamped=False)}
+
+#: Error bound of the occluder cases (same measure): the horizon-cut cap uses acos and atan,
+#: which shaders do not round correctly (Vulkan's precision table allows 4096 ulp for atan;
+#: Mesa llvmpipe is off by 4e-5 of the cap there, 5e-6 of the scale). Everywhere else the
+#: occluder terms stay within the float32 bound. validate-shaders' --tolerance scales it.
+OCCLUDED_TOLERANCE = 4096 * 2.0 ** -24
+
+#: Occluders per case: (unit direction toward the sphere's centre, sin of its half-angle).
+#: Over the dense normals each crosses every receiver horizon: wholly above, cut, below.
+OCCLUDERS = {"overhead": ((0.0, 1.0, 0.0), 1 / 3),
+             "tilted_wide": ((0.3, 0.8, -0.5), 0.8),
+             "inside": ((1.0, 0.0, 0.0), 1.5)}       # sin α ≥ 1: the receiver is inside
+
+
+class OccludedEvaluator(ShadowEvaluator):
+    """Renders ``shOccludedAmbient`` (``what`` = "ambient") or ``shShadowRatioOccluded`` with
+    it ("ratio"), and the HLSL twins, for one occluder (a uniform) through one path."""
+
+    def __init__(self, ctx, path: str = "glsl", what: str = "ratio"):
+        source = (shader_source("sh9_lights.glsl") + OCCLUDED_GLSL_EVALUATORS[what]
+                  if path == "glsl" else OCCLUDED_HLSL_EVALUATORS[what])
+        IrradianceEvaluator.__init__(self, ctx, path, source)
+        self._lights = (_slots([], []), 0)
+        self.what = what
+        self.visibility = np.ones(4, np.float32)
+        self.occluder = np.array([0.0, 1.0, 0.0, 0.0], np.float32)
+
+    def set_matrices(self, matrices) -> None:
+        LightsEvaluator.set_matrices(self, matrices)
+        values = {"shadowVisibility": self.visibility, "occluder": self.occluder}
+        hlsl = {"shadowVisibility": "_ShadowVisibility", "occluder": "_Occluder"}
+        for name, v in values.items():
+            v = np.asarray(v, np.float32).reshape(4)
+            if self._block is None:
+                if name in self.program:
+                    set_uniform(self.program, name, tuple(float(x) for x in v))
+            elif hlsl[name] in self._block[1]:
+                self._ubo.write(v.tobytes(), offset=self._block[1][hlsl[name]])
+
+
+def _occluder(direction, sin_half_angle) -> np.ndarray:
+    d = np.asarray(direction, np.float64)
+    return np.append(d / np.linalg.norm(d), sin_half_angle).astype(np.float32)
+
+
+def compare_occluded(case: LightCase, occluder, visibility, what: str, path: str, value,
+                     normals, tolerance: float = OCCLUDED_TOLERANCE) -> Comparison:
+    """Rendered occluded ambient or occluded ratio against :func:`occluded_ambient` /
+    :func:`shadow_ratio` in float64. Scale of O: the ambient radiance's magnitude sum toward
+    d times π sin²α + 2 sin α (the magnitudes of the cap formula's terms); of the ratio:
+    2 (S + that) / D as for the plain ratio."""
+    n = np.asarray(normals, np.float32).astype(np.float64)
+    occ = np.asarray(occluder, np.float32).astype(np.float64)
+    d, s = occ[:3], occ[3]
+    M = np.asarray(case.matrices, np.float64)
+    o = occluded_ambient(n, M, d, s)
+    B = np.abs(M[:, :3, :3])
+    radiance_magnitude = (4 * np.abs(d) @ B @ np.abs(d) + 3 * np.abs(M[:, :3, 3]) @ np.abs(d)
+                          + np.abs(M[:, 3, 3]) + np.trace(B, axis1=1, axis2=2)) / math.pi
+    sc = min(float(s), 1.0)
+    o_scale = np.broadcast_to(radiance_magnitude * (math.pi * sc * sc + 2 * sc), o.shape)
+    if what == "ambient":
+        return judge(case, path, value, value, o, o_scale, tolerance)
+    k = len(case.directions) if case.count is None else case.count
+    dl = np.asarray(case.directions, np.float64).reshape(-1, 3)[:k]
+    irr = np.asarray(case.irradiance, np.float64).reshape(-1, 3)[:k]
+    v = np.clip(np.asarray(visibility, np.float64), 0.0, 1.0)[:k]
+    exact = shadow_ratio(n, M, dl, irr, v, occluded_ambient=o)
+    open_ = np.maximum(sh.irradiance_from_matrices(M, n), 0.0) + np.maximum(n @ dl.T, 0.0) @ irr
+    magnitude = (sh.irradiance_from_matrices(np.abs(M), np.abs(n))
+                 + (np.abs(n) @ np.abs(dl).T) @ np.abs(irr) + o_scale)
+    scale = np.where(open_ > 0, 2.0 * magnitude / np.where(open_ > 0, open_, 1.0), np.inf)
+    return judge(case, path, value, value, exact, scale, tolerance)
+
+
+def occluded_cases(normals, panoramas) -> list[tuple[LightCase, str, np.ndarray, tuple]]:
+    """(case, what, occluder, visibility): the occluded ambient and the occluded ratio (at
+    the "mixed" visibility) for four random lights over a random ambient and the first
+    panorama with lights, under each of :data:`OCCLUDERS`."""
+    sets = [c for c in synthetic_light_cases(normals) if c.name == "lights:4_random"]
+    for case in panorama_light_cases(panoramas):
+        if len(case.directions):
+            sets.append(case)
+            break
+    v = SHADOW_VISIBILITIES["mixed"]
+    out = []
+    for case in sets:
+        for oname, (direction, sin_half) in OCCLUDERS.items():
+            for what in ("ambient", "ratio"):
+                name = (f"shadow:occluded_{what}:{case.name.split(':', 1)[1]}:{oname}")
+                out.append((LightCase(name, case.matrices, case.directions, case.irradiance,
+                                      count=case.count,
+                                      note=f"occluder {direction}, sin α {sin_half:g}"),
+                            what, _occluder(direction, sin_half), v))
+    return out
+
+
+def run_occluded_cases(ctx, path: str, cases, normals,
+                       tolerance: float = OCCLUDED_TOLERANCE) -> list[Comparison]:
+    evaluators = {what: OccludedEvaluator(ctx, path, what) for what in ("ambient", "ratio")}
+    out = []
+    for case, what, occluder, v in cases:
+        ev = evaluators[what]
+        ev.visibility, ev.occluder = np.asarray(v, np.float32), occluder
+        ev.set_lights(case.directions, case.irradiance, case.count)
+        value, _ = ev.evaluate(case.matrices, normals)
+        out.append(compare_occluded(case, occluder, v, what, path, value, normals, tolerance))
     return out
 
 

@@ -109,6 +109,15 @@ static class ShadowsTest
             Sh9Shadows.ShadowRatio(Numbers(c, "ambient_matrices"), Numbers(c, "light_directions"),
                                    Numbers(c, "light_irradiance"), k, n[0], n[1], n[2], Numbers(c, "visibility"), rgb);
             checks.Compare("shadow_ratio", rgb, Numbers(c, "ratio"), 1e-12, Sh9Protocol.GetString(c, "name", "?"));
+            // the occluder's ambient occlusion: a sphere (x, y, z, R) seen from the receiver at "point"
+            double[] p = Numbers(c, "point"), sphere = Numbers(c, "occluder"), occluded = new double[3];
+            Sh9Shadows.OccludedAmbient(Numbers(c, "ambient_matrices"), n[0], n[1], n[2], p[0], p[1], p[2], sphere, occluded);
+            checks.Compare("occluded_ambient", occluded, Numbers(c, "occluded_ambient"), 1e-12,
+                           Sh9Protocol.GetString(c, "name", "?"));
+            Sh9Shadows.ShadowRatio(Numbers(c, "ambient_matrices"), Numbers(c, "light_directions"),
+                                   Numbers(c, "light_irradiance"), k, n[0], n[1], n[2], Numbers(c, "visibility"),
+                                   occluded, rgb);
+            checks.Compare("occluded_ratio", rgb, Numbers(c, "occluded_ratio"), 1e-12, Sh9Protocol.GetString(c, "name", "?"));
         }
     }
 

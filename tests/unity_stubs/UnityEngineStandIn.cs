@@ -191,6 +191,13 @@ namespace UnityEngine
 
         public Rendering.LightProbeUsage lightProbeUsage { get { return probeUsage; } set { probeUsage = value; } }
 
+        bool rendererEnabled = true;
+        /// <summary>Stand-in only: what bounds returns (Unity computes it from the mesh and the transform).</summary>
+        public Bounds StandInBounds;
+        public bool enabled { get { return rendererEnabled; } set { rendererEnabled = value; } }
+        /// <summary>The world-space axis-aligned box around the renderer.</summary>
+        public Bounds bounds { get { return StandInBounds; } }
+
         public void SetPropertyBlock(MaterialPropertyBlock properties)
         {
             StandInPropertyBlock = properties == null ? null : properties.StandInCopy();
@@ -300,6 +307,10 @@ namespace UnityEngine
         public static readonly Dictionary<int, int> StandInGlobalInts = new Dictionary<int, int>();
         public static readonly Dictionary<int, Vector4[]> StandInGlobalVectorArrays = new Dictionary<int, Vector4[]>();
         public static void SetGlobalInt(int nameID, int value) { StandInGlobalInts[nameID] = value; }
+        /// <summary>Stand-in only: what SetGlobalVector received, by property id.</summary>
+        public static readonly Dictionary<int, Vector4> StandInGlobalVectors = new Dictionary<int, Vector4>();
+        public static void SetGlobalVector(int nameID, Vector4 value) { StandInGlobalVectors[nameID] = value; }
+        public static void SetGlobalVector(string name, Vector4 value) { SetGlobalVector(PropertyToID(name), value); }
         public static void SetGlobalVectorArray(int nameID, Vector4[] values)
         {
             // copied into the array held for this id (allocated once), as Unity copies into native memory
@@ -486,6 +497,17 @@ namespace UnityEngine
         public int fontSize { get { return font; } set { font = value; } }
         public TextAnchor anchor { get { return textAnchor; } set { textAnchor = value; } }
         public Color color { get { return textColor; } set { textColor = value; } }
+    }
+
+    public struct Bounds
+    {
+        Vector3 boxCenter, boxExtents;
+        public Bounds(Vector3 center, Vector3 size) { boxCenter = center; boxExtents = size * 0.5f; }
+        public Vector3 center { get { return boxCenter; } set { boxCenter = value; } }
+        public Vector3 extents { get { return boxExtents; } set { boxExtents = value; } }
+        public Vector3 size { get { return boxExtents * 2f; } set { boxExtents = value * 0.5f; } }
+        public Vector3 min { get { return boxCenter - boxExtents; } }
+        public Vector3 max { get { return boxCenter + boxExtents; } }
     }
 
     public struct Vector4

@@ -2,7 +2,8 @@
 // the darkening. Put it on a stand-in for the real floor (a plane where the floor is); it multiplies what
 // is behind it by SHShadowRatio(n, (V, 1, 1, 1)) (sh9_lights.hlsl): the room's irradiance with the key
 // light blocked by V (Unity's shadow attenuation of the main directional light, which SH9LightingClient
-// drives from the key light with Key Light Shadows on) over the irradiance with it unblocked.
+// drives from the key light with Key Light Shadows on) over the irradiance with it unblocked; with an
+// SH9ShadowOccluder on the hologram, less the ambient its bounding sphere hides (SHShadowRatioOccluded).
 //
 // How the darkening reaches the eye, set by the material's blend factors:
 //   * Multiply (SH9 Shadow Catcher Multiply.mat): Blend DstColor Zero on colour, alpha kept: for video
@@ -50,6 +51,9 @@ Shader "Shlight/SH9 Shadow Catcher"
             #include "sh9_lights.hlsl"
 
             float _ShadowStrength;
+            // global, from SH9ShadowOccluder: the hologram's bounding sphere in world space (xyz centre, w radius;
+            // w <= 0 or never set: no occluder, the ratio is SHShadowRatio's)
+            float4 _SHOccluderSphere;
 
             struct SH9CatcherAttributes
             {
@@ -85,8 +89,11 @@ Shader "Shlight/SH9 Shadow Catcher"
                 UNITY_SETUP_STEREO_EYE_INDEX_POST_VERTEX(i);
                 // the main directional light's shadow: 0 blocked, 1 open (with the shadow-distance fade)
                 UNITY_LIGHT_ATTENUATION(visibility, i, i.worldPos);
-                float3 ratio = SHShadowRatio(normalize(i.worldNormal),
-                                             float4(lerp(1.0, visibility, _ShadowStrength), 1.0, 1.0, 1.0));
+                float3 n = normalize(i.worldNormal);
+                // the hologram's own occlusion of the ambient (its bounding sphere, set by SH9ShadowOccluder)
+                float3 occluded = SHOccludedAmbientOfSphere(n, i.worldPos, _SHOccluderSphere) * _ShadowStrength;
+                float3 ratio = SHShadowRatioOccluded(n, float4(lerp(1.0, visibility, _ShadowStrength), 1.0, 1.0, 1.0),
+                                                     occluded);
                 // rgb: the factor (Multiply); a: 1 − its luminance (Passthrough alpha)
                 return float4(ratio, 1.0 - dot(ratio, float3(0.2126, 0.7152, 0.0722)));
             }

@@ -16,12 +16,34 @@ catcher multiplies the camera image by
 
 The ambient is clamped at 0 as the shaders clamp E (order-2 SH can ring below 0 under a
 small bright source; negative light is no light), so ratio ∈ [0, 1] for every V in [0, 1]
-and is 1 where the receiver gets no light at all (nothing to darken). The ambient is taken
-as unoccluded: the occluder's own blocking of the sky is not in this ratio (docs/shadows.md
-measures what that leaves out). Shipped as ``shShadowRatio(vec3 n, vec4 visibility)``
-(shaders/sh9_lights.glsl) and ``SHShadowRatio(float3 n, float4 visibility)``
-(shaders/sh9_lights.hlsl) for lights 0..3 (SH_MAX_LIGHTS = 4); `shlight validate-shaders`
-checks both against :func:`shadow_ratio`.
+and is 1 where the receiver gets no light at all (nothing to darken). Shipped as
+``shShadowRatio(vec3 n, vec4 visibility)`` (shaders/sh9_lights.glsl) and
+``SHShadowRatio(float3 n, float4 visibility)`` (shaders/sh9_lights.hlsl) for lights 0..3
+(SH_MAX_LIGHTS = 4); `shlight validate-shaders` checks both against :func:`shadow_ratio`.
+
+**The occluder's ambient occlusion.** The occluder (the hologram's bounding sphere, centre c
+and radius R in the receiver's frame) also hides a cap of the ambient: seen from a receiver
+at p it is the cap of half-angle α about d = (c − p)/|c − p|, sin α = R/|c − p|. The ambient
+irradiance it hides is
+
+    O(n) = L_a(d) · P(n·d, sin α),     L_a(d) = max(0, (4 dᵀBd + 3 m·d + M₃₃ − tr B) / π)
+
+with P the cap's projected solid angle ∫_cap max(0, n·ω) dω: π sin²α (n·d) while the cap lies
+wholly above the receiver's horizon (n·d ≥ sin α), 0 once it lies wholly below
+(n·d ≤ −sin α), and the exact formula for a sphere cut by the horizon in between (Snyder
+1996, as in Lagarde & de Rousiers, "Moving Frostbite to PBR", 2014). L_a(d) is the SH9
+ambient's own radiance toward the occluder, recovered exactly from the irradiance matrix
+A = [[B, m], [mᵀ, M₃₃]]: E = ñᵀAñ splits into bands 0, 1, 2 as (M₃₃ + tr B/3) + 2 m·n +
+(nᵀBn − tr B/3), and radiance is each band over its Â_l (π, 2π/3, π/4). Chosen over
+E_a(d)/π (the cosine-weighted mean around d, smoother) by the bench's numbers
+(docs/shadows.md): no new uniforms are needed for either. With it
+
+    ratio(n, V, O) = (max(0, E_a(n) − O(n)) + Σ_k V_k I_k max(0, n·d_k)) / E_lit(n, 1)
+
+(:func:`shadow_ratio` with ``occluded_ambient``), still in [0, 1]; the lights' own occlusion
+stays in V_k (the ambient holds only what the lights did not take). Shipped as
+``shOccludedAmbient`` / ``shShadowRatioOccluded`` (GLSL) and ``SHOccludedAmbient`` /
+``SHShadowRatioOccluded`` (HLSL).
 """
 from __future__ import annotations
 
@@ -29,7 +51,8 @@ import numpy as np
 
 from ..geometry import sh
 
-__all__ = ["shadow_ratio", "lit_irradiance"]
+__all__ = ["shadow_ratio", "lit_irradiance", "occluded_ambient", "ambient_radiance",
+           "cap_projected_solid_angle", "sphere_occluder"]
 
 
 def lit_irradiance(normals, ambient_matrices, light_directions, light_irradiance,
@@ -55,12 +78,88 @@ def lit_irradiance(normals, ambient_matrices, light_directions, light_irradiance
 
 
 def shadow_ratio(normals, ambient_matrices, light_directions, light_irradiance,
-                 visibility) -> np.ndarray:
+                 visibility, occluded_ambient=None) -> np.ndarray:
     """ratio(n, V) = E_lit(n, V) / E_lit(n, 1) per colour, (..., 3) float64 in [0, 1]; 1 where
-    E_lit(n, 1) ≤ 0 (no light to block). Arguments as :func:`lit_irradiance`."""
+    E_lit(n, 1) ≤ 0 (no light to block). Arguments as :func:`lit_irradiance`;
+    ``occluded_ambient`` (..., 3) or (3,), ≥ 0 (:func:`occluded_ambient`): the ambient
+    irradiance the occluder hides, taken off the ambient (never below 0) in the numerator;
+    None: the ambient is unoccluded (as before)."""
     num = lit_irradiance(normals, ambient_matrices, light_directions, light_irradiance,
                          visibility)
+    if occluded_ambient is not None:
+        o = np.asarray(occluded_ambient, np.float64)
+        if not (np.all(np.isfinite(o)) and np.all(o >= 0)):
+            raise ValueError("the occluded ambient is an irradiance: finite and >= 0")
+        ambient = np.maximum(sh.irradiance_from_matrices(
+            np.asarray(ambient_matrices, np.float64), np.asarray(normals, np.float64)), 0.0)
+        num = num - np.minimum(o, ambient)
     den = lit_irradiance(normals, ambient_matrices, light_directions, light_irradiance,
                          np.ones(len(np.asarray(light_directions).reshape(-1, 3))))
     safe = np.where(den > 0, den, 1.0)
     return np.where(den > 0, num / safe, 1.0)
+
+
+def ambient_radiance(ambient_matrices, directions) -> np.ndarray:
+    """The SH9 ambient's radiance toward ``directions`` (..., 3) unit, (..., 3) float64, from
+    its irradiance matrices alone (module docstring): (4 dᵀBd + 3 m·d + M₃₃ − tr B) / π, not
+    clamped (order-2 SH can ring below 0). Equals Σ L_lm Y_lm(d) of the coefficients the
+    matrices were built from."""
+    A = np.asarray(ambient_matrices, np.float64).reshape(-1, 4, 4)
+    d = np.asarray(directions, np.float64)
+    B, m = A[:, :3, :3], A[:, :3, 3]
+    quad = np.einsum("...i,cij,...j->...c", d, B, d)
+    return (4 * quad + 3 * d @ m.T + A[:, 3, 3] - np.trace(B, axis1=1, axis2=2)) / np.pi
+
+
+def cap_projected_solid_angle(cos_to_cap, sin_half_angle) -> np.ndarray:
+    """∫ over a cap of half-angle α of max(0, n·ω) dω, for the cap's axis at cos θ = n·d from
+    the normal: π sin²α cos θ above the horizon (cos θ ≥ sin α), 0 below (cos θ ≤ −sin α),
+    and the exact horizon-cut value between (Snyder 1996). sin α ≥ 1 (the receiver inside the
+    occluder) is a hemisphere about d: π (1 + cos θ) / 2."""
+    h = np.clip(np.asarray(cos_to_cap, np.float64), -1.0, 1.0)
+    s = np.clip(np.asarray(sin_half_angle, np.float64), 0.0, 1.0)
+    s2 = s * s
+    above = np.pi * s2 * np.maximum(h, 0.0)
+    sin_t = np.sqrt(np.maximum(1.0 - h * h, 0.0))
+    x = np.sqrt(np.maximum(1.0 - s2, 0.0)) / np.maximum(s, 1e-30)   # cot α
+    y = np.clip(-x * h / np.maximum(sin_t, 1e-30), -1.0, 1.0)
+    # sin θ·√(1 − y²) = √((s − h)(s + h)) / s: no 1 − y² near y = ±1 (float32 shaders)
+    sy = np.sqrt(np.maximum((s - h) * (s + h), 0.0)) / np.maximum(s, 1e-30)
+    cut = (h * np.arccos(y) - x * sy) * s2 + np.arctan2(sy, x)
+    return np.where(h * h >= s2, above, np.maximum(cut, 0.0))
+
+
+def occluded_ambient(normals, ambient_matrices, to_occluder, sin_half_angle) -> np.ndarray:
+    """O(n) = max(0, L_a(d)) · P(n·d, sin α): the ambient irradiance a sphere hides from a
+    receiver of unit normal ``normals`` (..., 3), (..., 3) float64 ≥ 0 (module docstring).
+
+    ``to_occluder`` (..., 3) or (3,): unit d = (c − p)/|c − p| toward the sphere's centre;
+    ``sin_half_angle`` (...,) or scalar: sin α = R/|c − p|, in [0, 1] (≥ 1 means the receiver
+    is inside the sphere and is taken as 1; negative or NaN: ValueError). Frame: that of the
+    normals and the matrices (the wire's, rh-y-up, unless the client re-oriented both).
+    """
+    n = np.asarray(normals, np.float64)
+    d = np.broadcast_to(np.asarray(to_occluder, np.float64), n.shape)
+    s = np.asarray(sin_half_angle, np.float64)
+    if np.any(np.isnan(s)) or np.any(s < 0):
+        raise ValueError("sin_half_angle = R/|c - p| is a number >= 0")
+    radiance = np.maximum(ambient_radiance(ambient_matrices, d), 0.0)
+    cap = cap_projected_solid_angle(np.sum(n * d, axis=-1), np.minimum(s, 1.0))
+    return radiance * cap[..., None]
+
+
+def sphere_occluder(points, centre, radius) -> tuple[np.ndarray, np.ndarray]:
+    """(to_occluder (..., 3) unit, sin_half_angle (...,)) of a sphere of ``centre`` (3,) and
+    ``radius`` (same length unit as the points, > 0) seen from receivers at ``points``
+    (..., 3): d = (c − p)/|c − p|, sin α = R/|c − p| (≥ 1 inside). A receiver at the centre
+    gets d = +Y and sin α = inf (inside). The arguments of :func:`occluded_ambient`."""
+    p = np.asarray(points, np.float64)
+    to_c = np.asarray(centre, np.float64) - p
+    dist = np.linalg.norm(to_c, axis=-1)
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError("the occluder's radius is a length > 0")
+    safe = np.where(dist > 0, dist, 1.0)
+    d = np.where((dist > 0)[..., None], to_c / safe[..., None], [0.0, 1.0, 0.0])
+    with np.errstate(divide="ignore"):
+        s = np.where(dist > 0, float(radius) / safe, np.inf)
+    return d, s

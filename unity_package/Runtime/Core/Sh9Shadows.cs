@@ -71,9 +71,81 @@ namespace Shlight.Lighting
         public static void ShadowRatio(double[] ambientMatrices, double[] lightDirections, double[] lightIrradiance,
                                        int lights, double nx, double ny, double nz, double[] visibility, double[] rgb)
         {
+            ShadowRatio(ambientMatrices, lightDirections, lightIrradiance, lights, nx, ny, nz, visibility, null, rgb);
+        }
+
+        /// <summary>The bounding sphere of an axis-aligned box (min, max corners): centre the box's centre,
+        /// radius half its diagonal; into <paramref name="sphere"/> (x, y, z, radius). What SH9ShadowOccluder
+        /// uploads as _SHOccluderSphere from a hologram's renderer bounds.</summary>
+        public static void BoundingSphere(double minX, double minY, double minZ, double maxX, double maxY, double maxZ,
+                                          double[] sphere)
+        {
+            double hx = 0.5 * (maxX - minX), hy = 0.5 * (maxY - minY), hz = 0.5 * (maxZ - minZ);
+            sphere[0] = minX + hx;
+            sphere[1] = minY + hy;
+            sphere[2] = minZ + hz;
+            sphere[3] = Math.Sqrt(hx * hx + hy * hy + hz * hz);
+        }
+
+        /// <summary>The SH9 ambient's radiance toward unit (dx, dy, dz) from its irradiance matrix alone (channel
+        /// c of 48 numbers): (4 dᵀBd + 3 m·d + M33 − tr B) / π; not clamped (sh9_lights.hlsl SHRadianceFromMatrix,
+        /// provider.core.lights.shadows.ambient_radiance).</summary>
+        public static double AmbientRadiance(double[] matrices, int c, double dx, double dy, double dz)
+        {
+            int o = 16 * c;
+            double[] d = { dx, dy, dz };
+            double quad = 0, lin = 0, trace = 0;
+            for (int i = 0; i < 3; i++)
+            {
+                for (int j = 0; j < 3; j++) quad += d[i] * matrices[o + 4 * i + j] * d[j];
+                lin += matrices[o + 4 * i + 3] * d[i];
+                trace += matrices[o + 5 * i];
+            }
+            return (4 * quad + 3 * lin + matrices[o + 15] - trace) / Math.PI;
+        }
+
+        /// <summary>∫ over a cap of half-angle α of max(0, n·ω) dω, cos θ = n·d to its axis: π sin²α cos θ above
+        /// the horizon, 0 below, the exact horizon-cut value between (Snyder 1996); sin α ≥ 1 is a hemisphere.</summary>
+        public static double CapProjectedSolidAngle(double cosToCap, double sinHalfAngle)
+        {
+            double h = Math.Min(1.0, Math.Max(-1.0, cosToCap)), s = Math.Min(1.0, Math.Max(0.0, sinHalfAngle)), s2 = s * s;
+            if (h * h >= s2) return Math.PI * s2 * Math.Max(h, 0.0);
+            double sinT = Math.Sqrt(Math.Max(1 - h * h, 0.0));
+            double x = Math.Sqrt(Math.Max(1 - s2, 0.0)) / Math.Max(s, 1e-30);
+            double y = Math.Min(1.0, Math.Max(-1.0, -x * h / Math.Max(sinT, 1e-30)));
+            double sy = Math.Sqrt(Math.Max((s - h) * (s + h), 0.0)) / Math.Max(s, 1e-30);
+            return Math.Max((h * Math.Acos(y) - x * sy) * s2 + Math.Atan2(sy, x), 0.0);
+        }
+
+        /// <summary>
+        /// The ambient irradiance an occluding sphere (x, y, z, radius; radius ≤ 0: none, zeros) hides from a
+        /// receiver of unit normal n at point p, per colour into <paramref name="rgb"/> (SHOccludedAmbientOfSphere in
+        /// sh9_lights.hlsl; provider.core.lights.shadows.occluded_ambient): max(0, L_a(d)) · P(n·d, R/|c − p|),
+        /// d = (c − p)/|c − p|. Matrices, normal, point and sphere in one frame.
+        /// </summary>
+        public static void OccludedAmbient(double[] ambientMatrices, double nx, double ny, double nz,
+                                           double px, double py, double pz, double[] sphere, double[] rgb)
+        {
+            if (!(sphere[3] > 0)) { rgb[0] = rgb[1] = rgb[2] = 0; return; }
+            double tx = sphere[0] - px, ty = sphere[1] - py, tz = sphere[2] - pz;
+            double dist = Math.Sqrt(tx * tx + ty * ty + tz * tz);
+            if (dist > 0) { tx /= dist; ty /= dist; tz /= dist; } else { tx = nx; ty = ny; tz = nz; }
+            double cap = CapProjectedSolidAngle(nx * tx + ny * ty + nz * tz, sphere[3] / Math.Max(dist, 1e-30));
+            for (int c = 0; c < 3; c++)
+                rgb[c] = Math.Max(AmbientRadiance(ambientMatrices, c, tx, ty, tz), 0.0) * cap;
+        }
+
+        /// <summary>ShadowRatio with the occluder's ambient occlusion <paramref name="occluded"/> (3 numbers ≥ 0,
+        /// from <see cref="OccludedAmbient"/>; null: none) taken off the ambient in the numerator, never below
+        /// zero (SHShadowRatioOccluded).</summary>
+        public static void ShadowRatio(double[] ambientMatrices, double[] lightDirections, double[] lightIrradiance,
+                                       int lights, double nx, double ny, double nz, double[] visibility,
+                                       double[] occluded, double[] rgb)
+        {
             for (int c = 0; c < 3; c++)
             {
-                double a = Math.Max(Sh9Math.Irradiance(ambientMatrices, c, nx, ny, nz), 0.0), lit = a, open = a;
+                double a = Math.Max(Sh9Math.Irradiance(ambientMatrices, c, nx, ny, nz), 0.0);
+                double lit = occluded == null ? a : Math.Max(a - Math.Max(occluded[c], 0.0), 0.0), open = a;
                 for (int k = 0; k < lights; k++)
                 {
                     double cos = Math.Max(0.0, nx * lightDirections[3 * k] + ny * lightDirections[3 * k + 1] +

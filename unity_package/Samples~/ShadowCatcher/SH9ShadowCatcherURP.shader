@@ -2,7 +2,8 @@
 // "Shlight/SH9 Shadow Catcher" (unity_package/Shaders/SH9ShadowCatcher.shader): what is behind it is
 // multiplied by SHShadowRatio(n, (V, 1, 1, 1)) (sh9_lights.hlsl), V = URP's main-light shadow
 // (MainLightRealtimeShadow: its cascades, soft-shadow filter and shadow strength), the main light being
-// the Directional Light that SH9LightingClient drives from the key light (Key Light Shadows on).
+// the Directional Light that SH9LightingClient drives from the key light (Key Light Shadows on); with an
+// SH9ShadowOccluder on the hologram, less the ambient its bounding sphere hides (SHShadowRatioOccluded).
 // Blend factors from the material: Multiply (DstColor Zero, alpha kept) for a camera image in the
 // framebuffer, Passthrough (black at coverage 1 − ratio) for a passthrough layer composited through the
 // eye buffer's alpha (Quest). Additive displays (HoloLens) cannot darken: nothing shows there.
@@ -47,6 +48,9 @@ Shader "Shlight/SH9 Shadow Catcher (URP)"
             CBUFFER_START(UnityPerMaterial)
             float _ShadowStrength;
             CBUFFER_END
+            // global (outside UnityPerMaterial: SRP Batcher compatible), from SH9ShadowOccluder: the hologram's
+            // bounding sphere in world space (xyz centre, w radius; w <= 0 or never set: no occluder)
+            float4 _SHOccluderSphere;
 
             struct SH9CatcherAttributes
             {
@@ -86,8 +90,11 @@ Shader "Shlight/SH9 Shadow Catcher (URP)"
                 float4 shadowCoord = TransformWorldToShadowCoord(i.positionWS);   // per pixel: the right cascade
             #endif
                 float visibility = MainLightRealtimeShadow(shadowCoord);
-                float3 ratio = SHShadowRatio(normalize(i.normalWS),
-                                             float4(lerp(1.0, visibility, _ShadowStrength), 1.0, 1.0, 1.0));
+                float3 n = normalize(i.normalWS);
+                // the hologram's own occlusion of the ambient (its bounding sphere, set by SH9ShadowOccluder)
+                float3 occluded = SHOccludedAmbientOfSphere(n, i.positionWS, _SHOccluderSphere) * _ShadowStrength;
+                float3 ratio = SHShadowRatioOccluded(n, float4(lerp(1.0, visibility, _ShadowStrength), 1.0, 1.0, 1.0),
+                                                     occluded);
                 return float4(ratio, 1.0 - dot(ratio, float3(0.2126, 0.7152, 0.0722)));
             }
             ENDHLSL

@@ -101,10 +101,15 @@ function followExposure(options, lighting) {
  *   up            the catcher's normal in your world (default [0, 1, 0])
  *   casterHeight  world units between the catcher and the edges that cast (default 0.5):
  *                 sets the penumbra (shadowRadiusTexels)
+ *   occluder      the hologram (a THREE.Object3D, or a THREE.Sphere): the catcher also
+ *                 darkens by the ambient light its bounding sphere hides from the floor
+ *                 (occluderSphere; docs/shadows.md); settable later as `.shadows.occluder`
  *   distance      how far from its target the light is put (default 5)
  * With `shadows`, the key light (keyLight) is a DirectionalLight casting shadows, the
  * LightProbe holds the rest of the SH9, and the catcher's opacity is the key light's share
- * of the catcher's irradiance; the connection's `.shadows` holds { light, catcher, key }.
+ * of the catcher's irradiance (plus, with an occluder, the share of its light the occluder
+ * hides of the ambient, per pixel); the connection's `.shadows` holds { light, catcher, key,
+ * occluder }.
  * Without lights in the messages, the light is off and the catcher transparent.
  * A top-level `renderer` (a WebGLRenderer) has its toneMappingExposure follow the room's
  * EV100 when the lighting is in absolute units (physicalExposure; issue 31).
@@ -149,8 +154,17 @@ function shadowSetup(opts) {
     opts.renderer.shadowMap.enabled = true;
     opts.renderer.shadowMap.type = THREE.PCFShadowMap;
   }
-  return { light, catcher, up: opts.up || [0, 1, 0], casterHeight: opts.casterHeight ?? 0.5,
-           distance: opts.distance ?? 5, state: { light, catcher, key: null } };
+  const state = { light, catcher, key: null, occluder: opts.occluder || null };
+  if (catcher && catcher.userData.shOccluder) {
+    // the hologram may move every frame: its sphere is taken just before the catcher is drawn
+    const sphere = new THREE.Sphere(), before = catcher.onBeforeRender;
+    catcher.onBeforeRender = function (...args) {
+      if (before) before.apply(this, args);
+      setCatcherOccluder(catcher, state.occluder ? occluderSphere(THREE, state.occluder, sphere) : null);
+    };
+  }
+  return { THREE, light, catcher, up: opts.up || [0, 1, 0], casterHeight: opts.casterHeight ?? 0.5,
+           distance: opts.distance ?? 5, state };
 }
 
 function applyShadows(s, lightProbe, lighting, settings) {
@@ -160,6 +174,7 @@ function applyShadows(s, lightProbe, lighting, settings) {
   setLightProbe(lightProbe, key ? key.coefficients : lighting, settings);
   setKeyLight(s.light, key, { intensity: settings.intensity, distance: s.distance, casterHeight: s.casterHeight });
   if (s.catcher) s.catcher.material.opacity = key ? key.share : 0;
+  if (s.catcher) setCatcherLighting(s.THREE, s.catcher, lighting, { rotation: settings.rotation, up: s.up });
 }
 
 // ---- reflections: the provider's cube as three's PMREM -----------------------------------
@@ -465,10 +480,164 @@ export function setKeyLight(light, key, { intensity = 1, distance = 5, casterHei
 export function shadowCatcher(THREE, { size = 4, segments = 1 } = {}) {
   const geometry = new THREE.PlaneGeometry(size, size, segments, segments);
   geometry.rotateX(-Math.PI / 2);
-  const mesh = new THREE.Mesh(geometry, new THREE.ShadowMaterial({ color: 0x000000, opacity: 0, depthWrite: false }));
+  const material = new THREE.ShadowMaterial({ color: 0x000000, opacity: 0, depthWrite: false });
+  const mesh = new THREE.Mesh(geometry, material);
   mesh.receiveShadow = true;
   mesh.name = "shlight shadow catcher";
+  const u = {
+    shIrradianceR: { value: new THREE.Matrix4().makeScale(0, 0, 0) },
+    shIrradianceG: { value: new THREE.Matrix4().makeScale(0, 0, 0) },
+    shIrradianceB: { value: new THREE.Matrix4().makeScale(0, 0, 0) },
+    shToProvider: { value: new THREE.Matrix3() },
+    shUp: { value: new THREE.Vector3(0, 1, 0) },
+    shAmbientAtUp: { value: new THREE.Vector3() },
+    shOccluderScale: { value: 0 },
+    shOccluderSphere: { value: new THREE.Vector4(0, 0, 0, 0) },
+  };
+  mesh.userData.shOccluder = u;
+  // ShadowMaterial's alpha, opacity · (1 − shadow), plus the share of the floor's light that the
+  // occluder's sphere hides of the ambient (shOccludedAmbientOfSphere, Rec. 709 luminance).
+  material.onBeforeCompile = (shader) => {
+    Object.assign(shader.uniforms, u);
+    shader.vertexShader = "varying vec3 vShWorld;\n" + shader.vertexShader.replace("#include <begin_vertex>",
+      "#include <begin_vertex>\n\tvShWorld = (modelMatrix * vec4(transformed, 1.0)).xyz;");
+    shader.fragmentShader = OCCLUDER_GLSL + shader.fragmentShader.replace(
+      "gl_FragColor = vec4( color, opacity * ( 1.0 - getShadowMask() ) );",
+      "gl_FragColor = vec4( color, min( 1.0, opacity * ( 1.0 - getShadowMask() ) + shOccludedShare() ) );");
+  };
+  material.customProgramCacheKey = () => "shlight-occluder";
   return mesh;
+}
+
+// The occluder's ambient occlusion on the catcher (docs/shadows.md): shRadianceFromMatrix,
+// shOccludedAmbient and shOccludedAmbientOfSphere are verbatim copies of shaders/sh9_lights.glsl's
+// (tests/test_shadows_three.py checks the copy); they read the ambient matrices, in the provider's
+// frame, as shIrradianceR/G/B.
+const OCCLUDER_GLSL = `
+uniform mat4 shIrradianceR;
+uniform mat4 shIrradianceG;
+uniform mat4 shIrradianceB;
+uniform mat3 shToProvider;      // your world -> the provider's frame (Rᵀ of connectLightProbe's rotation)
+uniform vec3 shUp;              // the catcher's normal, your world
+uniform vec3 shAmbientAtUp;     // max(E_a(n), 0) at that normal, per colour
+uniform float shOccluderScale;  // 1 / the floor's open irradiance (Rec. 709), 0: nothing lights it
+uniform vec4 shOccluderSphere;  // the occluder's bounding sphere, your world (w <= 0: none)
+varying vec3 vShWorld;
+float shRadianceFromMatrix(mat4 A, vec3 d) {
+    vec3 m = A[3].xyz;
+    float traceB = A[0][0] + A[1][1] + A[2][2];
+    return (4.0 * dot(d, mat3(A) * d) + 3.0 * dot(m, d) + A[3][3] - traceB) / 3.14159265358979;
+}
+
+vec3 shOccludedAmbient(vec3 n, vec3 toOccluder, float sinHalfAngle) {
+    float s = clamp(sinHalfAngle, 0.0, 1.0);
+    float s2 = s * s;
+    float h = clamp(dot(n, toOccluder), -1.0, 1.0);
+    float cap;
+    if (h * h >= s2) {
+        cap = 3.14159265358979 * s2 * max(h, 0.0);
+    } else {
+        float sinT = sqrt(max(1.0 - h * h, 0.0));
+        float x = sqrt(max(1.0 - s2, 0.0)) / max(s, 1e-30);   // cot α
+        float y = clamp(-x * h / max(sinT, 1e-30), -1.0, 1.0);
+        float sy = sqrt(max((s - h) * (s + h), 0.0)) / s;   // sinT·sqrt(1 − y²), accurate
+        cap = max((h * acos(y) - x * sy) * s2 + atan(sy, x), 0.0);
+    }
+    vec3 radiance = vec3(shRadianceFromMatrix(shIrradianceR, toOccluder),
+                         shRadianceFromMatrix(shIrradianceG, toOccluder),
+                         shRadianceFromMatrix(shIrradianceB, toOccluder));
+    return max(radiance, vec3(0.0)) * cap;
+}
+
+vec3 shOccludedAmbientOfSphere(vec3 n, vec3 p, vec4 sphere) {
+    if (sphere.w <= 0.0) return vec3(0.0);
+    vec3 toCentre = sphere.xyz - p;
+    float dist = length(toCentre);
+    vec3 d = dist > 0.0 ? toCentre / dist : n;
+    return shOccludedAmbient(n, d, sphere.w / max(dist, 1e-30));
+}
+
+float shOccludedShare() {
+    if (shOccluderSphere.w <= 0.0 || shOccluderScale <= 0.0) return 0.0;
+    vec3 n = shToProvider * shUp;
+    vec3 o = shOccludedAmbientOfSphere(n, shToProvider * vShWorld,
+                                       vec4(shToProvider * shOccluderSphere.xyz, shOccluderSphere.w));
+    return dot(min(o, shAmbientAtUp), vec3(0.2126, 0.7152, 0.0722)) * shOccluderScale;
+}
+`;
+
+/**
+ * The world bounding sphere of `object` (a THREE.Sphere is returned as is): the union of its
+ * meshes' geometry bounding spheres, in world space (a round hologram's own sphere, not the
+ * sphere around its box). Into `target`; radius 0 when it has no geometry.
+ */
+export function occluderSphere(THREE, object, target = new THREE.Sphere()) {
+  if (!object) return target.set(new THREE.Vector3(), 0), target;
+  if (object.isSphere) return target.copy(object);
+  const part = new THREE.Sphere();
+  let any = false;
+  object.updateWorldMatrix(true, true);
+  object.traverse((o) => {
+    if (!o.geometry || !o.visible) return;
+    if (!o.geometry.boundingSphere) o.geometry.computeBoundingSphere();
+    part.copy(o.geometry.boundingSphere).applyMatrix4(o.matrixWorld);
+    if (any) target.union(part); else { target.copy(part); any = true; }
+  });
+  if (!any) target.set(new THREE.Vector3(), 0);
+  return target;
+}
+
+/**
+ * Point a catcher (shadowCatcher) at the lighting its occluder term needs: `lighting` a Lighting
+ * or "sh9" message (its ambient matrices and lights), `rotation` (provider → your world, as
+ * connectLightProbe's), `up` the catcher's normal in your world. `ambientCoefficients` (27,
+ * your world, e.g. an XR probe's SH × intensity) with `lights` [{direction, irradiance}] may
+ * stand in for `lighting`.
+ */
+export function setCatcherLighting(THREE, catcher, lighting, { rotation = null, up = [0, 1, 0],
+                                                               ambientCoefficients = null, lights = [] } = {}) {
+  const u = catcher && catcher.userData.shOccluder;
+  if (!u) return;
+  let ambient, dirs = [], irr = [];
+  if (ambientCoefficients) {
+    ambient = matricesFromCoefficients(ambientCoefficients);
+    rotation = null;
+    for (const l of lights) { dirs.push(...l.direction); irr.push(...l.irradiance); }
+  } else {
+    const m = lighting && lighting.message ? lighting.message : lighting;
+    if (!m) return;
+    ambient = m.ambient_matrices && m.ambient_matrices.length === 48 ? m.ambient_matrices
+      : matricesFromCoefficients(m.ambient_coefficients && m.ambient_coefficients.length === 27
+        ? m.ambient_coefficients : m.coefficients);
+    const k = Number.isInteger(m.lights) ? m.lights : 0;
+    if (k > 0 && m.light_directions && m.light_directions.length === 3 * k) {
+      dirs = m.light_directions; irr = m.light_irradiance;
+    }
+  }
+  const R = rotation || [1, 0, 0, 0, 1, 0, 0, 0, 1];
+  u.shToProvider.value.set(R[0], R[3], R[6], R[1], R[4], R[7], R[2], R[5], R[8]);     // Rᵀ
+  u.shUp.value.set(up[0], up[1], up[2]).normalize();
+  const n = [0, 1, 2].map((j) => R[j] * up[0] + R[3 + j] * up[1] + R[6 + j] * up[2]);
+  const len = Math.hypot(n[0], n[1], n[2]) || 1;
+  const nn = n.map((v) => v / len);
+  const a = irradiance(ambient, nn).map((e) => Math.max(0, e));
+  let total = luminance(a);
+  for (let i = 0; 3 * i + 2 < dirs.length; i++) {
+    const d = dirs.slice(3 * i, 3 * i + 3), dl = Math.hypot(d[0], d[1], d[2]) || 1;
+    total += luminance(irr.slice(3 * i, 3 * i + 3)) * Math.max(0, (nn[0] * d[0] + nn[1] * d[1] + nn[2] * d[2]) / dl);
+  }
+  u.shAmbientAtUp.value.set(a[0], a[1], a[2]);
+  u.shOccluderScale.value = total > 0 ? 1 / total : 0;
+  [u.shIrradianceR, u.shIrradianceG, u.shIrradianceB].forEach((m, c) =>
+    m.value.fromArray(Array.from(ambient).slice(16 * c, 16 * c + 16)));      // symmetric: either order
+}
+
+/** Set a catcher's occluder sphere (a THREE.Sphere, your world; null or radius 0: none). */
+export function setCatcherOccluder(catcher, sphere) {
+  const u = catcher && catcher.userData.shOccluder;
+  if (!u) return;
+  if (sphere && sphere.radius > 0) u.shOccluderSphere.value.set(sphere.center.x, sphere.center.y, sphere.center.z, sphere.radius);
+  else u.shOccluderSphere.value.set(0, 0, 0, 0);
 }
 
 /**
@@ -486,7 +655,10 @@ export function shadowCatcher(THREE, { size = 4, segments = 1 } = {}) {
  *   angularRadiusDeg  the primary light's angular radius: a number, or a function returning
  *                     one (e.g. from the provider's sh9 messages, keyLight(conn.latest));
  *                     WebXR's estimate has no field for it. Default 0 (a hard shadow).
- * Returns { light, catcher, share, angularRadiusDeg, active, update() }: update() runs before
+ *   occluder          the hologram (THREE.Object3D or THREE.Sphere): the catcher also darkens
+ *                     by the estimate's ambient that its bounding sphere hides (as
+ *                     connectLightProbe's `shadows.occluder`); settable later as `.occluder`
+ * Returns { light, catcher, share, angularRadiusDeg, active, occluder, update() }: update() runs before
  * the catcher is drawn each frame (its onBeforeRender; call it yourself to read `share`
  * sooner) and does nothing while `active` is false (e.g. outside a session, where another
  * driver, connectLightProbe's `shadows`, may own the catcher).
@@ -507,9 +679,21 @@ export function xrShadows(THREE, xrLight, opts = {}) {
   }
   const up = new THREE.Vector3(...(opts.up || [0, 1, 0])).normalize();
   const casterHeight = opts.casterHeight ?? 0.5, e = new THREE.Vector3(), dir = new THREE.Vector3();
-  const state = { light, catcher, share: 0, angularRadiusDeg: 0, active: true, update };
+  const state = { light, catcher, share: 0, angularRadiusDeg: 0, active: true, update,
+                  occluder: opts.occluder || null };
+  const sphere = new THREE.Sphere(), ambient = new Float32Array(27);
   function update() {
     if (!state.active) return;
+    if (catcher && catcher.userData.shOccluder) {
+      // the occluder term from the estimate: its probe (everything but the primary light, your world)
+      const sh = xrLight.lightProbe.sh.coefficients, k = xrLight.lightProbe.intensity;
+      for (let i = 0; i < 9; i++) { ambient[3 * i] = sh[i].x * k; ambient[3 * i + 1] = sh[i].y * k; ambient[3 * i + 2] = sh[i].z * k; }
+      const to = light.position.clone().sub(light.target.position);
+      const lights = light.visible && to.lengthSq() > 0 ? [{ direction: to.normalize().toArray(),
+        irradiance: [light.color.r * light.intensity, light.color.g * light.intensity, light.color.b * light.intensity] }] : [];
+      setCatcherLighting(THREE, catcher, null, { up: up.toArray(), ambientCoefficients: ambient, lights });
+      setCatcherOccluder(catcher, state.occluder ? occluderSphere(THREE, state.occluder, sphere) : null);
+    }
     const r = typeof opts.angularRadiusDeg === "function" ? opts.angularRadiusDeg() : opts.angularRadiusDeg;
     state.angularRadiusDeg = Number.isFinite(+r) && +r > 0 ? +r : 0;
     xrLight.lightProbe.sh.getIrradianceAt(up, e).multiplyScalar(xrLight.lightProbe.intensity);
@@ -522,6 +706,12 @@ export function xrShadows(THREE, xrLight, opts = {}) {
     light.shadow.radius = shadowRadiusTexels(state.angularRadiusDeg, { casterHeight,
       mapSize: light.shadow.mapSize.x, frustumWidth: size });
   }
-  if (catcher) catcher.onBeforeRender = update;
+  if (catcher) {
+    const before = catcher.onBeforeRender;       // connectLightProbe's own, when it shares the catcher
+    catcher.onBeforeRender = function (...args) {
+      if (before) before.apply(this, args);
+      update();
+    };
+  }
   return state;
 }

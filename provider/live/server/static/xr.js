@@ -66,7 +66,7 @@ async function main() {
   const conn = connectLightProbe(provider, lightProbe, {
     probe: probe || "*", token, maxHz: 60,
     rotation: yaw ? yawRotation(yaw) : null,
-    shadows: floor ? { THREE, scene, renderer, catcher: floor, casterHeight: 1.3 } : undefined,
+    shadows: floor ? { THREE, scene, renderer, catcher: floor, casterHeight: 1.3, occluder: sphere } : undefined,
     onState: (state, detail) => {
       const el = $("status");
       el.dataset.state = state;
@@ -85,7 +85,7 @@ async function main() {
   // Its primary light casts the shadows in a session; the angular radius (not in WebXR's
   // estimate) from the provider's own messages: the brightest light's, as the webxr export's
   // primary light.
-  const xrShadow = floor ? xrShadows(THREE, xrLight, { renderer, catcher: floor, casterHeight: 1.3,
+  const xrShadow = floor ? xrShadows(THREE, xrLight, { renderer, catcher: floor, casterHeight: 1.3, occluder: sphere,
     angularRadiusDeg: () => { const k = conn.latest && keyLight(conn.latest); return k ? k.angularRadiusDeg : 0; },
   }) : null;
   if (xrShadow) xrShadow.active = false;
