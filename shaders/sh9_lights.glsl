@@ -38,27 +38,6 @@ vec3 shIrradianceWithLights(vec3 n) {
     return max(shIrradianceWithLightsUnclamped(n), vec3(0.0));
 }
 
-// The shadow a receiver sees (docs/contract.md §10, provider/core/lights/shadows.py): the
-// factor a shadow catcher multiplies the camera image by, per colour,
-//     ratio = (E_a(n) + Σ_k V_k I_k max(0, n·d_k)) / (E_a(n) + Σ_k I_k max(0, n·d_k)),
-// E_a(n) = max(ñᵀAñ, 0) (the ambient, unoccluded), V_k = visibility[k] in [0, 1] (the
-// engine's shadow map: 0 shadowed, 1 in the open; clamped to [0, 1]) for lights 0..3;
-// lights beyond the fourth, if SH_MAX_LIGHTS is raised, count as visible. 1 where the
-// denominator is <= 0 (no light to block), so the result is always in [0, 1].
-vec3 shShadowRatio(vec3 n, vec4 visibility) {
-    vec4 v = clamp(visibility, 0.0, 1.0);
-    vec3 ambient = max(shIrradianceUnclamped(n), vec3(0.0));
-    vec3 lit = ambient;
-    vec3 open = ambient;
-    for (int i = 0; i < SH_MAX_LIGHTS; ++i) {
-        if (i >= shLightCount) break;
-        vec3 e = shLightIrradiance[i].rgb * max(dot(n, shLightDirection[i].xyz), 0.0);
-        lit += (i < 4 ? v[min(i, 3)] : 1.0) * e;
-        open += e;
-    }
-    return mix(vec3(1.0), lit / max(open, vec3(1e-30)), greaterThan(open, vec3(0.0)));
-}
-
 // The SH9 ambient's radiance toward unit d, from its irradiance matrix alone: with
 // A = [[B, m], [mᵀ, M33]], (4 dᵀBd + 3 m·d + M33 − tr B) / π (each SH band of E over its
 // cosine-lobe factor π, 2π/3, π/4); not clamped.
@@ -122,4 +101,15 @@ vec3 shShadowRatioOccluded(vec3 n, vec4 visibility, vec3 occludedAmbient) {
         open += e;
     }
     return mix(vec3(1.0), lit / max(open, vec3(1e-30)), greaterThan(open, vec3(0.0)));
+}
+
+// The shadow a receiver sees (docs/contract.md §10, provider/core/lights/shadows.py): the
+// factor a shadow catcher multiplies the camera image by, per colour,
+//     ratio = (E_a(n) + Σ_k V_k I_k max(0, n·d_k)) / (E_a(n) + Σ_k I_k max(0, n·d_k)),
+// E_a(n) = max(ñᵀAñ, 0) (the ambient, unoccluded), V_k = visibility[k] in [0, 1] (the
+// engine's shadow map: 0 shadowed, 1 in the open; clamped to [0, 1]) for lights 0..3;
+// lights beyond the fourth, if SH_MAX_LIGHTS is raised, count as visible. 1 where the
+// denominator is <= 0 (no light to block), so the result is always in [0, 1].
+vec3 shShadowRatio(vec3 n, vec4 visibility) {
+    return shShadowRatioOccluded(n, visibility, vec3(0.0));   // nothing occluded: E_a stays
 }

@@ -52,33 +52,6 @@ float3 SHIrradianceWithLights(float3 n)
     return max(SHIrradianceWithLightsUnclamped(n), 0.0);
 }
 
-// The shadow a receiver sees (docs/contract.md §10, provider/core/lights/shadows.py): the
-// factor a shadow catcher multiplies the camera image by, per colour,
-//     ratio = (E_a(n) + Σ_k V_k I_k max(0, n·d_k)) / (E_a(n) + Σ_k I_k max(0, n·d_k)),
-// E_a(n) = max(ñᵀAñ, 0) (the ambient, unoccluded), V_k = visibility[k] in [0, 1] (the
-// engine's shadow map: 0 shadowed, 1 in the open; saturated) for lights 0..3; lights beyond
-// the fourth, if SH_MAX_LIGHTS is raised, count as visible. 1 where the denominator is
-// <= 0 (no light to block), so the result is always in [0, 1].
-float3 SHShadowRatio(float3 n, float4 visibility)
-{
-    float4 v = saturate(visibility);
-    float3 ambient = max(SHIrradianceUnclamped(n), 0.0);
-    float3 lit = ambient;
-    float3 open = ambient;
-    [unroll]
-    for (int i = 0; i < SH_MAX_LIGHTS; ++i)
-    {
-        if (i < _SHLightCount)
-        {
-            float3 e = _SHLightIrradiance[i].rgb * max(dot(n, _SHLightDirection[i].xyz), 0.0);
-            lit += (i < 4 ? v[min(i, 3)] : 1.0) * e;
-            open += e;
-        }
-    }
-    float3 lightFalls = (float3)(open > 0.0);
-    return lerp((float3)1.0, lit / max(open, 1e-30), lightFalls);
-}
-
 // The SH9 ambient's radiance toward unit d, from its irradiance matrix alone: with
 // A = [[B, m], [mᵀ, M33]], (4 dᵀBd + 3 m·d + M33 − tr B) / π (each SH band of E over its
 // cosine-lobe factor π, 2π/3, π/4); not clamped. A is symmetric, so row or column order
@@ -157,6 +130,18 @@ float3 SHShadowRatioOccluded(float3 n, float4 visibility, float3 occludedAmbient
     }
     float3 lightFalls = (float3)(open > 0.0);
     return lerp((float3)1.0, lit / max(open, 1e-30), lightFalls);
+}
+
+// The shadow a receiver sees (docs/contract.md §10, provider/core/lights/shadows.py): the
+// factor a shadow catcher multiplies the camera image by, per colour,
+//     ratio = (E_a(n) + Σ_k V_k I_k max(0, n·d_k)) / (E_a(n) + Σ_k I_k max(0, n·d_k)),
+// E_a(n) = max(ñᵀAñ, 0) (the ambient, unoccluded), V_k = visibility[k] in [0, 1] (the
+// engine's shadow map: 0 shadowed, 1 in the open; saturated) for lights 0..3; lights beyond
+// the fourth, if SH_MAX_LIGHTS is raised, count as visible. 1 where the denominator is
+// <= 0 (no light to block), so the result is always in [0, 1].
+float3 SHShadowRatio(float3 n, float4 visibility)
+{
+    return SHShadowRatioOccluded(n, visibility, (float3)0.0);   // nothing occluded: E_a stays
 }
 
 #endif // SH9_LIGHTS_INCLUDED
