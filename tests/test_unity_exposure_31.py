@@ -261,6 +261,22 @@ from test_photometry_31 import exact_illuminance_up, scene, write_bracket  # noq
 from test_unity import S4, _LiveClient, build_dir, live_exe  # noqa: E402,F401
 
 
+def _first_absolute_message_with_a_light(exe, serve_args, client_args):
+    """Run ``shlight serve SERVE_ARGS --lights auto --max-lights 1`` and the LiveClient (with a light, linear
+    colour space, CLIENT_ARGS) against it; its first event applying an absolute message with a light."""
+    with ServeProcess(*serve_args, "--lights", "auto", "--max-lights", "1", "--keepalive", "0.25") as server:
+        client = _LiveClient(exe, server.url, "-", "default", "90", "--light", "--color-space=linear",
+                             *client_args)
+        try:
+            _, ev = client.wait_for("an absolute message with a light",
+                                    lambda e: e["event"] == "applied" and e["lights"] >= 1
+                                    and e["wire_units"] == "cd/m²", timeout=90)
+            assert client.quit() == 0
+        finally:
+            client.kill()
+    return ev
+
+
 def test_live_client_applies_the_rooms_exposure_and_colour_temperature(live_exe, camera, tmp_path):  # noqa: F811
     """SH9LightingClient (compiled with the stand-in, Unity's player loop played by tests/csharp/LiveClient.cs)
     against `shlight serve --camera camera.json --lux E --lights auto`: in Camera Image mode with +1 EV of
@@ -270,17 +286,9 @@ def test_live_client_applies_the_rooms_exposure_and_colour_temperature(live_exe,
     from provider.core.geometry import sh
     hdr = scene("sky")
     (frame,) = write_bracket(tmp_path, "sun", hdr, (0,), n=8.0, iso=100, ext="jpg")
-    with ServeProcess("--source", str(frame), "--camera", str(camera), "--lux", str(exact_illuminance_up(hdr)),
-                      "--lights", "auto", "--max-lights", "1", "--keepalive", "0.25") as server:
-        client = _LiveClient(live_exe, server.url, "-", "default", "90", "--light", "--color-space=linear",
-                             "--exposure=camera_image", "--exposure-compensation=1", "--color-temperature")
-        try:
-            _, ev = client.wait_for("an absolute message with a light",
-                                    lambda e: e["event"] == "applied" and e["lights"] >= 1
-                                    and e["wire_units"] == "cd/m²", timeout=90)
-            assert client.quit() == 0
-        finally:
-            client.kill()
+    ev = _first_absolute_message_with_a_light(
+        live_exe, ["--source", str(frame), "--camera", str(camera), "--lux", str(exact_illuminance_up(hdr))],
+        ["--exposure=camera_image", "--exposure-compensation=1", "--color-temperature"])
     exposure = 2 / (1.2 * 2 ** ev["wire_ev100"])
     assert ev["exposure_scale"] == pytest.approx(exposure, rel=1e-12) and ev["camera_ev100"] is None
     amb = np.array(ev["wire_ambient_coefficients"]).reshape(9, 3)
@@ -314,18 +322,10 @@ def test_live_client_sets_the_physical_camera_for_hdrp(camera, tmp_path):  # noq
                    defines=("UNITY_2022_2_OR_NEWER",))
     hdr = scene("lab")
     (frame,) = write_bracket(tmp_path, "lab", hdr, (0,), n=4.0, iso=400, ext="jpg")
-    with ServeProcess("--source", str(frame), "--camera", str(camera), "--lights", "auto", "--max-lights", "1",
-                      "--keepalive", "0.25") as server:
-        client = _LiveClient(exe, server.url, "-", "default", "90", "--light", "--color-space=linear",
-                             "--linear-intensity", "--exposure=physical_camera", "--exposure-compensation=-0.5",
-                             "--physical-camera=2.8,400")
-        try:
-            _, ev = client.wait_for("an absolute message with a light",
-                                    lambda e: e["event"] == "applied" and e["lights"] >= 1
-                                    and e["wire_units"] == "cd/m²", timeout=90)
-            assert client.quit() == 0
-        finally:
-            client.kill()
+    ev = _first_absolute_message_with_a_light(
+        exe, ["--source", str(frame), "--camera", str(camera)],
+        ["--linear-intensity", "--exposure=physical_camera", "--exposure-compensation=-0.5",
+         "--physical-camera=2.8,400"])
     ev100 = ev["wire_ev100"] + 0.5
     cam = ev["camera"]
     assert ev["camera_ev100"] == pytest.approx(ev100, rel=1e-6) and ev["exposure_scale"] == 1.0

@@ -127,20 +127,25 @@ def _run_catcher(ctx, spv: Path, normals, values: dict, shadow, coords=None, pos
     return np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(n, 4)
 
 
+def _compiled_catcher_fragment(tmp_path):
+    """The built-in catcher's fragment stage compiled to SPIR-V against Unity 2019.4's includes, in
+    single-pass instanced stereo (HoloLens' D3D11 path; Quest's multiview reads the same array):
+    glslang's HLSL front end has no DX9-style sampler2D for the mono variant's tex2Dproj."""
+    dirs, _ = INCLUDE_SETS["2019.4"]
+    defines = ["SHADER_API_D3D11", "SHADER_TARGET=35", "UNITY_VERSION=201940", "SHADER_STAGE_FRAGMENT",
+               "SHADOWS_SCREEN", "STEREO_INSTANCING_ON"]
+    spv = tmp_path / "catcher_frag.spv"
+    ok, log = compile_pass(_catcher_pass(), "fragment", defines, dirs, spv)
+    assert ok, log
+    return spv
+
+
 def test_builtin_catcher_outputs_the_cpu_shadow_ratio(tmp_path):
     """Unity's own AutoLight path (screen-space shadows, single-pass instanced) run with a shadow map that reads V: the
     output is shadow_ratio(n, V) per colour (Unity's frame: z flipped, as the client uploads), alpha
     1 − its luminance; V = 1 leaves the image untouched (ratio 1, alpha 0)."""
     ctx = _gl_context()
-    p = _catcher_pass()
-    dirs, _ = INCLUDE_SETS["2019.4"]
-    # single-pass instanced stereo (HoloLens' D3D11 path; Quest's multiview reads the same array):
-    # glslang's HLSL front end has no DX9-style sampler2D for the mono variant's tex2Dproj
-    defines = ["SHADER_API_D3D11", "SHADER_TARGET=35", "UNITY_VERSION=201940", "SHADER_STAGE_FRAGMENT",
-               "SHADOWS_SCREEN", "STEREO_INSTANCING_ON"]
-    spv = tmp_path / "catcher_frag.spv"
-    ok, log = compile_pass(p, "fragment", defines, dirs, spv)
-    assert ok, log
+    spv = _compiled_catcher_fragment(tmp_path)
     rng = np.random.default_rng(7)
     amb = rng.normal(size=(9, 3)) * 0.2
     amb[0] = [0.9, 0.8, 0.7]
@@ -175,13 +180,7 @@ def test_builtin_catcher_takes_off_the_occluders_ambient_occlusion(tmp_path):
     around and under the sphere and for tilted receivers, at V 0.4 and 1 (in the open the floor under
     the sphere still darkens: the ambient it hides); w = 0 turns the occluder off."""
     ctx = _gl_context()
-    p = _catcher_pass()
-    dirs, _ = INCLUDE_SETS["2019.4"]
-    defines = ["SHADER_API_D3D11", "SHADER_TARGET=35", "UNITY_VERSION=201940", "SHADER_STAGE_FRAGMENT",
-               "SHADOWS_SCREEN", "STEREO_INSTANCING_ON"]
-    spv = tmp_path / "catcher_frag.spv"
-    ok, log = compile_pass(p, "fragment", defines, dirs, spv)
-    assert ok, log
+    spv = _compiled_catcher_fragment(tmp_path)
     rng = np.random.default_rng(8)
     amb = rng.normal(size=(9, 3)) * 0.2
     amb[0] = [0.9, 0.8, 0.7]
