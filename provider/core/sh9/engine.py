@@ -192,21 +192,39 @@ class SH9Projector(FrameDecoder):
         p = self.projection
         self._block = full.scaled_source_size(downsample)
         self._fold = None
+        # A camera with an absolute scale reports the up-facing illuminance of every frame:
+        # its cosine weights are one more column of the projection's weights (a 10th weight),
+        # summed in the same pass as the SH9, never a second decode (issue 34).
+        self._up_in_pass = downsample == 1 and _has_absolute_scale(response)
+        up = None
+        if self._up_in_pass:
+            from .meter import up_weights
+            up = up_weights(full, self.rotation)[0]          # (H, W) sr
+            self._up = np.ascontiguousarray(up, np.float32).reshape(-1)
         if isinstance(p, Equirect):
             rows, cols = p.row_integrals(), p.col_integrals()
-            self._rows = rows.astype(np.float32)          # (6, H)
+            self._rows = rows.astype(np.float32)          # (6, H), 7 with the up row
             self._cols = cols                               # (6, W) float64
             self._weights = None
+            self._up_dense = None
+            if up is not None and self.rotation is None:   # Δφ·½(sin²θ_b − sin²θ_t): a row
+                self._rows = np.vstack([self._rows, up[:, :1].T.astype(np.float32)])
+            elif up is not None:     # a turned cosine is not separable: per pixel, same pass
+                self._up_dense = self._up.reshape(p.height, p.width, 1)
         else:
             p.progress = progress
             try:
                 dense = p.sh_weights                          # (H·W, 9) float64
             finally:
                 p.progress = None
+            extra = None if up is None else up.reshape(-1, 1)
             # Lenses symmetric about their centres: quarter tables instead of the dense one.
-            self._fold = lens_fold(p, dense)
-            self._weights = (dense.astype(np.float32) if self._fold is None
-                             else np.zeros((0, 9), np.float32))
+            self._fold = lens_fold(p, dense, extra)
+            if self._fold is not None:
+                self._weights = np.zeros((0, 9), np.float32)
+            else:
+                self._weights = (dense if extra is None else np.hstack([dense, extra])
+                                 ).astype(np.float32)
             #: L00 weight of each pixel (H·W,): what the clipped samples carry.
             self._l00_weights = dense[:, 0].astype(np.float32)
         self._clipped = ClippedLight(self)
@@ -228,7 +246,11 @@ class SH9Projector(FrameDecoder):
         """Add the projection of linear rows [r0, r0+len) to ``acc``."""
         h, w = lin.shape[:2]
         if self._weights is None:
-            acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
+            if self._up_dense is not None:
+                acc[6] += (self._up_dense[r0:r0 + h] * lin).sum(axis=0).reshape(-1)
+                acc[:6] += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
+            else:
+                acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
         elif self._fold is not None:
             self._fold.add(lin, r0, acc)
         else:
@@ -238,21 +260,34 @@ class SH9Projector(FrameDecoder):
         if self._fold is not None:
             return self._fold.new()
         w = self.projection.width
-        return np.zeros((6, w * 3) if self._weights is None else (3, 9), np.float32)
+        if self._weights is None:
+            return np.zeros((6 + self._up_in_pass, w * 3), np.float32)
+        return np.zeros((3, self._weights.shape[1]), np.float32)
 
     def _coefficients(self, acc: np.ndarray) -> np.ndarray:
         """(9, 3) float64 coefficients from an accumulator."""
         if self._fold is not None:
             return self._fold.coefficients(acc)
         if self._weights is not None:
-            return acc.T.astype(np.float64)
+            return acc.T[:9].astype(np.float64)
         w = self.projection.width
-        rowsum = acc.reshape(6, w, 3).astype(np.float64)
+        rowsum = acc[:6].reshape(6, w, 3).astype(np.float64)
         partial = np.einsum("rwc,kw->rkc", rowsum, self._cols)  # (6 row fns, 6 col fns, 3)
         out = np.zeros((9, 3))
         for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
             out[k] += const * partial[ri, ci]
         return out
+
+    def _up_sum(self, acc) -> np.ndarray | None:
+        """(3,) float64: Σ up-facing cosine weight × linear RGB of the rows accumulated (the
+        10th weight), or None where it is not summed in the pass."""
+        if not self._up_in_pass:
+            return None
+        if self._fold is not None:
+            return self._fold.extra_sums(acc)[0]
+        if self._weights is not None:
+            return acc[:, 9].astype(np.float64)
+        return acc[6].reshape(-1, 3).astype(np.float64).sum(axis=0)
 
     def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None,
                        work=None):
@@ -285,9 +320,11 @@ class SH9Projector(FrameDecoder):
                 else:
                     stats["clipped_fraction"] = clip["n"] / frame.size
                     clipped = clip["l00"]
-                return self._coefficients(acc) * scale, None, mid, clipped
+                return self._coefficients(acc) * scale, None, mid, clipped, self._up_sum(acc)
             lin = self._project_float(frame, stats, acc)
-            return self._coefficients(acc) * scale, None, lin, 0.0
+            up = self._up_sum(acc)
+            return (self._coefficients(acc) * scale, None, lin, 0.0,
+                    None if up is None else up * scale)
         # Fast path: area-average the *linear* frame, then project the small one.
         clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
                    if integer else 0.0)
@@ -296,7 +333,7 @@ class SH9Projector(FrameDecoder):
         small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
                            interpolation=cv2.INTER_AREA)
         self._accumulate(small, 0, acc)
-        return self._coefficients(acc) * scale, small, lin, clipped
+        return self._coefficients(acc) * scale, small, lin, clipped, None
 
     def _project_float(self, frame: np.ndarray, stats: dict, acc: np.ndarray):
         """Clean (:class:`.float_clean.FloatCleaner`) and project a float frame band by band,
@@ -368,11 +405,13 @@ class SH9Projector(FrameDecoder):
         frame = self._prepare(frame)
         k = exposure_scale(exposure_s, gain, stats)
         k = self.absolute_scale(k, f_number, stats)
-        if stats.pop("absolute_factor", None) is not None:
-            lux = self.up_illuminance(frame, k)
+        absolute = stats.pop("absolute_factor", None) is not None
+        coeffs, small, light_input, clipped, up = self._project_frame(frame, stats, work=work)
+        if absolute:     # the 10th weight's sum, from the same pass (else the pixels again)
+            lux = (max(float(luminance(up)) * float(k), 0.0) if up is not None
+                   else self.up_illuminance(frame, k))
             if lux is not None:
                 stats["illuminance_lux"] = lux
-        coeffs, small, light_input, clipped = self._project_frame(frame, stats, work=work)
         if k is not None:
             coeffs, clipped = coeffs * k, clipped * k
         integer = frame.dtype in (np.uint8, np.uint16)
@@ -405,11 +444,13 @@ class SH9Projector(FrameDecoder):
         frame, from its pixels (not SH9, which truncates it: up to 6 % off under a ceiling
         of lamps): lux in absolute units. An integer frame goes through the projector's
         table, then times ``scale``. None where the weights are not at hand (a downsampled
-        projection other than equirect, or a cropped frame)."""
+        projection, or a cropped frame). :meth:`project` sums the same weights in its own
+        pass (a 10th weight) when the camera has an absolute scale; this is for frames
+        projected elsewhere (a merged bracket, the meter's closed frame, calibration)."""
         from .meter import up_weights
         if self._up is None:
             full = self._full
-            if not isinstance(full, Equirect) and self.downsample != 1:
+            if self.downsample != 1:     # equirect frames are never downsampled (withdrawn)
                 return None
             self._up = np.ascontiguousarray(
                 up_weights(full, self.rotation)[0], np.float32).reshape(-1)
@@ -433,7 +474,7 @@ class SH9Projector(FrameDecoder):
         frame = self._prepare(frame)
         if frame.dtype not in (np.uint8, np.uint16):
             raise InputError(f"a bracket needs 8- or 16-bit frames, got {frame.dtype}")
-        coeffs, _, _, clipped = self._project_frame(frame, stats, lut=table)
+        coeffs, _, _, clipped, _ = self._project_frame(frame, stats, lut=table)
         return coeffs * self.exposure, clipped * self.exposure, stats
 
     def result(self, coefficients: np.ndarray, stats: dict, exposure_s=None) -> SH9Result:
@@ -538,6 +579,15 @@ class SH9Projector(FrameDecoder):
         if self.dering == "auto":
             out, _ = sh.dering(out)
         return sh.truncate_order(out, order)
+
+
+def _has_absolute_scale(response) -> bool:
+    """Whether frames decoded with ``response`` can be in absolute units (camera.json
+    ``params.absolute``); a malformed one is reported per frame, as before."""
+    try:
+        return absolute_calibration(response) is not None
+    except InputError:
+        return False
 
 
 _PROJECTOR_CACHE: dict = {}
