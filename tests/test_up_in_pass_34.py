@@ -87,3 +87,26 @@ def test_no_up_column_without_an_absolute_scale():
     assert not plain._up_in_pass and plain._fold is not None and plain._fold.extras == 0
     result = plain.project(frame_u8(96, 96), exposure_s=0.01)
     assert "illuminance_lux" not in result.stats
+
+
+# -- the decode reads only the columns each band sees (provider.core.sh9.support) ----------------
+
+@pytest.mark.parametrize("size", [(1280, 720), (640, 480)])
+def test_decoding_only_the_seen_columns_changes_no_coefficient(size):
+    """SH9 and the clipped tallies with the support's spans are those of the whole frame
+    decoded (frame after frame: the reused band buffer holds nothing stale), and the
+    spans leave out the surround (Theta S: 28 %, the Pi camera's fisheye: 37 %)."""
+    w, h = size
+    name = "dual-fisheye" if w == 1280 else "fisheye"
+    spans = SH9Projector(w, h, name)
+    assert spans._spans is not None and spans._spans.fraction < 0.75
+    whole = SH9Projector(w, h, name)
+    whole._spans = None
+    for seed in range(3):
+        frame = frame_u8(w, h, seed)
+        frame[5 * h // 6:, :] = 255              # a clipped surround outside the circles
+        a, b = spans.project(frame), whole.project(frame)
+        scale = np.abs(b.coefficients).max()
+        assert np.abs(a.coefficients - b.coefficients).max() <= 1e-6 * scale
+        assert a.stats["clipped_fraction"] == b.stats["clipped_fraction"]
+        assert a.stats["clipped_light_fraction"] == b.stats["clipped_light_fraction"]

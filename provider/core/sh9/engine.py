@@ -32,6 +32,8 @@ import numpy as np
 from ..geometry import sh
 from .clipping import ClippedLight
 from .lens_fold import lens_fold
+from .meter import has_absolute_scale, pixels_up_illuminance, up_weights
+from .support import DecodeSpans
 from ..blas import one_blas_thread
 from ..errors import InputError
 from ..lights.extractor import LightExtractor, LinearView
@@ -191,15 +193,13 @@ class SH9Projector(FrameDecoder):
         # Pixel-independent precomputation.
         p = self.projection
         self._block = full.scaled_source_size(downsample)
-        self._fold = None
+        self._fold = self._spans = None
         # A camera with an absolute scale reports the up-facing illuminance of every frame:
         # its cosine weights are one more column of the projection's weights (a 10th weight),
         # summed in the same pass as the SH9, never a second decode (issue 34).
-        self._up_in_pass = downsample == 1 and _has_absolute_scale(response)
-        up = None
-        if self._up_in_pass:
-            from .meter import up_weights
-            up = up_weights(full, self.rotation)[0]          # (H, W) sr
+        self._up_in_pass = downsample == 1 and has_absolute_scale(response)
+        up = up_weights(full, self.rotation)[0] if self._up_in_pass else None   # (H, W) sr
+        if up is not None:
             self._up = np.ascontiguousarray(up, np.float32).reshape(-1)
         if isinstance(p, Equirect):
             rows, cols = p.row_integrals(), p.col_integrals()
@@ -225,6 +225,10 @@ class SH9Projector(FrameDecoder):
             else:
                 self._weights = (dense if extra is None else np.hstack([dense, extra])
                                  ).astype(np.float32)
+            if downsample == 1:      # 8/16-bit bands decode only the columns seen (.support)
+                self._spans = DecodeSpans.of(np.any(dense != 0, axis=1).reshape(
+                    p.height, p.width), self.BAND_ROWS,
+                    self._extractor.mid_factor if self._fuse_lights else 1)
             #: L00 weight of each pixel (H·W,): what the clipped samples carry.
             self._l00_weights = dense[:, 0].astype(np.float32)
         self._clipped = ClippedLight(self)
@@ -305,16 +309,22 @@ class SH9Projector(FrameDecoder):
                 table = self._lut(frame.dtype) if lut is None else lut
                 clip = self._clipped.start(frame, table)
                 mid = self._extractor.new_mid() if self._fuse_lights else None
+                spans = self._spans if work is None else None    # the cube reads them all
+                buffer = spans.new_buffer() if spans is not None else None
                 for r0 in range(0, frame.shape[0], self.BAND_ROWS):
                     band = frame[r0:r0 + self.BAND_ROWS]
-                    lin = self._linearise(band, lut)
+                    lin = (self._linearise(band, lut) if spans is None
+                           else spans.decode(band, r0, table, buffer))
                     self._accumulate(lin, r0, acc)
                     if work is not None and lut is None:   # the reflection cube's share
                         work.add_band(lin, r0)
                     if mid is not None:
-                        self._extractor.reduce_band(lin, r0, mid)
+                        self._extractor.reduce_band(
+                            lin, r0, mid, None if spans is None else spans.columns(r0))
                     if self._weights is None:
                         self._clipped.band(band, r0, clip)  # while the band is in cache
+                if buffer is not None:
+                    spans.done(buffer)
                 if self._weights is not None:
                     clipped = self.clipping(frame, table, stats)
                 else:
@@ -447,23 +457,7 @@ class SH9Projector(FrameDecoder):
         projection, or a cropped frame). :meth:`project` sums the same weights in its own
         pass (a 10th weight) when the camera has an absolute scale; this is for frames
         projected elsewhere (a merged bracket, the meter's closed frame, calibration)."""
-        from .meter import up_weights
-        if self._up is None:
-            full = self._full
-            if self.downsample != 1:     # equirect frames are never downsampled (withdrawn)
-                return None
-            self._up = np.ascontiguousarray(
-                up_weights(full, self.rotation)[0], np.float32).reshape(-1)
-        if frame.shape[0] * frame.shape[1] != self._up.size:
-            return None
-        if frame.dtype in (np.uint8, np.uint16):
-            from ..radiometry.response import apply_lut
-            lin = apply_lut(frame, self._lut(frame.dtype))
-        else:
-            lin = np.maximum(np.nan_to_num(np.asarray(frame, np.float32), nan=0.0,
-                                           posinf=0.0), 0.0) * np.float32(self.exposure)
-        rgb = self._up @ np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
-        return max(float(luminance(rgb)) * float(scale), 0.0)
+        return pixels_up_illuminance(self, frame, scale)
 
     # -- building blocks of brackets (provider.core.radiometry.bracket) ----------------------------------
     def project_part(self, frame: np.ndarray, table: np.ndarray):
@@ -579,15 +573,6 @@ class SH9Projector(FrameDecoder):
         if self.dering == "auto":
             out, _ = sh.dering(out)
         return sh.truncate_order(out, order)
-
-
-def _has_absolute_scale(response) -> bool:
-    """Whether frames decoded with ``response`` can be in absolute units (camera.json
-    ``params.absolute``); a malformed one is reported per frame, as before."""
-    try:
-        return absolute_calibration(response) is not None
-    except InputError:
-        return False
 
 
 _PROJECTOR_CACHE: dict = {}
