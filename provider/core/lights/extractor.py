@@ -249,20 +249,29 @@ class LightExtractor:
         """An empty mid copy (h, w, 3) float32 for :meth:`reduce_band`."""
         return np.empty((self.mid.height, self.mid.width, 3), np.float32)
 
-    def reduce_band(self, band: np.ndarray, r0: int, mid: np.ndarray) -> None:
+    def reduce_band(self, band: np.ndarray, r0: int, mid: np.ndarray, spans=None) -> None:
         """Area-average rows [r0, r0 + len) of the *linear* frame into ``mid`` (exact block
-        means: the same mid copy as :meth:`reduce` of the whole frame; see :meth:`fusable`)."""
+        means: the same mid copy as :meth:`reduce` of the whole frame; see :meth:`fusable`).
+        ``spans``: [(a, b)] column ranges (multiples of the factor, increasing) outside which
+        the band is zero: only they are averaged, the rest of the mid rows set to 0."""
         f = self.mid_factor
         if f == 1:
             mid[r0:r0 + band.shape[0]] = band
             return
-        h, w = band.shape[0] // f, band.shape[1]
-        # Rows first (a sum of f contiguous rows), then columns on a 1/f-size band: the
-        # same block means as one area resize, at a quarter of its instructions (f = 4).
-        rows = np.add.reduce(band[:h * f].reshape(h, f, w * 3), axis=1)
-        rows *= np.float32(1.0 / f)
-        mid[r0 // f:r0 // f + h] = cv2.resize(rows.reshape(h, w, 3), (w // f, h),
-                                              interpolation=cv2.INTER_AREA)
+        h = band.shape[0] // f
+        spans = spans if spans is not None else [(0, band.shape[1])]
+        edge = 0
+        for a, b in spans + [(band.shape[1], band.shape[1])]:
+            if a > edge:
+                mid[r0 // f:r0 // f + h, edge // f:a // f] = 0.0
+            edge = b
+        for a, b in spans:
+            # Rows first (a sum of f contiguous rows), then columns on a 1/f-size band: the
+            # same block means as one area resize, at a quarter of its instructions (f = 4).
+            rows = np.add.reduce(band[:h * f, a:b].reshape(h, f, (b - a) * 3), axis=1)
+            rows *= np.float32(1.0 / f)
+            mid[r0 // f:r0 // f + h, a // f:b // f] = cv2.resize(
+                rows.reshape(h, b - a, 3), ((b - a) // f, h), interpolation=cv2.INTER_AREA)
 
     def analyse(self, frame: np.ndarray, coefficients: np.ndarray) -> Analysis:
         """Candidates and truth of one frame.

@@ -32,6 +32,8 @@ import numpy as np
 from ..geometry import sh
 from .clipping import ClippedLight
 from .lens_fold import lens_fold
+from .meter import has_absolute_scale, pixels_up_illuminance, up_weights
+from .support import DecodeSpans
 from ..blas import one_blas_thread
 from ..errors import InputError
 from ..lights.extractor import LightExtractor, LinearView
@@ -191,22 +193,42 @@ class SH9Projector(FrameDecoder):
         # Pixel-independent precomputation.
         p = self.projection
         self._block = full.scaled_source_size(downsample)
-        self._fold = None
+        self._fold = self._spans = None
+        # A camera with an absolute scale reports the up-facing illuminance of every frame:
+        # its cosine weights are one more column of the projection's weights (a 10th weight),
+        # summed in the same pass as the SH9, never a second decode (issue 34).
+        self._up_in_pass = downsample == 1 and has_absolute_scale(response)
+        up = up_weights(full, self.rotation)[0] if self._up_in_pass else None   # (H, W) sr
+        if up is not None:
+            self._up = np.ascontiguousarray(up, np.float32).reshape(-1)
         if isinstance(p, Equirect):
             rows, cols = p.row_integrals(), p.col_integrals()
-            self._rows = rows.astype(np.float32)          # (6, H)
+            self._rows = rows.astype(np.float32)          # (6, H), 7 with the up row
             self._cols = cols                               # (6, W) float64
             self._weights = None
+            self._up_dense = None
+            if up is not None and self.rotation is None:   # Δφ·½(sin²θ_b − sin²θ_t): a row
+                self._rows = np.vstack([self._rows, up[:, :1].T.astype(np.float32)])
+            elif up is not None:     # a turned cosine is not separable: per pixel, same pass
+                self._up_dense = self._up.reshape(p.height, p.width, 1)
         else:
             p.progress = progress
             try:
                 dense = p.sh_weights                          # (H·W, 9) float64
             finally:
                 p.progress = None
+            extra = None if up is None else up.reshape(-1, 1)
             # Lenses symmetric about their centres: quarter tables instead of the dense one.
-            self._fold = lens_fold(p, dense)
-            self._weights = (dense.astype(np.float32) if self._fold is None
-                             else np.zeros((0, 9), np.float32))
+            self._fold = lens_fold(p, dense, extra)
+            if self._fold is not None:
+                self._weights = np.zeros((0, 9), np.float32)
+            else:
+                self._weights = (dense if extra is None else np.hstack([dense, extra])
+                                 ).astype(np.float32)
+            if downsample == 1:      # 8/16-bit bands decode only the columns seen (.support)
+                self._spans = DecodeSpans.of(np.any(dense != 0, axis=1).reshape(
+                    p.height, p.width), self.BAND_ROWS,
+                    self._extractor.mid_factor if self._fuse_lights else 1)
             #: L00 weight of each pixel (H·W,): what the clipped samples carry.
             self._l00_weights = dense[:, 0].astype(np.float32)
         self._clipped = ClippedLight(self)
@@ -228,7 +250,11 @@ class SH9Projector(FrameDecoder):
         """Add the projection of linear rows [r0, r0+len) to ``acc``."""
         h, w = lin.shape[:2]
         if self._weights is None:
-            acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
+            if self._up_dense is not None:
+                acc[6] += (self._up_dense[r0:r0 + h] * lin).sum(axis=0).reshape(-1)
+                acc[:6] += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
+            else:
+                acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
         elif self._fold is not None:
             self._fold.add(lin, r0, acc)
         else:
@@ -238,21 +264,34 @@ class SH9Projector(FrameDecoder):
         if self._fold is not None:
             return self._fold.new()
         w = self.projection.width
-        return np.zeros((6, w * 3) if self._weights is None else (3, 9), np.float32)
+        if self._weights is None:
+            return np.zeros((6 + self._up_in_pass, w * 3), np.float32)
+        return np.zeros((3, self._weights.shape[1]), np.float32)
 
     def _coefficients(self, acc: np.ndarray) -> np.ndarray:
         """(9, 3) float64 coefficients from an accumulator."""
         if self._fold is not None:
             return self._fold.coefficients(acc)
         if self._weights is not None:
-            return acc.T.astype(np.float64)
+            return acc.T[:9].astype(np.float64)
         w = self.projection.width
-        rowsum = acc.reshape(6, w, 3).astype(np.float64)
+        rowsum = acc[:6].reshape(6, w, 3).astype(np.float64)
         partial = np.einsum("rwc,kw->rkc", rowsum, self._cols)  # (6 row fns, 6 col fns, 3)
         out = np.zeros((9, 3))
         for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
             out[k] += const * partial[ri, ci]
         return out
+
+    def _up_sum(self, acc) -> np.ndarray | None:
+        """(3,) float64: Σ up-facing cosine weight × linear RGB of the rows accumulated (the
+        10th weight), or None where it is not summed in the pass."""
+        if not self._up_in_pass:
+            return None
+        if self._fold is not None:
+            return self._fold.extra_sums(acc)[0]
+        if self._weights is not None:
+            return acc[:, 9].astype(np.float64)
+        return acc[6].reshape(-1, 3).astype(np.float64).sum(axis=0)
 
     def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None,
                        work=None):
@@ -270,24 +309,32 @@ class SH9Projector(FrameDecoder):
                 table = self._lut(frame.dtype) if lut is None else lut
                 clip = self._clipped.start(frame, table)
                 mid = self._extractor.new_mid() if self._fuse_lights else None
+                spans = self._spans if work is None else None    # the cube reads them all
+                buffer = spans.new_buffer() if spans is not None else None
                 for r0 in range(0, frame.shape[0], self.BAND_ROWS):
                     band = frame[r0:r0 + self.BAND_ROWS]
-                    lin = self._linearise(band, lut)
+                    lin = (self._linearise(band, lut) if spans is None
+                           else spans.decode(band, r0, table, buffer))
                     self._accumulate(lin, r0, acc)
                     if work is not None and lut is None:   # the reflection cube's share
                         work.add_band(lin, r0)
                     if mid is not None:
-                        self._extractor.reduce_band(lin, r0, mid)
+                        self._extractor.reduce_band(
+                            lin, r0, mid, None if spans is None else spans.columns(r0))
                     if self._weights is None:
                         self._clipped.band(band, r0, clip)  # while the band is in cache
+                if buffer is not None:
+                    spans.done(buffer)
                 if self._weights is not None:
                     clipped = self.clipping(frame, table, stats)
                 else:
                     stats["clipped_fraction"] = clip["n"] / frame.size
                     clipped = clip["l00"]
-                return self._coefficients(acc) * scale, None, mid, clipped
+                return self._coefficients(acc) * scale, None, mid, clipped, self._up_sum(acc)
             lin = self._project_float(frame, stats, acc)
-            return self._coefficients(acc) * scale, None, lin, 0.0
+            up = self._up_sum(acc)
+            return (self._coefficients(acc) * scale, None, lin, 0.0,
+                    None if up is None else up * scale)
         # Fast path: area-average the *linear* frame, then project the small one.
         clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
                    if integer else 0.0)
@@ -296,7 +343,7 @@ class SH9Projector(FrameDecoder):
         small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
                            interpolation=cv2.INTER_AREA)
         self._accumulate(small, 0, acc)
-        return self._coefficients(acc) * scale, small, lin, clipped
+        return self._coefficients(acc) * scale, small, lin, clipped, None
 
     def _project_float(self, frame: np.ndarray, stats: dict, acc: np.ndarray):
         """Clean (:class:`.float_clean.FloatCleaner`) and project a float frame band by band,
@@ -368,11 +415,13 @@ class SH9Projector(FrameDecoder):
         frame = self._prepare(frame)
         k = exposure_scale(exposure_s, gain, stats)
         k = self.absolute_scale(k, f_number, stats)
-        if stats.pop("absolute_factor", None) is not None:
-            lux = self.up_illuminance(frame, k)
+        absolute = stats.pop("absolute_factor", None) is not None
+        coeffs, small, light_input, clipped, up = self._project_frame(frame, stats, work=work)
+        if absolute:     # the 10th weight's sum, from the same pass (else the pixels again)
+            lux = (max(float(luminance(up)) * float(k), 0.0) if up is not None
+                   else self.up_illuminance(frame, k))
             if lux is not None:
                 stats["illuminance_lux"] = lux
-        coeffs, small, light_input, clipped = self._project_frame(frame, stats, work=work)
         if k is not None:
             coeffs, clipped = coeffs * k, clipped * k
         integer = frame.dtype in (np.uint8, np.uint16)
@@ -405,24 +454,10 @@ class SH9Projector(FrameDecoder):
         frame, from its pixels (not SH9, which truncates it: up to 6 % off under a ceiling
         of lamps): lux in absolute units. An integer frame goes through the projector's
         table, then times ``scale``. None where the weights are not at hand (a downsampled
-        projection other than equirect, or a cropped frame)."""
-        from .meter import up_weights
-        if self._up is None:
-            full = self._full
-            if not isinstance(full, Equirect) and self.downsample != 1:
-                return None
-            self._up = np.ascontiguousarray(
-                up_weights(full, self.rotation)[0], np.float32).reshape(-1)
-        if frame.shape[0] * frame.shape[1] != self._up.size:
-            return None
-        if frame.dtype in (np.uint8, np.uint16):
-            from ..radiometry.response import apply_lut
-            lin = apply_lut(frame, self._lut(frame.dtype))
-        else:
-            lin = np.maximum(np.nan_to_num(np.asarray(frame, np.float32), nan=0.0,
-                                           posinf=0.0), 0.0) * np.float32(self.exposure)
-        rgb = self._up @ np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
-        return max(float(luminance(rgb)) * float(scale), 0.0)
+        projection, or a cropped frame). :meth:`project` sums the same weights in its own
+        pass (a 10th weight) when the camera has an absolute scale; this is for frames
+        projected elsewhere (a merged bracket, the meter's closed frame, calibration)."""
+        return pixels_up_illuminance(self, frame, scale)
 
     # -- building blocks of brackets (provider.core.radiometry.bracket) ----------------------------------
     def project_part(self, frame: np.ndarray, table: np.ndarray):
@@ -433,7 +468,7 @@ class SH9Projector(FrameDecoder):
         frame = self._prepare(frame)
         if frame.dtype not in (np.uint8, np.uint16):
             raise InputError(f"a bracket needs 8- or 16-bit frames, got {frame.dtype}")
-        coeffs, _, _, clipped = self._project_frame(frame, stats, lut=table)
+        coeffs, _, _, clipped, _ = self._project_frame(frame, stats, lut=table)
         return coeffs * self.exposure, clipped * self.exposure, stats
 
     def result(self, coefficients: np.ndarray, stats: dict, exposure_s=None) -> SH9Result:

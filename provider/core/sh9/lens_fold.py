@@ -21,6 +21,11 @@ a skewed calibration) keeps the dense table (:func:`lens_fold` returns None).
 The lens is reached only through the projection's dense weights and its
 :class:`~provider.core.geometry.projections.FisheyeLens` (centre, ``frame``): whatever its
 r(θ) curve, the check decides.
+
+Extra weight columns (world-frame scalars such as an up-facing meter's cosine, summed in the
+same pass as the SH9) need no symmetry: any weight on a symmetric grid is the sum of its four
+parity parts, ``w_EE = (w(+,+) + w(−,+) + w(+,−) + w(−,−))/4`` and so on, each of which meets
+the fold of its own parity; each non-zero part is one more row of that parity's table.
 """
 from __future__ import annotations
 
@@ -48,7 +53,8 @@ class _FoldedLens:
     nx: int
     ny: int
     D: np.ndarray
-    groups: list            # [(("E"|"O", "E"|"O"), k indices, table (ny·nx, len(k)))]
+    groups: list            # [(("E"|"O", "E"|"O"), k indices, table (len(k), ny·nx))]:
+    #                         k < 9 a lens-frame SH weight, k ≥ 9 the extra column k − 9
 
     @property
     def top(self):          # rows [Y//2 − ny, Y//2) mirror the bottom rows [Yb, Yb + ny)
@@ -72,11 +78,12 @@ class LensFold:
     accumulator per frame, :meth:`add` rows in increasing order (bands, or the whole
     frame), :meth:`coefficients` at the end."""
 
-    def __init__(self, lenses, residual_index, residual_weights, width):
+    def __init__(self, lenses, residual_index, residual_weights, width, extras=0):
         self.lenses = lenses
         self.width = width
+        self.extras = extras                        # extra world-frame weight columns
         self._res_index = residual_index            # sorted flat pixel indices
-        self._res_weights = residual_weights        # (R, 9) float32, world frame
+        self._res_weights = residual_weights        # (R, 9 + extras) float32, world frame
 
     @property
     def table_floats(self) -> int:
@@ -88,7 +95,7 @@ class LensFold:
                            np.empty((L.ny, L.nx, 3), np.float32)) for L in self.lenses],
                 "acc": [[np.zeros((3, len(k))) for _, k, _ in L.groups]
                         for L in self.lenses],
-                "res": np.zeros((3, 9), np.float32)}
+                "res": np.zeros((3, 9 + self.extras), np.float32)}
 
     def add(self, lin: np.ndarray, r0: int, state: dict) -> None:
         """Add linear float32 rows [r0, r0 + len(lin)) (full width) of the frame."""
@@ -124,12 +131,22 @@ class LensFold:
 
     def coefficients(self, state: dict) -> np.ndarray:
         """(9, 3) float64 world-frame coefficients of the rows added."""
-        out = state["res"].T.astype(np.float64)
+        out = state["res"].T[:9].astype(np.float64)
         for L, acc in zip(self.lenses, state["acc"]):
-            local = np.zeros((9, 3))
+            local = np.zeros((9 + self.extras, 3))
             for a, (_, k, _) in zip(acc, L.groups):
-                local[k] = a.T
-            out += L.D @ local
+                local[k] += a.T
+            out += L.D @ local[:9]
+        return out
+
+    def extra_sums(self, state: dict) -> np.ndarray:
+        """(extras, 3) float64: the frame's sums against the extra weight columns."""
+        out = state["res"].T[9:].astype(np.float64)
+        for L, acc in zip(self.lenses, state["acc"]):
+            for a, (_, k, _) in zip(acc, L.groups):
+                for j, kk in enumerate(k):
+                    if kk >= 9:
+                        out[kk - 9] += a[:, j]
         return out
 
 
@@ -164,9 +181,10 @@ def _lens_region(projection, i, n):
     return (0, w // 2) if i == 0 else (w - w // 2, w)
 
 
-def _fold_lens(lens, region, weights, height):
+def _fold_lens(lens, region, weights, height, extra=None):
     """A :class:`_FoldedLens` of ``lens`` over columns ``region`` of the (H, W, 9) world
-    weights, and the mask of the pixels it folds; None where the grid is not symmetric."""
+    weights (and the (H, W, E) ``extra`` world-frame columns, split into parity parts), and
+    the mask of the pixels it folds; None where the grid is not symmetric."""
     X, Y = 2 * lens.cx, 2 * lens.cy
     if abs(X - round(X)) > 1e-9 or abs(Y - round(Y)) > 1e-9:
         return None
@@ -199,36 +217,58 @@ def _fold_lens(lens, region, weights, height):
             if np.max(np.abs(w[..., k] - sign * q[..., k])) > tol:
                 return None
         groups.setdefault(("E" if sx > 0 else "O", "E" if sy > 0 else "O"), []).append(k)
-    tables = [(parity, ks, np.ascontiguousarray(q[..., ks].reshape(ny * nx, len(ks)).T,
-                                                np.float32))      # (k, ny·nx): one row a weight
-              for parity, ks in sorted(groups.items())]
+    columns = {parity: [q[..., k] for k in ks] for parity, ks in groups.items()}
+    if extra is not None:
+        ex = extra[:, a:b]
+        eq = {(1, 1): ex[yb:yb + ny, cr:cr + nx], (-1, 1): ex[yb:yb + ny, cl - nx:cl][:, ::-1],
+              (1, -1): ex[yt - ny:yt, cr:cr + nx][::-1],
+              (-1, -1): ex[yt - ny:yt, cl - nx:cl][::-1, ::-1]}
+        for e in range(ex.shape[-1]):
+            for px in ("E", "O"):
+                for py in ("E", "O"):
+                    part = sum(w[..., e] * ((-1 if px == "O" and mx < 0 else 1)
+                                            * (-1 if py == "O" and my < 0 else 1))
+                               for (mx, my), w in eq.items()) / 4.0
+                    if np.any(part != 0):
+                        groups.setdefault((px, py), []).append(9 + e)
+                        columns.setdefault((px, py), []).append(part)
+    tables = [(parity, ks, np.ascontiguousarray(
+                  np.stack(columns[parity]).reshape(len(ks), ny * nx), np.float32))
+              for parity, ks in sorted(groups.items())]     # (k, ny·nx): one row a weight
     mask = np.zeros(weights.shape[:2], bool)
     rows = np.r_[yt - ny:yt, yb:yb + ny]
     mask[np.ix_(rows, np.r_[xl - nx:xl, xr:xr + nx])] = True
     return _FoldedLens(X, Y, nx, ny, D, tables), mask
 
 
-def lens_fold(projection, weights: np.ndarray) -> LensFold | None:
+def lens_fold(projection, weights: np.ndarray,
+              extra: np.ndarray | None = None) -> LensFold | None:
     """The folded projection of a fisheye (``projection.lens``), dual fisheye
     (``projection.lenses``) or probe disc (mirror ball, angular map: ``cx``, ``cy``) with dense
-    world weights ``weights`` (H·W, 9), or None (not such a geometry, a grid not symmetric
-    about a centre, too many unpaired pixels)."""
+    world weights ``weights`` (H·W, 9) and optional extra world-frame columns ``extra``
+    (H·W, E) summed in the same pass (:meth:`LensFold.extra_sums`), or None (not such a
+    geometry, a grid not symmetric about a centre, too many unpaired pixels)."""
     lenses = _lenses(projection)
     if not lenses:
         return None
     h, w = projection.height, projection.width
     dense = np.asarray(weights, np.float64).reshape(h, w, 9)
+    ex = None if extra is None else np.asarray(extra, np.float64).reshape(h, w, -1)
     folded, covered = [], np.zeros((h, w), bool)
     for i, lens in enumerate(lenses):
         region = _lens_region(projection, i, len(lenses))
-        made = _fold_lens(lens, region, dense, h)
+        made = _fold_lens(lens, region, dense, h, ex)
         if made is None:
             return None
         folded.append(made[0])
         covered |= made[1]
     seen = np.any(dense != 0, axis=-1)
+    if ex is not None:
+        dense = np.concatenate([dense, ex], axis=-1)
+        seen |= np.any(ex != 0, axis=-1)
     residual = np.flatnonzero((seen & ~covered).reshape(-1))
     if residual.size > MAX_RESIDUAL_SHARE * max(int(seen.sum()), 1):
         return None
     return LensFold(folded, residual.astype(np.int64),
-                    dense.reshape(-1, 9)[residual].astype(np.float32), w)
+                    dense.reshape(h * w, -1)[residual].astype(np.float32), w,
+                    0 if ex is None else ex.shape[-1])

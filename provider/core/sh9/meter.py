@@ -43,7 +43,7 @@ import numpy as np
 from ..errors import InputError
 from ..geometry.projections import Equirect
 from ..radiometry.colour_temperature import rgb_of_cct
-from ..radiometry.photometry import luminance
+from ..radiometry.photometry import absolute_calibration, luminance
 
 UP = np.array([0.0, 1.0, 0.0])
 #: An up-facing meter sees a blob lower than this (degrees) at grazing incidence: warned.
@@ -132,6 +132,35 @@ def up_weights(projection, rotation=None) -> tuple[np.ndarray, np.ndarray, np.nd
     if rotation is not None:
         directions = directions @ np.asarray(rotation, np.float64).T
     return np.maximum(directions @ UP, 0.0) * omega, omega, directions
+
+
+def has_absolute_scale(response) -> bool:
+    """Whether frames decoded with ``response`` can be in absolute units (camera.json
+    ``params.absolute``); a malformed one is reported per frame, as before."""
+    try:
+        return absolute_calibration(response) is not None
+    except InputError:
+        return False
+
+
+def pixels_up_illuminance(projector, frame: np.ndarray, scale: float = 1.0) -> float | None:
+    """:meth:`~provider.core.sh9.engine.SH9Projector.up_illuminance` of a frame from its
+    pixels: the projector's up weights (built once, kept on it) times the linear frame."""
+    if projector._up is None:
+        if projector.downsample != 1:     # equirect frames are never downsampled (withdrawn)
+            return None
+        projector._up = np.ascontiguousarray(
+            up_weights(projector._full, projector.rotation)[0], np.float32).reshape(-1)
+    if frame.shape[0] * frame.shape[1] != projector._up.size:
+        return None
+    if frame.dtype in (np.uint8, np.uint16):
+        from ..radiometry.response import apply_lut
+        lin = apply_lut(frame, projector._lut(frame.dtype))
+    else:
+        lin = np.maximum(np.nan_to_num(np.asarray(frame, np.float32), nan=0.0,
+                                       posinf=0.0), 0.0) * np.float32(projector.exposure)
+    rgb = projector._up @ np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
+    return max(float(luminance(rgb)) * float(scale), 0.0)
 
 
 def _facing_weights(omega, directions, normal) -> np.ndarray:
