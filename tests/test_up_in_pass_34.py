@@ -112,3 +112,32 @@ def test_decoding_only_the_seen_columns_changes_no_coefficient(size, bits):
         assert np.abs(a.coefficients - b.coefficients).max() <= 1e-6 * scale
         assert a.stats["clipped_fraction"] == b.stats["clipped_fraction"]
         assert a.stats["clipped_light_fraction"] == b.stats["clipped_light_fraction"]
+
+
+@pytest.mark.parametrize("size,factor,bits", [((640, 480), 2, 8), ((640, 480), 4, 16),
+                                              ((1280, 720), 2, 8)])
+def test_the_fast_path_decodes_only_the_blocks_it_weighs(size, factor, bits):
+    """``--downsample F`` without lights decodes only the blocks the small projection weighs
+    (the Pi camera's fisheye leaves out about a third): the coefficients and clipped tallies
+    are those of shrinking the whole decoded frame, frame after frame; with lights (which
+    read the whole linear frame) the whole frame is decoded as before. The error estimate's
+    coarser copy sees the unweighed blocks as black (a real lens's surround), so it moves a
+    little."""
+    w, h = size
+    name = "dual-fisheye" if w == 1280 else "fisheye"
+    spans = SH9Projector(w, h, name, downsample=factor, error_estimate=True)
+    assert spans._spans is not None and spans._spans.spans.fraction < 0.8
+    whole = SH9Projector(w, h, name, downsample=factor, error_estimate=True)
+    whole._spans = None
+    assert SH9Projector(w, h, name, downsample=factor, lights="auto")._spans is None
+    for seed in range(3):
+        frame = frame_u8(w, h, seed)
+        frame[5 * h // 6:, :] = 255              # a clipped surround outside the circles
+        if bits == 16:
+            frame = frame.astype(np.uint16) * 257
+        a, b = spans.project(frame), whole.project(frame)
+        np.testing.assert_array_equal(a.coefficients, b.coefficients)
+        assert a.stats["clipped_fraction"] == b.stats["clipped_fraction"]
+        assert a.stats["clipped_light_fraction"] == b.stats["clipped_light_fraction"]
+        # the estimate's coarser copy averages the unweighed blocks (now zero) at the rim
+        assert a.stats["error_estimate"] == pytest.approx(b.stats["error_estimate"], rel=0.05)

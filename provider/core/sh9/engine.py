@@ -33,7 +33,7 @@ from ..geometry import sh
 from .clipping import ClippedLight
 from .lens_fold import lens_fold
 from .meter import has_absolute_scale, pixels_up_illuminance, up_weights
-from .support import DecodeSpans
+from .support import DecodeSpans, DownsampledSpans, shrink
 from ..blas import one_blas_thread
 from ..errors import InputError
 from ..lights.extractor import LightExtractor, LinearView
@@ -168,10 +168,7 @@ class SH9Projector(FrameDecoder):
             raise InputError(str(exc)) from None
         #: Allowed but probably wrong (e.g. a 2:1 panorama read as a fisheye): say them.
         self.warnings = list(full.warnings)
-        if withdrawn:
-            # The exact equirect weights are separable (a row and a column integral), so its
-            # exact pass costs about what the area average alone does: measured slower at
-            # every size with it (1.25-1.9×, docs/accuracy.md), it is withdrawn (issue 34).
+        if withdrawn:   # separable exact weights: the fast path was slower (docs/accuracy.md)
             self.warnings.append(
                 "--downsample on an equirect frame is withdrawn: its exact path is faster "
                 "(separable weights), so the frame is projected exactly")
@@ -225,10 +222,12 @@ class SH9Projector(FrameDecoder):
             else:
                 self._weights = (dense if extra is None else np.hstack([dense, extra])
                                  ).astype(np.float32)
+            seen = np.any(dense != 0, axis=1).reshape(p.height, p.width)
             if downsample == 1:      # 8/16-bit bands decode only the columns seen (.support)
-                self._spans = DecodeSpans.of(np.any(dense != 0, axis=1).reshape(
-                    p.height, p.width), self.BAND_ROWS,
-                    self._extractor.mid_factor if self._fuse_lights else 1)
+                self._spans = DecodeSpans.of(seen, self.BAND_ROWS,
+                                             self._extractor.mid_factor if self._fuse_lights else 1)
+            elif self._extractor is None:   # nothing else reads the whole linear frame
+                self._spans = DownsampledSpans.of(seen, downsample, self.BAND_ROWS)
             #: L00 weight of each pixel (H·W,): what the clipped samples carry.
             self._l00_weights = dense[:, 0].astype(np.float32)
         self._clipped = ClippedLight(self)
@@ -338,10 +337,12 @@ class SH9Projector(FrameDecoder):
         # Fast path: area-average the *linear* frame, then project the small one.
         clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
                    if integer else 0.0)
-        lin = self._linearise(frame, lut) if integer else self._clean_float(frame, stats)
-        bw, bh = self._block
-        small = cv2.resize(lin[:bh, :bw], (self.projection.width, self.projection.height),
-                           interpolation=cv2.INTER_AREA)
+        if integer and self._spans is not None:        # only the blocks seen (.support)
+            lin, small = None, self._spans.small(frame, self._lut(frame.dtype) if lut is None else lut)
+        else:
+            lin = self._linearise(frame, lut) if integer else self._clean_float(frame, stats)
+            bw, bh = self._block
+            small = shrink(lin[:bh, :bw], (self.projection.width, self.projection.height))
         self._accumulate(small, 0, acc)
         return self._coefficients(acc) * scale, small, lin, clipped, None
 
