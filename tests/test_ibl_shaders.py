@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -23,6 +22,7 @@ from provider.verify import cubemap, ibl, ibl_pictures
 from provider.verify.cubemap import GL_TEXTURE_CUBE_MAP_SEAMLESS
 
 from conftest import HDRI_DIR, load_hdri
+from shadertools import evaluator_or_skip
 
 ROOT = Path(__file__).resolve().parent.parent
 PANORAMAS = sorted(HDRI_DIR.glob("*.exr"))
@@ -31,13 +31,7 @@ U = 2.0 ** -24
 
 @pytest.fixture(scope="module", params=["glsl", "hlsl"])
 def evaluator(request, ctx):
-    from provider.verify.hlsl import HlslToolsMissing
-    try:
-        return ibl.IblEvaluator(ctx, request.param)
-    except HlslToolsMissing as exc:
-        if os.environ.get("SHLIGHT_REQUIRE_HLSL"):
-            raise
-        pytest.skip(str(exc))
+    return evaluator_or_skip(ibl.IblEvaluator, ctx, request.param)
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -23,6 +22,7 @@ from provider.verify import contract, harness, lights
 
 import reference as ref
 from conftest import HDRI_DIR, load_hdri
+from shadertools import evaluator_or_skip
 
 ROOT = Path(__file__).resolve().parent.parent
 PANORAMAS = sorted(HDRI_DIR.glob("*.exr"))
@@ -32,13 +32,7 @@ NORMALS = harness.dense_normals(16384)
 
 @pytest.fixture(scope="module", params=["glsl", "hlsl"])
 def evaluator(request, ctx):
-    from provider.verify.hlsl import HlslToolsMissing
-    try:
-        return lights.LightsEvaluator(ctx, request.param)
-    except HlslToolsMissing as exc:
-        if os.environ.get("SHLIGHT_REQUIRE_HLSL"):
-            raise
-        pytest.skip(str(exc))
+    return evaluator_or_skip(lights.LightsEvaluator, ctx, request.param)
 
 
 def test_every_lights_case_matches_the_cpu_to_float32_rounding(evaluator):

@@ -25,6 +25,7 @@ from provider import compute_sh9
 
 import reference as ref
 from conftest import HDRI_DIR, load_hdri
+from shadertools import evaluator_or_skip
 
 ROOT = Path(__file__).resolve().parent.parent
 PANORAMAS = sorted(HDRI_DIR.glob("*.exr"))
@@ -41,13 +42,7 @@ def glsl(ctx):
 
 @pytest.fixture(scope="module")
 def hlsl(ctx):
-    from provider.verify.hlsl import HlslToolsMissing
-    try:
-        return harness.IrradianceEvaluator(ctx, "hlsl")
-    except HlslToolsMissing as exc:
-        if os.environ.get("SHLIGHT_REQUIRE_HLSL"):
-            raise
-        pytest.skip(str(exc))
+    return evaluator_or_skip(harness.IrradianceEvaluator, ctx, "hlsl")
 
 
 @pytest.fixture(params=["glsl", "hlsl"])

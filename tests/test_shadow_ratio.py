@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -23,6 +22,7 @@ from provider.core.lights.shadows import (ambient_radiance, cap_projected_solid_
 from provider.verify import contract, harness, lights
 
 from conftest import HDRI_DIR
+from shadertools import evaluator_or_skip
 
 ROOT = Path(__file__).resolve().parent.parent
 PANORAMAS = sorted(HDRI_DIR.glob("*.exr"))
@@ -166,13 +166,7 @@ def test_a_bad_occluder_is_refused(bad):
 
 @pytest.fixture(scope="module", params=["glsl", "hlsl"])
 def evaluator(request, ctx):
-    from provider.verify.hlsl import HlslToolsMissing
-    try:
-        return lights.ShadowEvaluator(ctx, request.param)
-    except HlslToolsMissing as exc:
-        if os.environ.get("SHLIGHT_REQUIRE_HLSL"):
-            raise
-        pytest.skip(str(exc))
+    return evaluator_or_skip(lights.ShadowEvaluator, ctx, request.param)
 
 
 def test_every_shadow_case_matches_the_cpu_to_float32_rounding(evaluator):
@@ -211,13 +205,7 @@ def test_the_harness_catches_a_swapped_visibility(ctx):
 
 @pytest.fixture(scope="module", params=["glsl", "hlsl"])
 def shader_path(request, ctx):
-    from provider.verify.hlsl import HlslToolsMissing
-    try:
-        lights.OccludedEvaluator(ctx, request.param, "ambient")
-    except HlslToolsMissing as exc:
-        if os.environ.get("SHLIGHT_REQUIRE_HLSL"):
-            raise
-        pytest.skip(str(exc))
+    evaluator_or_skip(lights.OccludedEvaluator, ctx, request.param, "ambient")
     return request.param
 
 
