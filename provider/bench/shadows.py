@@ -48,6 +48,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ..core.lights.analysis import LUMA
 from .common import _progress
 
 #: Sphere centre above the floor, in sphere radii (its lowest point 2 radii up).
@@ -76,7 +77,6 @@ HELD_OUT = ("apartment", "bridge", "city", "dawn", "forest", "night", "venice")
 #: The disc model's target on each held-out panorama (issue 30): RMS and worst |error|.
 TARGET_RMS, TARGET_WORST = 0.035, 0.15
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 def _equirect_directions(w: int, h: int) -> tuple[np.ndarray, np.ndarray]:

@@ -51,6 +51,7 @@ import numpy as np
 from ..geometry import cubemap, sh
 from .notes import BASES, NOTES
 from ..errors import InputError
+from ..radiometry.photometry import LUMINANCE_WEIGHTS as _REC709
 
 FORMATS = ("threejs", "webxr", "unity", "arcore", "gltf", "openxr-android")
 
@@ -74,7 +75,6 @@ UNITY_FACTORS = BASIS_CONSTANTS * A_HAT / math.pi
 CUBE_FORMATS = ("gltf", "arcore")
 ARCORE_CUBE_SIZE = 16
 
-_REC709 = np.array([0.2126, 0.7152, 0.0722])
 _TO_UNITY = np.array([1.0, 1.0, -1.0])          # ours (x, y, z) -> Unity (x, y, -z)
 
 

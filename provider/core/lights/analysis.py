@@ -21,9 +21,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..geometry import sh
+from ..radiometry.photometry import LUMINANCE_WEIGHTS
 
 #: Rec. 709 luminance weights (linear RGB).
-LUMA = np.array([0.2126, 0.7152, 0.0722])
+LUMA = LUMINANCE_WEIGHTS
 
 
 # ---------------------------------------------------------------------------------------------

@@ -15,6 +15,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..radiometry.response import apply_lut
+
 #: Column gaps narrower than this are decoded anyway: one more cv2.LUT call costs more
 #: than a few dozen samples.
 MERGE_GAP = 16
@@ -99,7 +101,6 @@ class DecodeSpans:
             if band.dtype == np.uint8:
                 cv2.LUT(band[:, a:b], table, dst=out[:, a:b])
             else:
-                from ..radiometry.response import apply_lut
                 apply_lut(band[:, a:b], table, dst=out[:, a:b])
         return out
 

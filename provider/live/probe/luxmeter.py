@@ -79,8 +79,7 @@ class LuxMeter:
     def colour(self) -> tuple[float, float] | None:
         """A chroma meter's (CCT K, Duv) of its latest reading (an MQTT payload's ``cct``),
         else the fixed one (``--lux-cct``), else None (the closed light is neutral)."""
-        with self._lock:
-            return self._reading_colour or self._fixed_colour
+        return self.reading()[1]
 
     @colour.setter
     def colour(self, value) -> None:
@@ -95,8 +94,7 @@ class LuxMeter:
         except (TypeError, ValueError):
             lux = math.nan
         if not (math.isfinite(lux) and lux >= 0):
-            self.errors += 1
-            if self.errors in (1, 10, 100) or self.errors % 1000 == 0:
+            if self._count_error():
                 log.warning("lux meter %s: refused reading %r (%d so far)", self.description,
                             lux, self.errors)
             return False
@@ -104,6 +102,11 @@ class LuxMeter:
             self._value, self._at = lux, time.monotonic() if at is None else at
             self._reading_colour = colour
         return True
+
+    def _count_error(self) -> bool:
+        """Count one error; whether to log it (the 1st, 10th, 100th, then every 1000th)."""
+        self.errors += 1
+        return self.errors in (1, 10, 100) or self.errors % 1000 == 0
 
     def lux(self) -> float | None:
         """The latest reading in lux, or None (none yet, or older than ``max_age_s``)."""
@@ -152,8 +155,7 @@ class PolledLuxMeter(LuxMeter):
         try:
             return self.set(self.read())
         except OSError as exc:
-            self.errors += 1
-            if self.errors in (1, 10, 100) or self.errors % 1000 == 0:
+            if self._count_error():
                 log.warning("lux meter %s: %s (%d errors so far)", self.description, exc,
                             self.errors)
             return False

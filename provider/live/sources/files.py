@@ -12,10 +12,8 @@ import time
 from ...core.errors import InputError
 from ...core.radiometry.image_size import FrameTooLarge
 from ...core.radiometry.images import IMAGE_EXTENSIONS, TransientReadError, read_image
-from .base import Frame, Pacer, Source, SourceError, SourceFinished
+from .base import Frame, Pacer, Source, SourceError, SourceFinished, codec_messages
 from .exposure import still_info
-
-from .base import codec_messages
 
 log = logging.getLogger("shlight.source")
 

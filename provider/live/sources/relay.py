@@ -36,6 +36,7 @@ import numpy as np
 from ...core.geometry import sh
 from ...core.lights.analysis import Light
 from ...core.options import MAX_LIGHTS
+from ...core.radiometry.photometry import LUMINANCE_WEIGHTS as _REC709
 from ...core.sh9.engine import SH9Result
 from .base import USER_AGENT, Frame, Interrupted, Source, SourceError, SourceOptions, redact
 
@@ -55,7 +56,6 @@ MIN_CLOCK = 1e9
 _UNIT_TOLERANCE = 1e-9
 #: A light direction shorter than this names no direction.
 _MIN_DIRECTION = 1e-6
-_REC709 = np.array([0.2126, 0.7152, 0.0722])
 
 #: (minimum, maximum, minimum excluded) of each relayed number statistic (the JSON Schema's).
 _NUMBER_RANGES = {**{k: (0.0, MAX_MAGNITUDE, False)
