@@ -461,7 +461,8 @@ namespace Shlight.Lighting
             }
         }
 
-        // Show the first light (values.LightActive) on the driven light, or switch that light off.
+        // The drawn light's direction and irradiance as the shaders' light globals (sh9_lights.hlsl), one
+        // light while a Directional Light is driven, none otherwise.
         void SetLightGlobals()
         {
             double[] d = values.LightDirection, e = values.LightIrradiance;
@@ -472,6 +473,7 @@ namespace Shlight.Lighting
             Shader.SetGlobalVectorArray(IdLightIrradiance, lightIrradiances);
         }
 
+        // Show the drawn light (values.LightActive) on the driven light, or switch that light off.
         void ApplyLight(Light light, Sh9LightColorSpace colorSpace)
         {
             lightDriven = light != null && values.LightActive;

@@ -21,7 +21,7 @@ namespace Shlight.Lighting
 
         static double Luminance(double[] rgb, int offset)
         {
-            return 0.2126 * rgb[offset] + 0.7152 * rgb[offset + 1] + 0.0722 * rgb[offset + 2];
+            return Sh9LightTemperature.Luminance(rgb[offset], rgb[offset + 1], rgb[offset + 2]);
         }
 
         /// <summary>Index of the key light: the brightest of <paramref name="lights"/> lights (Rec. 709

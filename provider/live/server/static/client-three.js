@@ -404,6 +404,29 @@ export function withoutLight(coefficients, d, e) {
   return out;
 }
 
+// The ambient irradiance matrices of an "sh9" message: its ambient_matrices, else built from
+// its ambient (else full) coefficients.
+function ambientMatricesOf(m) {
+  return m.ambient_matrices && m.ambient_matrices.length === 48 ? m.ambient_matrices
+    : matricesFromCoefficients(m.ambient_coefficients && m.ambient_coefficients.length === 27
+      ? m.ambient_coefficients : m.coefficients);
+}
+
+// What a surface of normal n (provider frame) receives: the ambient E(n) clamped at 0 per
+// colour, each light's Rec. 709 luminance × max(0, n·d), and their total (luminance).
+function floorIrradiance(ambient, n, dirs, irr) {
+  const a = irradiance(ambient, n).map((e) => Math.max(0, e));
+  const lights = [];
+  let total = luminance(a);
+  for (let i = 0; 3 * i + 2 < dirs.length; i++) {
+    const d = dirs.slice(3 * i, 3 * i + 3), dl = Math.hypot(d[0], d[1], d[2]) || 1;
+    const e = luminance(irr.slice(3 * i, 3 * i + 3)) * Math.max(0, (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / dl);
+    lights.push(e);
+    total += e;
+  }
+  return { ambient: a, lights, total };
+}
+
 /**
  * The key light of a Lighting (client.js decodeLighting) or an "sh9" message, or null where
  * it has no lights: { index, direction (unit, your world: rotation · the provider's),
@@ -422,17 +445,8 @@ export function keyLight(lighting, { rotation = null, up = [0, 1, 0], previous =
   const radius = Array.isArray(radii) && radii.length === k && Number.isFinite(+radii[index]) ? Math.max(0, +radii[index]) : 0;
   // the floor normal in the provider's frame: Rᵀ·up
   const n = rotation ? [0, 1, 2].map((j) => rotation[j] * up[0] + rotation[3 + j] * up[1] + rotation[6 + j] * up[2]) : up;
-  const ambient = m.ambient_matrices && m.ambient_matrices.length === 48 ? m.ambient_matrices
-    : matricesFromCoefficients(m.ambient_coefficients && m.ambient_coefficients.length === 27
-      ? m.ambient_coefficients : m.coefficients);
-  let total = luminance(irradiance(ambient, n).map((e) => Math.max(0, e))), key = 0;   // clamped as E
-  for (let i = 0; i < k; i++) {
-    const d = dirs.slice(3 * i, 3 * i + 3);
-    const cos = Math.max(0, (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / Math.hypot(d[0], d[1], d[2]));
-    const e = luminance(irr.slice(3 * i, 3 * i + 3)) * cos;
-    total += e;
-    if (i === index) key = e;
-  }
+  const { total, lights } = floorIrradiance(ambientMatricesOf(m), n, dirs, irr);
+  const key = lights[index];
   const d0 = dirs.slice(3 * index, 3 * index + 3), len = Math.hypot(d0[0], d0[1], d0[2]);
   const e0 = irr.slice(3 * index, 3 * index + 3).map(Number);
   const coefficients = withoutLight(lighting.coefficients || m.coefficients, d0.map((v) => v / len), e0);
@@ -606,9 +620,7 @@ export function setCatcherLighting(THREE, catcher, lighting, { rotation = null, 
   } else {
     const m = lighting && lighting.message ? lighting.message : lighting;
     if (!m) return;
-    ambient = m.ambient_matrices && m.ambient_matrices.length === 48 ? m.ambient_matrices
-      : matricesFromCoefficients(m.ambient_coefficients && m.ambient_coefficients.length === 27
-        ? m.ambient_coefficients : m.coefficients);
+    ambient = ambientMatricesOf(m);
     const k = Number.isInteger(m.lights) ? m.lights : 0;
     if (k > 0 && m.light_directions && m.light_directions.length === 3 * k) {
       dirs = m.light_directions; irr = m.light_irradiance;
@@ -620,16 +632,11 @@ export function setCatcherLighting(THREE, catcher, lighting, { rotation = null, 
   const n = [0, 1, 2].map((j) => R[j] * up[0] + R[3 + j] * up[1] + R[6 + j] * up[2]);
   const len = Math.hypot(n[0], n[1], n[2]) || 1;
   const nn = n.map((v) => v / len);
-  const a = irradiance(ambient, nn).map((e) => Math.max(0, e));
-  let total = luminance(a);
-  for (let i = 0; 3 * i + 2 < dirs.length; i++) {
-    const d = dirs.slice(3 * i, 3 * i + 3), dl = Math.hypot(d[0], d[1], d[2]) || 1;
-    total += luminance(irr.slice(3 * i, 3 * i + 3)) * Math.max(0, (nn[0] * d[0] + nn[1] * d[1] + nn[2] * d[2]) / dl);
-  }
+  const { ambient: a, total } = floorIrradiance(ambient, nn, dirs, irr);
   u.shAmbientAtUp.value.set(a[0], a[1], a[2]);
   u.shOccluderScale.value = total > 0 ? 1 / total : 0;
   [u.shIrradianceR, u.shIrradianceG, u.shIrradianceB].forEach((m, c) =>
-    m.value.fromArray(Array.from(ambient).slice(16 * c, 16 * c + 16)));      // symmetric: either order
+    m.value.fromArray(ambient, 16 * c));      // symmetric: either order; no per-frame copies
 }
 
 /** Set a catcher's occluder sphere (a THREE.Sphere, your world; null or radius 0: none). */

@@ -84,9 +84,18 @@ async function main() {
   scene.add(xrLight);
   // Its primary light casts the shadows in a session; the angular radius (not in WebXR's
   // estimate) from the provider's own messages: the brightest light's, as the webxr export's
-  // primary light.
+  // primary light. Asked every frame: worked out once a message.
+  let radiusOf = null, radiusDeg = 0;
+  const keyRadiusDeg = () => {
+    if (conn.latest !== radiusOf) {
+      radiusOf = conn.latest;
+      const k = radiusOf && keyLight(radiusOf);
+      radiusDeg = k ? k.angularRadiusDeg : 0;
+    }
+    return radiusDeg;
+  };
   const xrShadow = floor ? xrShadows(THREE, xrLight, { renderer, catcher: floor, casterHeight: 1.3, occluder: sphere,
-    angularRadiusDeg: () => { const k = conn.latest && keyLight(conn.latest); return k ? k.angularRadiusDeg : 0; },
+    angularRadiusDeg: keyRadiusDeg,
   }) : null;
   if (xrShadow) xrShadow.active = false;
   // While it estimates, it alone lights the scene (a hidden light is not rendered:
