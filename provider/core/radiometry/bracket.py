@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from .photometry import UNITS_ABSOLUTE
 from .response import (CameraResponse, ResponseError, _as_lut, _positive_floor, _top, apply_lut,
                        check_bracket, check_time)
 
@@ -310,7 +311,7 @@ def project_bracket(projector, frames, times, *, gain: float = 1.0,
     factor = projector.absolute_scale(1.0, f_number, stats)
     radiance = m.radiance * np.float32(factor) if factor != 1.0 else m.radiance
     result = projector.project(radiance)
-    if stats.pop("absolute_factor", None) is not None:
+    if stats["coefficient_units"] == UNITS_ABSOLUTE:
         lux = projector.up_illuminance(radiance)
         if lux is not None:
             stats["illuminance_lux"] = lux
@@ -384,7 +385,6 @@ class BracketProjector:
         k = 1.0 / (check_time(exposure_s, "exposure_s") * check_time(gain, "gain"))
         units = {}
         k = self.projector.absolute_scale(k, f_number, units)
-        units.pop("absolute_factor", None)
         bits = 16 if getattr(frame, "dtype", None) == np.uint16 else 8
         coeffs, clipped, stats = self.projector.project_part(
             frame, self._bracket(bits).slot_table(slot))

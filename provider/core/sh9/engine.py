@@ -416,7 +416,7 @@ class SH9Projector(FrameDecoder):
         frame = self._prepare(frame)
         k = exposure_scale(exposure_s, gain, stats)
         k = self.absolute_scale(k, f_number, stats)
-        absolute = stats.pop("absolute_factor", None) is not None
+        absolute = stats["coefficient_units"] == UNITS_ABSOLUTE
         coeffs, small, light_input, clipped, up = self._project_frame(frame, stats, work=work)
         if absolute:     # the 10th weight's sum, from the same pass (else the pixels again)
             lux = (max(float(luminance(up)) * float(k), 0.0) if up is not None
@@ -446,7 +446,6 @@ class SH9Projector(FrameDecoder):
         if factor is None:
             return k
         stats["coefficient_units"] = UNITS_ABSOLUTE
-        stats["absolute_factor"] = factor
         stats["f_number"] = float(f_number or absolute_calibration(self.response)["f_number"])
         return k * factor
 

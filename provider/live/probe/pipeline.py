@@ -363,9 +363,8 @@ class Probe:
         if closure.warning and closure.warning[:40] != self.meter_warning[:40]:
             log.warning("probe %s: lux meter: %s", self.name, closure.warning)
         self.meter_warning = closure.warning
-        for key in ("error_estimate",):
-            if key in result.stats:
-                closed.stats[key] = result.stats[key]
+        if "error_estimate" in result.stats:
+            closed.stats["error_estimate"] = result.stats["error_estimate"]
         return closed
 
     def _locate_ball(self, key, image) -> None:
