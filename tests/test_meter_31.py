@@ -188,14 +188,17 @@ def test_meter_options_need_lux_and_parse_in_one_line(tmp_path):
 
 def test_the_meters_weights_are_built_once_per_projection():
     """A live meter closes every frame: its pixel weights (0.4 s to build at 1920×960) are
-    built once per projection and rotation, kept read-only, and equal to up_weights."""
+    built once per projector (its projection and rotation), kept read-only, and equal to
+    up_weights."""
     from provider.core.sh9.meter import _meter_weights
-    first = _meter_weights(Equirect(64, 32), None)
-    assert _meter_weights(Equirect(64, 32), None) is first          # a new frame, same shape
+    projector = SH9Projector(64, 32, "equirect")
+    first = _meter_weights(projector, Equirect(64, 32))
+    assert _meter_weights(projector, Equirect(64, 32)) is first      # a new frame, same shape
     assert not first[0].flags.writeable and not first[2].flags.writeable
     for got, want in zip(first, up_weights(Equirect(64, 32))):
         np.testing.assert_array_equal(got, want)
     turned = np.array([[0, 0, 1], [0, 1, 0], [-1, 0, 0]], float)
-    assert _meter_weights(Equirect(64, 32), turned) is not first
-    np.testing.assert_allclose(_meter_weights(Equirect(64, 32), turned)[0],
+    rotated = SH9Projector(64, 32, "equirect", rotation=turned)
+    assert _meter_weights(rotated, Equirect(64, 32)) is not first
+    np.testing.assert_allclose(_meter_weights(rotated, Equirect(64, 32))[0],
                                up_weights(Equirect(64, 32), turned)[0])

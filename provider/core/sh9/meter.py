@@ -35,6 +35,7 @@ its colour is most of what a neutral closure misses.
 """
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import cv2
@@ -255,26 +256,22 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
     return out, closure
 
 
-#: The meter's per-pixel weights of the last few projections (pixel-independent: built once
-#: per projection, not per live frame; 1920×960 takes ~0.4 s to build).
-_METER_WEIGHTS: dict = {}
-_METER_WEIGHTS_KEPT = 4
+#: Each projector's meter weights (pixel-independent: built once, not per live frame;
+#: 1920×960 takes ~0.4 s to build), gone with the projector.
+_METER_WEIGHTS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
-def _meter_weights(projection, rotation):
-    """:func:`up_weights` of ``projection`` (and ``rotation``), built once and kept (read-only)."""
-    rot = None if rotation is None else np.asarray(rotation, np.float64).tobytes()
-    key = ((type(projection).__name__, projection.shape, rot) if isinstance(projection, Equirect)
-           else (id(projection), rot))
-    hit = _METER_WEIGHTS.get(key)
-    if hit is not None and (isinstance(projection, Equirect) or hit[0] is projection):
+def _meter_weights(projector, projection):
+    """:func:`up_weights` of ``projection`` in ``projector``'s rotation, built once per
+    projector and kept (read-only)."""
+    key = (projection.shape, isinstance(projection, Equirect))
+    hit = _METER_WEIGHTS.get(projector)
+    if hit is not None and hit[0] == key:
         return hit[1]
-    weights = up_weights(projection, rotation)
+    weights = up_weights(projection, projector.rotation)
     for array in (weights[0], weights[2]):      # ours (the solid angle may be the projection's)
         array.setflags(write=False)
-    while len(_METER_WEIGHTS) >= _METER_WEIGHTS_KEPT:
-        _METER_WEIGHTS.pop(next(iter(_METER_WEIGHTS)))
-    _METER_WEIGHTS[key] = (projection, weights)    # the projection kept: its id stays its own
+    _METER_WEIGHTS[projector] = (key, weights)
     return weights
 
 
@@ -317,7 +314,7 @@ def project_with_meter(projector, frames, times, gain, f_number, result, lux: fl
         raise InputError("--lux with --downsample needs an equirect frame (or leave "
                          "--downsample out)")
     closed, closure = close_clipped(radiance, clipped,
-                                    _meter_weights(projection, projector.rotation), lux,
+                                    _meter_weights(projector, projection), lux,
                                     facing=facing, colour=colour)
     new = projector.project(closed, tracker=tracker)
     for key in ("clipped_fraction", "clipped_light_fraction", "exposure_s", "gain",
