@@ -424,10 +424,7 @@ class LightExtractor:
                     roi = np.asarray(frame[r0:r1, c0:c1], np.float64)
                     py, px = np.mgrid[r0:r1, c0:c1] + 0.5
                     dirs, valid = self.full.pixel_to_direction(px, py)
-                    dx = (self.full.pixel_to_direction(px + 0.5, py)[0]
-                          - self.full.pixel_to_direction(px - 0.5, py)[0])
-                    dy = (self.full.pixel_to_direction(px, py + 0.5)[0]
-                          - self.full.pixel_to_direction(px, py - 0.5)[0])
+                    dx, dy = pixel_sides(self.full, px, py)
                     om = np.linalg.norm(np.cross(dx, dy), axis=-1) * valid
                     level = self.thresholds[c.level] * analysis.mu
                     ex = np.maximum(roi @ LUMA - level, 0.0) * om
@@ -436,7 +433,7 @@ class LightExtractor:
                     if nv > 0 and float(v @ d) / nv > math.cos(2 * self._pixel_angle):
                         d = v / nv
                         ang = np.arccos(np.clip(dirs @ d, -1.0, 1.0))
-                        fp2 = (np.sum(dx * dx, axis=-1) + np.sum(dy * dy, axis=-1)) / 12.0
+                        fp2 = _footprint2(dx, dy)
                         radius = angular_radius_deg(ex[valid], ang[valid], fp2[valid])
             ambient -= sh.sh_basis(d)[:, None] * light.irradiance[None, :]
             lights.append(Light(d, light.irradiance, light.flux, light.spread_deg,
@@ -480,16 +477,27 @@ class LightExtractor:
         return self.extract(frame, coefficients, full=full)
 
 
-def pixel_footprint2(projection, px, py) -> np.ndarray:
-    """Mean squared angular offset (rad²) of a pixel's area about its centre, per pixel:
-    ``(w² + h²) / 12`` with w, h the angles its sides span (central differences of
-    ``projection.pixel_to_direction``, so any projection works; 0 where invalid)."""
+def pixel_sides(projection, px, py) -> tuple[np.ndarray, np.ndarray]:
+    """The direction vectors a pixel's width and height span at centres (px, py): central
+    differences of ``projection.pixel_to_direction``, so any projection works."""
     dx = (projection.pixel_to_direction(px + 0.5, py)[0]
           - projection.pixel_to_direction(px - 0.5, py)[0])
     dy = (projection.pixel_to_direction(px, py + 0.5)[0]
           - projection.pixel_to_direction(px, py - 0.5)[0])
+    return dx, dy
+
+
+def _footprint2(dx, dy) -> np.ndarray:
+    """``(w² + h²) / 12`` from a pixel's sides (:func:`pixel_sides`)."""
+    return (np.sum(dx * dx, axis=-1) + np.sum(dy * dy, axis=-1)) / 12.0
+
+
+def pixel_footprint2(projection, px, py) -> np.ndarray:
+    """Mean squared angular offset (rad²) of a pixel's area about its centre, per pixel:
+    ``(w² + h²) / 12`` with w, h the angles its sides span (:func:`pixel_sides`; 0 where
+    invalid)."""
     valid = projection.pixel_to_direction(px, py)[1]
-    return np.where(valid, (np.sum(dx * dx, axis=-1) + np.sum(dy * dy, axis=-1)) / 12.0, 0.0)
+    return np.where(valid, _footprint2(*pixel_sides(projection, px, py)), 0.0)
 
 
 class LinearView:
