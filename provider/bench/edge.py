@@ -67,7 +67,7 @@ def edge_frame(width: int, height: int, seed: int = 0):
     return frame
 
 
-def edge_workloads(quick: bool = False) -> dict:
+def edge_workloads() -> dict:
     """name -> (description, projector builder, frame): the section's counted workloads."""
     from ..core.sh9.engine import SH9Projector
     from ..core.reflections.environment import EnvironmentProjector
@@ -122,7 +122,7 @@ def valgrind_missing() -> str | None:
 def bench_edge(hdri, out: Path, args):
     import cv2
     repeat = 5 if args.quick else 30
-    workloads = edge_workloads(args.quick)
+    workloads = edge_workloads()
     missing = valgrind_missing()
     count = args.instructions and missing is None
     lines = ["# Edge device: instructions per frame against a 1 GHz core", "",
