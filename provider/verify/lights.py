@@ -367,20 +367,27 @@ SHADOW_VISIBILITIES = {"open": (1.0, 1.0, 1.0, 1.0), "shadowed": (0.0, 0.0, 0.0,
 class ShadowEvaluator(LightsEvaluator):
     """Renders ``shShadowRatio(n, visibility)`` / ``SHShadowRatio`` through one path."""
 
-    def __init__(self, ctx, path: str = "glsl"):
-        source = (shader_source("sh9_lights.glsl") + SHADOW_GLSL_EVALUATOR if path == "glsl"
-                  else SHADOW_HLSL_EVALUATOR)
+    #: The vec4 uniforms set with the matrices: GLSL name -> (attribute, HLSL name); one
+    #: that the evaluated function does not use is optimised away and skipped.
+    VEC4_UNIFORMS = {"shadowVisibility": ("visibility", "_ShadowVisibility")}
+
+    def __init__(self, ctx, path: str = "glsl", source: str | None = None):
+        if source is None:
+            source = (shader_source("sh9_lights.glsl") + SHADOW_GLSL_EVALUATOR
+                      if path == "glsl" else SHADOW_HLSL_EVALUATOR)
         IrradianceEvaluator.__init__(self, ctx, path, source)
         self._lights = (_slots([], []), 0)
         self.visibility = np.ones(4, np.float32)
 
     def set_matrices(self, matrices) -> None:
-        super().set_matrices(matrices)
-        v = np.asarray(self.visibility, np.float32).reshape(4)
-        if self._block is None:
-            set_uniform(self.program, "shadowVisibility", tuple(float(x) for x in v))
-        else:
-            self._ubo.write(v.tobytes(), offset=self._block[1]["_ShadowVisibility"])
+        LightsEvaluator.set_matrices(self, matrices)
+        for name, (attribute, hlsl) in self.VEC4_UNIFORMS.items():
+            v = np.asarray(getattr(self, attribute), np.float32).reshape(4)
+            if self._block is None:
+                if name in self.program:
+                    set_uniform(self.program, name, tuple(float(x) for x in v))
+            elif hlsl in self._block[1]:
+                self._ubo.write(v.tobytes(), offset=self._block[1][hlsl])
 
 
 def compare_shadow(case: LightCase, visibility, path: str, ratio, normals,
@@ -467,26 +474,14 @@ class OccludedEvaluator(ShadowEvaluator):
     """Renders ``shOccludedAmbient`` (``what`` = "ambient") or ``shShadowRatioOccluded`` with
     it ("ratio"), and the HLSL twins, for one occluder (a uniform) through one path."""
 
-    def __init__(self, ctx, path: str = "glsl", what: str = "ratio"):
-        source = (shader_source("sh9_lights.glsl") + OCCLUDED_GLSL_EVALUATORS[what]
-                  if path == "glsl" else OCCLUDED_HLSL_EVALUATORS[what])
-        IrradianceEvaluator.__init__(self, ctx, path, source)
-        self._lights = (_slots([], []), 0)
-        self.what = what
-        self.visibility = np.ones(4, np.float32)
-        self.occluder = np.array([0.0, 1.0, 0.0, 0.0], np.float32)
+    VEC4_UNIFORMS = {**ShadowEvaluator.VEC4_UNIFORMS, "occluder": ("occluder", "_Occluder")}
 
-    def set_matrices(self, matrices) -> None:
-        LightsEvaluator.set_matrices(self, matrices)
-        values = {"shadowVisibility": self.visibility, "occluder": self.occluder}
-        hlsl = {"shadowVisibility": "_ShadowVisibility", "occluder": "_Occluder"}
-        for name, v in values.items():
-            v = np.asarray(v, np.float32).reshape(4)
-            if self._block is None:
-                if name in self.program:
-                    set_uniform(self.program, name, tuple(float(x) for x in v))
-            elif hlsl[name] in self._block[1]:
-                self._ubo.write(v.tobytes(), offset=self._block[1][hlsl[name]])
+    def __init__(self, ctx, path: str = "glsl", what: str = "ratio"):
+        super().__init__(ctx, path, shader_source("sh9_lights.glsl")
+                         + OCCLUDED_GLSL_EVALUATORS[what] if path == "glsl"
+                         else OCCLUDED_HLSL_EVALUATORS[what])
+        self.what = what
+        self.occluder = np.array([0.0, 1.0, 0.0, 0.0], np.float32)
 
 
 def _occluder(direction, sin_half_angle) -> np.ndarray:
