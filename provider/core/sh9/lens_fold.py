@@ -199,12 +199,12 @@ def _fold_lens(lens, region, weights, height, extra=None):
     local = weights[:, a:b] @ D          # (H, b − a, 9), the lens's columns: w_world = D w_local
     xl, xr, yt, yb = X // 2, X - X // 2, Y // 2, Y - Y // 2
     cl, cr = xl - a, xr - a              # the same columns in ``local``
-    quads = {  # (x parity sign source, y parity sign source): the quadrant's weights
-        (1, 1): local[yb:yb + ny, cr:cr + nx],
-        (-1, 1): local[yb:yb + ny, cl - nx:cl][:, ::-1],
-        (1, -1): local[yt - ny:yt, cr:cr + nx][::-1],
-        (-1, -1): local[yt - ny:yt, cl - nx:cl][::-1, ::-1],
-    }
+    def quadrants(arr):  # (x parity sign source, y parity sign source): the quadrant, flipped
+        return {(1, 1): arr[yb:yb + ny, cr:cr + nx],
+                (-1, 1): arr[yb:yb + ny, cl - nx:cl][:, ::-1],
+                (1, -1): arr[yt - ny:yt, cr:cr + nx][::-1],
+                (-1, -1): arr[yt - ny:yt, cl - nx:cl][::-1, ::-1]}
+    quads = quadrants(local)
     q = quads[(1, 1)]
     scale = np.abs(local).max(axis=(0, 1))
     groups = {}
@@ -220,9 +220,7 @@ def _fold_lens(lens, region, weights, height, extra=None):
     columns = {parity: [q[..., k] for k in ks] for parity, ks in groups.items()}
     if extra is not None:
         ex = extra[:, a:b]
-        eq = {(1, 1): ex[yb:yb + ny, cr:cr + nx], (-1, 1): ex[yb:yb + ny, cl - nx:cl][:, ::-1],
-              (1, -1): ex[yt - ny:yt, cr:cr + nx][::-1],
-              (-1, -1): ex[yt - ny:yt, cl - nx:cl][::-1, ::-1]}
+        eq = quadrants(ex)
         for e in range(ex.shape[-1]):
             for px in ("E", "O"):
                 for py in ("E", "O"):
