@@ -113,3 +113,79 @@ vec3 shShadowRatioOccluded(vec3 n, vec4 visibility, vec3 occludedAmbient) {
 vec3 shShadowRatio(vec3 n, vec4 visibility) {
     return shShadowRatioOccluded(n, visibility, vec3(0.0));   // nothing occluded: E_a stays
 }
+
+// Each light's visibility past an occluding sphere (docs/contract.md §10,
+// provider/core/lights/shadows.py sphere_light_visibility). Angular radius of lights 0..3, in
+// radians (the wire's light_angular_radius_deg × π/180; 0: a point light):
+uniform vec4 shLightAngularRadius;
+
+// The segment of a cap of half-angle x cut off by a great circle whose chord subtends c at the
+// cap's axis, in units of sin²(x/2): the sector 2c less the isosceles spherical triangle.
+// Below c = 0.5 the two nearly cancel (a sun's sliver of a wide sphere), and a GPU's atan is
+// good to ~1e-4 only: there their difference's series, (1 − s2)(1 − 2 s2) c³ (1/3 −
+// (1 − 12q) c²/60 + (1 − 60q + 360q²) c⁴/2520), q = s2(1 − s2), next term < 2e-5 of it.
+float shCapSegment(float x, float c) {
+    float s2 = sin(0.5 * x); s2 *= s2;
+    if (c < 0.5) {
+        float q = s2 * (1.0 - s2), cc = c * c;
+        return (1.0 - s2) * (1.0 - 2.0 * s2) * cc * c * (1.0 / 3.0 - (1.0 - 12.0 * q) * cc / 60.0
+               + (1.0 - 60.0 * q + 360.0 * q * q) * cc * cc / 2520.0);
+    }
+    float tri = s2 > 0.0 ? atan(s2 * sin(c), (1.0 - s2) + s2 * cos(c)) / s2 : sin(c);
+    return 2.0 * c - 2.0 * tri;
+}
+
+// The half-angle at the axis of a cap of radius x between the other cap's axis (radius y,
+// axes g apart, gx = g − x given apart) and a point where the rims cross, from half-angle
+// sines (a 0.27° sun keeps its digits in float32).
+float shCapHalfChord(float x, float y, float g, float gx) {
+    float den = sin(x) * sin(g);
+    float c = 1.0 + 2.0 * sin(0.5 * (gx + y)) * sin(0.5 * (gx - y)) / (den > 0.0 ? den : 1.0);
+    return acos(clamp(c, -1.0, 1.0));
+}
+
+// The share of a light's disc (cap of angular radius a, radians) that a cap of half-angle
+// alpha whose axis is g away covers: Ω(cap_a ∩ cap_α) / Ω(cap_a) (Mazonka 2012), in [0, 1].
+// delta = g − alpha, computed by the caller without subtracting the two (a sun's disc is
+// 0.0047 rad wide; a GPU's asin and atan are good to ~1e-4 of the angle only).
+float shCapOverlapFraction(float a, float alpha, float g, float delta) {
+    if (a <= 0.0) return delta < 0.0 ? 1.0 : 0.0;         // a point light
+    if (delta >= a) return 0.0;                            // apart
+    if (delta <= -a) return 1.0;                           // the disc inside the sphere
+    float sa = sin(0.5 * a), sal = sin(0.5 * alpha);
+    float areaRatio = (sal * sal) / (sa * sa);             // Ω(cap_α) / Ω(cap_a)
+    if (g <= a - alpha) return min(areaRatio, 1.0);        // the sphere inside the disc
+    float lens = shCapSegment(a, 2.0 * shCapHalfChord(a, alpha, g, delta + alpha - a))
+               + areaRatio * shCapSegment(alpha, 2.0 * shCapHalfChord(alpha, a, g, delta));
+    return clamp(lens / (4.0 * 3.14159265358979), 0.0, 1.0);
+}
+
+// The unoccluded fraction of a light's uniform disc (toward unit lightDirection, angular
+// radius angularRadius in radians) seen from point p behind a sphere (xyz: centre, w: radius,
+// p's frame): 1 − Ω(disc ∩ sphere's cap)/Ω(disc). sphere.w <= 0 (no occluder): 1; p inside
+// the sphere (|c − p| <= R): 0.
+float shSphereLightVisibility(vec3 p, vec4 sphere, vec3 lightDirection, float angularRadius) {
+    if (sphere.w <= 0.0) return 1.0;
+    vec3 toCentre = sphere.xyz - p;
+    float dist = length(toCentre);
+    if (dist <= sphere.w) return 0.0;
+    vec3 d = toCentre / dist;
+    float sinG = length(cross(d, lightDirection)), cosG = dot(d, lightDirection);
+    float sinAlpha = sphere.w / dist, cosAlpha = sqrt((dist - sphere.w) * (dist + sphere.w)) / dist;
+    float delta = atan(sinG * cosAlpha - cosG * sinAlpha, cosG * cosAlpha + sinG * sinAlpha);
+    return 1.0 - shCapOverlapFraction(max(angularRadius, 0.0), atan(sinAlpha, cosAlpha),
+                                       atan(sinG, cosG), delta);
+}
+
+// shSphereLightVisibility for lights 0..3 of the uniforms (shLightDirection,
+// shLightAngularRadius); slots at or beyond shLightCount get 1. A visibility for
+// shShadowRatio / shShadowRatioOccluded, e.g. with lights 1..3 from here and light 0 from
+// the engine's shadow map.
+vec4 shSphereLightsVisibility(vec3 p, vec4 sphere) {
+    vec4 v = vec4(1.0);
+    for (int i = 0; i < 4; ++i) {
+        if (i >= shLightCount) break;
+        v[i] = shSphereLightVisibility(p, sphere, shLightDirection[i].xyz, shLightAngularRadius[i]);
+    }
+    return v;
+}

@@ -14,41 +14,32 @@ Cases: one light from (2, 1, -2)/3 only (independent answer: E = I·max(0, n·d)
 slots must not light anything); the engine's lights for each panorama (``lights="auto"``);
 and the lights cases of the contract vectors, in both frames.
 
-The shadow ratio (``shShadowRatio`` / ``SHShadowRatio``, :mod:`provider.core.lights.shadows`)
-is checked the same way against :func:`~provider.core.lights.shadows.shadow_ratio`, with
-the visibility of each light a uniform (``shadowVisibility`` / ``_ShadowVisibility``), on
-the light sets above at several visibilities (all visible: exactly 1; none; mixed; out of
-range, which the shaders clamp). Its error measure follows from r = N/D with N and D each
-off by at most c·ε·S (S the magnitude sum above): ``|r_gpu − r_cpu| / (2 S / D)`` ≤ the
-same 32 float32 round-offs (D ≤ 0, where the ratio is 1 by definition, is not judged).
-
-The occluder's ambient occlusion (``shOccludedAmbient`` / ``SHOccludedAmbient``, and
-``shShadowRatioOccluded`` / ``SHShadowRatioOccluded`` fed with it) against
-:func:`~provider.core.lights.shadows.occluded_ambient` and ``shadow_ratio(...,
-occluded_ambient=...)``, the occluder a uniform (``occluder`` / ``_Occluder``: direction,
-sin α), for occluders overhead, wide and tilted, and around the receiver (sin α > 1), over a
-random ambient with four lights and a panorama's: ``shadow:occluded_ambient:*`` and
-``shadow:occluded_ratio:*``, within :data:`OCCLUDED_TOLERANCE` (acos and atan in shaders).
+The shadow functions against :mod:`provider.core.lights.shadows` (measures: each section):
+the ratio (``shShadowRatio``) with each light's visibility a uniform at several visibilities
+(``shadow:*``); the occluder's ambient occlusion and the ratio fed with it under occluders
+overhead, wide and around the receiver (``shadow:occluded_*``); each light's visibility past
+a sphere (``shSphereLightVisibility``) for a point, a sun, a lamp and a window behind far,
+near and surrounding spheres (``shadow:sphere_light:*``). The HLSL twins the same way.
 """
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from ..core.geometry import sh
-from ..core.lights.shadows import occluded_ambient, shadow_ratio
+from ..core.lights.shadows import occluded_ambient, shadow_ratio, sphere_light_visibility
 from ..core.sh9.engine import compute_sh9
 from ..core.radiometry.images import read_image
 from . import contract
 from .harness import (FLOAT32_TOLERANCE, HLSL_GLOBALS, Comparison, DemoCheck, DISPLAY_TOLERANCE,
                       IrradianceEvaluator, glsl_evaluator, hlsl_evaluator, judge)
-from .pictures import (ObjectRenderer, _colour_bar, _display, _heat, _label,
-                       brute_force_irradiance, panorama_flux)
-from .render import load_program, set_uniform, shader_source, srgb_encode, tone_map
+from .pictures import (LightsObjectRenderer, lights_picture,  # noqa: F401 (lights' API)
+                       write_lights_picture)
+from .render import set_uniform, shader_source, srgb_encode, tone_map
 
 #: Light slots in the shaders (SH_MAX_LIGHTS; provider.core.sh9.engine.MAX_LIGHTS).
 MAX_LIGHTS = 4
@@ -217,18 +208,6 @@ def run_light_cases(evaluator: LightsEvaluator, cases, normals,
 
 # -- the demo program with lights (shaders/lit_diffuse_lights.frag) and the picture ---------------
 
-class LightsObjectRenderer(ObjectRenderer):
-    """:class:`~provider.verify.pictures.ObjectRenderer` with shaders/lit_diffuse_lights.frag."""
-
-    def __init__(self, ctx, size: int = 256):
-        super().__init__(ctx, size)
-        self.lit = load_program(ctx, "lit_diffuse.vert", "lit_diffuse_lights.frag")
-
-    def set_lights(self, ambient_matrices, directions, irradiance) -> None:
-        self.set_lighting(ambient_matrices)
-        upload_lights(self.lit, directions, irradiance)
-
-
 def lit_diffuse_lights_check(ctx, size: int = 96) -> DemoCheck:
     """lit_diffuse_lights.frag against its numpy twin (ρ·max(E, 0)/π, Reinhard, sRGB) on a
     torus lit by a uniform ambient and the one-sided light."""
@@ -251,89 +230,6 @@ def lit_diffuse_lights_check(ctx, size: int = 96) -> DemoCheck:
                      bool(err <= DISPLAY_TOLERANCE and mask.sum() > 0))
 
 
-def lights_picture(ctx, image: np.ndarray, title: str, size: int = 256):
-    """(RGB uint8 picture, statistics): SH9 alone vs ambient + lights vs brute force.
-
-    The panorama (lights marked), then per object (sphere, torus) the SH9 shader, the
-    ambient + lights shader and the brute-force reference, and under them the two error
-    heat maps (same scale as the SH9 pictures).
-    """
-    result = compute_sh9(image, error_estimate=False, lights="auto")
-    d = np.array([light.direction for light in result.lights]).reshape(-1, 3)
-    irr = np.array([light.irradiance for light in result.lights]).reshape(-1, 3)
-    dirs, flux = panorama_flux(image)
-    plain, lit = ObjectRenderer(ctx, size), LightsObjectRenderer(ctx, size)
-    plain.set_lighting(result.matrices)
-    lit.set_lights(result.ambient_matrices, d, irr)
-    renders = {}
-    for name in ("sphere", "torus"):
-        sh9, normals, mask = plain.render(name)
-        both, _, _ = lit.render(name)
-        ref = np.zeros_like(sh9, dtype=np.float64)
-        ref[mask] = brute_force_irradiance(dirs, flux, normals[mask]) / math.pi
-        renders[name] = (sh9.astype(np.float64), both.astype(np.float64), ref, mask)
-    mean_ref = np.mean(np.concatenate([r[2][r[3]] for r in renders.values()]))
-    exposure = 0.5 / max(mean_ref, 1e-12)
-    rows, stats = [], {"lights": len(d)}
-    for name, (sh9, both, ref, mask) in renders.items():
-        panels, heat = [], []
-
-        def panel(radiance, text):
-            img = _display(radiance, exposure)
-            img[~mask] = 40
-            return _label(img, text)
-        for key, label, shown in (("sh9", "SH9 alone", sh9),
-                                  ("lights", f"ambient + {len(d)} light(s)", both)):
-            rel = np.abs(shown - ref).mean(axis=-1) / max(ref[mask].mean(), 1e-12)
-            rms = sh.relative_rms(shown[mask], ref[mask])
-            stats[f"{name}_{key}_rms_rel"] = rms
-            panels.append(panel(shown, f"{name}: {label}"))
-            heat.append(_label(_heat(rel, mask), f"|{label} - reference|: RMS {rms:.1%}"))
-        panels.append(panel(ref, "brute-force reference"))
-        note = np.full_like(heat[0], 40)
-        _label(note, "heat: |shader - reference| / mean", 0.4)
-        rows += [np.hstack(panels), np.hstack(heat + [note])]
-    # Over the whole sphere of normals (docs/contract.md §5's measure).
-    truth = brute_force_irradiance(dirs, flux, sh.SPHERE_NORMALS)
-    stats["all_normals_sh9_rms_rel"] = sh.relative_rms(
-        np.maximum(result.irradiance(sh.SPHERE_NORMALS), 0.0), truth)
-    stats["all_normals_lights_rms_rel"] = sh.relative_rms(
-        np.maximum(result.irradiance_with_lights(sh.SPHERE_NORMALS), 0.0), truth)
-    s = size
-    pano = cv2.resize(np.asarray(image, np.float32), (3 * s, 3 * s // 2),
-                      interpolation=cv2.INTER_AREA)
-    pano = _display(np.maximum(pano, 0), exposure)
-    for dk in d:      # mark each light: u = φ/2π + 0.5, v = θ/π (docs/contract.md §1)
-        u = math.atan2(dk[0], -dk[2]) / (2 * math.pi) + 0.5
-        v = math.acos(max(-1.0, min(1.0, float(dk[1])))) / math.pi
-        cv2.drawMarker(pano, (int(u * 3 * s), int(v * 3 * s // 2)), (0, 255, 255),
-                       cv2.MARKER_CROSS, 28, 2)
-    _label(pano, f"{title}: + = light found; sphere of normals: SH9 "
-                 f"{stats['all_normals_sh9_rms_rel']:.1%}, ambient + lights "
-                 f"{stats['all_normals_lights_rms_rel']:.1%} RMS")
-    return np.vstack([pano, *rows, _colour_bar(3 * s)]), stats
-
-
-def write_lights_picture(ctx, panoramas, out_dir: Path, size: int = 256) -> dict | None:
-    """The picture of the panorama where lights help most (largest SH9 → ambient + lights
-    error drop: the sun of sky.exr among the bundled ones), as ``lights_NAME.png``."""
-    best = None
-    for path in panoramas:
-        r = compute_sh9(read_image(path), lights="auto")
-        gain = r.stats["sh9_error"] - r.stats["light_error"]
-        if r.lights and (best is None or gain > best[0]):
-            best = (gain, Path(path))
-    if best is None:
-        return None
-    path = best[1]
-    picture, stats = lights_picture(ctx, read_image(path), path.stem, size)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    file = out_dir / f"lights_{path.stem}.png"
-    cv2.imwrite(str(file), picture[..., ::-1])
-    return {"file": str(file), "panorama": str(path), **stats}
-
-
 # -- the harness extension (provider.verify.harness.run) ------------------------------------------
 
 def compare(ctx, path: str, normals, panoramas, vectors, tolerance) -> list[Comparison]:
@@ -345,6 +241,8 @@ def compare(ctx, path: str, normals, panoramas, vectors, tolerance) -> list[Comp
     out = run_light_cases(evaluator, cases, normals, tolerance)
     out += run_shadow_cases(ShadowEvaluator(ctx, path), shadow_cases(normals, panoramas),
                             normals, tolerance)
+    out += run_sphere_light_cases(ctx, path, normals,
+                                  tolerance * OCCLUDED_TOLERANCE / FLOAT32_TOLERANCE)
     return out + run_occluded_cases(ctx, path, occluded_cases(normals, panoramas), normals,
                                     tolerance * OCCLUDED_TOLERANCE / FLOAT32_TOLERANCE)
 
@@ -551,6 +449,60 @@ def run_occluded_cases(ctx, path: str, cases, normals,
         ev.set_lights(case.directions, case.irradiance, case.count)
         value, _ = ev.evaluate(case.matrices, normals)
         out.append(compare_occluded(case, occluder, v, what, path, value, normals, tolerance))
+    return out
+
+# -- each light's visibility past the occluder (shSphereLightVisibility) --------------------------
+# The receiver is at the origin, the sphere's centre at n·distance for every normal n: its
+# direction sweeps the sphere of directions (apart, grazing, covering the disc) past one light.
+
+SPHERE_LIGHT_ARGS = "({p}, {v}(n * {at}.x, {at}.y), {light}.xyz, {light}.w)"
+SPHERE_LIGHT_EVALUATORS = {
+    "glsl": glsl_evaluator("vec3", args="shSphereLightVisibility" + SPHERE_LIGHT_ARGS.format(
+        p="vec3(0.0)", v="vec4", at="sphereAt", light="sphereLight"), unclamped=False,
+        uniforms="uniform vec4 sphereLight;\nuniform vec4 sphereAt;"),
+    "hlsl": hlsl_evaluator("sh9_lights.hlsl", "", args="(float3)SHSphereLightVisibility"
+                           + SPHERE_LIGHT_ARGS.format(p="(float3)0.0", v="float4", at="_SphereAt",
+                                                      light="_SphereLight"),
+                           uniforms="float4 _SphereLight;\nfloat4 _SphereAt;", unclamped=False)}
+#: Light radii (degrees: a point, a sun, a lamp, a window) × spheres (distance, radius).
+SPHERE_LIGHTS = {"point": 0.0, "sun": 0.27, "lamp": 6.0, "window": 40.0}
+SPHERES = {"far": (3.0, 0.3), "near": (1.25, 1.0), "inside": (0.5, 1.0)}
+#: The rendered V may match the CPU's this far (radians) along the sphere's direction: the
+#: float32 normal and its renormalisation (a point light's rim is a step).
+SPHERE_LIGHT_SLACK = 2e-6
+
+
+class SphereLightEvaluator(ShadowEvaluator):
+    """Renders ``shSphereLightVisibility`` / ``SHSphereLightVisibility`` for one light and one
+    sphere (uniforms: ``light`` direction and radius, ``at`` distance and radius) per normal."""
+    VEC4_UNIFORMS = {"sphereLight": ("light", "_SphereLight"), "sphereAt": ("at", "_SphereAt")}
+
+    def __init__(self, ctx, path: str = "glsl"):
+        source = SPHERE_LIGHT_EVALUATORS[path]
+        super().__init__(ctx, path, (shader_source("sh9_lights.glsl") if path == "glsl"
+                                     else "") + source)
+
+
+def run_sphere_light_cases(ctx, path: str, normals, tolerance) -> list[Comparison]:
+    """:data:`SPHERE_LIGHTS` × :data:`SPHERES` against :func:`sphere_light_visibility`: the
+    rendered V within ``tolerance`` of the CPU's V somewhere within :data:`SPHERE_LIGHT_SLACK`
+    of the normal's direction (toward or away from the light)."""
+    ev, out, zero = SphereLightEvaluator(ctx, path), [], np.zeros((3, 4, 4))
+    n = np.asarray(normals, np.float32).astype(np.float64)
+    light = np.array([0.3, 0.8, -0.52]) / np.linalg.norm([0.3, 0.8, -0.52])
+    along = light - (n @ light)[:, None] * n                   # toward the light, ⟂ n
+    along *= SPHERE_LIGHT_SLACK / np.maximum(np.linalg.norm(along, axis=1), 1e-30)[:, None]
+    for (lname, radius), (sname, (dist, r)) in itertools.product(SPHERE_LIGHTS.items(),
+                                                                 SPHERES.items()):
+        ev.light = np.append(light, math.radians(radius)).astype(np.float32)
+        ev.at = np.array([dist, r, 0, 0], np.float32)
+        v = ev.evaluate(zero, normals)[0][:, :1]
+        lo, hi = (sphere_light_visibility(-(n + t * along) * dist, np.zeros(3), r, light[None],
+                                          [math.degrees(ev.light[3])]) for t in (-1, 1))
+        case = LightCase(f"shadow:sphere_light:{lname}:{sname}", zero, light[None],
+                         np.zeros((1, 3)), note=f"light radius {radius}°, R {r} at {dist}")
+        exact = np.clip(v, np.minimum(lo, hi), np.maximum(lo, hi))
+        out.append(judge(case, path, v, v, exact, np.ones_like(v), tolerance))
     return out
 
 

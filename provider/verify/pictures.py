@@ -21,7 +21,7 @@ from ..core.radiometry.images import read_image
 from ..core.geometry.projections import Equirect
 from .render import (lit_diffuse_program, look_at, mesh_vertex_array, perspective,
                      set_irradiance_matrices, set_uniform, shader_source, srgb_encode, tone_map,
-                     torus, uv_sphere, write_matrix, expand_includes)
+                     torus, uv_sphere, write_matrix, expand_includes, load_program)
 
 #: Heat-map scale: this relative error (of the object's mean radiance) is the top colour.
 HEAT_MAP_MAX = 0.2
@@ -223,3 +223,101 @@ def write_validation_pictures(ctx, panoramas, out_dir: Path, size: int = 256) ->
         cv2.imwrite(str(file), picture[..., ::-1])
         out.append({"file": str(file), "panorama": str(path), **stats})
     return out
+
+
+# -- what lights change (provider.verify.lights, shaders/lit_diffuse_lights.frag) ----------------
+
+class LightsObjectRenderer(ObjectRenderer):
+    """:class:`~provider.verify.pictures.ObjectRenderer` with shaders/lit_diffuse_lights.frag."""
+
+    def __init__(self, ctx, size: int = 256):
+        super().__init__(ctx, size)
+        self.lit = load_program(ctx, "lit_diffuse.vert", "lit_diffuse_lights.frag")
+
+    def set_lights(self, ambient_matrices, directions, irradiance) -> None:
+        self.set_lighting(ambient_matrices)
+        from .lights import upload_lights     # lights imports this module
+        upload_lights(self.lit, directions, irradiance)
+
+
+def lights_picture(ctx, image: np.ndarray, title: str, size: int = 256):
+    """(RGB uint8 picture, statistics): SH9 alone vs ambient + lights vs brute force.
+
+    The panorama (lights marked), then per object (sphere, torus) the SH9 shader, the
+    ambient + lights shader and the brute-force reference, and under them the two error
+    heat maps (same scale as the SH9 pictures).
+    """
+    result = compute_sh9(image, error_estimate=False, lights="auto")
+    d = np.array([light.direction for light in result.lights]).reshape(-1, 3)
+    irr = np.array([light.irradiance for light in result.lights]).reshape(-1, 3)
+    dirs, flux = panorama_flux(image)
+    plain, lit = ObjectRenderer(ctx, size), LightsObjectRenderer(ctx, size)
+    plain.set_lighting(result.matrices)
+    lit.set_lights(result.ambient_matrices, d, irr)
+    renders = {}
+    for name in ("sphere", "torus"):
+        sh9, normals, mask = plain.render(name)
+        both, _, _ = lit.render(name)
+        ref = np.zeros_like(sh9, dtype=np.float64)
+        ref[mask] = brute_force_irradiance(dirs, flux, normals[mask]) / math.pi
+        renders[name] = (sh9.astype(np.float64), both.astype(np.float64), ref, mask)
+    mean_ref = np.mean(np.concatenate([r[2][r[3]] for r in renders.values()]))
+    exposure = 0.5 / max(mean_ref, 1e-12)
+    rows, stats = [], {"lights": len(d)}
+    for name, (sh9, both, ref, mask) in renders.items():
+        panels, heat = [], []
+
+        def panel(radiance, text):
+            img = _display(radiance, exposure)
+            img[~mask] = 40
+            return _label(img, text)
+        for key, label, shown in (("sh9", "SH9 alone", sh9),
+                                  ("lights", f"ambient + {len(d)} light(s)", both)):
+            rel = np.abs(shown - ref).mean(axis=-1) / max(ref[mask].mean(), 1e-12)
+            rms = sh.relative_rms(shown[mask], ref[mask])
+            stats[f"{name}_{key}_rms_rel"] = rms
+            panels.append(panel(shown, f"{name}: {label}"))
+            heat.append(_label(_heat(rel, mask), f"|{label} - reference|: RMS {rms:.1%}"))
+        panels.append(panel(ref, "brute-force reference"))
+        note = np.full_like(heat[0], 40)
+        _label(note, "heat: |shader - reference| / mean", 0.4)
+        rows += [np.hstack(panels), np.hstack(heat + [note])]
+    # Over the whole sphere of normals (docs/contract.md §5's measure).
+    truth = brute_force_irradiance(dirs, flux, sh.SPHERE_NORMALS)
+    stats["all_normals_sh9_rms_rel"] = sh.relative_rms(
+        np.maximum(result.irradiance(sh.SPHERE_NORMALS), 0.0), truth)
+    stats["all_normals_lights_rms_rel"] = sh.relative_rms(
+        np.maximum(result.irradiance_with_lights(sh.SPHERE_NORMALS), 0.0), truth)
+    s = size
+    pano = cv2.resize(np.asarray(image, np.float32), (3 * s, 3 * s // 2),
+                      interpolation=cv2.INTER_AREA)
+    pano = _display(np.maximum(pano, 0), exposure)
+    for dk in d:      # mark each light: u = φ/2π + 0.5, v = θ/π (docs/contract.md §1)
+        u = math.atan2(dk[0], -dk[2]) / (2 * math.pi) + 0.5
+        v = math.acos(max(-1.0, min(1.0, float(dk[1])))) / math.pi
+        cv2.drawMarker(pano, (int(u * 3 * s), int(v * 3 * s // 2)), (0, 255, 255),
+                       cv2.MARKER_CROSS, 28, 2)
+    _label(pano, f"{title}: + = light found; sphere of normals: SH9 "
+                 f"{stats['all_normals_sh9_rms_rel']:.1%}, ambient + lights "
+                 f"{stats['all_normals_lights_rms_rel']:.1%} RMS")
+    return np.vstack([pano, *rows, _colour_bar(3 * s)]), stats
+
+
+def write_lights_picture(ctx, panoramas, out_dir: Path, size: int = 256) -> dict | None:
+    """The picture of the panorama where lights help most (largest SH9 → ambient + lights
+    error drop: the sun of sky.exr among the bundled ones), as ``lights_NAME.png``."""
+    best = None
+    for path in panoramas:
+        r = compute_sh9(read_image(path), lights="auto")
+        gain = r.stats["sh9_error"] - r.stats["light_error"]
+        if r.lights and (best is None or gain > best[0]):
+            best = (gain, Path(path))
+    if best is None:
+        return None
+    path = best[1]
+    picture, stats = lights_picture(ctx, read_image(path), path.stem, size)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    file = out_dir / f"lights_{path.stem}.png"
+    cv2.imwrite(str(file), picture[..., ::-1])
+    return {"file": str(file), "panorama": str(path), **stats}

@@ -44,6 +44,27 @@ E_a(d)/π (the cosine-weighted mean around d, smoother) by the bench's numbers
 stays in V_k (the ambient holds only what the lights did not take). Shipped as
 ``shOccludedAmbient`` / ``shShadowRatioOccluded`` (GLSL) and ``SHOccludedAmbient`` /
 ``SHShadowRatioOccluded`` (HLSL).
+
+**Each light's visibility past the occluder.** Light k is a uniform disc, the cap of angular
+radius a about d_k; the sphere, seen from p, the cap of half-angle α about d. The fraction of
+the light's disc that reaches p is
+
+    V_k = 1 − Ω(cap_a ∩ cap_α) / Ω(cap_a),     Ω(cap_x) = 4π sin²(x/2),
+
+with the exact solid angle of two intersecting caps whose axes are γ apart (Mazonka 2012,
+"Solid angle of conical surfaces, polyhedral cones, and intersecting spherical caps"): the
+great circle through the two points where the caps' rims cross cuts the lens into one segment
+of each cap, and a segment of a cap of radius x whose chord subtends 2φ at its axis is the
+sector 2φ·2 sin²(x/2) less the isosceles spherical triangle (axis, chord), of area
+2 atan(t² sin 2φ / (1 + t² cos 2φ)), t = tan(x/2) (negative for 2φ > π: then the segment holds
+the axis). cos φ comes from the triangle (axis_a, axis_α, a crossing point) written with
+half-angle sines, 1 + 2 sin((γ − a + α)/2) sin((γ − a − α)/2) / (sin a sin γ), so that a
+sun's 0.27° disc keeps its digits in float32. Limits: disjoint caps (γ ≥ a + α) V = 1; the
+light's disc inside the sphere's (γ ≤ α − a) V = 0; the sphere inside the disc
+(γ ≤ a − α) V = 1 − sin²(α/2)/sin²(a/2); a point light (a = 0) V = 0 for γ < α, else 1. A
+receiver inside the sphere (|c − p| ≤ R) sees nothing of any light: V = 0, by definition.
+Shipped as ``shSphereLightVisibility`` / ``SHSphereLightVisibility`` (one light) and
+``shSphereLightsVisibility`` / ``SHSphereLightsVisibility`` (lights 0..3 of the uniforms).
 """
 from __future__ import annotations
 
@@ -52,7 +73,8 @@ import numpy as np
 from ..geometry import sh
 
 __all__ = ["shadow_ratio", "lit_irradiance", "occluded_ambient", "ambient_radiance",
-           "cap_projected_solid_angle", "sphere_occluder"]
+           "cap_projected_solid_angle", "sphere_occluder", "sphere_light_visibility",
+           "cap_overlap_fraction"]
 
 
 def lit_irradiance(normals, ambient_matrices, light_directions, light_irradiance,
@@ -163,3 +185,65 @@ def sphere_occluder(points, centre, radius) -> tuple[np.ndarray, np.ndarray]:
     with np.errstate(divide="ignore"):
         s = np.where(dist > 0, float(radius) / safe, np.inf)
     return d, s
+
+
+def _segment(half_angle, chord_angle):
+    """The segment of a cap of ``half_angle`` x cut off by a great circle whose chord subtends
+    ``chord_angle`` C ∈ [0, 2π] at the cap's axis, in units of sin²(x/2): the sector 2C less the
+    triangle 2 atan(t² sin C / (1 + t² cos C)) / sin²(x/2), t² = sin²(x/2) / cos²(x/2), written
+    as an atan2 that never divides by a small t²."""
+    s2 = np.sin(0.5 * half_angle) ** 2
+    tri = np.arctan2(s2 * np.sin(chord_angle), (1.0 - s2) + s2 * np.cos(chord_angle))
+    return 2.0 * chord_angle - 2.0 * np.where(s2 > 0, tri / np.where(s2 > 0, s2, 1.0),
+                                              np.sin(chord_angle))
+
+
+def cap_overlap_fraction(light_radius, occluder_radius, separation) -> np.ndarray:
+    """Ω(cap_a ∩ cap_α) / Ω(cap_a): the share of a cap of angular radius ``light_radius`` a
+    (radians, [0, π/2]) inside one of ``occluder_radius`` α (radians, [0, π/2]) whose axis is
+    ``separation`` γ (radians, [0, π]) from its own; broadcast, float64 in [0, 1]. a = 0 (a
+    point): 1 where γ < α, else 0 (module docstring)."""
+    a, al, g = np.broadcast_arrays(*(np.asarray(x, np.float64)
+                                     for x in (light_radius, occluder_radius, separation)))
+
+    def half_chord(x, y):   # φ at the axis of cap x (radius x) toward the rims' crossing
+        den = np.sin(x) * np.sin(g)
+        cos_phi = 1.0 + 2.0 * np.sin(0.5 * (g - x + y)) * np.sin(0.5 * (g - x - y)) \
+            / np.where(den > 0, den, 1.0)
+        return np.arccos(np.clip(cos_phi, -1.0, 1.0))
+    sin2_a, sin2_al = np.sin(0.5 * a) ** 2, np.sin(0.5 * al) ** 2
+    area_ratio = sin2_al / np.where(sin2_a > 0, sin2_a, 1.0)       # Ω(cap_α) / Ω(cap_a)
+    lens = (_segment(a, 2 * half_chord(a, al))
+            + area_ratio * _segment(al, 2 * half_chord(al, a))) / (4 * np.pi)
+    out = np.clip(lens, 0.0, 1.0)
+    out = np.where(g >= a + al, 0.0, out)                          # disjoint
+    out = np.where(g <= a - al, np.minimum(area_ratio, 1.0), out)  # the sphere inside the disc
+    out = np.where(g <= al - a, 1.0, out)                          # the disc inside the sphere
+    return np.where(a <= 0, (g < al).astype(np.float64), out)
+
+
+def sphere_light_visibility(points, centre, radius, light_directions,
+                            angular_radius_deg) -> np.ndarray:
+    """V_k: the unoccluded fraction of each light's uniform disc seen from receivers at
+    ``points`` (..., 3) behind a sphere of ``centre`` (3,) and ``radius`` (> 0, the points'
+    length unit), (..., k) float64 in [0, 1] (module docstring). ``light_directions`` (k, 3)
+    unit, toward each light; ``angular_radius_deg`` (k,) in [0, 90] (the wire's
+    ``light_angular_radius_deg``; 0: a point light). A receiver inside the sphere
+    (|c − p| ≤ R) gets 0 for every light. Frame: any, the same for all of them; the lights
+    are directional (at infinity), so only the direction from p to c matters."""
+    d = np.asarray(light_directions, np.float64).reshape(-1, 3)
+    r = np.asarray(angular_radius_deg, np.float64).reshape(-1)
+    if len(r) != len(d):
+        raise ValueError(f"{len(d)} light directions but {len(r)} angular radii")
+    if not np.all((r >= 0) & (r <= 90)):
+        raise ValueError("a light's angular radius is in [0, 90] degrees")
+    to_c, s = sphere_occluder(points, centre, radius)
+    inside = s >= 1.0
+    alpha = np.arcsin(np.minimum(s, 1.0))
+    dn = d / np.linalg.norm(d, axis=1, keepdims=True)
+    cos_g = to_c @ dn.T                                                  # (..., k)
+    sin_g = np.linalg.norm(np.cross(to_c[..., None, :], dn), axis=-1)
+    gamma = np.arctan2(sin_g, cos_g)
+    covered = cap_overlap_fraction(np.radians(r), np.minimum(alpha, np.pi / 2)[..., None],
+                                   gamma)
+    return np.where(inside[..., None], 0.0, 1.0 - covered)
