@@ -73,7 +73,11 @@ def _snapshot_cases(rng) -> list[dict]:
            "light_angular_radius_deg": radii, "ambient_coefficients": amb.reshape(-1).tolist()}
     for drawn in range(k):
         rest = amb + sum(light_sh(d[i], e[i]) for i in range(k) if i != drawn)
+        order = [drawn] + [i for i in range(k) if i != drawn]      # the shader slots: drawn first
         cases.append({"message": json.dumps(msg), "drawn": drawn, "unity_direction": (d[drawn] @ S3).tolist(),
+                      "slot_directions": (d[order] @ S3).reshape(-1).tolist() + [0.0] * 3,
+                      "slot_irradiance": e[order].reshape(-1).tolist() + [0.0] * 3,
+                      "slot_radii": [radii[i] for i in order] + [0.0],
                       "irradiance": e[drawn].tolist(), "radius": [radii[drawn]],
                       "unity_ambient_matrices": (S4 @ sh.irradiance_matrices(rest) @ S4).reshape(-1).tolist()})
     return cases
@@ -121,7 +125,8 @@ def test_live_client_key_light_casts_soft_shadows(live_exe, tmp_path):
     assert 1.5 < radius < 4.5, radius                       # the 3° disc, as the provider measures it
     assert ev["light_active"] and ev["light"]["shadows"] == "Soft" and ev["light"]["shadow_strength"] == 1
     assert abs(ev["light_angular_radius_deg"] - radius) < 1e-5
-    assert ev["sh_light_count"] == 1
+    assert ev["sh_light_count"] == min(k, 4)                 # the drawn light first, then the others
+    assert ev["sh_light_angular_radius"][0] == pytest.approx(math.radians(radius), rel=1e-6)
     np.testing.assert_allclose(ev["sh_light_direction"][:3], d @ S3, atol=1e-6)
     np.testing.assert_allclose(ev["sh_light_irradiance"][:3], irr[key], rtol=1e-6)
     assert np.allclose(ev["light"]["forward"], -(d @ S3), atol=1e-5)

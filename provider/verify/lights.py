@@ -39,35 +39,11 @@ from .harness import (FLOAT32_TOLERANCE, HLSL_GLOBALS, Comparison, DemoCheck, DI
                       IrradianceEvaluator, glsl_evaluator, hlsl_evaluator, judge)
 from .pictures import (LightsObjectRenderer, lights_picture,  # noqa: F401 (lights' API)
                        write_lights_picture)
-from .render import set_uniform, shader_source, srgb_encode, tone_map
-
-#: Light slots in the shaders (SH_MAX_LIGHTS; provider.core.sh9.engine.MAX_LIGHTS).
-MAX_LIGHTS = 4
+from .render import (MAX_LIGHTS, _slots, set_uniform, shader_source, srgb_encode,  # noqa: F401
+                     tone_map, upload_lights)
 
 GLSL_EVALUATOR = glsl_evaluator("shIrradianceWithLights")
 HLSL_EVALUATOR = hlsl_evaluator("sh9_lights.hlsl", "SHIrradianceWithLights")
-
-
-def _slots(directions, irradiance) -> np.ndarray:
-    """(2, MAX_LIGHTS, 4) float32: direction and irradiance vec4 per slot (w = 0)."""
-    d = np.asarray(directions, np.float64).reshape(-1, 3)
-    irr = np.asarray(irradiance, np.float64).reshape(-1, 3)
-    if len(d) > MAX_LIGHTS or len(irr) != len(d):
-        raise ValueError(f"at most {MAX_LIGHTS} lights, one irradiance per direction")
-    out = np.zeros((2, MAX_LIGHTS, 4), np.float32)
-    out[0, :len(d), :3], out[1, :len(d), :3] = d, irr
-    return out
-
-
-def upload_lights(program, directions, irradiance, count=None) -> None:
-    """Set ``shLightDirection``, ``shLightIrradiance`` and ``shLightCount`` of a GLSL program
-    (``count`` defaults to the number of lights; slots beyond them are zero)."""
-    slots = _slots(directions, irradiance)
-    n = len(np.asarray(directions).reshape(-1, 3)) if count is None else int(count)
-    for name, data in (("shLightDirection", slots[0]), ("shLightIrradiance", slots[1])):
-        if name in program:
-            program[name].write(data.tobytes())
-    set_uniform(program, "shLightCount", n)
 
 
 class LightsEvaluator(IrradianceEvaluator):

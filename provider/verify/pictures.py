@@ -21,7 +21,8 @@ from ..core.radiometry.images import read_image
 from ..core.geometry.projections import Equirect
 from .render import (lit_diffuse_program, look_at, mesh_vertex_array, perspective,
                      set_irradiance_matrices, set_uniform, shader_source, srgb_encode, tone_map,
-                     torus, uv_sphere, write_matrix, expand_includes, load_program)
+                     torus, uv_sphere, write_matrix, expand_includes, load_program,
+                     upload_lights)
 
 #: Heat-map scale: this relative error (of the object's mean radiance) is the top colour.
 HEAT_MAP_MAX = 0.2
@@ -236,7 +237,6 @@ class LightsObjectRenderer(ObjectRenderer):
 
     def set_lights(self, ambient_matrices, directions, irradiance) -> None:
         self.set_lighting(ambient_matrices)
-        from .lights import upload_lights     # lights imports this module
         upload_lights(self.lit, directions, irradiance)
 
 

@@ -217,3 +217,31 @@ def srgb_encode(linear):
     """IEC 61966-2-1 sRGB encoding of linear values, clipped to [0, 1]."""
     c = np.clip(np.asarray(linear, np.float64), 0.0, 1.0)
     return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+
+
+# -- the lights uniforms of shaders/sh9_lights.glsl (provider.verify.lights) ---------------------
+
+#: Light slots in the shaders (SH_MAX_LIGHTS; provider.core.sh9.engine.MAX_LIGHTS).
+MAX_LIGHTS = 4
+
+
+def _slots(directions, irradiance) -> np.ndarray:
+    """(2, MAX_LIGHTS, 4) float32: direction and irradiance vec4 per slot (w = 0)."""
+    d = np.asarray(directions, np.float64).reshape(-1, 3)
+    irr = np.asarray(irradiance, np.float64).reshape(-1, 3)
+    if len(d) > MAX_LIGHTS or len(irr) != len(d):
+        raise ValueError(f"at most {MAX_LIGHTS} lights, one irradiance per direction")
+    out = np.zeros((2, MAX_LIGHTS, 4), np.float32)
+    out[0, :len(d), :3], out[1, :len(d), :3] = d, irr
+    return out
+
+
+def upload_lights(program, directions, irradiance, count=None) -> None:
+    """Set ``shLightDirection``, ``shLightIrradiance`` and ``shLightCount`` of a GLSL program
+    (``count`` defaults to the number of lights; slots beyond them are zero)."""
+    slots = _slots(directions, irradiance)
+    n = len(np.asarray(directions).reshape(-1, 3)) if count is None else int(count)
+    for name, data in (("shLightDirection", slots[0]), ("shLightIrradiance", slots[1])):
+        if name in program:
+            program[name].write(data.tobytes())
+    set_uniform(program, "shLightCount", n)

@@ -158,6 +158,14 @@ static class LiveClient
         return Array(new double[] { v[0].x, v[0].y, v[0].z, v[0].w });
     }
 
+    // a global vector (sh9_lights.hlsl's _SHLightAngularRadius), or null
+    static string GlobalVector(string name)
+    {
+        Vector4 v;
+        if (!Shader.StandInGlobalVectors.TryGetValue(Shader.PropertyToID(name), out v)) return "null";
+        return Array(new double[] { v.x, v.y, v.z, v.w });
+    }
+
     static float[] AmbientProbe()
     {
         var result = new float[27];
@@ -363,6 +371,7 @@ static class LiveClient
                          ",\"sh_light_count\":" + GlobalInt("_SHLightCount") +
                          ",\"sh_light_direction\":" + GlobalVector0("_SHLightDirection") +
                          ",\"sh_light_irradiance\":" + GlobalVector0("_SHLightIrradiance") +
+                         ",\"sh_light_angular_radius\":" + GlobalVector("_SHLightAngularRadius") +
                          ",\"wire_ambient_coefficients\":" + (msg.AmbientCoefficients == null ? "null" : Array(msg.AmbientCoefficients)) +
                          "}");
                 }

@@ -95,6 +95,13 @@ static class ShadowsTest
             var values = new Sh9LightingValues();
             values.Set(snap, 0, 0, 0, 1, 1.0, true);
             checks.Compare("values_radius", new[] { values.LightAngularRadiusDeg }, Numbers(c, "radius"), 1e-12, where);
+            // the shader slots: the drawn light, then the others (issue 30 part B: each shadowed by the occluder)
+            checks.Expect("values_light_count", values.LightCount == m.Lights, where + ": " + values.LightCount);
+            checks.Compare("values_slot_directions", values.LightDirections, Numbers(c, "slot_directions"), 1e-12, where);
+            checks.Compare("values_slot_irradiance", values.LightIrradiances, Numbers(c, "slot_irradiance"), 1e-12, where);
+            checks.Compare("values_slot_radii", values.LightAngularRadiiDeg, Numbers(c, "slot_radii"), 1e-12, where);
+            values.Set(snap, 0, 0, 0, 1, 1.0, false);
+            checks.Expect("values_no_light_no_slots", values.LightCount == 0 && values.LightAngularRadiiDeg[0] == 0, where);
         }
     }
 

@@ -85,11 +85,12 @@ namespace Shlight.Lighting
         // 1 while the driven light carries part of the room's light: SH9 Diffuse then adds the main
         // directional light to SHIrradiance; 0 otherwise (a scene's own default light is not added).
         static readonly int IdMainLightScale = Shader.PropertyToID("_SHMainLightScale");
-        // sh9_lights.hlsl's lights (docs/contract.md §10): the drawn light only, since the SH9 globals hold
-        // everything else while it is drawn; SHShadowRatio (the shadow catchers) reads them.
+        // sh9_lights.hlsl's lights (docs/contract.md §10): the drawn light in slot 0, the others after it (the SH9
+        // globals hold them too, as their SH9 projections); the shadow catchers read them.
         static readonly int IdLightCount = Shader.PropertyToID("_SHLightCount");
         static readonly int IdLightDirection = Shader.PropertyToID("_SHLightDirection");
         static readonly int IdLightIrradiance = Shader.PropertyToID("_SHLightIrradiance");
+        static readonly int IdLightAngularRadius = Shader.PropertyToID("_SHLightAngularRadius");
         readonly Vector4[] lightDirections = new Vector4[4];
         readonly Vector4[] lightIrradiances = new Vector4[4];
 
@@ -461,16 +462,24 @@ namespace Shlight.Lighting
             }
         }
 
-        // The drawn light's direction and irradiance as the shaders' light globals (sh9_lights.hlsl), one
-        // light while a Directional Light is driven, none otherwise.
+        // The message's lights as the shaders' light globals (sh9_lights.hlsl) while a Directional Light is
+        // driven, none otherwise: slot 0 the drawn light, then the others (also folded into the SH9 globals as
+        // their SH9 projections, which the shadow catchers take out to shadow each by the occluder sphere), with
+        // each one's angular radius in radians.
         void SetLightGlobals()
         {
-            double[] d = values.LightDirection, e = values.LightIrradiance;
-            lightDirections[0] = new Vector4((float)d[0], (float)d[1], (float)d[2], 0f);
-            lightIrradiances[0] = new Vector4((float)e[0], (float)e[1], (float)e[2], 0f);
-            Shader.SetGlobalInt(IdLightCount, lightDriven ? 1 : 0);
+            double[] d = values.LightDirections, e = values.LightIrradiances, a = values.LightAngularRadiiDeg;
+            for (int i = 0; i < 4; i++)
+            {
+                lightDirections[i] = new Vector4((float)d[3 * i], (float)d[3 * i + 1], (float)d[3 * i + 2], 0f);
+                lightIrradiances[i] = new Vector4((float)e[3 * i], (float)e[3 * i + 1], (float)e[3 * i + 2], 0f);
+            }
+            const double toRad = Math.PI / 180;
+            Shader.SetGlobalInt(IdLightCount, lightDriven ? values.LightCount : 0);
             Shader.SetGlobalVectorArray(IdLightDirection, lightDirections);
             Shader.SetGlobalVectorArray(IdLightIrradiance, lightIrradiances);
+            Shader.SetGlobalVector(IdLightAngularRadius, new Vector4((float)(a[0] * toRad), (float)(a[1] * toRad),
+                                                                     (float)(a[2] * toRad), (float)(a[3] * toRad)));
         }
 
         // Show the drawn light (values.LightActive) on the driven light, or switch that light off.

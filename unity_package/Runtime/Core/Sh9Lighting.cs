@@ -106,6 +106,19 @@ namespace Shlight.Lighting
         public readonly double[] LightIrradiance = new double[3];
         /// <summary>Angular radius of the drawn light, degrees (0: none sent, or no light).</summary>
         public double LightAngularRadiusDeg { get; private set; }
+        /// <summary>How many of the message's lights the shaders' light slots hold (0 unless <see cref="LightActive"/>;
+        /// at most <see cref="MaxShaderLights"/>): slot 0 the drawn light, then the others in the message's order.
+        /// Those others are also in <see cref="Matrices"/> as their SH9 projections (the ambient probe must keep them);
+        /// the shadow catchers take them out again to shadow each one (sh9_lights.hlsl SHShadowRatioOfSphere).</summary>
+        public int LightCount { get; private set; }
+        /// <summary>Shader light slots (SH_MAX_LIGHTS in sh9_lights.hlsl).</summary>
+        public const int MaxShaderLights = 4;
+        /// <summary>Per slot: the unit direction toward the light (x, y, z), Unity world frame, rotation applied.</summary>
+        public readonly double[] LightDirections = new double[3 * MaxShaderLights];
+        /// <summary>Per slot: its RGB irradiance on a surface facing it (intensity applied).</summary>
+        public readonly double[] LightIrradiances = new double[3 * MaxShaderLights];
+        /// <summary>Per slot: its angular radius, degrees (0: none sent).</summary>
+        public readonly double[] LightAngularRadiiDeg = new double[MaxShaderLights];
 
         readonly double[] rotation = new double[9];
         readonly double[] rotated = new double[48];
@@ -140,6 +153,10 @@ namespace Shlight.Lighting
             LightActive = light;
             Apply(light ? snapshot.UnityAmbientMatrices : snapshot.UnityMatrices, this.rotation, intensity);
             LightAngularRadiusDeg = light ? snapshot.LightAngularRadiusDeg : 0;
+            Array.Clear(LightDirections, 0, LightDirections.Length);
+            Array.Clear(LightIrradiances, 0, LightIrradiances.Length);
+            Array.Clear(LightAngularRadiiDeg, 0, LightAngularRadiiDeg.Length);
+            LightCount = 0;
             if (!light)
             {
                 LightDirection[0] = LightDirection[1] = LightDirection[2] = 0;
@@ -151,6 +168,21 @@ namespace Shlight.Lighting
             LightDirection[1] = r[3] * d[0] + r[4] * d[1] + r[5] * d[2];
             LightDirection[2] = r[6] * d[0] + r[7] * d[1] + r[8] * d[2];
             for (int c = 0; c < 3; c++) LightIrradiance[c] = snapshot.LightIrradiance[c] * intensity;
+            // the slots: the drawn light, then the others in the message's order
+            Sh9Message m = snapshot.Message;
+            for (int k = -1; k < m.Lights && LightCount < MaxShaderLights; k++)
+            {
+                int i = k < 0 ? snapshot.DrawnLight : k;
+                if (k >= 0 && i == snapshot.DrawnLight) continue;
+                double x = m.LightDirections[3 * i], y = m.LightDirections[3 * i + 1], z = -m.LightDirections[3 * i + 2];
+                int o = 3 * LightCount;
+                LightDirections[o] = r[0] * x + r[1] * y + r[2] * z;
+                LightDirections[o + 1] = r[3] * x + r[4] * y + r[5] * z;
+                LightDirections[o + 2] = r[6] * x + r[7] * y + r[8] * z;
+                for (int c = 0; c < 3; c++) LightIrradiances[o + c] = m.LightIrradiance[3 * i + c] * intensity;
+                LightAngularRadiiDeg[LightCount] = m.LightAngularRadiusDeg.Length == m.Lights ? m.LightAngularRadiusDeg[i] : 0;
+                LightCount++;
+            }
         }
 
         void Apply(double[] unityMatrices, double[] rotation, double intensity)
