@@ -25,7 +25,9 @@ import numpy as np
 import pytest
 
 from provider.core.geometry import sh
-from provider.core.lights.shadows import occluded_ambient, shadow_ratio, sphere_occluder
+from provider.core.conventions.formats import light_sh
+from provider.core.lights.shadows import (occluded_ambient, shadow_ratio, sphere_light_visibility,
+                                          sphere_occluder)
 
 from test_unity_shaders import (API, INCLUDE_SETS, STAGES, STEREO, _gl_context, _tool,
                                 bind_uniform_blocks, compile_pass, entry, keyword_sets,
@@ -118,8 +120,9 @@ def _run_catcher(ctx, spv: Path, normals, values: dict, shadow, coords=None, pos
     fbo.clear()
     uv = np.full((n, 2), 0.5, np.float32) if coords is None else np.asarray(coords, np.float32)
     pos = np.zeros((n, 3), np.float32) if positions is None else np.asarray(positions, np.float32)
-    attributes = [(ctx.buffer(np.asarray(normals, np.float32).tobytes()), "3f", "normal"),
-                  (ctx.buffer(uv.tobytes()), "2f", "uv")]
+    attributes = [(ctx.buffer(np.asarray(normals, np.float32).tobytes()), "3f", "normal")]
+    if "uv" in prog:                                    # not in the variant without a shadow map
+        attributes.append((ctx.buffer(uv.tobytes()), "2f", "uv"))
     if "position" in prog:
         attributes.append((ctx.buffer(pos.tobytes()), "3f", "position"))
     vao = ctx.vertex_array(prog, attributes)
@@ -127,14 +130,15 @@ def _run_catcher(ctx, spv: Path, normals, values: dict, shadow, coords=None, pos
     return np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(n, 4)
 
 
-def _compiled_catcher_fragment(tmp_path):
+def _compiled_catcher_fragment(tmp_path, shadows=True):
     """The built-in catcher's fragment stage compiled to SPIR-V against Unity 2019.4's includes, in
     single-pass instanced stereo (HoloLens' D3D11 path; Quest's multiview reads the same array):
-    glslang's HLSL front end has no DX9-style sampler2D for the mono variant's tex2Dproj."""
+    glslang's HLSL front end has no DX9-style sampler2D for the mono variant's tex2Dproj.
+    ``shadows`` False: the variant without the main light's shadow map (no SHADOWS_SCREEN)."""
     dirs, _ = INCLUDE_SETS["2019.4"]
     defines = ["SHADER_API_D3D11", "SHADER_TARGET=35", "UNITY_VERSION=201940", "SHADER_STAGE_FRAGMENT",
-               "SHADOWS_SCREEN", "STEREO_INSTANCING_ON"]
-    spv = tmp_path / "catcher_frag.spv"
+               *(["SHADOWS_SCREEN"] if shadows else []), "STEREO_INSTANCING_ON"]
+    spv = tmp_path / f"catcher_frag_{int(shadows)}.spv"
     ok, log = compile_pass(_catcher_pass(), "fragment", defines, dirs, spv)
     assert ok, log
     return spv
@@ -170,8 +174,6 @@ def test_builtin_catcher_outputs_the_cpu_shadow_ratio(tmp_path):
     # half strength: V 0 shows as V 0.5
     out = _run_catcher(ctx, spv, normals, {**values, "_ShadowStrength": 0.5}, 0.0)
     np.testing.assert_allclose(out[:, :3], shadow_ratio(normals, A_unity, d_unity[None], e[None], [0.5]), atol=2e-5)
-    if os.environ.get("SHLIGHT_DOCS_SCREENSHOT"):
-        picture(ctx, spv, values, A_unity, d_unity, e)
 
 
 def test_builtin_catcher_takes_off_the_occluders_ambient_occlusion(tmp_path):
@@ -210,48 +212,112 @@ def test_builtin_catcher_takes_off_the_occluders_ambient_occlusion(tmp_path):
     assert np.all(off[:, :3] == 1.0)
 
 
-def _disc_visibility(gap_deg, light_deg, occluder_deg):
-    """Fraction of a light disc (angular radius light_deg) left by an occluding disc (occluder_deg)
-    whose centre is gap_deg away (flat-disc overlap)."""
-    r, R, g = np.radians(light_deg), np.radians(occluder_deg), np.radians(gap_deg)
-    r2, R2 = r * r, R * R
-    with np.errstate(invalid="ignore", divide="ignore"):
-        a = r2 * np.arccos(np.clip((g * g + r2 - R2) / (2 * g * r), -1, 1)) + \
-            R2 * np.arccos(np.clip((g * g + R2 - r2) / (2 * g * R), -1, 1)) - \
-            0.5 * np.sqrt(np.clip((-g + r + R) * (g + r - R) * (g - r + R) * (g + r + R), 0, None))
-    overlap = np.where(g >= r + R, 0.0, np.where(g <= np.abs(R - r), np.pi * np.minimum(r, R) ** 2, a))
-    return 1 - overlap / (np.pi * r2)
+def _two_light_scene(rng):
+    """A random ambient, a key light (0, 3°) and a second light (1, 9°) in Unity's frame, the SH9
+    globals as SH9LightingClient uploads them with Key Light Shadows (the ambient plus light 1's SH9
+    projection: Unity's ambient probe keeps it), floor points and tilted receivers around a sphere."""
+    amb = rng.normal(size=(9, 3)) * 0.2
+    amb[0] = [0.9, 0.8, 0.7]
+    d = np.array([[0.4, 0.8, 0.45], [-0.6, 0.7, -0.3]])
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    e = np.array([[2.5, 2.2, 1.6], [1.4, 1.5, 1.9]])
+    radii = np.array([3.0, 9.0])
+    S = np.diag([1, 1, -1, 1.0])
+    A = S @ sh.irradiance_matrices(amb) @ S                        # the message's ambient, Unity frame
+    d_unity = d * [1, 1, -1]
+    folded = S @ sh.irradiance_matrices(amb + light_sh(d[1], e[1])) @ S
+    centre, radius = np.array([0.1, 0.7, -0.1]), 0.3
+    x, z = np.meshgrid(np.linspace(-1.6, 1.6, 15), np.linspace(-1.6, 1.6, 15))
+    floor = np.stack([x.ravel(), np.zeros(x.size), z.ravel()], -1)
+    tilted = rng.uniform(-1, 1, size=(40, 3)) * [1.5, 0.3, 1.5]
+    normals = np.vstack([np.tile([0.0, 1.0, 0.0], (len(floor), 1)), sh.fibonacci_sphere(40)])
+    points = np.vstack([floor, tilted])
+    values = {"_SHIrradianceR": folded[0].T, "_SHIrradianceG": folded[1].T, "_SHIrradianceB": folded[2].T,
+              "_SHLightCount": 2, "_SHLightDirection": [*d_unity[0], 0, *d_unity[1], 0, *[0] * 8],
+              "_SHLightIrradiance": [*e[0], 0, *e[1], 0, *[0] * 8], "_ShadowStrength": 1.0,
+              "_SHLightAngularRadius": [*np.radians(radii), 0, 0], "_SHOccluderSphere": [*centre, radius]}
+    return A, d_unity, e, radii, centre, radius, normals, points, len(floor), values
 
 
-def picture(ctx, spv, values, A_unity, d_unity, e, size=96):
-    """docs/shadows_unity.png: the built-in catcher's output, run, under a sphere (radius 0.3, centre
-    0.8 above a 2 × 2 floor) and a key light of angular radius 6°, the shadow map holding the disc's
-    visibility at each floor point; multiplied onto a stand-in camera image of a floor."""
+def test_builtin_catcher_shadows_the_second_light_past_the_occluder(tmp_path):
+    """A 2-light message (issue 30 part B): the key light's shadow from the shadow map (V 0.4 and 1),
+    the second light (9°) blocked by the occluder sphere analytically (sphere_light_visibility), the
+    ambient less what the sphere hides, and light 1's SH9 projection taken back out of the folded SH9
+    globals: the run fragment is the CPU's shadow_ratio(n, V, occluded_ambient) for floor points and
+    tilted receivers. Without the occluder, light 1 is unblocked (its own shadow is gone)."""
+    ctx = _gl_context()
+    spv = _compiled_catcher_fragment(tmp_path)
+    A, d, e, radii, centre, radius, normals, points, n_floor, values = _two_light_scene(np.random.default_rng(9))
+    v1 = sphere_light_visibility(points, centre, radius, d[1:], radii[1:])[:, 0]
+    assert v1[:n_floor].min() < 0.05 and (v1[:n_floor] > 0.05).sum() > n_floor // 2      # umbra and open floor
+    o = occluded_ambient(normals, A, *sphere_occluder(points, centre, radius))
+    worst = 0.0
+    for v0 in (0.4, 1.0):
+        out = _run_catcher(ctx, spv, normals, values, v0, positions=points)
+        want = shadow_ratio(normals, A, d, e, np.stack([np.full(len(points), v0), v1], 1), occluded_ambient=o)
+        worst = max(worst, float(np.abs(out[:, :3] - want).max()))
+    print(f"\n2 lights, the second shadowed by the sphere: max |shader − shadow_ratio| = {worst:.2e}")
+    assert worst < 2.5e-4        # the shaders' atan and acos: 4096 float32 round-offs (validate-shaders' bound)
+    off = _run_catcher(ctx, spv, normals, {**values, "_SHOccluderSphere": [*centre, 0.0]}, 1.0, positions=points)
+    want = shadow_ratio(normals, A, d, e, np.ones((len(points), 2)))
+    assert np.abs(off[:, :3] - want).max() < 5e-5 and np.abs(off[:, :3] - 1.0).max() < 5e-5
+    if os.environ.get("SHLIGHT_DOCS_SCREENSHOT"):
+        picture(ctx, spv, values, A, d, e, radii, centre, radius)
+
+
+def test_builtin_catcher_without_a_shadow_map_shadows_the_key_light_past_the_occluder(tmp_path):
+    """The variant without the main light's shadow map (Key Light Shadows off, or shadows off in the
+    quality settings): the key light too is blocked by the occluder sphere analytically."""
+    ctx = _gl_context()
+    spv = _compiled_catcher_fragment(tmp_path, shadows=False)
+    A, d, e, radii, centre, radius, normals, points, n_floor, values = _two_light_scene(np.random.default_rng(10))
+    v = sphere_light_visibility(points, centre, radius, d, radii)
+    assert v[:n_floor, 0].min() < 0.05
+    o = occluded_ambient(normals, A, *sphere_occluder(points, centre, radius))
+    out = _run_catcher(ctx, spv, normals, values, 1.0, positions=points)
+    want = shadow_ratio(normals, A, d, e, v, occluded_ambient=o)
+    err = float(np.abs(out[:, :3] - want).max())
+    print(f"\nno shadow map, both lights by the sphere: max |shader − shadow_ratio| = {err:.2e}")
+    assert err < 2.5e-4          # the shaders' atan and acos: 4096 float32 round-offs (validate-shaders' bound)
+
+
+def picture(ctx, spv, values, A, d, e, radii, centre, radius, size=120):
+    """docs/shadows_unity.png: the built-in catcher's output, run, on a 3.2 × 3.2 floor under a sphere
+    (radius 0.3, centre 0.7 above the floor; SH9ShadowOccluder's sphere) and two lights (3° key light,
+    its shadow map holding the key disc's visibility at each floor point; a 9° second light, blocked by
+    the sphere in the shader), multiplied onto a stand-in camera image; and its output across both
+    shadows against the CPU's shadow_ratio."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    x, z = np.meshgrid(np.linspace(-1, 1, size), np.linspace(-1, 1, size))
-    floor = np.stack([x, np.zeros_like(x), z], -1)
-    to_sphere = np.array([0, 0.8, 0]) - floor
-    dist = np.linalg.norm(to_sphere, axis=-1)
-    gap = np.degrees(np.arccos(np.clip((to_sphere / dist[..., None]) @ d_unity, -1, 1)))
-    vis = _disc_visibility(gap, 6.0, np.degrees(np.arcsin(0.3 / dist)))
+    x, z = np.meshgrid(np.linspace(-1.6, 1.6, size), np.linspace(-1.6, 1.6, size))
+    floor = np.stack([x, np.zeros_like(x), z], -1).reshape(-1, 3)
+    v = sphere_light_visibility(floor, centre, radius, d, radii)
     coords = np.stack([(np.arange(size * size) % size + 0.5) / size, (np.arange(size * size) // size + 0.5) / size], -1)
     normals = np.tile([0.0, 1.0, 0.0], (size * size, 1))
-    out = _run_catcher(ctx, spv, normals, values, vis, coords)[:, :3].reshape(size, size, 3)
-    want = shadow_ratio(normals, A_unity, d_unity[None], e[None], vis.reshape(-1, 1)).reshape(size, size, 3)
+    out = _run_catcher(ctx, spv, normals, values, v[:, 0].reshape(size, size), coords, positions=floor)[:, :3]
+    o = occluded_ambient(normals, A, *sphere_occluder(floor, centre, radius))
+    want = shadow_ratio(normals, A, d, e, v, occluded_ambient=o).reshape(size, size, 3)
+    out = out.reshape(size, size, 3)
     rng = np.random.default_rng(1)
-    camera = (np.array([0.55, 0.47, 0.38]) * (0.85 + 0.15 * ((np.floor(x * 4) + np.floor(z * 4)) % 2))[..., None]
+    camera = (np.array([0.55, 0.47, 0.38]) * (0.85 + 0.15 * ((np.floor(x * 3) + np.floor(z * 3)) % 2))[..., None]
               + rng.normal(0, 0.015, (size, size, 1)))
-    fig, ax = plt.subplots(1, 3, figsize=(12, 4))
-    ax[0].imshow(np.clip(camera, 0, 1), extent=(-1, 1, 1, -1)); ax[0].set_title("camera image (stand-in)")
-    ax[1].imshow(np.clip(camera * out, 0, 1), extent=(-1, 1, 1, -1))
-    ax[1].set_title("× Shlight/SH9 Shadow Catcher (run)\nkey light 6°, sphere 0.8 above the floor")
-    c = np.argmin(vis.min(axis=1))
-    ax[2].plot(x[c], out[c, :, 1], label="shader output (G)")
-    ax[2].plot(x[c], want[c, :, 1], "k--", label="shadow_ratio (CPU)")
-    ax[2].set_ylim(0, 1.05); ax[2].set_xlabel("x on the floor"); ax[2].legend(loc="lower right")
-    ax[2].set_title("through the umbra")
+    fig, ax = plt.subplots(1, 3, figsize=(13, 4.3))
+    ext = (-1.6, 1.6, 1.6, -1.6)
+    ax[0].imshow(np.clip(camera, 0, 1), extent=ext); ax[0].set_title("camera image (stand-in)")
+    ax[1].imshow(np.clip(camera * out, 0, 1), extent=ext)
+    ax[1].set_title("× Shlight/SH9 Shadow Catcher (run), occluder set\nkey light 3° (shadow map), second light 9° "
+                    "(sphere)", fontsize=9)
+    # a line through both shadows: from the key light's umbra centre to the second light's
+    feet = [centre - d[k] * centre[1] / d[k][1] for k in (0, 1)]
+    t = np.linspace(-0.4, 1.4, 300)
+    line = feet[0][None] + t[:, None] * (feet[1] - feet[0])[None]
+    ax[1].plot(line[:, 0], line[:, 2], "w:", lw=1)
+    ij = np.clip(np.round((line[:, [2, 0]] + 1.6) / 3.2 * (size - 1)).astype(int), 0, size - 1)
+    ax[2].plot(t, out[ij[:, 0], ij[:, 1], 1], label="shader output (G)")
+    ax[2].plot(t, want[ij[:, 0], ij[:, 1], 1], "k--", label="shadow_ratio (CPU)")
+    ax[2].set_ylim(0, 1.05); ax[2].set_xlabel("along the dotted line (0: key shadow, 1: second)")
+    ax[2].legend(loc="lower right"); ax[2].set_title("through both shadows")
     fig.tight_layout()
     fig.savefig(ROOT / "docs" / "shadows_unity.png", dpi=90)
     plt.close(fig)

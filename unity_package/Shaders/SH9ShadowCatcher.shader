@@ -1,9 +1,10 @@
 // Shadow catcher for the built-in pipeline (issue 30; docs/shadows_consumers.md): invisible except for
 // the darkening. Put it on a stand-in for the real floor (a plane where the floor is); it multiplies what
-// is behind it by SHShadowRatio(n, (V, 1, 1, 1)) (sh9_lights.hlsl): the room's irradiance with the key
-// light blocked by V (Unity's shadow attenuation of the main directional light, which SH9LightingClient
-// drives from the key light with Key Light Shadows on) over the irradiance with it unblocked; with an
-// SH9ShadowOccluder on the hologram, less the ambient its bounding sphere hides (SHShadowRatioOccluded).
+// is behind it by SHShadowRatioOfSphere (sh9_lights.hlsl): the room's irradiance with the key light blocked
+// by V (Unity's shadow attenuation of the main directional light, which SH9LightingClient drives from the
+// key light with Key Light Shadows on) over the irradiance with it unblocked; with an SH9ShadowOccluder on
+// the hologram, lights 1..3 blocked by its bounding sphere (each light's disc, SHSphereLightVisibility), the
+// key light too where it casts no shadow map, and the ambient the sphere hides taken off.
 //
 // How the darkening reaches the eye, set by the material's blend factors:
 //   * Multiply (SH9 Shadow Catcher Multiply.mat): Blend DstColor Zero on colour, alpha kept: for video
@@ -90,10 +91,16 @@ Shader "Shlight/SH9 Shadow Catcher"
                 // the main directional light's shadow: 0 blocked, 1 open (with the shadow-distance fade)
                 UNITY_LIGHT_ATTENUATION(visibility, i, i.worldPos);
                 float3 n = normalize(i.worldNormal);
-                // the hologram's own occlusion of the ambient (its bounding sphere, set by SH9ShadowOccluder)
-                float3 occluded = SHOccludedAmbientOfSphere(n, i.worldPos, _SHOccluderSphere) * _ShadowStrength;
-                float3 ratio = SHShadowRatioOccluded(n, float4(lerp(1.0, visibility, _ShadowStrength), 1.0, 1.0, 1.0),
-                                                     occluded);
+            #if defined(SHADOWS_SCREEN)
+                float keyVisibility = visibility;   // the shadow map: the hologram's real shape
+            #else
+                // no shadow map for the key light: its disc's share left by the occluder sphere (1 without one)
+                float keyVisibility = SHSphereLightVisibility(i.worldPos, _SHOccluderSphere, _SHLightDirection[0].xyz,
+                                                              _SHLightAngularRadius.x);
+            #endif
+                // lights 1..3 past the hologram's bounding sphere (set by SH9ShadowOccluder), and the ambient it hides;
+                // SH9LightingClient keeps lights 1..3 in the SH9 globals too (folded), which this takes out again
+                float3 ratio = SHShadowRatioOfSphere(n, i.worldPos, _SHOccluderSphere, keyVisibility, _ShadowStrength, true);
                 // rgb: the factor (Multiply); a: 1 − its luminance (Passthrough alpha)
                 return float4(ratio, 1.0 - dot(ratio, float3(0.2126, 0.7152, 0.0722)));
             }

@@ -64,6 +64,23 @@ float SHRadianceFromMatrix(float4x4 A, float3 d)
            / 3.14159265358979;
 }
 
+// ∫ over a cap of half-angle α of max(0, n·ω) dω, cosToCap = n·d to its axis, sinHalfAngle = sin α (≥ 1: the
+// receiver inside, counts as 1): π sin²α n·d wholly above the horizon, the exact horizon-cut value when the cap
+// straddles it (Snyder 1996), 0 below (provider/core/lights/shadows.py cap_projected_solid_angle).
+float SHCapProjectedSolidAngle(float cosToCap, float sinHalfAngle)
+{
+    float s = saturate(sinHalfAngle);
+    float s2 = s * s;
+    float h = clamp(cosToCap, -1.0, 1.0);
+    if (h * h >= s2)
+        return 3.14159265358979 * s2 * max(h, 0.0);
+    float sinT = sqrt(max(1.0 - h * h, 0.0));
+    float x = sqrt(max(1.0 - s2, 0.0)) / max(s, 1e-30);   // cot α
+    float y = clamp(-x * h / max(sinT, 1e-30), -1.0, 1.0);
+    float sy = sqrt(max((s - h) * (s + h), 0.0)) / s;   // sinT·sqrt(1 − y²), accurate
+    return max((h * acos(y) - x * sy) * s2 + atan2(sy, x), 0.0);
+}
+
 // The ambient irradiance an occluding sphere hides from a receiver (docs/contract.md §10,
 // provider/core/lights/shadows.py occluded_ambient): n the receiver's unit normal,
 // toOccluder = (c − p)/|c − p| toward the sphere's centre c, sinHalfAngle = R/|c − p| (R its
@@ -73,26 +90,10 @@ float SHRadianceFromMatrix(float4x4 A, float3 d)
 // (Snyder 1996), 0 below. Everything in the frame of n and the matrices.
 float3 SHOccludedAmbient(float3 n, float3 toOccluder, float sinHalfAngle)
 {
-    float s = saturate(sinHalfAngle);
-    float s2 = s * s;
-    float h = clamp(dot(n, toOccluder), -1.0, 1.0);
-    float cap;
-    if (h * h >= s2)
-    {
-        cap = 3.14159265358979 * s2 * max(h, 0.0);
-    }
-    else
-    {
-        float sinT = sqrt(max(1.0 - h * h, 0.0));
-        float x = sqrt(max(1.0 - s2, 0.0)) / max(s, 1e-30);   // cot α
-        float y = clamp(-x * h / max(sinT, 1e-30), -1.0, 1.0);
-        float sy = sqrt(max((s - h) * (s + h), 0.0)) / s;   // sinT·sqrt(1 − y²), accurate
-        cap = max((h * acos(y) - x * sy) * s2 + atan2(sy, x), 0.0);
-    }
     float3 radiance = float3(SHRadianceFromMatrix(_SHIrradianceR, toOccluder),
                              SHRadianceFromMatrix(_SHIrradianceG, toOccluder),
                              SHRadianceFromMatrix(_SHIrradianceB, toOccluder));
-    return max(radiance, 0.0) * cap;
+    return max(radiance, 0.0) * SHCapProjectedSolidAngle(dot(n, toOccluder), sinHalfAngle);
 }
 
 // SHOccludedAmbient for a receiver at point p and an occluding sphere (xyz: centre, w: radius,
@@ -108,14 +109,10 @@ float3 SHOccludedAmbientOfSphere(float3 n, float3 p, float4 sphere)
     return SHOccludedAmbient(n, d, sphere.w / max(dist, 1e-30));
 }
 
-// SHShadowRatio with the occluder's ambient occlusion: occludedAmbient (≥ 0, normally
-// SHOccludedAmbient(n, ...)) is taken off the ambient in the numerator, never below zero:
-//     ratio = (max(E_a(n) − O, 0) + Σ_k V_k I_k max(0, n·d_k)) / (E_a(n) + Σ_k I_k max(0, n·d_k))
-// 1 where the denominator is <= 0; always in [0, 1].
-float3 SHShadowRatioOccluded(float3 n, float4 visibility, float3 occludedAmbient)
+// SHShadowRatioOccluded with the ambient E_a(n) (≥ 0, per colour) given instead of read from the globals.
+float3 SHShadowRatioOfAmbient(float3 n, float3 ambient, float4 visibility, float3 occludedAmbient)
 {
     float4 v = saturate(visibility);
-    float3 ambient = max(SHIrradianceUnclamped(n), 0.0);
     float3 lit = max(ambient - max(occludedAmbient, 0.0), 0.0);
     float3 open = ambient;
     [unroll]
@@ -130,6 +127,15 @@ float3 SHShadowRatioOccluded(float3 n, float4 visibility, float3 occludedAmbient
     }
     float3 lightFalls = (float3)(open > 0.0);
     return lerp((float3)1.0, lit / max(open, 1e-30), lightFalls);
+}
+
+// SHShadowRatio with the occluder's ambient occlusion: occludedAmbient (≥ 0, normally
+// SHOccludedAmbient(n, ...)) is taken off the ambient in the numerator, never below zero:
+//     ratio = (max(E_a(n) − O, 0) + Σ_k V_k I_k max(0, n·d_k)) / (E_a(n) + Σ_k I_k max(0, n·d_k))
+// 1 where the denominator is <= 0; always in [0, 1].
+float3 SHShadowRatioOccluded(float3 n, float4 visibility, float3 occludedAmbient)
+{
+    return SHShadowRatioOfAmbient(n, max(SHIrradianceUnclamped(n), 0.0), visibility, occludedAmbient);
 }
 
 // The shadow a receiver sees (docs/contract.md §10, provider/core/lights/shadows.py): the
@@ -227,6 +233,54 @@ float4 SHSphereLightsVisibility(float3 p, float4 sphere)
             v[i] = SHSphereLightVisibility(p, sphere, _SHLightDirection[i].xyz, _SHLightAngularRadius[i]);
     }
     return v;
+}
+
+// Light i's SH9 projection E_i·Y(d_i) (what Unity's SH9LightingClient folds into _SHIrradianceR/G/B for every light
+// but the drawn one, so that Unity's ambient probe keeps it): its irradiance at unit n, E_i (1/4 + x/2 + 5(3x² − 1)/32),
+// and its radiance toward unit d, E_i (1 + 3x + 5(3x² − 1)/2) / (4π), x the cosine to d_i (bands 0..2 of a delta
+// light: (2l + 1)/(4π) P_l(x), the irradiance each times its cosine-lobe factor π, 2π/3, π/4).
+float3 SHFoldedLightIrradiance(float3 n, int i)
+{
+    float x = dot(n, _SHLightDirection[i].xyz);
+    return _SHLightIrradiance[i].rgb * (0.25 + 0.5 * x + 0.15625 * (3.0 * x * x - 1.0));
+}
+
+float3 SHFoldedLightRadiance(float3 d, int i)
+{
+    float x = dot(d, _SHLightDirection[i].xyz);
+    return _SHLightIrradiance[i].rgb * (1.0 + 3.0 * x + 2.5 * (3.0 * x * x - 1.0)) / (4.0 * 3.14159265358979);
+}
+
+// What a shadow catcher multiplies the camera image by under an occluder sphere (xyz: centre, w: radius, p's frame;
+// w <= 0: none) for a receiver of unit normal n at point p (docs/contract.md §10; the CPU's shadow_ratio(n, V,
+// occluded_ambient) with V from sphere_light_visibility): light 0 seen by keyVisibility (the engine's shadow map,
+// which has the hologram's real shape), lights 1..3 by SHSphereLightVisibility, the ambient less what the sphere
+// hides of it; strength in [0, 1] scales every blocked part (1: as measured). foldedLights: lights
+// 1.._SHLightCount − 1 are also in _SHIrradianceR/G/B as their SH9 projections (Unity's SH9LightingClient); they are
+// taken out first, so the ambient is the message's.
+float3 SHShadowRatioOfSphere(float3 n, float3 p, float4 sphere, float keyVisibility, float strength, bool foldedLights)
+{
+    float3 ambient = SHIrradianceUnclamped(n);
+    float3 toCentre = sphere.xyz - p;
+    float dist = length(toCentre);
+    float3 d = dist > 0.0 ? toCentre / dist : n;
+    float3 radiance = float3(SHRadianceFromMatrix(_SHIrradianceR, d), SHRadianceFromMatrix(_SHIrradianceG, d),
+                             SHRadianceFromMatrix(_SHIrradianceB, d));
+    [unroll]
+    for (int i = 1; i < 4; ++i)
+    {
+        if (foldedLights && i < _SHLightCount)
+        {
+            ambient -= SHFoldedLightIrradiance(n, i);
+            radiance -= SHFoldedLightRadiance(d, i);
+        }
+    }
+    float3 occluded = sphere.w > 0.0
+        ? max(radiance, 0.0) * SHCapProjectedSolidAngle(dot(n, d), sphere.w / max(dist, 1e-30)) : (float3)0.0;
+    float4 v = SHSphereLightsVisibility(p, sphere);
+    v.x = keyVisibility;
+    return SHShadowRatioOfAmbient(n, max(ambient, 0.0), lerp((float4)1.0, v, saturate(strength)),
+                                  occluded * saturate(strength));
 }
 
 #endif // SH9_LIGHTS_INCLUDED

@@ -1,9 +1,10 @@
 // Shadow catcher for URP (issue 30; the sample's README.md): the same as the package's built-in
 // "Shlight/SH9 Shadow Catcher" (unity_package/Shaders/SH9ShadowCatcher.shader): what is behind it is
-// multiplied by SHShadowRatio(n, (V, 1, 1, 1)) (sh9_lights.hlsl), V = URP's main-light shadow
+// multiplied by SHShadowRatioOfSphere (sh9_lights.hlsl), V = URP's main-light shadow
 // (MainLightRealtimeShadow: its cascades, soft-shadow filter and shadow strength), the main light being
 // the Directional Light that SH9LightingClient drives from the key light (Key Light Shadows on); with an
-// SH9ShadowOccluder on the hologram, less the ambient its bounding sphere hides (SHShadowRatioOccluded).
+// SH9ShadowOccluder on the hologram, lights 1..3 blocked by its bounding sphere (and the key light where
+// it casts no shadow map), less the ambient the sphere hides.
 // Blend factors from the material: Multiply (DstColor Zero, alpha kept) for a camera image in the
 // framebuffer, Passthrough (black at coverage 1 − ratio) for a passthrough layer composited through the
 // eye buffer's alpha (Quest). Additive displays (HoloLens) cannot darken: nothing shows there.
@@ -89,12 +90,18 @@ Shader "Shlight/SH9 Shadow Catcher (URP)"
             #else
                 float4 shadowCoord = TransformWorldToShadowCoord(i.positionWS);   // per pixel: the right cascade
             #endif
-                float visibility = MainLightRealtimeShadow(shadowCoord);
                 float3 n = normalize(i.normalWS);
-                // the hologram's own occlusion of the ambient (its bounding sphere, set by SH9ShadowOccluder)
-                float3 occluded = SHOccludedAmbientOfSphere(n, i.positionWS, _SHOccluderSphere) * _ShadowStrength;
-                float3 ratio = SHShadowRatioOccluded(n, float4(lerp(1.0, visibility, _ShadowStrength), 1.0, 1.0, 1.0),
-                                                     occluded);
+            #if defined(_MAIN_LIGHT_SHADOWS) || defined(_MAIN_LIGHT_SHADOWS_CASCADE) || defined(_MAIN_LIGHT_SHADOWS_SCREEN)
+                float keyVisibility = MainLightRealtimeShadow(shadowCoord);   // the hologram's real shape
+            #else
+                // no shadow map for the key light: its disc's share left by the occluder sphere (1 without one)
+                float keyVisibility = SHSphereLightVisibility(i.positionWS, _SHOccluderSphere, _SHLightDirection[0].xyz,
+                                                              _SHLightAngularRadius.x);
+            #endif
+                // lights 1..3 past the hologram's bounding sphere (set by SH9ShadowOccluder), and the ambient it hides;
+                // SH9LightingClient keeps lights 1..3 in the SH9 globals too (folded), which this takes out again
+                float3 ratio = SHShadowRatioOfSphere(n, i.positionWS, _SHOccluderSphere, keyVisibility, _ShadowStrength,
+                                                     true);
                 return float4(ratio, 1.0 - dot(ratio, float3(0.2126, 0.7152, 0.0722)));
             }
             ENDHLSL
