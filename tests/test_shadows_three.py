@@ -275,7 +275,8 @@ def test_the_catchers_glsl_is_the_shipped_glsl():
     import re
     shipped = (ROOT / "shaders" / "sh9_lights.glsl").read_text()
     js = (ROOT / "provider" / "live" / "server" / "static" / "client-three.js").read_text()
-    for name in ("shRadianceFromMatrix", "shOccludedAmbient", "shOccludedAmbientOfSphere"):
+    for name in ("shRadianceFromMatrix", "shOccludedAmbient", "shOccludedAmbientOfSphere", "shCapSegment",
+                 "shCapHalfChord", "shCapOverlapFraction", "shSphereLightVisibility"):
         body = re.search(r"^(float|vec3) " + name + r"\(.*?^}\n", shipped, re.S | re.M).group(0)
         assert body in js, name
 
@@ -353,6 +354,116 @@ def occluder_picture(alpha, occ, x, z, umbra_centre):
         a_.set_xlabel("x"); a_.set_ylabel("z")
     fig.tight_layout()
     fig.savefig(ROOT / "docs" / "shadows_three_occluder.png", dpi=80)
+    plt.close(fig)
+
+
+LAMP = np.array([-0.5, 0.75, 0.4])
+LAMP /= np.linalg.norm(LAMP)
+
+
+def write_sun_lamp_and_sky(path, h: int = 256) -> None:
+    """write_sun_and_sky's panorama plus a bluish lamp of 8° toward LAMP (E⊥ ≈ 0.6): the provider
+    finds two lights, the sun (key) and the lamp."""
+    d = equirect_directions(h, 2 * h)
+    img = np.where(d[..., 1:2] > 0, 0.3, 0.05).astype(np.float32).repeat(3, axis=-1)
+    img[d @ SUN > np.cos(np.radians(SUN_RADIUS_DEG))] = 150.0
+    img[d @ LAMP > np.cos(np.radians(8.0))] = [10.0, 11.0, 14.0]
+    assert cv2.imwrite(str(path), img[..., ::-1])
+
+
+def test_two_lights_each_cast_their_shadow_with_the_occluder(browser, tmp_path):
+    """Issue 30 part B: a 2-light message (a 3° sun, the key light, and an 8° lamp) and the sphere
+    as `shadows.occluder`: the catcher shows the sun's shadow from the shadow map and the lamp's
+    from the occluder sphere in the shader (shSphereLightVisibility). Wherever the sun's shadow map
+    does not reach (beyond 0.12 units of its shadow), the alpha is 1 − the Rec. 709 luminance of
+    the CPU's shadow_ratio(n, V, occluded_ambient) with V from sphere_light_visibility, within
+    UMBRA_TOL; in the lamp's umbra it is well above the occluded ambient alone; in the sun's umbra
+    it is the CPU's too."""
+    import json
+    from provider.core.lights.shadows import (lit_irradiance, occluded_ambient, sphere_light_visibility,
+                                              sphere_occluder)
+    pano = tmp_path / "two.hdr"
+    write_sun_lamp_and_sky(pano)
+    with ServeProcess("--source", str(pano), "--lights", "auto", "--keepalive", "60") as proc:
+        poll(lambda: (r := http_get(proc.http + "/latest.json"))[0] == 200 and r, what="first lighting")
+        with page_of(browser, proc.http + "/healthz") as page:
+            page.evaluate(PAGE, [THREE_URL.format(version=three_version()), proc.http])
+            page.wait_for_function("window.keys > 0 && window.t.conn.latest.message.lights === 2", timeout=60000)
+            page.evaluate("() => { window.t.conn.shadows.occluder = window.t.sphere; }")
+            got = page.evaluate("() => ({ key: window.t.conn.shadows.key.index, msg: window.t.conn.latest.message })")
+            page.evaluate("window.t.onlyCatcher(true)")
+            alpha = _alpha(page)
+            page.evaluate("window.t.onlyCatcher(false)")
+            shown = png_of(page.evaluate("window.t.render()")) if os.environ.get("SHLIGHT_DOCS_SCREENSHOT") else None
+    msg, key = got["msg"], got["key"]
+    k = msg["lights"]
+    d = np.reshape(msg["light_directions"], (k, 3))
+    e = np.reshape(msg["light_irradiance"], (k, 3))
+    radii = np.asarray(msg["light_angular_radius_deg"], float)
+    assert k == 2 and d[key] @ SUN > 0.999 and d[1 - key] @ LAMP > 0.999
+    S = alpha.shape[0]
+    rows, cols = np.mgrid[0:S, 0:S]
+    x, z = -2 + 4 * (cols + 0.5) / S, -2 + 4 * (rows + 0.5) / S
+    points = np.stack([x.ravel(), np.zeros(x.size), z.ravel()], -1)
+    centre, radius = np.array([0.0, 0.8, 0.0]), 0.3
+    A = np.reshape(msg["ambient_matrices"], (3, 4, 4))
+    n = np.tile([0.0, 1.0, 0.0], (len(points), 1))
+    v = sphere_light_visibility(points, centre, radius, d, radii)
+    o = occluded_ambient(n, A, *sphere_occluder(points, centre, radius))
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    from provider.core.geometry import sh
+    amb = np.maximum(sh.irradiance_from_matrices(A, n), 0.0)
+    lit = (lit_irradiance(n, A, d, e, v) - np.minimum(o, amb)) @ lum
+    open_ = lit_irradiance(n, A, d, e, np.ones(k)) @ lum
+    cpu = (1 - lit / open_).reshape(S, S)
+    occ = ((np.minimum(o, amb) @ lum) / open_).reshape(S, S)
+    v_key, v_lamp = v[:, key].reshape(S, S), v[:, 1 - key].reshape(S, S)
+    # beyond the reach of the key light's shadow map (its shadow, with three's PCF blur, and a margin)
+    key_shadow = (v_key < 1.0).astype(np.uint8)
+    far_from_key = cv2.distanceTransform(1 - key_shadow, cv2.DIST_L2, 5) * 4 / S > 0.12
+    lamp_umbra = (v_lamp < 1e-6) & far_from_key
+    key_umbra = cv2.erode((v_key < 1e-6).astype(np.uint8), np.ones((9, 9), np.uint8)) > 0
+    err_open = float(np.abs(alpha - cpu)[far_from_key].max())
+    err_key = float(np.abs(alpha - cpu)[key_umbra].max())
+    print(f"\nlamp umbra: alpha {alpha[lamp_umbra].mean():.4f} vs CPU {cpu[lamp_umbra].mean():.4f} "
+          f"(occluded ambient alone {occ[lamp_umbra].mean():.4f}); beyond the sun's shadow max |alpha − CPU| "
+          f"{err_open:.4f}; sun umbra max |alpha − CPU| {err_key:.4f}")
+    assert lamp_umbra.sum() > 100 and key_umbra.sum() > 100
+    assert err_open < UMBRA_TOL and err_key < UMBRA_TOL
+    assert (alpha - occ)[lamp_umbra].min() > 0.1                 # the lamp's own shadow is there
+    if shown is not None:
+        two_lights_picture(shown, alpha, cpu, x, z, msg, key, radii)
+
+
+def two_lights_picture(shown, alpha, cpu, x, z, msg, key, radii):
+    """docs/shadows_three_two_lights.png: the page (sphere, catcher over a transparent canvas shown
+    on grey), the catcher's darkening against the CPU's, and a profile through both shadows."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rgb = shown[..., :3].astype(float) / 255
+    a = shown[..., 3:4].astype(float) / 255
+    over_grey = rgb * a + 0.6 * (1 - a)
+    d = np.reshape(msg["light_directions"], (2, 3))
+    feet = [np.array([0.0, 0.8, 0.0]) - 0.8 / d[i][1] * d[i] for i in (key, 1 - key)]
+    t = np.linspace(-0.5, 1.5, 400)
+    line = feet[0][None] + t[:, None] * (feet[1] - feet[0])[None]
+    S = alpha.shape[0]
+    ij = np.clip(np.round((line[:, [2, 0]] + 2) / 4 * S - 0.5).astype(int), 0, S - 1)
+    fig, ax = plt.subplots(1, 3, figsize=(13, 4.3))
+    ext = (-2, 2, 2, -2)
+    ax[0].imshow(np.clip(over_grey, 0, 1), extent=ext)
+    ax[0].set_title(f"three.js: sphere over the catcher (on grey)\nsun {radii[key]:.1f}° (shadow map), "
+                    f"lamp {radii[1 - key]:.1f}° (occluder sphere)", fontsize=9)
+    ax[1].imshow(alpha, vmin=0, vmax=0.6, cmap="gray_r", extent=ext)
+    ax[1].plot(line[:, 0], line[:, 2], "r:", lw=1)
+    ax[1].set_title("catcher alpha (darkening), run in Chromium")
+    ax[2].plot(t, alpha[ij[:, 0], ij[:, 1]], label="catcher alpha (8-bit)")
+    ax[2].plot(t, cpu[ij[:, 0], ij[:, 1]], "k--", label="1 − CPU shadow_ratio (Rec. 709)")
+    ax[2].set_xlabel("along the dotted line (0: sun's shadow, 1: lamp's)"); ax[2].set_ylim(0, 0.6)
+    ax[2].legend(loc="upper center", fontsize=8); ax[2].set_title("through both shadows")
+    fig.tight_layout()
+    fig.savefig(ROOT / "docs" / "shadows_three_two_lights.png", dpi=80)
     plt.close(fig)
 
 

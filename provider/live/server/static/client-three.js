@@ -138,10 +138,7 @@ function shadowSetup(opts) {
   let light = opts.light;
   if (!light) {
     light = new THREE.DirectionalLight(0xffffff, 0);
-    light.shadow.mapSize.set(1024, 1024);
-    Object.assign(light.shadow.camera, { left: -2, right: 2, top: 2, bottom: -2, near: 0.1, far: 20 });
-    light.shadow.camera.updateProjectionMatrix();
-    light.shadow.bias = -0.0005;
+    setShadowCamera(light, { size: 4, near: 0.1, far: 20 });
     light.name = "shlight key light";
   }
   light.castShadow = true;
@@ -157,14 +154,28 @@ function shadowSetup(opts) {
   const state = { light, catcher, key: null, occluder: opts.occluder || null };
   if (catcher && catcher.userData.shOccluder) {
     // the hologram may move every frame: its sphere is taken just before the catcher is drawn
+    // (once a frame: three calls onBeforeRender once per view, twice in stereo)
     const sphere = new THREE.Sphere(), before = catcher.onBeforeRender;
-    catcher.onBeforeRender = function (...args) {
-      if (before) before.apply(this, args);
+    let frame = -1;
+    catcher.onBeforeRender = function (renderer, ...rest) {
+      if (before) before.call(this, renderer, ...rest);
+      const now = renderer && renderer.info ? renderer.info.render.frame : NaN;
+      if (now === frame) return;
+      frame = now;
       setCatcherOccluder(catcher, state.occluder ? occluderSphere(THREE, state.occluder, sphere) : null);
     };
   }
   return { THREE, light, catcher, up: opts.up || [0, 1, 0], casterHeight: opts.casterHeight ?? 0.5,
            distance: opts.distance ?? 5, state };
+}
+
+// A shadow-casting light's map (1024²) and square shadow camera, `size` wide, from `near` to `far`
+// along the light (connectLightProbe's light, xrShadows' XREstimatedLight one).
+function setShadowCamera(light, { size, near, far }) {
+  light.shadow.mapSize.set(1024, 1024);
+  Object.assign(light.shadow.camera, { left: -size / 2, right: size / 2, top: size / 2, bottom: -size / 2, near, far });
+  light.shadow.camera.updateProjectionMatrix();
+  light.shadow.bias = -0.0005;
 }
 
 function applyShadows(s, lightProbe, lighting, settings) {
@@ -174,7 +185,8 @@ function applyShadows(s, lightProbe, lighting, settings) {
   setLightProbe(lightProbe, key ? key.coefficients : lighting, settings);
   setKeyLight(s.light, key, { intensity: settings.intensity, distance: s.distance, casterHeight: s.casterHeight });
   if (s.catcher) s.catcher.material.opacity = key ? key.share : 0;
-  if (s.catcher) setCatcherLighting(s.THREE, s.catcher, lighting, { rotation: settings.rotation, up: s.up });
+  if (s.catcher) setCatcherLighting(s.THREE, s.catcher, lighting, { rotation: settings.rotation, up: s.up,
+                                                                    key: key ? key.index : -1 });
 }
 
 // ---- reflections: the provider's cube as three's PMREM -----------------------------------
@@ -507,24 +519,30 @@ export function shadowCatcher(THREE, { size = 4, segments = 1 } = {}) {
     shAmbientAtUp: { value: new THREE.Vector3() },
     shOccluderScale: { value: 0 },
     shOccluderSphere: { value: new THREE.Vector4(0, 0, 0, 0) },
+    // the lights other than the key light (whose shadow is the shadow map's): direction toward each
+    // (provider frame) and angular radius (radians), and each one's share of the floor's light
+    shOtherLight: { value: [new THREE.Vector4(), new THREE.Vector4(), new THREE.Vector4()] },
+    shOtherShare: { value: new THREE.Vector3() },
   };
   mesh.userData.shOccluder = u;
   // ShadowMaterial's alpha, opacity · (1 − shadow), plus the share of the floor's light that the
-  // occluder's sphere hides of the ambient (shOccludedAmbientOfSphere, Rec. 709 luminance).
+  // occluder's sphere hides of the ambient (shOccludedAmbientOfSphere, Rec. 709 luminance) and of
+  // every other light (its share × the part of its disc the sphere hides, shSphereLightVisibility).
   material.onBeforeCompile = (shader) => {
     Object.assign(shader.uniforms, u);
     shader.vertexShader = "varying vec3 vShWorld;\n" + shader.vertexShader.replace("#include <begin_vertex>",
       "#include <begin_vertex>\n\tvShWorld = (modelMatrix * vec4(transformed, 1.0)).xyz;");
     shader.fragmentShader = OCCLUDER_GLSL + shader.fragmentShader.replace(
       "gl_FragColor = vec4( color, opacity * ( 1.0 - getShadowMask() ) );",
-      "gl_FragColor = vec4( color, min( 1.0, opacity * ( 1.0 - getShadowMask() ) + shOccludedShare() ) );");
+      "gl_FragColor = vec4( color, min( 1.0, opacity * ( 1.0 - getShadowMask() ) + shOccludedShare() + shOtherLightsShare() ) );");
   };
-  material.customProgramCacheKey = () => "shlight-occluder";
+  material.customProgramCacheKey = () => "shlight-occluder-lights";
   return mesh;
 }
 
-// The occluder's ambient occlusion on the catcher (docs/shadows.md): shRadianceFromMatrix,
-// shOccludedAmbient and shOccludedAmbientOfSphere are verbatim copies of shaders/sh9_lights.glsl's
+// The occluder's ambient occlusion on the catcher (docs/shadows.md) and each other light's shadow
+// past it: shRadianceFromMatrix, shOccludedAmbient, shOccludedAmbientOfSphere, shCapSegment,
+// shCapHalfChord, shCapOverlapFraction and shSphereLightVisibility are verbatim copies of shaders/sh9_lights.glsl's
 // (tests/test_shadows_three.py checks the copy); they read the ambient matrices, in the provider's
 // frame, as shIrradianceR/G/B.
 const OCCLUDER_GLSL = `
@@ -536,6 +554,8 @@ uniform vec3 shUp;              // the catcher's normal, your world
 uniform vec3 shAmbientAtUp;     // max(E_a(n), 0) at that normal, per colour
 uniform float shOccluderScale;  // 1 / the floor's open irradiance (Rec. 709), 0: nothing lights it
 uniform vec4 shOccluderSphere;  // the occluder's bounding sphere, your world (w <= 0: none)
+uniform vec4 shOtherLight[3];   // the other lights: direction toward each (provider frame), angular radius (rad)
+uniform vec3 shOtherShare;      // each one's share of the floor's open light (Rec. 709), 0: none
 varying vec3 vShWorld;
 float shRadianceFromMatrix(mat4 A, vec3 d) {
     vec3 m = A[3].xyz;
@@ -578,6 +598,60 @@ float shOccludedShare() {
                                        vec4(shToProvider * shOccluderSphere.xyz, shOccluderSphere.w));
     return dot(min(o, shAmbientAtUp), vec3(0.2126, 0.7152, 0.0722)) * shOccluderScale;
 }
+
+float shCapSegment(float x, float c) {
+    float s2 = sin(0.5 * x); s2 *= s2;
+    if (c < 0.5) {
+        float q = s2 * (1.0 - s2), cc = c * c;
+        return (1.0 - s2) * (1.0 - 2.0 * s2) * cc * c * (1.0 / 3.0 - (1.0 - 12.0 * q) * cc / 60.0
+               + (1.0 - 60.0 * q + 360.0 * q * q) * cc * cc / 2520.0);
+    }
+    float tri = s2 > 0.0 ? atan(s2 * sin(c), (1.0 - s2) + s2 * cos(c)) / s2 : sin(c);
+    return 2.0 * c - 2.0 * tri;
+}
+
+float shCapHalfChord(float x, float y, float g, float gx) {
+    float den = sin(x) * sin(g);
+    float c = 1.0 + 2.0 * sin(0.5 * (gx + y)) * sin(0.5 * (gx - y)) / (den > 0.0 ? den : 1.0);
+    return acos(clamp(c, -1.0, 1.0));
+}
+
+float shCapOverlapFraction(float a, float alpha, float g, float delta) {
+    if (a <= 0.0) return delta < 0.0 ? 1.0 : 0.0;         // a point light
+    if (delta >= a) return 0.0;                            // apart
+    if (delta <= -a) return 1.0;                           // the disc inside the sphere
+    float sa = sin(0.5 * a), sal = sin(0.5 * alpha);
+    float areaRatio = (sal * sal) / (sa * sa);             // Ω(cap_α) / Ω(cap_a)
+    if (g <= a - alpha) return min(areaRatio, 1.0);        // the sphere inside the disc
+    float lens = shCapSegment(a, 2.0 * shCapHalfChord(a, alpha, g, delta + alpha - a))
+               + areaRatio * shCapSegment(alpha, 2.0 * shCapHalfChord(alpha, a, g, delta));
+    return clamp(lens / (4.0 * 3.14159265358979), 0.0, 1.0);
+}
+
+float shSphereLightVisibility(vec3 p, vec4 sphere, vec3 lightDirection, float angularRadius) {
+    if (sphere.w <= 0.0) return 1.0;
+    vec3 toCentre = sphere.xyz - p;
+    float dist = length(toCentre);
+    if (dist <= sphere.w) return 0.0;
+    vec3 d = toCentre / dist;
+    float sinG = length(cross(d, lightDirection)), cosG = dot(d, lightDirection);
+    float sinAlpha = sphere.w / dist, cosAlpha = sqrt((dist - sphere.w) * (dist + sphere.w)) / dist;
+    float delta = atan(sinG * cosAlpha - cosG * sinAlpha, cosG * cosAlpha + sinG * sinAlpha);
+    return 1.0 - shCapOverlapFraction(max(angularRadius, 0.0), atan(sinAlpha, cosAlpha),
+                                       atan(sinG, cosG), delta);
+}
+
+float shOtherLightsShare() {
+    if (shOccluderSphere.w <= 0.0) return 0.0;
+    vec3 p = shToProvider * vShWorld;
+    vec4 sphere = vec4(shToProvider * shOccluderSphere.xyz, shOccluderSphere.w);
+    float share = 0.0;
+    for (int i = 0; i < 3; ++i) {
+        if (shOtherShare[i] <= 0.0) continue;
+        share += shOtherShare[i] * (1.0 - shSphereLightVisibility(p, sphere, shOtherLight[i].xyz, shOtherLight[i].w));
+    }
+    return share;
+}
 `;
 
 /**
@@ -602,21 +676,23 @@ export function occluderSphere(THREE, object, target = new THREE.Sphere()) {
 }
 
 /**
- * Point a catcher (shadowCatcher) at the lighting its occluder term needs: `lighting` a Lighting
- * or "sh9" message (its ambient matrices and lights), `rotation` (provider → your world, as
- * connectLightProbe's), `up` the catcher's normal in your world. `ambientCoefficients` (27,
- * your world, e.g. an XR probe's SH × intensity) with `lights` [{direction, irradiance}] may
- * stand in for `lighting`.
+ * Point a catcher (shadowCatcher) at the lighting its occluder terms need: `lighting` a Lighting
+ * or "sh9" message (its ambient matrices, lights and their angular radii), `rotation` (provider
+ * → your world, as connectLightProbe's), `up` the catcher's normal in your world, `key` the index
+ * of the light whose shadow the shadow map draws (the others, up to 3, are shadowed by the
+ * occluder's sphere in the shader). `ambientCoefficients` (27, your world, e.g. an XR probe's SH ×
+ * intensity) with `lights` [{direction, irradiance, angularRadiusDeg}] may stand in for `lighting`.
  */
 export function setCatcherLighting(THREE, catcher, lighting, { rotation = null, up = [0, 1, 0],
-                                                               ambientCoefficients = null, lights = [] } = {}) {
+                                                               ambientCoefficients = null, lights = [],
+                                                               key = 0 } = {}) {
   const u = catcher && catcher.userData.shOccluder;
   if (!u) return;
-  let ambient, dirs = [], irr = [];
+  let ambient, dirs = [], irr = [], radii = [];
   if (ambientCoefficients) {
     ambient = matricesFromCoefficients(ambientCoefficients);
     rotation = null;
-    for (const l of lights) { dirs.push(...l.direction); irr.push(...l.irradiance); }
+    for (const l of lights) { dirs.push(...l.direction); irr.push(...l.irradiance); radii.push(l.angularRadiusDeg || 0); }
   } else {
     const m = lighting && lighting.message ? lighting.message : lighting;
     if (!m) return;
@@ -624,6 +700,8 @@ export function setCatcherLighting(THREE, catcher, lighting, { rotation = null, 
     const k = Number.isInteger(m.lights) ? m.lights : 0;
     if (k > 0 && m.light_directions && m.light_directions.length === 3 * k) {
       dirs = m.light_directions; irr = m.light_irradiance;
+      const r = m.light_angular_radius_deg;
+      radii = Array.isArray(r) && r.length === k ? r.map((v) => Math.max(0, +v || 0)) : new Array(k).fill(0);
     }
   }
   const R = rotation || [1, 0, 0, 0, 1, 0, 0, 0, 1];
@@ -632,9 +710,19 @@ export function setCatcherLighting(THREE, catcher, lighting, { rotation = null, 
   const n = [0, 1, 2].map((j) => R[j] * up[0] + R[3 + j] * up[1] + R[6 + j] * up[2]);
   const len = Math.hypot(n[0], n[1], n[2]) || 1;
   const nn = n.map((v) => v / len);
-  const { ambient: a, total } = floorIrradiance(ambient, nn, dirs, irr);
+  const { ambient: a, lights: shares, total } = floorIrradiance(ambient, nn, dirs, irr);
   u.shAmbientAtUp.value.set(a[0], a[1], a[2]);
   u.shOccluderScale.value = total > 0 ? 1 / total : 0;
+  // the lights but the key one (up to 3), each shadowed by the occluder in the shader
+  const share = [0, 0, 0];
+  let slot = 0;
+  for (let i = 0; i < shares.length && slot < 3; i++) {
+    if (i === key) continue;
+    const d = dirs.slice(3 * i, 3 * i + 3), dl = Math.hypot(d[0], d[1], d[2]) || 1;
+    u.shOtherLight.value[slot].set(d[0] / dl, d[1] / dl, d[2] / dl, (radii[i] * Math.PI) / 180);
+    share[slot++] = total > 0 ? shares[i] / total : 0;
+  }
+  u.shOtherShare.value.set(share[0], share[1], share[2]);
   [u.shIrradianceR, u.shIrradianceG, u.shIrradianceB].forEach((m, c) =>
     m.value.fromArray(ambient, 16 * c));      // symmetric: either order; no per-frame copies
 }
@@ -673,11 +761,7 @@ export function setCatcherOccluder(catcher, sphere) {
 export function xrShadows(THREE, xrLight, opts = {}) {
   const light = xrLight.directionalLight, size = opts.size ?? 4, depth = opts.depth ?? 10;
   light.castShadow = true;
-  light.shadow.mapSize.set(1024, 1024);
-  Object.assign(light.shadow.camera, { left: -size / 2, right: size / 2, top: size / 2, bottom: -size / 2,
-                                       near: -depth, far: depth });
-  light.shadow.camera.updateProjectionMatrix();
-  light.shadow.bias = -0.0005;
+  setShadowCamera(light, { size, near: -depth, far: depth });
   const catcher = opts.catcher === undefined ? shadowCatcher(THREE, { size }) : opts.catcher;
   if (opts.scene && catcher) opts.scene.add(catcher);
   if (opts.renderer) {
@@ -691,22 +775,24 @@ export function xrShadows(THREE, xrLight, opts = {}) {
   const sphere = new THREE.Sphere(), ambient = new Float32Array(27);
   function update() {
     if (!state.active) return;
+    // toward the primary light (three puts it at unit distance from its target); zero when unset
+    dir.copy(light.position).sub(light.target.position);
+    const lit = dir.lengthSq() > 0;
+    if (lit) dir.normalize();
+    const r = typeof opts.angularRadiusDeg === "function" ? opts.angularRadiusDeg() : opts.angularRadiusDeg;
+    state.angularRadiusDeg = Number.isFinite(+r) && +r > 0 ? +r : 0;
     if (catcher && catcher.userData.shOccluder) {
       // the occluder term from the estimate: its probe (everything but the primary light, your world)
       const sh = xrLight.lightProbe.sh.coefficients, k = xrLight.lightProbe.intensity;
       for (let i = 0; i < 9; i++) { ambient[3 * i] = sh[i].x * k; ambient[3 * i + 1] = sh[i].y * k; ambient[3 * i + 2] = sh[i].z * k; }
-      const to = light.position.clone().sub(light.target.position);
-      const lights = light.visible && to.lengthSq() > 0 ? [{ direction: to.normalize().toArray(),
+      const lights = light.visible && lit ? [{ direction: dir.toArray(), angularRadiusDeg: state.angularRadiusDeg,
         irradiance: [light.color.r * light.intensity, light.color.g * light.intensity, light.color.b * light.intensity] }] : [];
-      setCatcherLighting(THREE, catcher, null, { up: up.toArray(), ambientCoefficients: ambient, lights });
+      setCatcherLighting(THREE, catcher, null, { up: up.toArray(), ambientCoefficients: ambient, lights, key: 0 });
       setCatcherOccluder(catcher, state.occluder ? occluderSphere(THREE, state.occluder, sphere) : null);
     }
-    const r = typeof opts.angularRadiusDeg === "function" ? opts.angularRadiusDeg() : opts.angularRadiusDeg;
-    state.angularRadiusDeg = Number.isFinite(+r) && +r > 0 ? +r : 0;
     xrLight.lightProbe.sh.getIrradianceAt(up, e).multiplyScalar(xrLight.lightProbe.intensity);
     const probe = luminance([Math.max(0, e.x), Math.max(0, e.y), Math.max(0, e.z)]);
-    dir.copy(light.position).sub(light.target.position);
-    const cos = dir.lengthSq() > 0 ? Math.max(0, dir.normalize().dot(up)) : 0;
+    const cos = lit ? Math.max(0, dir.dot(up)) : 0;
     const c = light.color, key = luminance([c.r, c.g, c.b]) * light.intensity * cos;
     state.share = probe + key > 0 ? key / (probe + key) : 0;
     if (catcher) catcher.material.opacity = light.visible ? state.share : 0;
@@ -714,9 +800,14 @@ export function xrShadows(THREE, xrLight, opts = {}) {
       mapSize: light.shadow.mapSize.x, frustumWidth: size });
   }
   if (catcher) {
+    // three calls onBeforeRender once per view (twice a frame in stereo): the work is done once a frame
     const before = catcher.onBeforeRender;       // connectLightProbe's own, when it shares the catcher
-    catcher.onBeforeRender = function (...args) {
-      if (before) before.apply(this, args);
+    let frame = -1;
+    catcher.onBeforeRender = function (renderer, ...rest) {
+      if (before) before.call(this, renderer, ...rest);
+      const now = renderer && renderer.info ? renderer.info.render.frame : NaN;
+      if (now === frame) return;
+      frame = now;
       update();
     };
   }
