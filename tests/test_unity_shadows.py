@@ -21,7 +21,8 @@ import pytest
 
 from provider.core.conventions.formats import light_sh
 from provider.core.geometry import sh
-from provider.core.lights.shadows import occluded_ambient, shadow_ratio, sphere_occluder
+from provider.core.lights.shadows import (occluded_ambient, shadow_ratio, sphere_light_visibility,
+                                          sphere_occluder)
 
 from servertools import ServeProcess
 from test_unity import (CORE, CSHARP, S3, S4, _compile, _LiveClient, _mono_tools, _serve_help,  # noqa: F401
@@ -83,16 +84,43 @@ def _snapshot_cases(rng) -> list[dict]:
     return cases
 
 
+def _visibility_cases(rng) -> list[dict]:
+    """Receivers behind a sphere and lights of 0 to 60°, a third grazing the sphere's rim, one inside."""
+    cases = []
+    for i in range(60):
+        centre, radius = rng.normal(size=3), float(rng.uniform(0.1, 1.0))
+        to_c = rng.normal(size=3)
+        to_c /= np.linalg.norm(to_c)
+        point = centre - to_c * (0.5 * radius if i == 0 else radius / rng.uniform(0.05, 0.95))   # 0: inside
+        r = float(rng.choice([0.0, 0.27, 3.0, 9.0, 60.0]))
+        d = rng.normal(size=3)
+        if i % 3 == 1:                 # grazing: the light's centre on the rim, ± its radius
+            dist = np.linalg.norm(centre - point)
+            side = np.cross(to_c, d)
+            side /= np.linalg.norm(side)
+            g = math.asin(min(radius / dist, 1.0)) + rng.uniform(-1, 1) * math.radians(r)
+            d = math.cos(g) * to_c + math.sin(g) * side
+        d /= np.linalg.norm(d)
+        cases.append({"point": point.tolist(), "sphere": [*centre, radius], "direction": d.tolist(),
+                      "radius_deg": r, "visibility": [float(sphere_light_visibility(point, centre, radius,
+                                                                                    d[None], [r])[0])]})
+    return cases
+
+
 def test_shadow_logic_under_mono(build_dir, tmp_path):
     exe = _compile(build_dir / "ShadowsTest.exe", [*CORE, CSHARP / "Checks.cs", CSHARP / "ShadowsTest.cs"])
     rng = np.random.default_rng(30)
     vectors = tmp_path / "shadows.json"
-    vectors.write_text(json.dumps({"ratios": _ratio_cases(rng), "snapshots": _snapshot_cases(rng)}))
+    vectors.write_text(json.dumps({"ratios": _ratio_cases(rng), "snapshots": _snapshot_cases(rng),
+                                   "visibility": _visibility_cases(rng)}))
     _, mono = _mono_tools()
     r = subprocess.run([mono, str(exe), str(vectors)], capture_output=True, text=True, timeout=60)
     report = json.loads(r.stdout.strip().splitlines()[-1])
     assert r.returncode == 0 and not report["failures"], json.dumps(report, indent=1)
-    assert report["cases"] == 43
+    assert report["cases"] == 43 + 60
+    assert report["checks"]["sphere_light_visibility"]["count"] == 60
+    print(f"sphere_light_visibility C# vs Python: max abs "
+          f"{report['checks']['sphere_light_visibility']['max_abs']:.2e}")
     assert report["checks"]["radius_refused"]["count"] == 6
     print(f"\nshadow_ratio C# vs Python: max abs {report['checks']['shadow_ratio']['max_abs']:.2e}")
     assert report["checks"]["occluded_ambient"]["count"] == 40 * 3     # 40 cases, RGB

@@ -128,6 +128,20 @@ static class ShadowsTest
         }
     }
 
+    // Each light's visibility past the occluder sphere (issue 30 part B) against the Python reference.
+    static void Visibility(List<object> cases)
+    {
+        foreach (object o in cases)
+        {
+            var c = (Dictionary<string, object>)o;
+            double[] p = Numbers(c, "point"), d = Numbers(c, "direction");
+            double v = Sh9Shadows.SphereLightVisibility(p[0], p[1], p[2], Numbers(c, "sphere"), d[0], d[1], d[2],
+                                                        Sh9Protocol.GetNumber(c, "radius_deg", 0));
+            checks.Compare("sphere_light_visibility", new[] { v }, Numbers(c, "visibility"), 1e-12,
+                           "radius " + Sh9Protocol.GetNumber(c, "radius_deg", 0));
+        }
+    }
+
     static int Main(string[] args)
     {
         int cases = 0;
@@ -138,9 +152,11 @@ static class ShadowsTest
             Dictionary<string, object> doc = MiniJson.ParseObject(File.ReadAllText(args[0]));
             var ratios = (List<object>)doc["ratios"];
             var snaps = (List<object>)doc["snapshots"];
+            var visibility = (List<object>)doc["visibility"];
             Ratios(ratios);
             Snapshots(snaps);
-            cases = ratios.Count + snaps.Count;
+            Visibility(visibility);
+            cases = ratios.Count + snaps.Count + visibility.Count;
         }
         catch (Exception e)
         {

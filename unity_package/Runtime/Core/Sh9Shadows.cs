@@ -158,5 +158,58 @@ namespace Shlight.Lighting
                 rgb[c] = open > 0 ? lit / open : 1.0;
             }
         }
+        /// <summary>
+        /// The unoccluded fraction of a light's uniform disc (unit direction (dx, dy, dz) toward it, angular radius
+        /// <paramref name="angularRadiusDeg"/> degrees) seen from point p behind a sphere (x, y, z, radius; radius ≤ 0:
+        /// none, 1): 1 − Ω(disc ∩ sphere's cap)/Ω(disc), the exact solid angle of two intersecting caps
+        /// (provider.core.lights.shadows.sphere_light_visibility; SHSphereLightVisibility in sh9_lights.hlsl). A point
+        /// inside the sphere sees nothing: 0. Point, sphere and direction in one frame.
+        /// </summary>
+        public static double SphereLightVisibility(double px, double py, double pz, double[] sphere,
+                                                   double dx, double dy, double dz, double angularRadiusDeg)
+        {
+            if (!(sphere[3] > 0)) return 1.0;
+            double tx = sphere[0] - px, ty = sphere[1] - py, tz = sphere[2] - pz;
+            double dist = Math.Sqrt(tx * tx + ty * ty + tz * tz);
+            if (dist <= sphere[3]) return 0.0;
+            tx /= dist; ty /= dist; tz /= dist;
+            double cx = ty * dz - tz * dy, cy = tz * dx - tx * dz, cz = tx * dy - ty * dx;
+            double g = Math.Atan2(Math.Sqrt(cx * cx + cy * cy + cz * cz), tx * dx + ty * dy + tz * dz);
+            double alpha = Math.Asin(sphere[3] / dist), a = Math.Max(angularRadiusDeg, 0.0) * Math.PI / 180;
+            return 1.0 - CapOverlapFraction(a, alpha, g);
+        }
+
+        /// <summary>Ω(cap_a ∩ cap_α) / Ω(cap_a) for caps of angular radii a (the light) and α whose axes are g apart
+        /// (radians), in [0, 1]: the great circle through the rims' crossings cuts the lens into one segment of each
+        /// cap (sector less isosceles spherical triangle); a = 0 (a point): 1 inside, 0 outside.</summary>
+        public static double CapOverlapFraction(double a, double alpha, double g)
+        {
+            if (a <= 0) return g < alpha ? 1.0 : 0.0;
+            if (g >= a + alpha) return 0.0;
+            if (g <= alpha - a) return 1.0;
+            double sa = Math.Sin(0.5 * a), sal = Math.Sin(0.5 * alpha), areaRatio = sal * sal / (sa * sa);
+            if (g <= a - alpha) return Math.Min(areaRatio, 1.0);
+            double lens = CapSegment(a, 2 * CapHalfChord(a, alpha, g)) + areaRatio * CapSegment(alpha, 2 * CapHalfChord(alpha, a, g));
+            return Math.Min(1.0, Math.Max(0.0, lens / (4 * Math.PI)));
+        }
+
+        // The segment of a cap of half-angle x cut off by a great circle whose chord subtends c at its axis, in units
+        // of sin²(x/2): the sector 2c less the isosceles spherical triangle.
+        static double CapSegment(double x, double c)
+        {
+            double s2 = Math.Sin(0.5 * x);
+            s2 *= s2;
+            double tri = s2 > 0 ? Math.Atan2(s2 * Math.Sin(c), (1 - s2) + s2 * Math.Cos(c)) / s2 : Math.Sin(c);
+            return 2 * c - 2 * tri;
+        }
+
+        // The half-angle at the axis of a cap of radius x between the other cap's axis (radius y, axes g apart)
+        // and a point where the rims cross, from half-angle sines.
+        static double CapHalfChord(double x, double y, double g)
+        {
+            double den = Math.Sin(x) * Math.Sin(g);
+            double c = 1 + 2 * Math.Sin(0.5 * (g - x + y)) * Math.Sin(0.5 * (g - x - y)) / (den > 0 ? den : 1.0);
+            return Math.Acos(Math.Min(1.0, Math.Max(-1.0, c)));
+        }
     }
 }
