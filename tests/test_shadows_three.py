@@ -537,6 +537,61 @@ def test_webxr_page_shadow_from_xr_estimated_light(browser, tmp_path):
                 xr_picture(canvas_rgba(page), held)
 
 
+def test_webxr_two_lights_each_cast_their_shadow_with_the_occluder(browser, tmp_path):
+    """xr.html?shadows=1 in a session with a 2-light message (3° sun, 8° lamp): the estimate holds
+    the sun as its primary light and the lamp in its SH; with the page's sphere as occluder,
+    xrShadows takes the lamp's SH9 projection back out (otherLights from the sh9 messages) and the
+    lamp casts its own shadow past the sphere: in its umbra the alpha is the occluded ambient's
+    share plus the lamp's, as the CPU computes (occluded_ambient of the export's SH less the lamp,
+    sphere_light_visibility), within UMBRA_TOL, well above the occluded ambient alone."""
+    from provider.core.conventions.formats import light_sh
+    from provider.core.geometry import sh
+    from provider.core.lights.shadows import sphere_light_visibility
+    from test_xr_polyfill import INLINE_LE, START_SESSION, webxr_latest
+    from browsertools import REFUSED, canvas_rgba
+    pano = tmp_path / "two.hdr"
+    write_sun_lamp_and_sky(pano)
+    with ServeProcess("--source", str(pano), "--lights", "auto", "--keepalive", "60") as proc:
+        with page_of(browser, proc.http + "/xr.html?shadows=1", tolerate=f"{REFUSED}|{INLINE_LE}") as page:
+            page.wait_for_function("window.shlight && window.shlight.conn.shadows && "
+                                   "window.shlight.conn.shadows.key !== null && "
+                                   "window.shlight.conn.latest.message.lights === 2", timeout=30000)
+            page.evaluate(START_SESSION)
+            page.wait_for_function("window.started === 1 && !window.shlight.lightProbe.visible", timeout=20000)
+            held = page.evaluate("""() => { const s = window.shlight; s.xrShadow.update();
+              return { msg: s.conn.latest.message, share: s.xrShadow.share }; }""")
+            latest = webxr_latest(proc.http)
+            msg = held["msg"]
+            lum = np.array([0.2126, 0.7152, 0.0722])
+            d_l = np.reshape(msg["light_directions"], (2, 3))
+            e_l = np.reshape(msg["light_irradiance"], (2, 3))
+            key = int(np.argmax(e_l @ lum))
+            lamp_d, lamp_e, lamp_r = d_l[1 - key], e_l[1 - key], msg["light_angular_radius_deg"][1 - key]
+            assert lamp_d @ LAMP > 0.999
+            d = latest["primaryLightDirection"]
+            d = np.array([d["x"], d["y"], d["z"]])
+            e = latest["primaryLightIntensity"]
+            e = np.array([e["x"], e["y"], e["z"]])
+            coeffs = np.reshape(latest["sphericalHarmonicsCoefficients"], (9, 3)) - light_sh(lamp_d, lamp_e)
+            up = np.array([[0.0, 1.0, 0.0]])
+            total = (np.maximum(sh.irradiance(coeffs, up)[0], 0) @ lum + (e @ lum) * max(0.0, d[1])
+                     + (lamp_e @ lum) * max(0.0, lamp_d[1]))
+            feet = {name: np.array([0.0, 0.0, 0.0]) - (1.3 / v[1]) * v for name, v in (("lamp", lamp_d), ("sun", d))}
+            points = np.array([[feet["lamp"][0], -1.3, feet["lamp"][2]], [1.8, -1.3, 1.8]])
+            at = page.evaluate(XR_TOP_VIEW, points[:, [0, 2]].tolist())
+            alpha = canvas_rgba(page)[..., 3].astype(np.float32) / 255
+            vals = [float(cv2.remap(alpha, np.float32([[x]]), np.float32([[y]]), cv2.INTER_LINEAR)[0, 0])
+                    for x, y in at]
+    occ = occluded_share(sh.irradiance_matrices(coeffs), total, points, [0, 0, 0], 1.0)
+    v_lamp = sphere_light_visibility(points, np.zeros(3), 1.0, lamp_d[None], [lamp_r])[:, 0]
+    want = occ + (lamp_e @ lum) * max(0.0, lamp_d[1]) / total * (1 - v_lamp)
+    print(f"\nXR lamp umbra alpha {vals[0]:.4f} vs CPU {want[0]:.4f} (occluded ambient alone {occ[0]:.4f}); "
+          f"open floor {vals[1]:.4f} vs {want[1]:.4f}")
+    assert v_lamp[0] == 0.0 and v_lamp[1] == 1.0
+    assert np.all(np.abs(np.array(vals) - want) < UMBRA_TOL), (vals, want)
+    assert vals[0] - occ[0] > 0.1                                   # the lamp's own shadow is there
+
+
 def xr_picture(rgba, held):
     """docs/shadows_webxr.png: xr.html?shadows=1 in a session (XREstimatedLight fed by the polyfill),
     seen from above (the sphere drawn into the shadow map only), over a grey 'camera image'."""

@@ -467,6 +467,28 @@ export function keyLight(lighting, { rotation = null, up = [0, 1, 0], previous =
 }
 
 /**
+ * The lights of a Lighting or "sh9" message other than its key light (keyLight's: the brightest,
+ * or `previous` within the hysteresis), at most 3: [{ direction (unit, your world: rotation · the
+ * provider's), irradiance [r, g, b], angularRadiusDeg }]. What xrShadows' `otherLights` takes:
+ * WebXR's estimate has one light and folds these into its SH.
+ */
+export function otherLights(lighting, { rotation = null, previous = -1 } = {}) {
+  const m = lighting && lighting.message ? lighting.message : lighting;
+  const k = m && Number.isInteger(m.lights) ? m.lights : 0;
+  const dirs = m && m.light_directions, irr = m && m.light_irradiance;
+  if (!(k > 1) || !dirs || !irr || dirs.length !== 3 * k || irr.length !== 3 * k) return [];
+  const key = keyLightIndex(irr, previous), radii = m.light_angular_radius_deg, out = [];
+  for (let i = 0; i < k && out.length < 3; i++) {
+    if (i === key) continue;
+    const d = dirs.slice(3 * i, 3 * i + 3), len = Math.hypot(d[0], d[1], d[2]) || 1;
+    const r = Array.isArray(radii) && radii.length === k && Number.isFinite(+radii[i]) ? Math.max(0, +radii[i]) : 0;
+    out.push({ direction: turn(rotation, d.map((v) => v / len)), irradiance: irr.slice(3 * i, 3 * i + 3).map(Number),
+               angularRadiusDeg: r });
+  }
+  return out;
+}
+
+/**
  * shadow.radius (texels of three's PCF disc) for a light of angular radius `angularRadiusDeg`
  * seen past an edge `casterHeight` (world units, e.g. metres) above the receiver, for a
  * shadow camera `frustumWidth` wide with a `mapSize`-texel map: h·tan r·mapSize / width, ≥ 1.
@@ -753,6 +775,10 @@ export function setCatcherOccluder(catcher, sphere) {
  *   occluder          the hologram (THREE.Object3D or THREE.Sphere): the catcher also darkens
  *                     by the estimate's ambient that its bounding sphere hides (as
  *                     connectLightProbe's `shadows.occluder`); settable later as `.occluder`
+ *   otherLights       the lights the estimate folds into its SH (otherLights(conn.latest), your
+ *                     world): an array or a function returning one. With an occluder, their SH9
+ *                     projections are taken out of the estimate's SH and each casts its shadow
+ *                     past the occluder's sphere (shSphereLightVisibility), as in connectLightProbe.
  * Returns { light, catcher, share, angularRadiusDeg, active, occluder, update() }: update() runs before
  * the catcher is drawn each frame (its onBeforeRender; call it yourself to read `share`
  * sooner) and does nothing while `active` is false (e.g. outside a session, where another
@@ -787,6 +813,10 @@ export function xrShadows(THREE, xrLight, opts = {}) {
       for (let i = 0; i < 9; i++) { ambient[3 * i] = sh[i].x * k; ambient[3 * i + 1] = sh[i].y * k; ambient[3 * i + 2] = sh[i].z * k; }
       const lights = light.visible && lit ? [{ direction: dir.toArray(), angularRadiusDeg: state.angularRadiusDeg,
         irradiance: [light.color.r * light.intensity, light.color.g * light.intensity, light.color.b * light.intensity] }] : [];
+      const others = (typeof opts.otherLights === "function" ? opts.otherLights() : opts.otherLights) || [];
+      if (lights.length && state.occluder) {
+        for (const l of others) { ambient.set(withoutLight(ambient, l.direction, l.irradiance)); lights.push(l); }
+      }
       setCatcherLighting(THREE, catcher, null, { up: up.toArray(), ambientCoefficients: ambient, lights, key: 0 });
       setCatcherOccluder(catcher, state.occluder ? occluderSphere(THREE, state.occluder, sphere) : null);
     }

@@ -16,7 +16,7 @@
 // import map; default a CDN), shadows=1 (a shadow catcher on the floor: the key light casts
 // the sphere's shadow onto the camera image; client-three.js connectLightProbe's `shadows` in
 // the preview, xrShadows on XREstimatedLight in a session; docs/shadows_consumers.md).
-import { connectLightProbe, keyLight, shadowCatcher, xrShadows } from "./client-three.js";
+import { connectLightProbe, keyLight, otherLights, shadowCatcher, xrShadows } from "./client-three.js";
 import { installLightEstimationPolyfill, yawRotation } from "./xr-lighting-polyfill.js";
 
 const params = new URLSearchParams(location.search);
@@ -85,17 +85,19 @@ async function main() {
   // Its primary light casts the shadows in a session; the angular radius (not in WebXR's
   // estimate) from the provider's own messages: the brightest light's, as the webxr export's
   // primary light. Asked every frame: worked out once a message.
-  let radiusOf = null, radiusDeg = 0;
-  const keyRadiusDeg = () => {
+  // The other lights, which the estimate folds into its SH, cast their shadows past the sphere.
+  let radiusOf = null, radiusDeg = 0, others = [];
+  const fromLatest = () => {
     if (conn.latest !== radiusOf) {
       radiusOf = conn.latest;
       const k = radiusOf && keyLight(radiusOf);
       radiusDeg = k ? k.angularRadiusDeg : 0;
+      others = radiusOf ? otherLights(radiusOf, { rotation: yaw ? yawRotation(yaw) : null }) : [];
     }
-    return radiusDeg;
   };
   const xrShadow = floor ? xrShadows(THREE, xrLight, { renderer, catcher: floor, casterHeight: 1.3, occluder: sphere,
-    angularRadiusDeg: keyRadiusDeg,
+    angularRadiusDeg: () => { fromLatest(); return radiusDeg; },
+    otherLights: () => { fromLatest(); return others; },
   }) : null;
   if (xrShadow) xrShadow.active = false;
   // While it estimates, it alone lights the scene (a hidden light is not rendered:
