@@ -592,6 +592,32 @@ def test_webxr_two_lights_each_cast_their_shadow_with_the_occluder(browser, tmp_
     assert vals[0] - occ[0] > 0.1                                   # the lamp's own shadow is there
 
 
+def test_xr_shadows_work_once_a_frame(browser, tmp_path):
+    """three calls a catcher's onBeforeRender once per view (twice a frame in stereo): xrShadows'
+    update runs once a frame (its angular-radius callback is asked once), and again the next frame."""
+    from test_xr_polyfill import INLINE_LE
+    from browsertools import REFUSED
+    pano = tmp_path / "sun.hdr"
+    write_sun_and_sky(pano)
+    with ServeProcess("--source", str(pano), "--lights", "auto", "--keepalive", "60") as proc:
+        with page_of(browser, proc.http + "/xr.html?shadows=1", tolerate=f"{REFUSED}|{INLINE_LE}") as page:
+            page.wait_for_function("window.shlight && window.shlight.xrShadow", timeout=30000)
+            calls = page.evaluate("""async () => {
+              const s = window.shlight, a = await import("/client-three.js");
+              let asked = 0;
+              const catcher = a.shadowCatcher(s.THREE);
+              a.xrShadows(s.THREE, s.xrLight, { catcher, angularRadiusDeg: () => { asked++; return 1; } });
+              const view = () => catcher.onBeforeRender(s.renderer, s.scene, s.camera, catcher.geometry,
+                                                         catcher.material, null);
+              view(); view();                        // the two eyes of one frame
+              const one = asked;
+              s.renderer.render(s.scene, s.camera);  // the next frame
+              view(); view();
+              return [one, asked];
+            }""")
+    assert calls == [1, 2], calls
+
+
 def xr_picture(rgba, held):
     """docs/shadows_webxr.png: xr.html?shadows=1 in a session (XREstimatedLight fed by the polyfill),
     seen from above (the sphere drawn into the shadow map only), over a grey 'camera image'."""
