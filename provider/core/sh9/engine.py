@@ -418,11 +418,8 @@ class SH9Projector(FrameDecoder):
         k = self.absolute_scale(k, f_number, stats)
         absolute = stats["coefficient_units"] == UNITS_ABSOLUTE
         coeffs, small, light_input, clipped, up = self._project_frame(frame, stats, work=work)
-        if absolute:     # the 10th weight's sum, from the same pass (else the pixels again)
-            lux = (max(float(luminance(up)) * float(k), 0.0) if up is not None
-                   else self.up_illuminance(frame, k))
-            if lux is not None:
-                stats["illuminance_lux"] = lux
+        if absolute and up is not None:     # the 10th weight's sum, from the same pass
+            stats["illuminance_lux"] = max(float(luminance(up)) * float(k), 0.0)
         if k is not None:
             coeffs, clipped = coeffs * k, clipped * k
         integer = frame.dtype in (np.uint8, np.uint16)
