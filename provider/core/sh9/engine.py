@@ -447,14 +447,17 @@ class SH9Projector(FrameDecoder):
         return k * factor
 
     def up_illuminance(self, frame: np.ndarray, scale: float = 1.0) -> float | None:
-        """Exact Rec. 709 luminance of the irradiance on an up-facing surface (world +Y) of a
-        frame, from its pixels (not SH9, which truncates it: up to 6 % off under a ceiling
-        of lamps): lux in absolute units. An integer frame goes through the projector's
-        table, then times ``scale``. None where the weights are not at hand (a downsampled
-        projection, or a cropped frame). :meth:`project` sums the same weights in its own
-        pass (a 10th weight) when the camera has an absolute scale; this is for frames
-        projected elsewhere (a merged bracket, the meter's closed frame, calibration)."""
+        """Exact luminance of the irradiance on an up-facing surface (world +Y) from a frame's
+        pixels (not SH9's), times ``scale``: lux in absolute units; None where not at hand."""
         return pixels_up_illuminance(self, frame, scale)
+
+    @property
+    def up_cosine_weights(self) -> np.ndarray | None:
+        """(H·W,) float32 ∫ max(d·up, 0) dω of each full-resolution pixel (sr, world +Y,
+        rotation applied), built once; None for a downsampled projection."""
+        if self._up is None and self.downsample == 1:
+            self._up = up_weights(self._full, self.rotation)[0].astype(np.float32).ravel()
+        return self._up
 
     # -- building blocks of brackets (provider.core.radiometry.bracket) ----------------------------------
     def project_part(self, frame: np.ndarray, table: np.ndarray):

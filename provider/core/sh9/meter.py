@@ -146,21 +146,17 @@ def has_absolute_scale(response) -> bool:
 
 def pixels_up_illuminance(projector, frame: np.ndarray, scale: float = 1.0) -> float | None:
     """:meth:`~provider.core.sh9.engine.SH9Projector.up_illuminance` of a frame from its
-    pixels: the projector's up weights (built once, kept on it) times the linear frame."""
-    if projector._up is None:
-        if projector.downsample != 1:     # equirect frames are never downsampled (withdrawn)
-            return None
-        projector._up = np.ascontiguousarray(
-            up_weights(projector._full, projector.rotation)[0], np.float32).reshape(-1)
-    if frame.shape[0] * frame.shape[1] != projector._up.size:
+    pixels: the projector's :attr:`~provider.core.sh9.engine.SH9Projector.up_cosine_weights`
+    times the linear frame (an integer one decoded by the projector, exposure included)."""
+    weights = projector.up_cosine_weights
+    if weights is None or frame.shape[0] * frame.shape[1] != weights.size:
         return None
     if frame.dtype in (np.uint8, np.uint16):
-        from ..radiometry.response import apply_lut
-        lin = apply_lut(frame, projector._lut(frame.dtype))
+        lin = projector.decode(frame, {})
     else:
         lin = np.maximum(np.nan_to_num(np.asarray(frame, np.float32), nan=0.0,
                                        posinf=0.0), 0.0) * np.float32(projector.exposure)
-    rgb = projector._up @ np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
+    rgb = weights @ np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
     return max(float(luminance(rgb)) * float(scale), 0.0)
 
 
