@@ -166,6 +166,24 @@ def pixels_up_illuminance(projector, frame: np.ndarray, scale: float = 1.0) -> f
     return max(float(luminance(rgb)) * float(scale), 0.0)
 
 
+def _at(image: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+    """``image`` (H, W) at flat pixel numbers, without the copy that flattening a broadcast
+    array (the per-row weights) would make."""
+    return image[np.unravel_index(pixels, image.shape)]
+
+
+def _blobs(clipped: np.ndarray) -> tuple[int, np.ndarray]:
+    """cv2.connectedComponents (8-connected) of the clipped mask, run on the rows and columns
+    that hold clipped pixels only (the sun: a small box of a large frame)."""
+    rows, cols = np.flatnonzero(clipped.any(axis=1)), np.flatnonzero(clipped.any(axis=0))
+    labels = np.zeros(clipped.shape, np.int32)
+    if rows.size == 0:
+        return 1, labels
+    box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    n, labels[box] = cv2.connectedComponents(clipped[box].astype(np.uint8), connectivity=8)
+    return n, labels
+
+
 def _facing_weights(omega, directions, normal) -> np.ndarray:
     """Per pixel ``max(d·n, 0) · dω`` (sr): the meter's cosine for normal ``n``."""
     return np.maximum(directions @ np.asarray(normal, np.float64), 0.0) * omega
@@ -186,7 +204,8 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
     (the closed light is neutral); ``in_place``: add to ``radiance`` itself (no copy)."""
     cosw, omega, directions = weights
     omega = np.asarray(omega)
-    n, labels = cv2.connectedComponents(clipped.astype(np.uint8), connectivity=8)
+    n, labels = _blobs(clipped)
+    rays = np.asarray(directions).reshape(-1, 3)    # (indexed by flat pixel numbers: fast)
     normal = UP if facing is None else facing
     wide = ""
     if isinstance(normal, str):                 # "sun": the largest clipped blob's direction
@@ -194,12 +213,12 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
             normal = UP
         else:
             inside = np.flatnonzero(clipped)
-            sizes = np.bincount(labels.reshape(-1)[inside], weights=omega.reshape(-1)[inside],
+            sizes = np.bincount(labels.reshape(-1)[inside], weights=_at(omega, inside),
                                 minlength=n)
-            sun = labels == int(np.argmax(sizes[1:])) + 1
-            mean = (directions[sun] * omega[sun][:, None]).sum(axis=0)
+            sun = np.flatnonzero(labels == int(np.argmax(sizes[1:])) + 1)
+            mean = (rays[sun] * _at(omega, sun)[:, None]).sum(axis=0)
             normal = mean / max(np.linalg.norm(mean), 1e-12)
-            spread = float(np.degrees(np.arccos(np.clip(directions[sun] @ normal, -1, 1))).max())
+            spread = float(np.degrees(np.arccos(np.clip(rays[sun] @ normal, -1, 1))).max())
             if spread > WIDE_BLOB_DEG:
                 wide = (f"the largest clipped region spans {spread:.0f}° from its centre: it is "
                         "more than the sun (a clipped sky?), so 'sun' is only its centre; "
@@ -229,7 +248,7 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
                         "clipped: nothing to put it in")
         return radiance, closure
     inside = np.flatnonzero(clipped)            # the clipped samples only (a small part)
-    seen = np.bincount(labels.reshape(-1)[inside], weights=np.asarray(cosw).reshape(-1)[inside],
+    seen = np.bincount(labels.reshape(-1)[inside], weights=_at(np.asarray(cosw), inside),
                        minlength=n)[1:]
     best = int(np.argmax(seen)) + 1
     if seen[best - 1] <= 0:
@@ -241,12 +260,13 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
         rest = np.maximum(float(lux) * rgb_of_cct(*colour) - seen_rgb, 0.0)
         if float(luminance(rest)) > 0:
             rgb = rest / float(luminance(rest))
-    out = radiance if in_place else radiance.copy()
+    out = radiance if in_place and radiance.flags.c_contiguous else radiance.copy()
     added = (np.float32(missing / seen[best - 1]) * rgb).astype(np.float32)
-    out[blob] += added
+    pixels = np.flatnonzero(blob)
+    out.reshape(-1, 3)[pixels] += added           # (a view: out is contiguous)
     closure.blob, closure.added = blob, tuple(float(v) for v in added)
-    w = omega[blob]
-    mean = (directions[blob] * w[:, None]).sum(axis=0)
+    w = _at(omega, pixels)
+    mean = (rays[pixels] * w[:, None]).sum(axis=0)
     closure.closed_lux = missing
     closure.direction = tuple(float(v) for v in mean / max(np.linalg.norm(mean), 1e-12))
     closure.solid_angle_sr = float(w.sum())
