@@ -242,7 +242,14 @@ def test_serve_with_a_meter_toward_a_low_sun(camera, tmp_path):  # noqa: F811
 def test_serve_meter_options_need_lux():
     from servertools import run_cli
     p = run_cli("serve", "--source", "demo", "--lux-facing", "sun")
-    assert p.returncode == 2 and "are for --lux" in p.stderr and "Traceback" not in p.stderr
+    assert p.returncode == 2 and "--lux-facing is for --lux" in p.stderr and "Traceback" not in p.stderr
+    # one check for serve and compute, in one wording (checked before any frame is read)
+    said = "--lux-facing and --lux-cct are for --lux (a lux meter's reading)"
+    for argv in (("serve", "--source", "demo"), ("compute", "no-such-frame.jpg")):
+        p = run_cli(*argv, "--lux-facing", "sun", "--lux-cct", "5600")
+        assert p.returncode == 2 and said in p.stderr and "Traceback" not in p.stderr, p.stderr
+        p = run_cli(*argv, "--lux", "1000", "--lux-facing", "east")
+        assert p.returncode == 2 and "--lux-facing east: expected up, sun or AZ,EL" in p.stderr
 
 
 @pytest.mark.skipif(not os.path.exists(MOSQUITTO_PASSWD), reason="no mosquitto_passwd")

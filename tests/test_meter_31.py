@@ -202,3 +202,18 @@ def test_the_meters_weights_are_built_once_per_projection():
     assert _meter_weights(rotated, Equirect(64, 32)) is not first
     np.testing.assert_allclose(_meter_weights(rotated, Equirect(64, 32))[0],
                                up_weights(Equirect(64, 32), turned)[0])
+
+
+def test_the_projector_says_its_up_cosine_weights():
+    """SH9Projector.up_cosine_weights (public: what the meter's up illuminance reads from a
+    projector): up_weights of its frame, in its rotation, built once; None for a downsampled
+    projection (its frames are not the weights' pixels)."""
+    projector = SH9Projector(64, 32, "equirect")
+    weights = projector.up_cosine_weights
+    assert weights is projector.up_cosine_weights and weights.dtype == np.float32
+    np.testing.assert_allclose(weights, up_weights(Equirect(64, 32))[0].reshape(-1), rtol=1e-6)
+    turned = np.array([[0, 0, 1], [0, 1, 0], [-1, 0, 0]], float)
+    np.testing.assert_allclose(SH9Projector(64, 32, rotation=turned).up_cosine_weights,
+                               up_weights(Equirect(64, 32), turned)[0].reshape(-1),
+                               rtol=1e-6, atol=1e-9)
+    assert SH9Projector(64, 64, "fisheye", downsample=2).up_cosine_weights is None

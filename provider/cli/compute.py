@@ -79,7 +79,10 @@ def wire_message(args, command: str = "compute") -> dict:
                              **options)
     for warning in projector.warnings:
         say(command, "warning", warning)
-    if several:
+    if getattr(args, "lux", None) is not None:      # one projection, of the closed frame
+        result = meter_closed(projector, images, times, gain, f_number, args.lux, command,
+                              args)
+    elif several:
         result = project_bracket(projector, images, times, gain=gain, f_number=f_number)
     else:
         result = projector.project(image, exposure_s=times[0], gain=gain, f_number=f_number)
@@ -90,9 +93,6 @@ def wire_message(args, command: str = "compute") -> dict:
         say(command, "note", "the camera has an absolute scale but the frame's exposure time "
                              "is unknown (no @SECONDS, no EXIF ExposureTime): units stay "
                              "relative")
-    if getattr(args, "lux", None) is not None:
-        result = meter_closed(projector, images, times, gain, f_number, result, args.lux,
-                              command, args)
     if not result.coefficients[0].any():      # L00 = 0: not one pixel seen is above 0
         say(command, "warning", f"the frame{'s are' if several else ' is'} all zeros where "
                                 "the projection looks: no light, the lighting is black (a "
@@ -101,28 +101,29 @@ def wire_message(args, command: str = "compute") -> dict:
                                time=os.path.getmtime(paths[0]), projection=args.projection)
 
 
-def check_meter_arguments(args) -> None:
-    """``--lux-facing`` / ``--lux-cct`` are for ``--lux`` and must parse: said before any
-    work (one line, exit 2)."""
+def check_meter_arguments(args, where: str = "") -> tuple:
+    """The meter's options (``--lux-facing``, ``--lux-cct``; serve's ``--lux-ca``) are for
+    ``--lux`` and must parse: said before any work in one line (exit 2), the same in compute
+    and serve (``where``: serve's "probe NAME: "). Returns (facing, colour) parsed
+    (:func:`~provider.core.sh9.meter.parse_facing`, :func:`~provider.core.sh9.meter.parse_meter_colour`)."""
     from ..core.errors import InputError
     from ..core.sh9.meter import parse_facing, parse_meter_colour
-    for name in ("lux_facing", "lux_cct"):
-        if getattr(args, name, None) is not None and getattr(args, "lux", None) is None:
-            raise InputError(f"--{name.replace('_', '-')} is for --lux (a lux meter's reading)")
-    parse_facing(getattr(args, "lux_facing", None) or "up")
-    parse_meter_colour(getattr(args, "lux_cct", None))
+    given = [f"--{name.replace('_', '-')}" for name in ("lux_facing", "lux_cct", "lux_ca")
+             if getattr(args, name, None) is not None]
+    if given and getattr(args, "lux", None) is None:
+        raise InputError(f"{where}{' and '.join(given)} {'is' if len(given) == 1 else 'are'} "
+                         "for --lux (a lux meter's reading)")
+    return (parse_facing(getattr(args, "lux_facing", None) or "up"),
+            parse_meter_colour(getattr(args, "lux_cct", None)))
 
 
-def meter_closed(projector, images, times, gain, f_number, result, lux, command,
-                 command_args=None):
-    """``--lux``: the result with the meter's missing light in the clipped blob
+def meter_closed(projector, images, times, gain, f_number, lux, command, command_args=None):
+    """``--lux``: the frame(s) projected with the meter's missing light in the clipped blob
     (:func:`provider.core.sh9.meter.project_with_meter`), what it closed said on stderr."""
     from ..core.sh9.meter import project_with_meter
     from .feedback import say
-    from ..core.sh9.meter import parse_facing, parse_meter_colour
-    facing = parse_facing(getattr(command_args, "lux_facing", None) or "up")
-    colour = parse_meter_colour(getattr(command_args, "lux_cct", None))
-    new, closure = project_with_meter(projector, images, times, gain, f_number, result, lux,
+    facing, colour = check_meter_arguments(command_args) if command_args else (None, None)
+    new, closure = project_with_meter(projector, images, times, gain, f_number, lux,
                                       facing=facing, colour=colour)
     if closure.warning:
         say(command, "warning", closure.warning)

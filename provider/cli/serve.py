@@ -373,20 +373,16 @@ def build_server(args):
         environment = (EnvironmentSettings(
             32 if ns.environment_size is None else ns.environment_size,
             1.0 if ns.environment_hz is None else ns.environment_hz) if ns.environment else None)
+        from .compute import check_meter_arguments
+        facing, colour = check_meter_arguments(ns, f"probe {name}: ")
         meter = None
         if ns.lux is not None:
             if not ns.camera:
                 raise InputError(f"probe {name}: --lux needs --camera CAMERA.json with an "
                                  "absolute scale (shlight calibrate-response --lux)")
-            from ..core.sh9.meter import parse_facing, parse_meter_colour
             from ..live.probe.luxmeter import parse_lux_source
-            facing = parse_facing(ns.lux_facing or "up")
-            colour = parse_meter_colour(ns.lux_cct)
             meter = parse_lux_source(ns.lux, ca_file=ns.lux_ca)
             meter.facing, meter.colour = facing, colour
-        elif ns.lux_facing is not None or ns.lux_cct is not None or ns.lux_ca is not None:
-            raise InputError(f"probe {name}: --lux-facing, --lux-cct and --lux-ca are for "
-                             "--lux")
         probes.append(Probe(name, spec, projection=ns.projection,
                             engine_options=engine_options(ns), temporal=temporal,
                             backoff_max=ns.reconnect_max, environment=environment,

@@ -31,7 +31,6 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from .photometry import UNITS_ABSOLUTE
 from .response import (CameraResponse, ResponseError, _as_lut, _positive_floor, _top, apply_lut,
                        check_bracket, check_time)
 
@@ -310,11 +309,7 @@ def project_bracket(projector, frames, times, *, gain: float = 1.0,
     stats = {}
     factor = projector.absolute_scale(1.0, f_number, stats)
     radiance = m.radiance * np.float32(factor) if factor != 1.0 else m.radiance
-    result = projector.project(radiance)
-    if stats["coefficient_units"] == UNITS_ABSOLUTE:
-        lux = projector.up_illuminance(radiance)
-        if lux is not None:
-            stats["illuminance_lux"] = lux
+    result = projector.project(radiance, units=stats["coefficient_units"])  # + its lux
     short = float(times.min()) * check_time(gain, "gain") / factor
     stats.update({"clipped_fraction": m.clipped_fraction, "exposures_s": m.times})
     if gain != 1.0:

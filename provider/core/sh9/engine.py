@@ -373,8 +373,8 @@ class SH9Projector(FrameDecoder):
 
     @one_blas_thread
     def project(self, frame: np.ndarray, error_estimate: bool | None = None,
-                tracker=None, *, exposure_s: float | None = None,
-                gain: float = 1.0, f_number: float | None = None, work=None) -> SH9Result:
+                tracker=None, *, exposure_s: float | None = None, gain: float = 1.0,
+                f_number: float | None = None, work=None, units=None) -> SH9Result:
         """Coefficients, matrices and statistics of one frame (``error_estimate``: whether
         to estimate SH9's error on this frame; None: as the projector was built).
 
@@ -394,6 +394,8 @@ class SH9Projector(FrameDecoder):
         With a curve that has an absolute scale (camera.json ``params.absolute``, gain =
         ISO/100) they are also multiplied by C·N² (``f_number``, or the calibration's):
         cd/m², ``stats["coefficient_units"]`` (:mod:`~provider.core.radiometry.photometry`).
+        ``units="cd/m²"``: a float frame already in cd/m² (a merged bracket, a meter's closed
+        frame) gets ``illuminance_lux`` from the same pass too.
 
         ``stats`` keys: ``compute_ms``, ``clipped_fraction`` (fraction of channel samples at
         the top code value of an integer frame), ``clipped_light_fraction`` (the share of
@@ -416,13 +418,10 @@ class SH9Projector(FrameDecoder):
         frame = self._prepare(frame)
         k = exposure_scale(exposure_s, gain, stats)
         k = self.absolute_scale(k, f_number, stats)
-        absolute = stats["coefficient_units"] == UNITS_ABSOLUTE
+        absolute = UNITS_ABSOLUTE in (stats["coefficient_units"], units)
         coeffs, small, light_input, clipped, up = self._project_frame(frame, stats, work=work)
-        if absolute:     # the 10th weight's sum, from the same pass (else the pixels again)
-            lux = (max(float(luminance(up)) * float(k), 0.0) if up is not None
-                   else self.up_illuminance(frame, k))
-            if lux is not None:
-                stats["illuminance_lux"] = lux
+        if absolute and up is not None:     # the 10th weight's sum, from the same pass
+            stats["illuminance_lux"] = max(float(luminance(up)) * float(k or 1.0), 0.0)
         if k is not None:
             coeffs, clipped = coeffs * k, clipped * k
         integer = frame.dtype in (np.uint8, np.uint16)
@@ -450,14 +449,17 @@ class SH9Projector(FrameDecoder):
         return k * factor
 
     def up_illuminance(self, frame: np.ndarray, scale: float = 1.0) -> float | None:
-        """Exact Rec. 709 luminance of the irradiance on an up-facing surface (world +Y) of a
-        frame, from its pixels (not SH9, which truncates it: up to 6 % off under a ceiling
-        of lamps): lux in absolute units. An integer frame goes through the projector's
-        table, then times ``scale``. None where the weights are not at hand (a downsampled
-        projection, or a cropped frame). :meth:`project` sums the same weights in its own
-        pass (a 10th weight) when the camera has an absolute scale; this is for frames
-        projected elsewhere (a merged bracket, the meter's closed frame, calibration)."""
+        """Exact luminance of the irradiance on an up-facing surface (world +Y) from a frame's
+        pixels (not SH9's), times ``scale``: lux in absolute units; None where not at hand."""
         return pixels_up_illuminance(self, frame, scale)
+
+    @property
+    def up_cosine_weights(self) -> np.ndarray | None:
+        """(H·W,) float32 ∫ max(d·up, 0) dω of each full-resolution pixel (sr, world +Y,
+        rotation applied), built once; None for a downsampled projection."""
+        if self._up is None and self.downsample == 1:
+            self._up = up_weights(self._full, self.rotation)[0].astype(np.float32).ravel()
+        return self._up
 
     # -- building blocks of brackets (provider.core.radiometry.bracket) ----------------------------------
     def project_part(self, frame: np.ndarray, table: np.ndarray):

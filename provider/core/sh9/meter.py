@@ -42,9 +42,11 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..geometry import sh
 from ..geometry.projections import Equirect
 from ..radiometry.colour_temperature import rgb_of_cct
 from ..radiometry.photometry import absolute_calibration, luminance
+from ..radiometry.response import apply_lut
 
 UP = np.array([0.0, 1.0, 0.0])
 #: An up-facing meter sees a blob lower than this (degrees) at grazing incidence: warned.
@@ -61,7 +63,9 @@ class MeterClosure:
     ``solid_angle_sr``: the blob's solid angle; ``note``: why nothing was closed, or '';
     ``facing``: the meter's normal (world frame); ``colour``: the closed light's linear RGB
     per unit luminance ((1, 1, 1): neutral); ``warning``: a closure that is ill-conditioned
-    (a low blob seen by an up-facing meter, a wide blob taken as the sun), or ''."""
+    (a low blob seen by an up-facing meter, a wide blob taken as the sun), or '';
+    ``blob``: the closed pixels ((H, W) bool; None when nothing) and ``added``: the linear
+    RGB radiance each of them got (cd/m²), not on the wire."""
 
     lux: float
     camera_lux: float
@@ -72,6 +76,8 @@ class MeterClosure:
     facing: tuple = (0.0, 1.0, 0.0)
     colour: tuple = (1.0, 1.0, 1.0)
     warning: str = ""
+    blob: np.ndarray | None = None
+    added: tuple = (0.0, 0.0, 0.0)
 
 
 def parse_facing(text) -> np.ndarray | str:
@@ -146,22 +152,36 @@ def has_absolute_scale(response) -> bool:
 
 def pixels_up_illuminance(projector, frame: np.ndarray, scale: float = 1.0) -> float | None:
     """:meth:`~provider.core.sh9.engine.SH9Projector.up_illuminance` of a frame from its
-    pixels: the projector's up weights (built once, kept on it) times the linear frame."""
-    if projector._up is None:
-        if projector.downsample != 1:     # equirect frames are never downsampled (withdrawn)
-            return None
-        projector._up = np.ascontiguousarray(
-            up_weights(projector._full, projector.rotation)[0], np.float32).reshape(-1)
-    if frame.shape[0] * frame.shape[1] != projector._up.size:
+    pixels: the projector's :attr:`~provider.core.sh9.engine.SH9Projector.up_cosine_weights`
+    times the linear frame (an integer one decoded by the projector, exposure included)."""
+    weights = projector.up_cosine_weights
+    if weights is None or frame.shape[0] * frame.shape[1] != weights.size:
         return None
     if frame.dtype in (np.uint8, np.uint16):
-        from ..radiometry.response import apply_lut
-        lin = apply_lut(frame, projector._lut(frame.dtype))
+        lin = projector.decode(frame, {})
     else:
         lin = np.maximum(np.nan_to_num(np.asarray(frame, np.float32), nan=0.0,
                                        posinf=0.0), 0.0) * np.float32(projector.exposure)
-    rgb = projector._up @ np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
+    rgb = weights @ np.ascontiguousarray(lin, np.float32).reshape(-1, 3)
     return max(float(luminance(rgb)) * float(scale), 0.0)
+
+
+def _at(image: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+    """``image`` (H, W) at flat pixel numbers, without the copy that flattening a broadcast
+    array (the per-row weights) would make."""
+    return image[np.unravel_index(pixels, image.shape)]
+
+
+def _blobs(clipped: np.ndarray) -> tuple[int, np.ndarray]:
+    """cv2.connectedComponents (8-connected) of the clipped mask, run on the rows and columns
+    that hold clipped pixels only (the sun: a small box of a large frame)."""
+    rows, cols = np.flatnonzero(clipped.any(axis=1)), np.flatnonzero(clipped.any(axis=0))
+    labels = np.zeros(clipped.shape, np.int32)
+    if rows.size == 0:
+        return 1, labels
+    box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    n, labels[box] = cv2.connectedComponents(clipped[box].astype(np.uint8), connectivity=8)
+    return n, labels
 
 
 def _facing_weights(omega, directions, normal) -> np.ndarray:
@@ -174,17 +194,18 @@ def _angle_deg(a, b) -> float:
 
 
 def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float,
-                  facing=None, colour=None):
+                  facing=None, colour=None, in_place=False):
     """(radiance with the meter's missing light in the clipped blob, :class:`MeterClosure`).
 
     ``radiance``: (H, W, 3) float32 in cd/m²; ``clipped``: (H, W) bool, samples clipped in
     every frame; ``weights``: :func:`up_weights` of the frame's projection; ``lux``: the
     meter's reading; ``facing``: where it faces (:func:`parse_facing`: None or +Y for up, a
     unit vector, or "sun"); ``colour``: (CCT K, Duv) of a chroma meter's reading, or None
-    (the closed light is neutral)."""
+    (the closed light is neutral); ``in_place``: add to ``radiance`` itself (no copy)."""
     cosw, omega, directions = weights
     omega = np.asarray(omega)
-    n, labels = cv2.connectedComponents(clipped.astype(np.uint8), connectivity=8)
+    n, labels = _blobs(clipped)
+    rays = np.asarray(directions).reshape(-1, 3)    # (indexed by flat pixel numbers: fast)
     normal = UP if facing is None else facing
     wide = ""
     if isinstance(normal, str):                 # "sun": the largest clipped blob's direction
@@ -192,12 +213,12 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
             normal = UP
         else:
             inside = np.flatnonzero(clipped)
-            sizes = np.bincount(labels.reshape(-1)[inside], weights=omega.reshape(-1)[inside],
+            sizes = np.bincount(labels.reshape(-1)[inside], weights=_at(omega, inside),
                                 minlength=n)
-            sun = labels == int(np.argmax(sizes[1:])) + 1
-            mean = (directions[sun] * omega[sun][:, None]).sum(axis=0)
+            sun = np.flatnonzero(labels == int(np.argmax(sizes[1:])) + 1)
+            mean = (rays[sun] * _at(omega, sun)[:, None]).sum(axis=0)
             normal = mean / max(np.linalg.norm(mean), 1e-12)
-            spread = float(np.degrees(np.arccos(np.clip(directions[sun] @ normal, -1, 1))).max())
+            spread = float(np.degrees(np.arccos(np.clip(rays[sun] @ normal, -1, 1))).max())
             if spread > WIDE_BLOB_DEG:
                 wide = (f"the largest clipped region spans {spread:.0f}° from its centre: it is "
                         "more than the sun (a clipped sky?), so 'sun' is only its centre; "
@@ -227,7 +248,7 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
                         "clipped: nothing to put it in")
         return radiance, closure
     inside = np.flatnonzero(clipped)            # the clipped samples only (a small part)
-    seen = np.bincount(labels.reshape(-1)[inside], weights=np.asarray(cosw).reshape(-1)[inside],
+    seen = np.bincount(labels.reshape(-1)[inside], weights=_at(np.asarray(cosw), inside),
                        minlength=n)[1:]
     best = int(np.argmax(seen)) + 1
     if seen[best - 1] <= 0:
@@ -239,10 +260,13 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
         rest = np.maximum(float(lux) * rgb_of_cct(*colour) - seen_rgb, 0.0)
         if float(luminance(rest)) > 0:
             rgb = rest / float(luminance(rest))
-    out = radiance.copy()
-    out[blob] += (np.float32(missing / seen[best - 1]) * rgb).astype(np.float32)
-    w = omega[blob]
-    mean = (directions[blob] * w[:, None]).sum(axis=0)
+    out = radiance if in_place and radiance.flags.c_contiguous else radiance.copy()
+    added = (np.float32(missing / seen[best - 1]) * rgb).astype(np.float32)
+    pixels = np.flatnonzero(blob)
+    out.reshape(-1, 3)[pixels] += added           # (a view: out is contiguous)
+    closure.blob, closure.added = blob, tuple(float(v) for v in added)
+    w = _at(omega, pixels)
+    mean = (rays[pixels] * w[:, None]).sum(axis=0)
     closure.closed_lux = missing
     closure.direction = tuple(float(v) for v in mean / max(np.linalg.norm(mean), 1e-12))
     closure.solid_angle_sr = float(w.sum())
@@ -275,36 +299,45 @@ def _meter_weights(projector, projection):
     return weights
 
 
-def project_with_meter(projector, frames, times, gain, f_number, result, lux: float,
-                       tracker=None, facing=None, colour=None):
-    """(the frame(s) projected again with the meter's missing light in the clipped blob,
-    :class:`MeterClosure`); ``result``: the same frame(s) already projected in absolute
-    units (its radiometry statistics are kept, the meter's fields added: :func:`closure_fields`).
-    One frame or a bracket (merged with the hat weights); ``facing``, ``colour``: as
-    :func:`close_clipped`. Raises InputError when the frames
-    are not in absolute units, float, or the projection cannot say its pixels' directions."""
+#: The statistics of a bracket's merged result that its metered result keeps.
+KEPT_STATS = ("clipped_fraction", "clipped_light_fraction", "exposure_s", "gain", "f_number",
+              "iso", "radiometry", "response", "exposures_s", "coefficient_units")
+
+
+def project_with_meter(projector, frames, times, gain, f_number, lux: float, *,
+                       tracker=None, facing=None, colour=None, error_estimate=None,
+                       stats=None, work=None):
+    """(the frame(s) projected with the meter's missing light in the clipped blob,
+    :class:`MeterClosure`): one decode (a bracket: one merge, hat weights), the closure, and
+    one projection of the closed radiance, whose pass also sums ``illuminance_lux``. The
+    result's statistics are those of the frame(s) as the camera saw them (clipping, exposure,
+    units; a bracket's given as ``stats``: its merged result's, :data:`KEPT_STATS`), with the
+    meter's fields (:func:`closure_fields`). ``facing``, ``colour``: as :func:`close_clipped`;
+    ``tracker``, ``error_estimate``: as :meth:`~provider.core.sh9.engine.SH9Projector.project`;
+    ``work``: the reflection cube's work image of a single frame, filled from this decode.
+    Raises InputError before any work when the frames are not in absolute units, float, or
+    the projection cannot say its pixels' directions."""
     import math
 
     from ..radiometry.bracket import merge
-    from ..radiometry.photometry import UNITS_ABSOLUTE, absolute_factor
+    from ..radiometry.photometry import UNITS_ABSOLUTE
+    from ..options import exposure_scale
     if not (isinstance(lux, (int, float)) and math.isfinite(lux) and lux > 0):
         raise InputError(f"a lux meter's reading must be a positive number of lux, got {lux!r}")
-    if result.stats.get("coefficient_units") != UNITS_ABSOLUTE:
+    frames = [np.ascontiguousarray(f) for f in frames]
+    own = {}                     # the frame's statistics, as SH9Projector.project says them
+    bracket = len(frames) > 1
+    factor = projector.absolute_scale(1.0 if bracket else
+                                      exposure_scale(times[0], gain, own), f_number, own)
+    if own["coefficient_units"] != UNITS_ABSOLUTE:
         raise InputError("--lux needs the frame in absolute units: a --camera calibrated with "
                          "calibrate-response --lux, and the frame's exposure (EXIF or "
                          "@SECONDS); without them the clipped light stays a lower bound "
                          "(clipped_light_fraction)")
-    frames = list(frames)
     if frames[0].dtype not in (np.uint8, np.uint16):
         raise InputError("--lux closes what an 8/16-bit frame clipped; this frame is float")
-    bits = 8 if frames[0].dtype == np.uint8 else 16
-    response = projector.response.to_bits(bits)
-    factor = np.float32(absolute_factor(response, f_number))
-    if len(frames) > 1:
-        radiance = merge(frames, times, response, gain=gain).radiance * factor
-    else:
-        radiance = response.linearise(frames[0], times[0], gain) * factor
-    clipped = (np.minimum.reduce(frames) == (1 << bits) - 1).any(axis=2)
+    if frames[0].ndim != 3 or frames[0].shape[2] != 3:
+        raise InputError(f"--lux needs RGB frames, got shape {frames[0].shape}")
     height, width = frames[0].shape[:2]
     if isinstance(projector.projection, Equirect) and projector.rotation is None:
         projection = Equirect(width, height)
@@ -313,19 +346,56 @@ def project_with_meter(projector, frames, times, gain, f_number, result, lux: fl
     else:
         raise InputError("--lux with --downsample needs an equirect frame (or leave "
                          "--downsample out)")
-    closed, closure = close_clipped(radiance, clipped,
-                                    _meter_weights(projector, projection), lux,
-                                    facing=facing, colour=colour)
-    new = projector.project(closed, tracker=tracker)
-    for key in ("clipped_fraction", "clipped_light_fraction", "exposure_s", "gain",
-                "f_number", "iso", "radiometry", "response", "exposures_s", "coefficient_units"):
-        if key in result.stats:
-            new.stats[key] = result.stats[key]
+    bits = 8 if frames[0].dtype == np.uint8 else 16
+    response = projector.response.to_bits(bits)
+    if bracket:              # factor: C·N²; the merge divides by each frame's t·gain
+        merged = merge(frames, times, response, gain=gain)
+        radiance = merged.radiance * np.float32(factor)
+        # the table that gives the shortest frame's radiance in cd/m² (its clip level)
+        table = response.lut(float(np.min(times)) * float(gain) / factor)
+    else:                    # factor: C·N² / (t·gain), the frame's own
+        table = response.lut(1.0 / factor)
+        radiance = apply_lut(frames[0], table)
+    if work is not None and not bracket:   # the cube's work image: the projector's table
+        work.add_band(radiance * np.float32(projector.exposure / factor), 0)
+    lowest = frames[0]       # a sample clipped in every frame is clipped in their minimum
+    for frame in frames[1:]:
+        lowest = cv2.min(lowest, frame)
+    planes = cv2.split(lowest)     # (numpy's any() over 3 samples: ~50 ms at 1920×960)
+    clipped = cv2.max(cv2.max(planes[0], planes[1]), planes[2]) == (1 << bits) - 1
+    closed, closure = close_clipped(radiance, clipped, _meter_weights(projector, projection),
+                                    lux, facing=facing, colour=colour, in_place=True)
+    new = projector.project(closed, error_estimate, tracker, units=UNITS_ABSOLUTE)
+    if stats is None:        # what the integer pass would have said of the frame(s)
+        clipped_l00 = projector.clipping(lowest, table, own)
+        if bracket:
+            own.update(clipped_fraction=merged.clipped_fraction, exposures_s=merged.times)
+            if gain != 1.0:
+                own["gain"] = float(gain)
+        # the camera's own L00: the closed frame's less what the closure added
+        seen = new.coefficients[0] - _closure_l00(projector, closure) * projector.exposure
+        projector.radiometry_stats(own, seen[None], clipped_l00 * projector.exposure,
+                                   "merged" if bracket else projector.radiometry)
+        own["response"] = response.method
+    else:
+        own = {key: stats[key] for key in KEPT_STATS if key in stats}
+    new.stats.update(own)
     new.stats.update(closure_fields(closure))
-    lux_up = projector.up_illuminance(closed)
-    if lux_up is not None:
-        new.stats["illuminance_lux"] = lux_up
     return new, closure
+
+
+def _closure_l00(projector, closure: MeterClosure) -> np.ndarray:
+    """(3,) the L00 the closure put into ``projector``'s projection per unit exposure: its
+    added radiance times the blob's L00 weights (equirect: C0·dω; others: the projection's,
+    its fill included)."""
+    if closure.blob is None:
+        return np.zeros(3)
+    p = projector.projection
+    if isinstance(p, Equirect):
+        weight = sh.C0 * closure.solid_angle_sr
+    else:
+        weight = float(p.sh_weights[:, 0].reshape(p.height, p.width)[closure.blob].sum())
+    return np.asarray(closure.added, np.float64) * weight
 
 
 def closure_fields(closure: MeterClosure) -> dict:

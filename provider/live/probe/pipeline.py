@@ -311,7 +311,8 @@ class Probe:
                                                             for f in bracket.frames):
                 # the meter closes the merged pixels (the slots' newest frames, t·gain each)
                 result = self._metered(projector, bracket.frames, bracket.exposures, 1.0,
-                                       info.get("f_number"), result, lux, None, colour)
+                                       info.get("f_number"), lux, colour,
+                                       stats=result.stats) or result
             return result
         tracker = None
         if projector.lights != "off":
@@ -326,45 +327,44 @@ class Probe:
         self._work = (self.environment.work_for(image, projector)
                       if self.environment is not None else None)
         lux, colour = self.meter.reading() if self.meter is not None else (None, None)
-        result = projector.project(image, error_estimate=estimate,
-                                   tracker=None if lux is not None else tracker,
-                                   exposure_s=info.get("exposure_s"), gain=info.get("gain", 1.0),
-                                   f_number=info.get("f_number"), work=self._work)
-        if lux is not None:
+        result = None
+        if lux is not None:     # one decode and one projection, of the closed frame
             result = self._metered(projector, [image], [info.get("exposure_s")],
-                                   info.get("gain", 1.0), info.get("f_number"), result, lux,
-                                   tracker, colour)
+                                   info.get("gain", 1.0), info.get("f_number"), lux, colour,
+                                   tracker=tracker, error_estimate=estimate, work=self._work)
+        if result is None:
+            result = projector.project(image, error_estimate=estimate, tracker=tracker,
+                                       exposure_s=info.get("exposure_s"),
+                                       gain=info.get("gain", 1.0),
+                                       f_number=info.get("f_number"), work=self._work)
         if estimate:
             self._estimated_at, self._error_estimate = now, result.stats.get("error_estimate")
         elif self._error_estimate is not None:
             result.stats["error_estimate"] = self._error_estimate
         return result
 
-    def _metered(self, projector, frames, times, gain, f_number, result, lux, tracker,
-                 colour=None):
+    def _metered(self, projector, frames, times, gain, f_number, lux, colour=None, **kw):
         """``serve --lux``: the frame (or a bracket's newest frame of each slot, merged)
-        again with the meter's missing light in its clipped blob
-        (:func:`~provider.core.sh9.meter.project_with_meter`); a frame that cannot be
-        closed (no exposure, relative units) keeps its result, said once."""
+        projected with the meter's missing light in its clipped blob
+        (:func:`~provider.core.sh9.meter.project_with_meter`; ``kw``: its ``tracker``,
+        ``error_estimate``, ``work``, ``stats``); None for a frame that cannot be closed (no
+        exposure, relative units: said once), which is then projected as it is."""
         from ...core.sh9.meter import project_with_meter
         try:
             closed, closure = project_with_meter(
-                projector, frames, times, gain, f_number, result, lux, tracker=tracker,
-                facing=getattr(self.meter, "facing", None),
-                colour=colour)
+                projector, frames, times, gain, f_number, lux,
+                facing=getattr(self.meter, "facing", None), colour=colour, **kw)
         except InputError as exc:
             if str(exc) != self.meter_note:
                 self.meter_note = str(exc)
                 log.warning("probe %s: lux meter: %s", self.name, exc)
-            return result
+            return None
         if closure.note and closure.note[:40] != self.meter_note[:40]:
             log.info("probe %s: lux meter: %s", self.name, closure.note)
         self.meter_note = closure.note
         if closure.warning and closure.warning[:40] != self.meter_warning[:40]:
             log.warning("probe %s: lux meter: %s", self.name, closure.warning)
         self.meter_warning = closure.warning
-        if "error_estimate" in result.stats:
-            closed.stats["error_estimate"] = result.stats["error_estimate"]
         return closed
 
     def _locate_ball(self, key, image) -> None:
