@@ -53,8 +53,10 @@ import cv2
 import numpy as np
 
 from ..geometry import sh
+from dataclasses import replace
+
 from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
-                       model_irradiance)
+                       chain_count, elongation, model_irradiance, split_chain)
 from ..geometry.projections import Fisheye, Projection
 
 __all__ = ["LightExtractor", "Analysis", "Candidate", "Light", "LightsResult", "LUMA",
@@ -387,6 +389,11 @@ class LightExtractor:
                                  math.degrees(float(ang.max())), level, k, pix, exm,
                                  local=loc[sel], angular_radius_deg=angular_radius_deg(
                                      wk, ang, self._footprint2[pix])))
+            # An elongated region may become a chain of discs (docs/shadows.md).
+            ratio, major, position = elongation(dk, wk, d)
+            for m in range(2, chain_count(ratio, major, self._pixel_angle, self.max_lights) + 1):
+                out[-1].chains[m] = split_chain(dk, exm, om[sel], self._footprint2[pix],
+                                                position, m)
         return out, glocal
 
     def refine(self, result: LightsResult, analysis: Analysis, frame) -> LightsResult:
@@ -414,8 +421,9 @@ class LightExtractor:
             c = analysis.candidates[light.source] if light.source >= 0 else None
             d = light.direction
             radius = light.angular_radius_deg
-            if c is not None and c.radius_deg <= math.degrees(self.refine_max_px
-                                                              * self._pixel_angle):
+            compact = c is not None and c.radius_deg <= math.degrees(self.refine_max_px
+                                                                     * self._pixel_angle)
+            if compact and light.chain == 1:                  # a segment keeps its own
                 rows, cols = c.pixels // w, c.pixels % w
                 if cols.max() - cols.min() < w // 2:          # not split by a seam
                     r0, r1 = max(0, (rows.min() - 1) * f), min(self.full.height,
@@ -436,8 +444,7 @@ class LightExtractor:
                         fp2 = _footprint2(dx, dy)
                         radius = angular_radius_deg(ex[valid], ang[valid], fp2[valid])
             ambient -= sh.sh_basis(d)[:, None] * light.irradiance[None, :]
-            lights.append(Light(d, light.irradiance, light.flux, light.spread_deg,
-                                light.level, light.key, light.source, radius))
+            lights.append(replace(light, direction=d, angular_radius_deg=radius))
         return LightsResult(lights, ambient, result.light_error, result.sh9_error,
                             result.candidates)
 
@@ -466,7 +473,9 @@ class LightExtractor:
             processed = process(r.ambient)
             if not np.array_equal(processed, r.ambient):
                 idx = [light.source for light in r.lights]
-                r.light_error = a.error_of(a.model(idx) + self._irr_basis @ (processed - r.ambient))
+                model = (a.model(idx) if all(light.chain == 1 for light in r.lights)
+                         else a.lights_model(r.lights))
+                r.light_error = a.error_of(model + self._irr_basis @ (processed - r.ambient))
                 r.ambient = processed
         return r
 
