@@ -49,6 +49,7 @@ import cv2
 import numpy as np
 
 from ..core.lights.analysis import LUMA
+from ..core.options import MAX_LIGHTS
 from .common import _progress
 
 #: Sphere centre above the floor, in sphere radii (its lowest point 2 radii up).
@@ -200,8 +201,12 @@ def key_light(result) -> np.ndarray:
     return np.asarray(key, np.float64) / np.linalg.norm(key)
 
 
-def floor_shadow(image: np.ndarray, grid: int = GRID, height: float = HEIGHT) -> dict:
-    """The ratio maps (grid × grid, luminance) of one panorama and their errors."""
+def floor_shadow(image: np.ndarray, grid: int = GRID, height: float = HEIGHT,
+                 max_lights: int = MAX_LIGHTS) -> dict:
+    """The ratio maps (grid × grid, luminance) of one panorama and their errors, with the
+    engine's lights (``lights="auto"``, at most ``max_lights``: by default all the
+    shaders' SH_MAX_LIGHTS slots a shadow catcher has, which an elongated light may use
+    as a chain of discs)."""
     from ..core.lights.extractor import LightExtractor
     from ..core.geometry import sh
     from ..core.lights.shadows import (cap_projected_solid_angle, lit_irradiance,
@@ -210,7 +215,7 @@ def floor_shadow(image: np.ndarray, grid: int = GRID, height: float = HEIGHT) ->
     from ..core.sh9.engine import compute_sh9
     image = np.maximum(np.asarray(image, np.float32), 0.0)
     h, w = image.shape[:2]
-    result = compute_sh9(image, lights="auto", error_estimate=False)
+    result = compute_sh9(image, lights="auto", max_lights=max_lights, error_estimate=False)
     scene = FloorScene(key_light(result), height=height, grid=grid)
 
     # True: coarse rest + bright pixels at full resolution.
