@@ -32,6 +32,10 @@ Per frame:
    ≥ ``min_gain`` (0.2 points) and ≥ ``min_rel_gain`` (10 %). Nested candidates (one source
    at two levels) are never chosen together. Live, the
    :class:`~provider.core.lights.tracking.LightTracker` makes this choice with hysteresis.
+   An *elongated* region (major-axis spread ≥ ``ELONGATION`` × its minor one) is scored
+   and served as a **chain of discs**: equal-flux segments along its axis, one light each,
+   within the lights left free (:func:`~provider.core.lights.analysis.split_chain`,
+   :meth:`~provider.core.lights.analysis.Analysis.result`; docs/shadows.md).
 6. **Refine** (:meth:`LightExtractor.refine`): a compact light's direction is sharpened on the
    full-resolution pixels under it (a 0.5° sun: from 0.2-0.4° off to 0.02-0.05°).
 
@@ -48,13 +52,12 @@ Usage (one extractor per projection and size; the engine builds it for ``lights=
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import cv2
 import numpy as np
 
 from ..geometry import sh
-from dataclasses import replace
-
 from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
                        chain_count, elongation, model_irradiance, split_chain)
 from ..geometry.projections import Fisheye, Projection
