@@ -97,8 +97,8 @@ class Candidate:
     local : the same pixels as indices into the frame's list of pixels above the lowest level.
     gain : error reduction (fraction: 0.05 = 5 points) when it is the only light; set by
         :meth:`Analysis.rank`.
-    chains : for an elongated region (:func:`chain_count`), m -> its m :class:`Segment` s
-        for every m from 2 to the most it may become; empty for a round one.
+    most_segments : how many lights it may become (:func:`chain_count`): 1 for a round
+        region; :meth:`segments` gives its chain of m ≤ ``most_segments``.
     """
 
     direction: np.ndarray
@@ -113,7 +113,16 @@ class Candidate:
     local: np.ndarray | None = None
     gain: float = 0.0
     angular_radius_deg: float = 0.0
-    chains: dict = field(default_factory=dict)
+    most_segments: int = 1
+    split: tuple | None = field(default=None, repr=False)      # split_chain's arguments
+    _chains: dict = field(default_factory=dict, repr=False)
+
+    def segments(self, count: int) -> list:
+        """Its chain of ``count`` (2 ≤ count ≤ ``most_segments``) :class:`Segment` s, made
+        once (:func:`split_chain`)."""
+        if count not in self._chains:
+            self._chains[count] = split_chain(*self.split, count)
+        return self._chains[count]
 
 
 @dataclass
@@ -201,18 +210,24 @@ def elongation(directions, weights, direction) -> tuple[float, float, np.ndarray
     """
     d = np.asarray(direction, np.float64)
     dirs, w = np.asarray(directions, np.float64), np.asarray(weights, np.float64)
-    e1 = np.cross(d, [0.0, 1.0, 0.0] if abs(d[1]) < 0.9 else [1.0, 0.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    xy = np.stack([dirs @ e1, dirs @ np.cross(d, e1)], 1)
+    e1 = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 -= (e1 @ d) * d
+    e1 /= math.sqrt(float(e1 @ e1))
+    e2 = np.array([d[1] * e1[2] - d[2] * e1[1], d[2] * e1[0] - d[0] * e1[2],
+                   d[0] * e1[1] - d[1] * e1[0]])                        # d × e1
+    xy = dirs @ np.stack([e1, e2], 1)
     total = float(w.sum())
     if not total > 0 or len(w) < 2:
         return 1.0, 0.0, np.zeros(len(w))
     xy -= (w @ xy) / total
-    moments, axes = np.linalg.eigh((xy * w[:, None]).T @ xy / total)
-    minor, major = np.maximum(moments, 0.0)
-    axis = axes[:, 1]
+    (a, b), (_, c) = (xy * w[:, None]).T @ xy / total
+    # the 2 × 2 covariance's eigenvalues and major axis in closed form (a region's few
+    # pixels: numpy's eigh would cost more than the moments)
+    half, mean = math.hypot(0.5 * (a - c), b), 0.5 * (a + c)
+    major, minor = mean + half, max(mean - half, 0.0)
+    theta = 0.5 * math.atan2(2 * b, a - c)
     ratio = math.sqrt(major / minor) if minor > 0 else (math.inf if major > 0 else 1.0)
-    return ratio, math.sqrt(major), xy @ axis
+    return ratio, math.sqrt(major), xy @ np.array([math.cos(theta), math.sin(theta)])
 
 
 def chain_count(ratio: float, major_rad: float, pixel_rad: float, most: int) -> int:
@@ -247,20 +262,23 @@ def split_chain(directions, excess, omega, footprint2, position, count: int) -> 
     part = np.empty(len(w), np.intp)
     part[order] = np.minimum((run * count / max(float(w.sum()), 1e-300)).astype(np.intp),
                              count - 1)
-    out = []
-    for s in range(count):
-        sel = np.flatnonzero(part == s)
-        ws = w[sel]
-        if not ws.sum() > 0:
-            continue
-        v = ws @ dirs[sel]
-        d = v / np.linalg.norm(v)
-        cos = np.clip(dirs[sel] @ d, -1.0, 1.0)
-        ang = np.arccos(cos)
-        out.append(Segment(d, np.maximum(ex[sel].T @ (om[sel] * cos), 0.0), ex[sel].T @ om[sel],
-                           math.degrees(math.sqrt((ws @ ang ** 2) / ws.sum())),
-                           angular_radius_deg(ws, ang, np.asarray(footprint2)[sel])))
-    return out
+    # Per-segment sums by bincount (one pass for all segments).
+    def per_segment(values):
+        return np.bincount(part, values, minlength=count)
+    total = per_segment(w)
+    v = np.stack([per_segment(w * dirs[:, k]) for k in range(3)], 1)        # (count, 3)
+    d = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+    cos = np.clip(np.einsum("ij,ij->i", dirs, d[part]), -1.0, 1.0)
+    ang2 = np.arccos(cos) ** 2
+    moment = np.stack([per_segment(ex[:, k] * om * cos) for k in range(3)], 1)
+    flux = np.stack([per_segment(ex[:, k] * om) for k in range(3)], 1)
+    spread2 = per_segment(w * ang2)
+    # angular_radius_deg per segment: sqrt(2·m2), m2 less the pixels' footprint
+    m2 = per_segment(w * (ang2 - np.asarray(footprint2, np.float64)))
+    return [Segment(d[s], np.maximum(moment[s], 0.0), flux[s],
+                    math.degrees(math.sqrt(spread2[s] / total[s])),
+                    min(90.0, math.degrees(math.sqrt(2.0 * max(m2[s] / total[s], 0.0)))))
+            for s in range(count) if total[s] > 0]
 
 
 def model_irradiance(ambient, lights, normals) -> np.ndarray:
@@ -314,12 +332,17 @@ class Analysis:
         self._M = np.zeros((nc, 3))
         cols = []
         for j, c in enumerate(candidates):
-            segs = c.chains[max(c.chains)] if c.chains else None
+            segs = c.segments(c.most_segments) if c.most_segments > 1 else None
             self._M[j] = c.moment if segs is None else np.sum([g.irradiance for g in segs], 0)
             y = float(self._M[j] @ LUMA)
-            cols.append(extractor._residual(c.direction) if segs is None or not y > 0 else
-                        sum((float(g.irradiance @ LUMA) / y) * extractor._residual(g.direction)
-                            for g in segs))
+            if segs is None or not y > 0:
+                cols.append(extractor._residual(c.direction))
+            else:
+                share = np.array([g.irradiance @ LUMA for g in segs]) / y
+                D = np.array([g.direction for g in segs])                 # (m, 3)
+                residuals = (np.maximum(extractor.normals @ D.T, 0.0)
+                             - extractor._irr_basis @ sh.sh_basis(D).T)  # (N, m): g(d_s)
+                cols.append(residuals @ share)
         if nc:
             G = np.stack(cols, axis=1)
             self._G = G                                                  # (N, nc)
@@ -426,17 +449,15 @@ class Analysis:
 
     def chain_counts(self, indices, max_lights: int | None = None) -> list:
         """How many lights each candidate of the set becomes: 1, or for an elongated one
-        (its ``chains``) as many segments as it may be while the set holds at most
+        (``most_segments`` > 1) as many segments as it may be while the set holds at most
         ``max_lights`` lights (default the extractor's); the lights left free go to the
         chains in order of flux, largest first."""
         idx = [int(i) for i in indices]
         free = (self.x.max_lights if max_lights is None else max_lights) - len(idx)
         counts = [1] * len(idx)
         for j in sorted(range(len(idx)), key=lambda j: -float(self.candidates[idx[j]].flux @ LUMA)):
-            fit = [m for m in self.candidates[idx[j]].chains if m <= 1 + free]
-            if fit:
-                counts[j] = max(fit)
-                free -= counts[j] - 1
+            counts[j] = min(self.candidates[idx[j]].most_segments, 1 + max(free, 0))
+            free -= counts[j] - 1
         return counts
 
     def result(self, indices, keys=None, max_lights: int | None = None) -> LightsResult:
@@ -449,9 +470,9 @@ class Analysis:
         for j, (i, m) in enumerate(zip(idx, self.chain_counts(idx, max_lights))):
             c = self.candidates[i]
             key, level = -1 if keys is None else keys[j], self.x.thresholds[c.level]
-            chained |= bool(c.chains)
+            chained |= c.most_segments > 1
             parts = ([Segment(c.direction, c.moment, c.flux, c.spread_deg,
-                              c.angular_radius_deg)] if m == 1 else c.chains[m])
+                              c.angular_radius_deg)] if m == 1 else c.segments(m))
             for g in parts:
                 ambient -= sh.sh_basis(g.direction)[:, None] * g.irradiance[None, :]
                 lights.append(Light(g.direction.copy(), g.irradiance.copy(), g.flux.copy(),

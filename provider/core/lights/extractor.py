@@ -59,7 +59,7 @@ import numpy as np
 
 from ..geometry import sh
 from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
-                       chain_count, elongation, model_irradiance, split_chain)
+                       chain_count, elongation, model_irradiance)
 from ..geometry.projections import Fisheye, Projection
 
 __all__ = ["LightExtractor", "Analysis", "Candidate", "Light", "LightsResult", "LUMA",
@@ -394,9 +394,10 @@ class LightExtractor:
                                      wk, ang, self._footprint2[pix])))
             # An elongated region may become a chain of discs (docs/shadows.md).
             ratio, major, position = elongation(dk, wk, d)
-            for m in range(2, chain_count(ratio, major, self._pixel_angle, self.max_lights) + 1):
-                out[-1].chains[m] = split_chain(dk, exm, om[sel], self._footprint2[pix],
-                                                position, m)
+            most = chain_count(ratio, major, self._pixel_angle, self.max_lights)
+            if most > 1:
+                out[-1].most_segments = most
+                out[-1].split = (dk, exm, om[sel], self._footprint2[pix], position)
         return out, glocal
 
     def refine(self, result: LightsResult, analysis: Analysis, frame) -> LightsResult:
