@@ -139,3 +139,20 @@ def test_live_the_tracker_keeps_the_chain_and_its_key():
     assert [light.key for light in first.lights] == [light.key for light in second.lights]
     narrow = LightTracker(max_lights=2)
     assert len(x.extract(image, coefficients, tracker=narrow).lights) == 2
+
+
+@pytest.mark.parametrize("along", [(1.0, 0.0, 0.0), (0.1, 1.0, 0.0)])
+def test_a_chain_is_ordered_along_a_fixed_sense(along):
+    """The segments of a chain come in a fixed sense of the world frame, not of the axis's
+    arbitrary sign: toward increasing azimuth (Y × d) for a strip lying east-west, upward
+    for one lying up-down; so the wire slots of a chain do not swap between frames."""
+    t = TOWARD
+    a = np.asarray(along) - (np.asarray(along) @ t) * t
+    a /= np.linalg.norm(a)
+    lights = compute_sh9(strip_equirect(512, LENGTH, WIDTH, t, a, flux=30.0, background=0.5),
+                         lights="auto", max_lights=3, error_estimate=False).lights
+    assert len(lights) == 3
+    east = np.array([t[2], 0.0, -t[0]])
+    key = east if abs(a @ east) / np.linalg.norm(east) >= 0.5 else np.array([0.0, 1.0, 0.0])
+    steps = [float((q.direction - p.direction) @ key) for p, q in zip(lights, lights[1:])]
+    assert all(step > 0 for step in steps), steps

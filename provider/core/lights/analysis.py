@@ -206,7 +206,10 @@ def elongation(directions, weights, direction) -> tuple[float, float, np.ndarray
     Returns ``(ratio, major_rad, position)``: ``ratio`` = RMS extent along the major axis /
     across it (1 for a disc; L/W for a uniform L × W strip; ``inf`` for a line one pixel
     centre wide), ``major_rad`` the RMS extent along it (L/√12 for a uniform strip of length
-    L, radians) and ``position`` (n,) each pixel's coordinate along it (radians, mean 0).
+    L, radians) and ``position`` (n,) each pixel's coordinate along it (radians, mean 0),
+    increasing toward increasing azimuth (counter-clockwise about +Y seen from above), or
+    upward for an axis more than 60° from east-west: segments keep their order across
+    frames.
     """
     d = np.asarray(direction, np.float64)
     dirs, w = np.asarray(directions, np.float64), np.asarray(weights, np.float64)
@@ -226,8 +229,17 @@ def elongation(directions, weights, direction) -> tuple[float, float, np.ndarray
     half, mean = math.hypot(0.5 * (a - c), b), 0.5 * (a + c)
     major, minor = mean + half, max(mean - half, 0.0)
     theta = 0.5 * math.atan2(2 * b, a - c)
+    axis = math.cos(theta) * e1 + math.sin(theta) * e2                  # world frame
+    # A fixed sense along the axis, so that a chain's segments keep their order (their wire
+    # slots) from frame to frame: toward increasing azimuth (Y × d, counter-clockwise seen
+    # from above), or upward for an axis more than 60° from east-west.
+    east = np.array([d[2], 0.0, -d[0]])
+    east_norm = math.hypot(d[0], d[2])
+    along_east = float(axis @ east) / east_norm if east_norm > 1e-9 else float(axis[0])
+    sense = (1.0 if along_east > 0 else -1.0) if abs(along_east) >= 0.5 else \
+        (1.0 if axis[1] >= 0 else -1.0)
     ratio = math.sqrt(major / minor) if minor > 0 else (math.inf if major > 0 else 1.0)
-    return ratio, math.sqrt(major), xy @ np.array([math.cos(theta), math.sin(theta)])
+    return ratio, math.sqrt(major), xy @ (sense * np.array([math.cos(theta), math.sin(theta)]))
 
 
 def chain_count(ratio: float, major_rad: float, pixel_rad: float, most: int) -> int:
