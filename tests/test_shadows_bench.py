@@ -22,6 +22,18 @@ ROOT = Path(__file__).resolve().parent.parent
 GRID = 24
 
 
+@pytest.fixture(scope="module")
+def shadow_of(hdri):
+    """name -> bench.floor_shadow of that panorama on the quick grid, computed once."""
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            cache[name] = bench.floor_shadow(hdri(name), grid=GRID)
+        return cache[name]
+    return get
+
+
 def disc_sky(radius_deg: float, elevation_deg: float = 50.0, flux: float = 30.0,
              background: float = 0.0, width: int = 512) -> np.ndarray:
     """An equirect holding one white uniform disc (exact coverage, 4 × 4 samples a pixel)
@@ -67,26 +79,27 @@ def test_a_lone_disc_is_shadowed_as_the_disc_model_says_and_better_than_a_point(
 
 
 @pytest.mark.parametrize("name", ["apartment", "dawn", "night"])
-def test_held_out_panoramas_where_discs_meet_the_target_and_beat_points(name, hdri):
+def test_held_out_panoramas_where_discs_meet_the_target_and_beat_points(name, shadow_of):
     """The target (issue 30: ≤ 0.035 RMS and ≤ 0.15 at worst) met by the disc model on
-    held-out panoramas (docs/shadows.md), where lights as points do worse."""
+    held-out panoramas (docs/shadows.md), where lights as points do worse (in RMS; their
+    worst may be the same floor point, where the ambient, not a light, misses: night)."""
     assert name in bench.HELD_OUT
-    res = bench.floor_shadow(hdri(name), grid=GRID)
+    res = shadow_of(name)
     rms, worst = res["errors"]["discs"]
     assert rms <= bench.TARGET_RMS and worst <= bench.TARGET_WORST, res["errors"]
-    assert rms < res["errors"]["points"][0] and worst < res["errors"]["points"][1]
+    assert rms < res["errors"]["points"][0] and worst <= res["errors"]["points"][1]
     rms, worst = res["errors"]["discs_ao"]                # the shipped ratio keeps it
     assert rms <= bench.TARGET_RMS and worst <= bench.TARGET_WORST, res["errors"]
 
 
 @pytest.mark.parametrize("name", ["city", "venice", "forest"])
-def test_where_discs_miss_the_miss_is_the_spheres_ambient_occlusion(name, hdri):
+def test_where_discs_miss_the_miss_is_the_spheres_ambient_occlusion(name, shadow_of):
     """The held-out panoramas where discs miss the target: against a truth in which the
     sphere hides only the lights' own pixels the disc model is within the target (the
     light's shape is not what misses); what the sphere hides of the rest of the room is.
     The shipped ratio with the occluder's ambient occlusion (discs + occluder AO) meets
     the target, with under half the discs' RMS."""
-    res = bench.floor_shadow(hdri(name), grid=GRID)
+    res = shadow_of(name)
     e = res["errors"]
     assert e["discs"][0] > bench.TARGET_RMS or e["discs"][1] > bench.TARGET_WORST
     assert e["discs_vs_lights_only"][0] <= bench.TARGET_RMS
@@ -124,24 +137,35 @@ def test_the_bench_section_writes_its_table_and_picture(tmp_path):
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
 
 
-def test_bridge_still_misses_and_a_second_light_is_not_on_offer(hdri):
-    """The one held-out miss of the shipped ratio (docs/shadows.md): bridge's bright region is one
-    thin strip of sky through the zenith. The shipped ratio improves on discs but stays above the
-    target; the light's own shape is within it (the miss is the ambient's smooth glow standing in
-    for the rest of the strip); and allowing four lights still gives one: every detection level's
-    candidate is the same connected region."""
-    from provider.core.sh9.engine import compute_sh9
-    image = hdri("bridge")
-    res = bench.floor_shadow(image, grid=GRID)
+def test_the_shipped_ratio_meets_the_target_on_every_held_out_panorama(shadow_of):
+    """The issue's target (≤ 0.035 RMS and ≤ 0.15 at worst of the shipped ratio: discs +
+    occluder AO) on each of the seven held-out panoramas (docs/shadows.md)."""
+    for name in bench.HELD_OUT:
+        rms, worst = shadow_of(name)["errors"]["discs_ao"]
+        assert rms <= bench.TARGET_RMS and worst <= bench.TARGET_WORST, (name, rms, worst)
+
+
+def test_bridge_is_a_chain_of_discs_whose_streak_beats_one_disc(hdri, shadow_of):
+    """bridge's bright region is one thin strip of sky through the zenith (every detection
+    level gives the same connected region). It becomes a chain: every light slot holds a
+    segment of that one source, and its shadow, a streak, is within the target where one
+    disc of the same region (the chain not allowed: one light) misses it."""
+    res = shadow_of("bridge")
     e = res["errors"]
-    assert e["discs_ao"][0] < e["discs"][0] and e["discs_ao"][1] < e["discs"][1]
-    assert e["discs_ao"][0] > bench.TARGET_RMS
+    assert res["lights"] == bench.MAX_LIGHTS
+    assert e["discs_ao"][0] <= bench.TARGET_RMS and e["discs_ao"][1] <= bench.TARGET_WORST
     assert e["discs_vs_lights_only"][0] <= bench.TARGET_RMS
-    result = compute_sh9(image, lights="auto", max_lights=4, error_estimate=False)
-    assert len(result.lights) == 1
+    one = bench.floor_shadow(hdri("bridge"), grid=GRID, max_lights=1)
+    assert one["lights"] == 1 and one["errors"]["discs_ao"][0] > bench.TARGET_RMS
+    assert e["discs_ao"][0] < 0.6 * one["errors"]["discs_ao"][0]
     from provider.core.geometry.projections import Equirect
     from provider.core.lights.extractor import LightExtractor
+    from provider.core.sh9.engine import compute_sh9
+    image = hdri("bridge")
     h, w = image.shape[:2]
+    result = compute_sh9(image, lights="auto", max_lights=4, error_estimate=False)
+    assert len({light.source for light in result.lights}) == 1
+    assert {light.chain for light in result.lights} == {4}
     analysis = LightExtractor(Equirect(w, h), max_lights=4).analyse(np.maximum(image, 0),
                                                                      result.coefficients)
     assert len(analysis.candidates) >= 4 and len({c.group for c in analysis.candidates}) == 1

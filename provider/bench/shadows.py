@@ -49,6 +49,7 @@ import cv2
 import numpy as np
 
 from ..core.lights.analysis import LUMA
+from ..core.options import MAX_LIGHTS
 from .common import _progress
 
 #: Sphere centre above the floor, in sphere radii (its lowest point 2 radii up).
@@ -177,12 +178,21 @@ class FloorScene:
 
 def key_light(result) -> np.ndarray:
     """The light that gives the floor most (luminance of I·max(0, d_y)); without lights the
-    SH9's dominant direction (luminance of its L1 band: (L11, L1-1, L10) = (x, y, z))."""
+    SH9's dominant direction (luminance of its L1 band: (L11, L1-1, L10) = (x, y, z)).
+    The segments of one elongated source (``chain`` > 1, one ``source``) count as one light
+    in the direction of their luminance-weighted sum, so the sphere hangs toward the
+    source's middle, not toward its brightest segment."""
+    sources: dict = {}
+    for n, light in enumerate(result.lights):
+        group = light.source if getattr(light, "chain", 1) > 1 else -1 - n
+        e, d = sources.get(group, (0.0, np.zeros(3)))
+        y = float(light.irradiance @ LUMA)
+        sources[group] = (e + y * max(0.0, float(light.direction[1])),
+                          d + y * np.asarray(light.direction, np.float64))
     best, key = 0.0, None
-    for light in result.lights:
-        e = float(light.irradiance @ LUMA) * max(0.0, float(light.direction[1]))
+    for e, d in sources.values():
         if e > best:
-            best, key = e, light.direction
+            best, key = e, d
     if key is None:
         L1 = np.asarray(result.coefficients, np.float64)[1:4] @ LUMA      # (y, z, x)
         key = np.array([L1[2], L1[0], L1[1]])
@@ -191,8 +201,12 @@ def key_light(result) -> np.ndarray:
     return np.asarray(key, np.float64) / np.linalg.norm(key)
 
 
-def floor_shadow(image: np.ndarray, grid: int = GRID, height: float = HEIGHT) -> dict:
-    """The ratio maps (grid × grid, luminance) of one panorama and their errors."""
+def floor_shadow(image: np.ndarray, grid: int = GRID, height: float = HEIGHT,
+                 max_lights: int = MAX_LIGHTS) -> dict:
+    """The ratio maps (grid × grid, luminance) of one panorama and their errors, with the
+    engine's lights (``lights="auto"``, at most ``max_lights``: by default all the
+    shaders' SH_MAX_LIGHTS slots a shadow catcher has, which an elongated light may use
+    as a chain of discs)."""
     from ..core.lights.extractor import LightExtractor
     from ..core.geometry import sh
     from ..core.lights.shadows import (cap_projected_solid_angle, lit_irradiance,
@@ -201,7 +215,7 @@ def floor_shadow(image: np.ndarray, grid: int = GRID, height: float = HEIGHT) ->
     from ..core.sh9.engine import compute_sh9
     image = np.maximum(np.asarray(image, np.float32), 0.0)
     h, w = image.shape[:2]
-    result = compute_sh9(image, lights="auto", error_estimate=False)
+    result = compute_sh9(image, lights="auto", max_lights=max_lights, error_estimate=False)
     scene = FloorScene(key_light(result), height=height, grid=grid)
 
     # True: coarse rest + bright pixels at full resolution.
@@ -226,8 +240,9 @@ def floor_shadow(image: np.ndarray, grid: int = GRID, height: float = HEIGHT) ->
     # from the full-resolution pixels under each light's region of the detection copy.
     x = LightExtractor(Equirect(w, h), max_lights=1)   # the same candidates as the engine's
     analysis = x.analyse(image, result.coefficients)
-    taken = [analysis.candidates[light.source] for light in result.lights
-             if 0 <= light.source < len(analysis.candidates)]
+    # (the segments of a chain share their source: its pixels are taken once)
+    taken = [analysis.candidates[i] for i in dict.fromkeys(light.source for light in result.lights)
+             if 0 <= i < len(analysis.candidates)]
     if taken:
         f, mw = x.mid_factor, x.mid.width
         ld, lf = [], []
@@ -356,6 +371,32 @@ def disc_equirect(width: int, radius_deg: float, toward=(0.3, 0.8, -0.5), flux: 
         h, sub, width, sub).mean(axis=(1, 3))
     radiance = flux / (2 * math.pi * (1 - math.cos(math.radians(radius_deg))))
     return (background + cover[..., None] * radiance * np.asarray(colour)).astype(np.float32)
+
+
+def strip_equirect(width: int, length_deg: float, width_deg: float, toward=(0.3, 0.8, -0.5),
+                   along=(1.0, 0.0, 0.0), flux: float = 30.0, background: float = 0.5,
+                   sub: int = 4) -> np.ndarray:
+    """(width/2, width, 3) float32 equirect: a uniform white strip (a bridge's slot of sky, a
+    tube lamp) on a uniform ``background``: the directions within ``width_deg``/2 of the
+    great circle through ``toward`` and ``along`` (made perpendicular to ``toward``) and
+    within ``length_deg``/2 of ``toward`` along it, total flux ``flux`` (radiance × sr);
+    each pixel holds its exact share (``sub`` × ``sub`` samples a pixel). Its solid angle
+    is length × 2 sin(width/2) (radians)."""
+    t = np.asarray(toward, np.float64) / np.linalg.norm(toward)
+    a = np.asarray(along, np.float64) - (np.asarray(along, np.float64) @ t) * t
+    a /= np.linalg.norm(a)
+    normal = np.cross(t, a)
+    h = width // 2
+    py, px = np.mgrid[0:h * sub, 0:width * sub] + 0.5
+    theta, phi = math.pi * py / (h * sub), 2 * math.pi * (px / (width * sub) - 0.5)
+    d = np.stack([np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)], -1)
+    across = np.arcsin(np.clip(d @ normal, -1, 1))
+    position = np.arctan2(d @ a, d @ t)
+    inside = ((np.abs(across) <= math.radians(width_deg) / 2)
+              & (np.abs(position) <= math.radians(length_deg) / 2))
+    cover = inside.reshape(h, sub, width, sub).mean(axis=(1, 3))
+    area = math.radians(length_deg) * 2 * math.sin(math.radians(width_deg) / 2)
+    return (background + cover[..., None] * np.full(3, flux / area)).astype(np.float32)
 
 
 def disc_radius_table(quick: bool = False) -> list[str]:

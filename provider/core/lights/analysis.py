@@ -50,6 +50,9 @@ class Light:
         pixels' own footprint (a uniform disc of radius a has m2 = a²/2). 0 for a source
         smaller than its pixels can tell (a point light) and for lights from elsewhere
         that did not say (an old relay upstream).
+    chain : how many lights its source became: 1, the whole source; m > 1, this light is
+        one of m segments of an elongated source (:func:`split_chain`), which share its
+        ``key``, ``source`` and ``level`` and whose fluxes add up to the source's.
     """
 
     direction: np.ndarray
@@ -60,6 +63,24 @@ class Light:
     key: int = -1
     source: int = -1
     angular_radius_deg: float = 0.0
+    chain: int = 1
+
+
+@dataclass
+class Segment:
+    """One segment of an elongated candidate (:func:`split_chain`): what becomes one light.
+
+    direction : (3,) unit vector, its pixels' excess-flux-weighted mean direction.
+    irradiance : (3,) RGB ``Σ excess ω (d_i · direction)`` over its pixels (as a light's).
+    flux : (3,) RGB ``Σ excess ω`` over its pixels.
+    spread_deg, angular_radius_deg : as a :class:`Light`'s, from its own pixels.
+    """
+
+    direction: np.ndarray
+    irradiance: np.ndarray
+    flux: np.ndarray
+    spread_deg: float
+    angular_radius_deg: float
 
 
 @dataclass
@@ -76,6 +97,8 @@ class Candidate:
     local : the same pixels as indices into the frame's list of pixels above the lowest level.
     gain : error reduction (fraction: 0.05 = 5 points) when it is the only light; set by
         :meth:`Analysis.rank`.
+    most_segments : how many lights it may become (:func:`chain_count`): 1 for a round
+        region; :meth:`segments` gives its chain of m ≤ ``most_segments``.
     """
 
     direction: np.ndarray
@@ -90,6 +113,16 @@ class Candidate:
     local: np.ndarray | None = None
     gain: float = 0.0
     angular_radius_deg: float = 0.0
+    most_segments: int = 1
+    split: tuple | None = field(default=None, repr=False)      # split_chain's arguments
+    _chains: dict = field(default_factory=dict, repr=False)
+
+    def segments(self, count: int) -> list:
+        """Its chain of ``count`` (2 ≤ count ≤ ``most_segments``) :class:`Segment` s, made
+        once (:func:`split_chain`)."""
+        if count not in self._chains:
+            self._chains[count] = split_chain(*self.split, count)
+        return self._chains[count]
 
 
 @dataclass
@@ -154,6 +187,112 @@ def angular_radius_deg(weights, angles, footprint2) -> float:
     return min(90.0, math.degrees(math.sqrt(2.0 * max(m2 / total, 0.0))))
 
 
+#: A region whose flux-weighted RMS extent along its major axis is at least this many times
+#: its extent across (both in the tangent plane at its direction, pixels' footprint
+#: included) is split into a chain of discs (docs/shadows.md, "Elongated lights").
+ELONGATION = 4.0
+#: Each segment of a chain spans at least this many detection pixels along the major axis.
+MIN_SEGMENT_PIXELS = 2.0
+
+
+def elongation(directions, weights, direction) -> tuple[float, float, np.ndarray]:
+    """How elongated a region is, from its flux-weighted second moments about its direction.
+
+    ``directions`` (n, 3) its pixel centres, ``weights`` (n,) their excess luminance flux,
+    ``direction`` (3,) its flux-weighted mean direction. The pixels are projected on the
+    plane tangent at ``direction`` (orthographically: exact for the few tens of degrees a
+    region spans) and their weighted 2 × 2 covariance is diagonalised.
+
+    Returns ``(ratio, major_rad, position)``: ``ratio`` = RMS extent along the major axis /
+    across it (1 for a disc; L/W for a uniform L × W strip; ``inf`` for a line one pixel
+    centre wide), ``major_rad`` the RMS extent along it (L/√12 for a uniform strip of length
+    L, radians) and ``position`` (n,) each pixel's coordinate along it (radians, mean 0),
+    increasing toward increasing azimuth (counter-clockwise about +Y seen from above), or
+    upward for an axis more than 60° from east-west: segments keep their order across
+    frames.
+    """
+    d = np.asarray(direction, np.float64)
+    dirs, w = np.asarray(directions, np.float64), np.asarray(weights, np.float64)
+    e1 = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 -= (e1 @ d) * d
+    e1 /= math.sqrt(float(e1 @ e1))
+    e2 = np.array([d[1] * e1[2] - d[2] * e1[1], d[2] * e1[0] - d[0] * e1[2],
+                   d[0] * e1[1] - d[1] * e1[0]])                        # d × e1
+    xy = dirs @ np.stack([e1, e2], 1)
+    total = float(w.sum())
+    if not total > 0 or len(w) < 2:
+        return 1.0, 0.0, np.zeros(len(w))
+    xy -= (w @ xy) / total
+    (a, b), (_, c) = (xy * w[:, None]).T @ xy / total
+    # the 2 × 2 covariance's eigenvalues and major axis in closed form (a region's few
+    # pixels: numpy's eigh would cost more than the moments)
+    half, mean = math.hypot(0.5 * (a - c), b), 0.5 * (a + c)
+    major, minor = mean + half, max(mean - half, 0.0)
+    theta = 0.5 * math.atan2(2 * b, a - c)
+    axis = math.cos(theta) * e1 + math.sin(theta) * e2                  # world frame
+    # A fixed sense along the axis, so that a chain's segments keep their order (their wire
+    # slots) from frame to frame: toward increasing azimuth (Y × d, counter-clockwise seen
+    # from above), or upward for an axis more than 60° from east-west.
+    east = np.array([d[2], 0.0, -d[0]])
+    east_norm = math.hypot(d[0], d[2])
+    along_east = float(axis @ east) / east_norm if east_norm > 1e-9 else float(axis[0])
+    sense = (1.0 if along_east > 0 else -1.0) if abs(along_east) >= 0.5 else \
+        (1.0 if axis[1] >= 0 else -1.0)
+    ratio = math.sqrt(major / minor) if minor > 0 else (math.inf if major > 0 else 1.0)
+    return ratio, math.sqrt(major), xy @ (sense * np.array([math.cos(theta), math.sin(theta)]))
+
+
+def chain_count(ratio: float, major_rad: float, pixel_rad: float, most: int) -> int:
+    """How many lights (segments) a region of this :func:`elongation` becomes: 1 (kept
+    whole) unless ``ratio`` ≥ :data:`ELONGATION`; else about its length over its width
+    (``round(ratio)``), at most ``most`` (the lights the frame may hold) and at most as many
+    segments as its length L = √12 · ``major_rad`` holds :data:`MIN_SEGMENT_PIXELS` pixels
+    of ``pixel_rad`` (a segment shorter than that is a round blob of pixels)."""
+    if not ratio >= ELONGATION or most < 2 or not pixel_rad > 0:
+        return 1
+    fits = math.floor(math.sqrt(12.0) * major_rad / (MIN_SEGMENT_PIXELS * pixel_rad))
+    return int(max(1, min(most, round(min(ratio, 1e6)), fits)))
+
+
+def split_chain(directions, excess, omega, footprint2, position, count: int) -> list:
+    """An elongated region as ``count`` :class:`Segment` s of equal luminance flux along its
+    major axis (``position``, from :func:`elongation`): a chain of discs.
+
+    ``directions`` (n, 3), ``excess`` (n, 3) RGB excess radiance, ``omega`` (n,) solid
+    angles (sr), ``footprint2`` (n,) rad² of the region's pixels. Each pixel goes to the
+    segment holding the middle of its flux in the running sum along the axis, so the
+    segments partition the pixels (fluxes add up to the region's exactly). Each segment
+    is measured as a light is: direction = its flux centroid, irradiance = ``Σ excess ω
+    (d_i · d)`` (the irradiance of every normal that sees the whole segment, hence at least
+    the whole region's about its single centroid), radius from its own pixels.
+    """
+    dirs = np.asarray(directions, np.float64)
+    ex, om = np.asarray(excess, np.float64), np.asarray(omega, np.float64)
+    w = (ex @ LUMA) * om
+    order = np.argsort(position, kind="stable")
+    run = np.cumsum(w[order]) - 0.5 * w[order]
+    part = np.empty(len(w), np.intp)
+    part[order] = np.minimum((run * count / max(float(w.sum()), 1e-300)).astype(np.intp),
+                             count - 1)
+    # Per-segment sums by bincount (one pass for all segments).
+    def per_segment(values):
+        return np.bincount(part, values, minlength=count)
+    total = per_segment(w)
+    v = np.stack([per_segment(w * dirs[:, k]) for k in range(3)], 1)        # (count, 3)
+    d = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+    cos = np.clip(np.einsum("ij,ij->i", dirs, d[part]), -1.0, 1.0)
+    ang2 = np.arccos(cos) ** 2
+    moment = np.stack([per_segment(ex[:, k] * om * cos) for k in range(3)], 1)
+    flux = np.stack([per_segment(ex[:, k] * om) for k in range(3)], 1)
+    spread2 = per_segment(w * ang2)
+    # angular_radius_deg per segment: sqrt(2·m2), m2 less the pixels' footprint
+    m2 = per_segment(w * (ang2 - np.asarray(footprint2, np.float64)))
+    return [Segment(d[s], np.maximum(moment[s], 0.0), flux[s],
+                    math.degrees(math.sqrt(spread2[s] / total[s])),
+                    min(90.0, math.degrees(math.sqrt(2.0 * max(m2[s] / total[s], 0.0)))))
+            for s in range(count) if total[s] > 0]
+
+
 def model_irradiance(ambient, lights, normals) -> np.ndarray:
     """``ñᵀAñ + Σ_k I_k max(0, n·d_k)`` at unit normals (..., 3) -> (..., 3), not clamped.
 
@@ -199,8 +338,25 @@ class Analysis:
         self._RR = np.sum(R * R, axis=0)                                 # (3,)
         self.sh9_error = math.sqrt(max(float(self._RR.sum()), 0.0) / self._TT)
         nc = len(candidates)
+        # Each candidate's irradiance M and residual shape G: a chain (the most segments it
+        # may become) is Σ_s I_s g(d_s) = M · Σ_s (Y(I_s)/Y(M)) g(d_s), exact for segments of
+        # one colour (the frame's result measures the lights it serves exactly).
+        self._M = np.zeros((nc, 3))
+        cols = []
+        for j, c in enumerate(candidates):
+            segs = c.segments(c.most_segments) if c.most_segments > 1 else None
+            self._M[j] = c.moment if segs is None else np.sum([g.irradiance for g in segs], 0)
+            y = float(self._M[j] @ LUMA)
+            if segs is None or not y > 0:
+                cols.append(extractor._residual(c.direction))
+            else:
+                share = np.array([g.irradiance @ LUMA for g in segs]) / y
+                D = np.array([g.direction for g in segs])                 # (m, 3)
+                residuals = (np.maximum(extractor.normals @ D.T, 0.0)
+                             - extractor._irr_basis @ sh.sh_basis(D).T)  # (N, m): g(d_s)
+                cols.append(residuals @ share)
         if nc:
-            G = np.stack([extractor._residual(c.direction) for c in candidates], axis=1)
+            G = np.stack(cols, axis=1)
             self._G = G                                                  # (N, nc)
             self._GtG = G.T @ G
             self._GtR = G.T @ R                                          # (nc, 3)
@@ -214,7 +370,7 @@ class Analysis:
                     self.conflict[i, j] = self.conflict[j, i] = True
         if nc:
             # err²(S) = RR + Σ_{j∈S} a_j + Σ_{j≠k∈S} Q_jk  (vectorised greedy steps)
-            M = np.array([c.moment for c in candidates])                 # (nc, 3)
+            M = self._M                                                  # (nc, 3)
             self._Q = self._GtG * (M @ M.T)
             self._a = -2 * np.sum(M * self._GtR, axis=1) + np.diag(self._Q)
         self._cache: dict = {}
@@ -226,9 +382,10 @@ class Analysis:
     def irradiances(self, indices) -> np.ndarray:
         """(k, 3) RGB irradiance of each light of the set: each candidate's first moment
         ``Σ excess ω (d_i·d)`` (physical, no fit; within 0.1 points of a least-squares fit
-        on the real panoramas, measured when this module was designed)."""
+        on the real panoramas, measured when this module was designed); for a chain the
+        sum of its segments' own."""
         idx = list(indices)
-        return np.array([self.candidates[i].moment for i in idx]).reshape(len(idx), 3)
+        return self._M[idx].reshape(len(idx), 3)
 
     def _error(self, idx, I) -> float:
         A = self._GtG[np.ix_(idx, idx)]
@@ -302,18 +459,45 @@ class Analysis:
             err = float(errs[best])
         return chosen
 
-    def result(self, indices, keys=None) -> LightsResult:
-        """The :class:`LightsResult` for these candidates (in this order)."""
+    def chain_counts(self, indices, max_lights: int | None = None) -> list:
+        """How many lights each candidate of the set becomes: 1, or for an elongated one
+        (``most_segments`` > 1) as many segments as it may be while the set holds at most
+        ``max_lights`` lights (default the extractor's); the lights left free go to the
+        chains in order of flux, largest first."""
         idx = [int(i) for i in indices]
-        I = self.irradiances(idx)
+        free = (self.x.max_lights if max_lights is None else max_lights) - len(idx)
+        counts = [1] * len(idx)
+        for j in sorted(range(len(idx)), key=lambda j: -float(self.candidates[idx[j]].flux @ LUMA)):
+            counts[j] = min(self.candidates[idx[j]].most_segments, 1 + max(free, 0))
+            free -= counts[j] - 1
+        return counts
+
+    def result(self, indices, keys=None, max_lights: int | None = None) -> LightsResult:
+        """The :class:`LightsResult` for these candidates (in this order); an elongated one
+        becomes its chain of segments (:meth:`chain_counts`), one light each, in place."""
+        idx = [int(i) for i in indices]
         lights = []
         ambient = self.coefficients.copy()
-        for j, i in enumerate(idx):
+        chained = False
+        for j, (i, m) in enumerate(zip(idx, self.chain_counts(idx, max_lights))):
             c = self.candidates[i]
-            ambient -= sh.sh_basis(c.direction)[:, None] * I[j][None, :]
-            lights.append(Light(c.direction.copy(), I[j].copy(), c.flux.copy(), c.spread_deg,
-                                self.x.thresholds[c.level], -1 if keys is None else keys[j],
-                                i, c.angular_radius_deg))
-        return LightsResult(lights, ambient, self.evaluate(idx), self.sh9_error,
-                            self.candidates)
+            key, level = -1 if keys is None else keys[j], self.x.thresholds[c.level]
+            chained |= c.most_segments > 1
+            parts = ([Segment(c.direction, c.moment, c.flux, c.spread_deg,
+                              c.angular_radius_deg)] if m == 1 else c.segments(m))
+            for g in parts:
+                ambient -= sh.sh_basis(g.direction)[:, None] * g.irradiance[None, :]
+                lights.append(Light(g.direction.copy(), g.irradiance.copy(), g.flux.copy(),
+                                    g.spread_deg, level, key, i, g.angular_radius_deg, m))
+        # A chain's evaluation was for its most segments and one colour: measure exactly.
+        error = self.error_of(self.lights_model(lights)) if chained else self.evaluate(idx)
+        return LightsResult(lights, ambient, error, self.sh9_error, self.candidates)
+
+    def lights_model(self, lights) -> np.ndarray:
+        """Model irradiance (N, 3) at the extractor's normals of the full SH9 with these
+        lights taken out of it as directional lights (any :class:`Light` s)."""
+        E = self.E_sh.copy()
+        for light in lights:
+            E += np.outer(self.x._residual(light.direction), light.irradiance)
+        return E
 

@@ -32,6 +32,10 @@ Per frame:
    ≥ ``min_gain`` (0.2 points) and ≥ ``min_rel_gain`` (10 %). Nested candidates (one source
    at two levels) are never chosen together. Live, the
    :class:`~provider.core.lights.tracking.LightTracker` makes this choice with hysteresis.
+   An *elongated* region (major-axis spread ≥ ``ELONGATION`` × its minor one) is scored
+   and served as a **chain of discs**: equal-flux segments along its axis, one light each,
+   within the lights left free (:func:`~provider.core.lights.analysis.split_chain`,
+   :meth:`~provider.core.lights.analysis.Analysis.result`; docs/shadows.md).
 6. **Refine** (:meth:`LightExtractor.refine`): a compact light's direction is sharpened on the
    full-resolution pixels under it (a 0.5° sun: from 0.2-0.4° off to 0.02-0.05°).
 
@@ -48,13 +52,14 @@ Usage (one extractor per projection and size; the engine builds it for ``lights=
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import cv2
 import numpy as np
 
 from ..geometry import sh
 from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
-                       model_irradiance)
+                       chain_count, elongation, model_irradiance)
 from ..geometry.projections import Fisheye, Projection
 
 __all__ = ["LightExtractor", "Analysis", "Candidate", "Light", "LightsResult", "LUMA",
@@ -387,6 +392,12 @@ class LightExtractor:
                                  math.degrees(float(ang.max())), level, k, pix, exm,
                                  local=loc[sel], angular_radius_deg=angular_radius_deg(
                                      wk, ang, self._footprint2[pix])))
+            # An elongated region may become a chain of discs (docs/shadows.md).
+            ratio, major, position = elongation(dk, wk, d)
+            most = chain_count(ratio, major, self._pixel_angle, self.max_lights)
+            if most > 1:
+                out[-1].most_segments = most
+                out[-1].split = (dk, exm, om[sel], self._footprint2[pix], position)
         return out, glocal
 
     def refine(self, result: LightsResult, analysis: Analysis, frame) -> LightsResult:
@@ -414,8 +425,9 @@ class LightExtractor:
             c = analysis.candidates[light.source] if light.source >= 0 else None
             d = light.direction
             radius = light.angular_radius_deg
-            if c is not None and c.radius_deg <= math.degrees(self.refine_max_px
-                                                              * self._pixel_angle):
+            compact = c is not None and c.radius_deg <= math.degrees(self.refine_max_px
+                                                                     * self._pixel_angle)
+            if compact and light.chain == 1:                  # a segment keeps its own
                 rows, cols = c.pixels // w, c.pixels % w
                 if cols.max() - cols.min() < w // 2:          # not split by a seam
                     r0, r1 = max(0, (rows.min() - 1) * f), min(self.full.height,
@@ -436,8 +448,7 @@ class LightExtractor:
                         fp2 = _footprint2(dx, dy)
                         radius = angular_radius_deg(ex[valid], ang[valid], fp2[valid])
             ambient -= sh.sh_basis(d)[:, None] * light.irradiance[None, :]
-            lights.append(Light(d, light.irradiance, light.flux, light.spread_deg,
-                                light.level, light.key, light.source, radius))
+            lights.append(replace(light, direction=d, angular_radius_deg=radius))
         return LightsResult(lights, ambient, result.light_error, result.sh9_error,
                             result.candidates)
 
@@ -466,7 +477,9 @@ class LightExtractor:
             processed = process(r.ambient)
             if not np.array_equal(processed, r.ambient):
                 idx = [light.source for light in r.lights]
-                r.light_error = a.error_of(a.model(idx) + self._irr_basis @ (processed - r.ambient))
+                model = (a.model(idx) if all(light.chain == 1 for light in r.lights)
+                         else a.lights_model(r.lights))
+                r.light_error = a.error_of(model + self._irr_basis @ (processed - r.ambient))
                 r.ambient = processed
         return r
 

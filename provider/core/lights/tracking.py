@@ -214,4 +214,5 @@ class LightTracker:
                 best.active, best.weak, best.swap_hits = True, 0, 0
         final = sorted((t for t in self.tracks if t.active), key=lambda t: t.key)
         self.frames += 1
-        return a.result([match[t.key] for t in final], keys=[t.key for t in final])
+        return a.result([match[t.key] for t in final], keys=[t.key for t in final],
+                        max_lights=K)
