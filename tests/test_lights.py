@@ -16,6 +16,7 @@ import pytest
 from provider.bench.common import _auto_exposure, _to_srgb8
 from provider.bench.scenes import fisheye_from_equirect
 from provider.core.geometry import sh
+from provider.core.options import MAX_LIGHTS
 from provider.core.sh9.engine import InputError, SH9Projector, compute_sh9
 from provider.core.lights.extractor import LightExtractor
 from provider.core.lights.tracking import LightTracker
@@ -69,7 +70,7 @@ def test_ambient_plus_lights_is_never_worse_than_sh9(name, hdri):
     assert e_lights <= e_sh9 + 0.002, (e_sh9, e_lights)
     assert abs(r.stats["light_error"] - e_lights) < 0.002
     assert abs(r.stats["sh9_error"] - e_sh9) < 0.002
-    assert len(r.lights) <= 3
+    assert len(r.lights) <= MAX_LIGHTS
 
 
 def test_on_sun_scenes_lights_halve_the_error(hdri):

@@ -268,7 +268,8 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
                    help="auto: directional lights for compact bright sources (a sun, a lamp) "
                         "plus ambient SH9, kept only where they lower the measured error")
     g.add_argument("--max-lights", type=int, default=None, metavar="K",
-                   help="at most K lights per frame with --lights auto (1-4, default 3)")
+                   help="at most K lights per frame with --lights auto (1-4, default 4: the "
+                        "shaders' slots)")
     g.add_argument("--rotate", metavar="YAW,PITCH,ROLL", default=None,
                    type=lambda t: _floats(t, 3, "--rotate"),
                    help="sensor rotation in degrees (about +Y, +X, -Z), applied to coefficients")
@@ -400,7 +401,7 @@ def engine_options(args) -> dict:
                              "--lights auto too, or leave --max-lights out")
     if args.lights != "off":
         opts.update(lights=args.lights,
-                    max_lights=3 if args.max_lights is None else args.max_lights)
+                    max_lights=4 if args.max_lights is None else args.max_lights)
     if args.rotate:
         opts["rotation"] = rotation_from_euler(*args.rotate)
     check_options(**opts)

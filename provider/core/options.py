@@ -29,7 +29,7 @@ LIGHTING_MAX = FLOAT32_MAX / 16
 
 
 def check_options(*, encoding="auto", exposure=1.0, downsample=1, rotation=None, order=2,
-                  dering="off", order_budget=0.02, lights="off", max_lights=3) -> None:
+                  dering="off", order_budget=0.02, lights="off", max_lights=4) -> None:
     """Raise :class:`InputError` for engine options that no frame can make valid (so that
     ``shlight serve`` refuses them at start, in one line, rather than per frame)."""
     if order not in ORDERS:

@@ -103,7 +103,7 @@ class LightExtractor:
         :meth:`refine` sharpens lights whose region radius is at most this many mid pixels.
     """
 
-    def __init__(self, projection: Projection, *, max_lights: int = 3,
+    def __init__(self, projection: Projection, *, max_lights: int = 4,
                  thresholds=(4.0, 8.0, 16.0, 32.0, 64.0), detect_pixels: int = 32768,
                  coarse_pixels: int = 4096,
                  normals: int = 256, min_gain: float = 0.002, min_rel_gain: float = 0.1,

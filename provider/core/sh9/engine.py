@@ -134,7 +134,7 @@ class SH9Projector(FrameDecoder):
         keeping a light only where it lowers the measured irradiance error
         (:mod:`provider.core.lights.extractor`; docs/contract.md §10). "off": the exact path, unchanged.
     max_lights : int
-        At most this many lights per frame, 1 to :data:`~provider.core.options.MAX_LIGHTS` (default 3).
+        At most this many lights per frame, 1 to :data:`~provider.core.options.MAX_LIGHTS` (default 4: the shaders' slots).
     response : CameraResponse or None
         The camera's inverse response: integer frames are decoded with it (a table at
         t = 1, like the sRGB one) instead of sRGB. None (default): sRGB, as ``encoding``.
@@ -145,7 +145,7 @@ class SH9Projector(FrameDecoder):
     def __init__(self, width: int, height: int, projection="equirect", *, encoding="auto",
                  exposure=1.0, downsample=1, rotation=None, order=2, dering="off",
                  order_budget=0.02, error_estimate=False, progress=None, lights="off",
-                 max_lights=3, response=None, **projection_options):
+                 max_lights=4, response=None, **projection_options):
         check_options(encoding=encoding, exposure=exposure, downsample=downsample,
                       rotation=rotation, order=order, dering=dering, order_budget=order_budget,
                       lights=lights, max_lights=max_lights)
