@@ -14,6 +14,7 @@ import logging
 import os
 import re
 import sys
+import tempfile
 import threading
 import time
 import urllib.parse
@@ -227,11 +228,11 @@ def redact(url: str) -> str:
 # libjpeg's "Corrupt JPEG data ...", libpng's "libpng error: ...", OpenCV's and OpenEXR's
 # warnings: C libraries that write straight to file descriptor 2, one line per bad frame (about
 # 680 extra lines for 1,000 bad files; forever from a camera that keeps sending bad JPEGs,
-# issue 29). On the first decode, descriptor 2 becomes a pipe, once for the process
-# (:class:`_StderrPipe`): a thread drains it, says the codecs' lines as one log line per source
-# per interval (with how many were held back), and writes everything else (a log line, another
-# library's words) to the real stderr, unchanged and in order. A decode only marks itself
-# running (:func:`codec_messages`): no lock, no dup2.
+# issue 29). codec_messages points descriptor 2 at a scratch file for the length of one decode
+# (a lock makes the decodes of several sources take turns), then says the codec's lines as one
+# log line per source per interval (with how many were held back), and writes everything else
+# that reached descriptor 2 meanwhile (another thread's log line) back to the real stderr,
+# unchanged and in order.
 
 #: The lines the codecs write (libjpeg's messages, libpng's, OpenCV's log, OpenEXR's).
 CODEC_LINE = re.compile(
@@ -240,11 +241,9 @@ CODEC_LINE = re.compile(
     r"\[ ?(WARN|ERROR|INFO)[: ]|imread_|imdecode_|OpenEXR|Iex|Cannot read|"
     r"Error: |TIFFRead|TIFFFetch|[A-Za-z]+: .*(TIFF|tiff) )")
 
+_lock = threading.Lock()
+_scratch = None                 # one scratch file, emptied after each decode
 _said: dict = {}                # source -> [monotonic time said, lines held back since]
-#: the decodes running now: thread id -> (where, interval); the newest one last
-_running: dict = {}
-#: the decode that ran last, (where, interval): a line read after its decode ended is its
-_last: list = [("the image decoder", 10.0)]
 
 
 def _say(where: str, line: str, interval: float) -> None:
@@ -261,126 +260,34 @@ def _say(where: str, line: str, interval: float) -> None:
     log.warning("%s: the image decoder says: %s%s", where, line[:300], more)
 
 
-class _StderrPipe:
-    """Descriptor 2 as a pipe, drained by a thread: codec lines to the log (through a second
-    thread, so that the drain never writes into the pipe it drains: a full pipe would wait
-    on itself), the rest to the real stderr. Installed again if someone else points
-    descriptor 2 elsewhere (a test harness capturing output); put back at exit, after the
-    last lines are drained."""
-
-    #: how long a line with no newline yet is held for the rest of it
-    PARTIAL_S = 0.1
-
-    def __init__(self):
-        import atexit
-        import queue
-        try:
-            sys.stderr.flush()
-        except (OSError, ValueError, AttributeError):
-            pass
-        self.real = os.dup(2)
-        read, write = os.pipe()
-        os.dup2(write, 2)
-        os.close(write)
-        self.read = read
-        st = os.fstat(2)
-        self.id = (st.st_dev, st.st_ino)
-        self.lines = queue.SimpleQueue()       # (where, line, interval) for the log
-        self.drain = threading.Thread(target=self._drain, name="shlight-stderr", daemon=True)
-        self.say = threading.Thread(target=self._say, name="shlight-codec-log", daemon=True)
-        self.drain.start()
-        self.say.start()
-        atexit.register(self.close)
-
-    def installed(self) -> bool:
-        try:
-            st = os.fstat(2)
-        except OSError:
-            return False
-        return (st.st_dev, st.st_ino) == self.id
-
-    def _drain(self) -> None:
-        import select
-        pending = b""
-        while True:
-            if pending and not select.select([self.read], [], [], self.PARTIAL_S)[0]:
-                self._forward(pending)          # a line that ends later (a prompt, a bar)
-                pending = b""
-                continue
-            try:
-                chunk = os.read(self.read, 65536)
-            except OSError:
-                chunk = b""
-            if not chunk:                      # the write end closed: at exit
-                if pending:
-                    self._forward(pending)
-                os.close(self.read)
-                os.close(self.real)            # descriptor 2 is a copy of it, or another's
-                self.lines.put(None)           # the log thread ends after the last line
-                return
-            *lines, pending = (pending + chunk).split(b"\n")
-            others = []
-            for raw in lines:
-                line = raw.decode("utf-8", "replace")
-                if CODEC_LINE.match(line):
-                    running = list(_running.values())     # one step under the GIL
-                    where, interval = running[-1] if running else _last[0]
-                    self.lines.put((where, line.strip(), interval))
-                else:
-                    others.append(raw)
-            if others:
-                self._forward(b"\n".join(others) + b"\n")
-
-    def _forward(self, data: bytes) -> None:
-        try:
-            os.write(self.real, data)
-        except OSError:
-            pass
-
-    def _say(self) -> None:
-        while True:
-            item = self.lines.get()
-            if item is None:
-                return
-            _say(*item)
-
-    def close(self) -> None:
-        """Descriptor 2 back to the real stderr; what the pipe still held is written."""
-        if not self.installed():
-            return
-        try:
-            sys.stderr.flush()
-        except (OSError, ValueError, AttributeError):
-            pass
-        os.dup2(self.real, 2)                  # the pipe's only write end: the drain ends
-        self.drain.join(timeout=2.0)
-        self.say.join(timeout=2.0)
-
-
-_pipe: _StderrPipe | None = None
-_install = threading.Lock()     # taken only to install the pipe, never by a decode
-
-
-def _stderr_pipe() -> None:
-    global _pipe
-    if _pipe is not None and _pipe.installed():
-        return
-    with _install:
-        if _pipe is None or not _pipe.installed():
-            _pipe = _StderrPipe()
-
-
 @contextmanager
 def codec_messages(where: str, interval: float = 10.0):
     """Within the block, what the codecs write to descriptor 2 goes to the log, as one line
-    about ``where`` (a file, a camera) at most every ``interval`` seconds; the rest of
-    descriptor 2 still reaches the real stderr. A line is said for the decode that was
-    running when the drain read it (or the last one to run): with several sources decoding
-    at once, one may be named for another's line."""
-    _stderr_pipe()
-    me = threading.get_ident()
-    _running[me] = (where, interval)
-    try:
-        yield
-    finally:
-        _last[0] = _running.pop(me, (where, interval))
+    about ``where`` (a file, a camera) at most every ``interval`` seconds."""
+    global _scratch
+    with _lock:
+        try:
+            sys.stderr.flush()
+        except (OSError, ValueError):
+            pass
+        if _scratch is None:
+            _scratch = tempfile.TemporaryFile()
+        saved = os.dup(2)
+        os.dup2(_scratch.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            _scratch.seek(0)
+            text = _scratch.read().decode("utf-8", "replace")
+            _scratch.seek(0)
+            _scratch.truncate()
+            others = []
+            for line in text.splitlines():
+                if CODEC_LINE.match(line):
+                    _say(where, line.strip(), interval)
+                elif line:
+                    others.append(line)
+            if others:
+                os.write(2, ("\n".join(others) + "\n").encode("utf-8", "replace"))
