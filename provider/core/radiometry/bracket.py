@@ -311,16 +311,32 @@ def project_bracket(projector, frames, times, *, gain: float = 1.0,
     radiance = m.radiance * np.float32(factor) if factor != 1.0 else m.radiance
     result = projector.project(radiance, units=stats["coefficient_units"])  # + its lux
     short = float(times.min()) * check_time(gain, "gain") / factor
-    stats.update({"clipped_fraction": m.clipped_fraction, "exposures_s": m.times})
-    if gain != 1.0:
-        stats["gain"] = float(gain)
-    clipped = projector.clipping(np.minimum.reduce(frames), response.lut(short), {})
-    projector.radiometry_stats(stats, result.coefficients, clipped * projector.exposure,
-                               "merged")
-    stats["response"] = response.method
+    captured_stats(projector, stats, result.coefficients[0], np.minimum.reduce(frames),
+                   response.lut(short), response, merged=m, gain=gain)
     result.stats.update(stats)
     result.stats["compute_ms"] = (time.perf_counter() - t0) * 1e3
     return result
+
+
+def captured_stats(projector, stats: dict, l00, lowest, table, response, *, merged=None,
+                   gain: float = 1.0) -> None:
+    """The radiometry statistics of frame(s) as the camera captured them, into ``stats``
+    (:func:`project_bracket`'s, and the lux meter's of what it closed,
+    :func:`provider.core.sh9.meter.project_with_meter`): a bracket's (``merged``: its
+    :func:`merge`) ``clipped_fraction``, ``exposures_s`` and ``gain`` when ≠ 1, else one
+    frame's own ``clipped_fraction``; ``clipped_light_fraction``, what clipped in every frame
+    (``lowest``: their per-sample minimum, 8/16-bit, read through ``table``: the shortest
+    frame's, in the result's units) over all the light (``l00``: (3,) the captured L00,
+    before rotation); ``radiometry`` ("merged" for a bracket, else the projector's) and
+    ``response`` (``response``: the curve at the frames' bit depth)."""
+    if merged is not None:
+        stats.update(clipped_fraction=merged.clipped_fraction, exposures_s=merged.times)
+        if gain != 1.0:
+            stats["gain"] = float(gain)
+    clipped = projector.clipping(lowest, table, {} if merged is not None else stats)
+    projector.radiometry_stats(stats, np.asarray(l00)[None], clipped * projector.exposure,
+                               "merged" if merged is not None else projector.radiometry)
+    stats["response"] = response.method
 
 
 class BracketProjector:

@@ -319,7 +319,7 @@ def project_with_meter(projector, frames, times, gain, f_number, lux: float, *,
     the projection cannot say its pixels' directions."""
     import math
 
-    from ..radiometry.bracket import merge
+    from ..radiometry.bracket import captured_stats, merge
     from ..radiometry.photometry import UNITS_ABSOLUTE
     from ..options import exposure_scale
     if not (isinstance(lux, (int, float)) and math.isfinite(lux) and lux > 0):
@@ -354,7 +354,7 @@ def project_with_meter(projector, frames, times, gain, f_number, lux: float, *,
         # the table that gives the shortest frame's radiance in cd/m² (its clip level)
         table = response.lut(float(np.min(times)) * float(gain) / factor)
     else:                    # factor: C·N² / (t·gain), the frame's own
-        table = response.lut(1.0 / factor)
+        merged, table = None, response.lut(1.0 / factor)
         radiance = apply_lut(frames[0], table)
     if work is not None and not bracket:   # the cube's work image: the projector's table
         work.add_band(radiance * np.float32(projector.exposure / factor), 0)
@@ -367,16 +367,10 @@ def project_with_meter(projector, frames, times, gain, f_number, lux: float, *,
                                     lux, facing=facing, colour=colour, in_place=True)
     new = projector.project(closed, error_estimate, tracker, units=UNITS_ABSOLUTE)
     if stats is None:        # what the integer pass would have said of the frame(s)
-        clipped_l00 = projector.clipping(lowest, table, own)
-        if bracket:
-            own.update(clipped_fraction=merged.clipped_fraction, exposures_s=merged.times)
-            if gain != 1.0:
-                own["gain"] = float(gain)
         # the camera's own L00: the closed frame's less what the closure added
         seen = new.coefficients[0] - _closure_l00(projector, closure) * projector.exposure
-        projector.radiometry_stats(own, seen[None], clipped_l00 * projector.exposure,
-                                   "merged" if bracket else projector.radiometry)
-        own["response"] = response.method
+        captured_stats(projector, own, seen, lowest, table, response,
+                       merged=merged, gain=gain)
     else:
         own = {key: stats[key] for key in KEPT_STATS if key in stats}
     new.stats.update(own)
