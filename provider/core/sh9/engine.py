@@ -195,9 +195,7 @@ class SH9Projector(FrameDecoder):
         # its cosine weights are one more column of the projection's weights (a 10th weight),
         # summed in the same pass as the SH9, never a second decode (issue 34).
         self._up_in_pass = downsample == 1 and has_absolute_scale(response)
-        up = up_weights(full, self.rotation)[0] if self._up_in_pass else None   # (H, W) sr
-        if up is not None:
-            self._up = np.ascontiguousarray(up, np.float32).reshape(-1)
+        up = self.up_cosine_weights.reshape(p.shape) if self._up_in_pass else None  # (H, W) sr
         if isinstance(p, Equirect):
             rows, cols = p.row_integrals(), p.col_integrals()
             self._rows = rows.astype(np.float32)          # (6, H), 7 with the up row
