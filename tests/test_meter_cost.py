@@ -101,3 +101,24 @@ def test_a_metered_frame_keeps_what_the_camera_saw(camera, tmp_path):  # noqa: F
     np.testing.assert_allclose(dim.coefficients, plain.coefficients, rtol=1e-5, atol=1e-9)
     assert bright.stats["clipped_light_fraction"] > 0.01
     assert bright.coefficients[0, 0] > 2 * plain.coefficients[0, 0]
+
+
+def test_a_metered_lens_frame_keeps_the_share_of_light_clipped(camera):  # noqa: F811
+    """On a lens projection (a fisheye looking up: no separable weights) what the closure put
+    into L00 is taken back out with the projector's own L00 weights over the closed pixels:
+    the metered frame says the share of light the camera clipped as its plain projection
+    does, while its coefficients hold the closed light."""
+    from provider.core.sh9.meter import project_with_meter
+    from provider.live.probe.camerafile import load_camera
+    projector = SH9Projector(128, 128, "fisheye", response=load_camera(camera))
+    frame = np.full((128, 128, 3), 60, np.uint8)
+    y, x = np.mgrid[0:128, 0:128]
+    frame[(y - 50) ** 2 + (x - 70) ** 2 <= 36] = 255      # a clipped sun 20-odd ° from zenith
+    plain = projector.project(frame, exposure_s=0.01)
+    metered, closure = project_with_meter(projector, [frame], [0.01], 1.0, None,
+                                          10 * plain.stats["illuminance_lux"])
+    assert closure.closed_lux > 0 and closure.pixels.size == np.count_nonzero(frame[..., 0] == 255)
+    assert plain.stats["clipped_light_fraction"] > 0.01
+    for key in ("clipped_fraction", "clipped_light_fraction"):
+        assert metered.stats[key] == pytest.approx(plain.stats[key], rel=1e-5), key
+    assert metered.coefficients[0, 0] > 2 * plain.coefficients[0, 0]

@@ -64,8 +64,9 @@ class MeterClosure:
     ``facing``: the meter's normal (world frame); ``colour``: the closed light's linear RGB
     per unit luminance ((1, 1, 1): neutral); ``warning``: a closure that is ill-conditioned
     (a low blob seen by an up-facing meter, a wide blob taken as the sun), or '';
-    ``blob``: the closed pixels ((H, W) bool; None when nothing) and ``added``: the linear
-    RGB radiance each of them got (cd/m²), not on the wire."""
+    ``pixels``: the closed pixels (flat pixel numbers of the (H, W) frame, row-major; None
+    when nothing) and ``added``: the linear RGB radiance each of them got (cd/m²), not on
+    the wire."""
 
     lux: float
     camera_lux: float
@@ -76,7 +77,7 @@ class MeterClosure:
     facing: tuple = (0.0, 1.0, 0.0)
     colour: tuple = (1.0, 1.0, 1.0)
     warning: str = ""
-    blob: np.ndarray | None = None
+    pixels: np.ndarray | None = None
     added: tuple = (0.0, 0.0, 0.0)
 
 
@@ -264,7 +265,7 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
     added = (np.float32(missing / seen[best - 1]) * rgb).astype(np.float32)
     pixels = np.flatnonzero(blob)
     out.reshape(-1, 3)[pixels] += added           # (a view: out is contiguous)
-    closure.blob, closure.added = blob, tuple(float(v) for v in added)
+    closure.pixels, closure.added = pixels, tuple(float(v) for v in added)
     w = _at(omega, pixels)
     mean = (rays[pixels] * w[:, None]).sum(axis=0)
     closure.closed_lux = missing
@@ -380,15 +381,14 @@ def project_with_meter(projector, frames, times, gain, f_number, lux: float, *,
 
 def _closure_l00(projector, closure: MeterClosure) -> np.ndarray:
     """(3,) the L00 the closure put into ``projector``'s projection per unit exposure: its
-    added radiance times the blob's L00 weights (equirect: C0·dω; others: the projection's,
-    its fill included)."""
-    if closure.blob is None:
+    added radiance times the blob's L00 weights (equirect: C0·dω; others: the L00 weights
+    the projector keeps, the projection's with its fill, summed over the closed pixels)."""
+    if closure.pixels is None:
         return np.zeros(3)
-    p = projector.projection
-    if isinstance(p, Equirect):
+    if isinstance(projector.projection, Equirect):
         weight = sh.C0 * closure.solid_angle_sr
-    else:
-        weight = float(p.sh_weights[:, 0].reshape(p.height, p.width)[closure.blob].sum())
+    else:        # (the frame is the projection's size: project_with_meter checked it)
+        weight = float(projector._l00_weights[closure.pixels].sum(dtype=np.float64))
     return np.asarray(closure.added, np.float64) * weight
 
 
