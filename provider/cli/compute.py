@@ -56,7 +56,7 @@ def wire_message(args, command: str = "compute") -> dict:
     from .frames import read_exposed_frames
     from .options import engine_options
     from .options import say_fifo_waits, say_frame_warnings
-    check_meter_arguments(args)
+    facing, colour = check_meter_arguments(args)      # before any work
     several = len(args.image) > 1
     say_fifo_waits(args.image, command)
     images, exposures, paths = read_exposed_frames(args.image, need_times=several,
@@ -81,7 +81,7 @@ def wire_message(args, command: str = "compute") -> dict:
         say(command, "warning", warning)
     if getattr(args, "lux", None) is not None:      # one projection, of the closed frame
         result = meter_closed(projector, images, times, gain, f_number, args.lux, command,
-                              args)
+                              facing, colour)
     elif several:
         result = project_bracket(projector, images, times, gain=gain, f_number=f_number)
     else:
@@ -117,12 +117,12 @@ def check_meter_arguments(args, where: str = "") -> tuple:
             parse_meter_colour(getattr(args, "lux_cct", None)))
 
 
-def meter_closed(projector, images, times, gain, f_number, lux, command, command_args=None):
+def meter_closed(projector, images, times, gain, f_number, lux, command, facing, colour):
     """``--lux``: the frame(s) projected with the meter's missing light in the clipped blob
-    (:func:`provider.core.sh9.meter.project_with_meter`), what it closed said on stderr."""
+    (:func:`provider.core.sh9.meter.project_with_meter`; ``facing``, ``colour``: the meter's
+    options as :func:`check_meter_arguments` parsed them), what it closed said on stderr."""
     from ..core.sh9.meter import project_with_meter
     from .feedback import say
-    facing, colour = check_meter_arguments(command_args) if command_args else (None, None)
     new, closure = project_with_meter(projector, images, times, gain, f_number, lux,
                                       facing=facing, colour=colour)
     if closure.warning:
