@@ -54,7 +54,7 @@ def wire_message(args, command: str = "compute") -> dict:
     from ..live.wire.message import coefficient_message
     from .feedback import Progress, say
     from .frames import read_exposed_frames
-    from .options import engine_options
+    from .options import check_meter_arguments, engine_options
     from .options import say_fifo_waits, say_frame_warnings
     facing, colour = check_meter_arguments(args)      # before any work
     several = len(args.image) > 1
@@ -101,26 +101,11 @@ def wire_message(args, command: str = "compute") -> dict:
                                time=os.path.getmtime(paths[0]), projection=args.projection)
 
 
-def check_meter_arguments(args, where: str = "") -> tuple:
-    """The meter's options (``--lux-facing``, ``--lux-cct``; serve's ``--lux-ca``) are for
-    ``--lux`` and must parse: said before any work in one line (exit 2), the same in compute
-    and serve (``where``: serve's "probe NAME: "). Returns (facing, colour) parsed
-    (:func:`~provider.core.sh9.meter.parse_facing`, :func:`~provider.core.sh9.meter.parse_meter_colour`)."""
-    from ..core.errors import InputError
-    from ..core.sh9.meter import parse_facing, parse_meter_colour
-    given = [f"--{name.replace('_', '-')}" for name in ("lux_facing", "lux_cct", "lux_ca")
-             if getattr(args, name, None) is not None]
-    if given and getattr(args, "lux", None) is None:
-        raise InputError(f"{where}{' and '.join(given)} {'is' if len(given) == 1 else 'are'} "
-                         "for --lux (a lux meter's reading)")
-    return (parse_facing(getattr(args, "lux_facing", None) or "up"),
-            parse_meter_colour(getattr(args, "lux_cct", None)))
-
-
 def meter_closed(projector, images, times, gain, f_number, lux, command, facing, colour):
     """``--lux``: the frame(s) projected with the meter's missing light in the clipped blob
     (:func:`provider.core.sh9.meter.project_with_meter`; ``facing``, ``colour``: the meter's
-    options as :func:`check_meter_arguments` parsed them), what it closed said on stderr."""
+    options as :func:`~provider.cli.options.check_meter_arguments` parsed them), what it
+    closed said on stderr."""
     from ..core.sh9.meter import project_with_meter
     from .feedback import say
     new, closure = project_with_meter(projector, images, times, gain, f_number, lux,

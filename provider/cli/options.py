@@ -440,3 +440,18 @@ def engine_options(args) -> dict:
     if getattr(args, "ball", None) is not None and args.projection not in ("mirrorball", "angular"):
         raise InputError("--ball is for --projection mirrorball or angular")
     return opts
+
+
+def check_meter_arguments(args, where: str = "") -> tuple:
+    """The meter's options (``--lux-facing``, ``--lux-cct``; serve's ``--lux-ca``) are for
+    ``--lux`` and must parse: said before any work in one line (exit 2), the same in compute
+    and serve (``where``: serve's "probe NAME: "). Returns (facing, colour) parsed
+    (:func:`~provider.core.sh9.meter.parse_facing`, :func:`~provider.core.sh9.meter.parse_meter_colour`)."""
+    from ..core.sh9.meter import parse_facing, parse_meter_colour
+    given = [f"--{name.replace('_', '-')}" for name in ("lux_facing", "lux_cct", "lux_ca")
+             if getattr(args, name, None) is not None]
+    if given and getattr(args, "lux", None) is None:
+        raise InputError(f"{where}{' and '.join(given)} {'is' if len(given) == 1 else 'are'} "
+                         "for --lux (a lux meter's reading)")
+    return (parse_facing(getattr(args, "lux_facing", None) or "up"),
+            parse_meter_colour(getattr(args, "lux_cct", None)))

@@ -13,7 +13,7 @@ import shlex
 from ..core.errors import InputError
 from ..core.radiometry.image_size import DEFAULT_MAX_PIXELS
 from .options import (MAX_FPS, Parser, add_budget_argument, add_engine_arguments,
-                      engine_options)
+                      check_meter_arguments, engine_options)
 
 EPILOG = """\
 sources (--source SPEC, or --probe NAME=SPEC, repeatable):
@@ -373,7 +373,6 @@ def build_server(args):
         environment = (EnvironmentSettings(
             32 if ns.environment_size is None else ns.environment_size,
             1.0 if ns.environment_hz is None else ns.environment_hz) if ns.environment else None)
-        from .compute import check_meter_arguments
         facing, colour = check_meter_arguments(ns, f"probe {name}: ")
         meter = None
         if ns.lux is not None:
