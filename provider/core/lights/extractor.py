@@ -335,7 +335,12 @@ class LightExtractor:
             bw, bh = self._coarse_crop
             rest = cv2.resize(rest[:bh, :bw], (self.coarse.width, self.coarse.height),
                               interpolation=cv2.INTER_AREA)
-        truth = (self._kernel @ rest.reshape(-1, 3)).astype(np.float64)
+        # One matrix-vector product a channel: a product with the 3 interleaved channels
+        # packs the whole (normals × pixels) kernel every frame (3.4 M instructions against
+        # 0.8 M for a 256 × 3600 kernel, callgrind; issue 34).
+        rest = rest.reshape(-1, 3)
+        truth = np.stack([self._kernel @ np.ascontiguousarray(rest[:, c]) for c in range(3)],
+                         axis=1).astype(np.float64)
         if extra is not None:
             truth += extra
         return Analysis(self, coefficients, candidates, truth, groups, mu)

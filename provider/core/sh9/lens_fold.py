@@ -91,9 +91,10 @@ class LensFold:
         self._res_index = residual_index            # sorted flat pixel indices
         self._res_weights = residual_weights        # (R, 9 + extras) float32, world frame
         self._pool = []
+        self._res_rows = {}     # (r0, r1) -> (band-local residual indices, their weights)
 
-    def __getstate__(self):
-        return {**self.__dict__, "_pool": []}       # buffers are per process, not pickled
+    def __getstate__(self):      # buffers and lookups are per process, not pickled
+        return {**self.__dict__, "_pool": [], "_res_rows": {}}
 
     @property
     def table_floats(self) -> int:
@@ -142,10 +143,15 @@ class LensFold:
                     L.x_fold(lin[a - r0:b - r0], buf["E"][i0:i1], buf["O"][i0:i1],
                              flip[:b - a])
         if self._res_index.size:
-            lo, hi = np.searchsorted(self._res_index, [r0 * self.width, r1 * self.width])
-            if hi > lo:
-                px = lin.reshape(-1, 3)[self._res_index[lo:hi] - r0 * self.width]
-                state["res"] += px.T @ self._res_weights[lo:hi]
+            rows = self._res_rows.get((r0, r1))
+            if rows is None:        # the same bands every frame: looked up once
+                lo, hi = np.searchsorted(self._res_index, [r0 * self.width, r1 * self.width])
+                rows = self._res_rows[(r0, r1)] = (
+                    (self._res_index[lo:hi] - r0 * self.width, self._res_weights[lo:hi])
+                    if hi > lo else None)
+            if rows is not None:
+                px = lin.reshape(-1, 3)[rows[0]]
+                state["res"] += px.T @ rows[1]
 
     def _reduce(self, state: dict) -> list:
         """Per lens, per parity group: (3, len(k)) float64 sums of the whole frame (after
