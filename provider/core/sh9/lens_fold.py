@@ -92,9 +92,10 @@ class LensFold:
         self._res_weights = residual_weights        # (R, 9 + extras) float32, world frame
         self._pool = []
         self._res_rows = {}     # (r0, r1) -> (band-local residual indices, their weights)
+        self._ops = {}          # (r0, r1) -> the band's x folds (:meth:`_band_ops`)
 
     def __getstate__(self):      # buffers and lookups are per process, not pickled
-        return {**self.__dict__, "_pool": [], "_res_rows": {}}
+        return {**self.__dict__, "_pool": [], "_res_rows": {}, "_ops": {}}
 
     @property
     def table_floats(self) -> int:
@@ -129,19 +130,13 @@ class LensFold:
         buffers = state["buffers"]
         if buffers is None:
             buffers = state["buffers"] = self._buffers(max(state["band_rows"], lin.shape[0]))
-        for L, buf in zip(self.lenses, buffers):
-            first, skip = L.rows
-            # Frame rows → buffer rows: the top ny rows, then the bottom ny past the centre row.
-            for f0, f1, at in ((first, first + L.ny, 0),
-                               (first + L.ny + skip, first + 2 * L.ny + skip, L.ny)):
-                a, b = max(f0, r0), min(f1, r1)
-                if a < b:
-                    flip = buf["flip"]
-                    if flip.shape[0] < b - a:
-                        flip = buf["flip"] = np.empty((b - a, L.nx, 3), np.float32)
-                    i0, i1 = at + a - f0, at + b - f0
-                    L.x_fold(lin[a - r0:b - r0], buf["E"][i0:i1], buf["O"][i0:i1],
-                             flip[:b - a])
+        for i, a, b, i0 in self._band_ops(r0, r1):
+            L, buf = self.lenses[i], buffers[i]
+            flip = buf["flip"]
+            if flip.shape[0] < b - a:
+                flip = buf["flip"] = np.empty((b - a, L.nx, 3), np.float32)
+            L.x_fold(lin[a - r0:b - r0], buf["E"][i0:i0 + b - a], buf["O"][i0:i0 + b - a],
+                     flip[:b - a])
         if self._res_index.size:
             rows = self._res_rows.get((r0, r1))
             if rows is None:        # the same bands every frame: looked up once
@@ -152,6 +147,23 @@ class LensFold:
             if rows is not None:
                 px = lin.reshape(-1, 3)[rows[0]]
                 state["res"] += px.T @ rows[1]
+
+    def _band_ops(self, r0: int, r1: int) -> list:
+        """[(lens, frame rows a, b, buffer row)] of frame rows [r0, r1): the same bands every
+        frame, so worked out once."""
+        ops = self._ops.get((r0, r1))
+        if ops is None:
+            ops = []
+            for i, L in enumerate(self.lenses):
+                first, skip = L.rows
+                # Frame rows → buffer rows: the top ny rows, then the bottom ny past the
+                # centre row.
+                for f0, at in ((first, 0), (first + L.ny + skip, L.ny)):
+                    a, b = max(f0, r0), min(f0 + L.ny, r1)
+                    if a < b:
+                        ops.append((i, a, b, at + a - f0))
+            self._ops[(r0, r1)] = ops
+        return ops
 
     def _reduce(self, state: dict) -> list:
         """Per lens, per parity group: (3, len(k)) float64 sums of the whole frame (after
