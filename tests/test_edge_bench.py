@@ -29,3 +29,21 @@ def test_without_valgrind_the_section_says_so(tmp_path, monkeypatch):
     assert "valgrind is not installed" in text and "n/a (valgrind not installed)" in text
     assert "estimate" in text
     assert edge.main(["pi"]) == 1
+
+
+def test_a_theta_frame_makes_few_calls_and_the_bench_lists_them(capsys):
+    """The Theta S frame with lights (the edge bench's workload): each call into C costs
+    thousands of instructions whatever its size, so a frame makes few of them (1179 before
+    issue 34's third pass moved the fold's products out of the band loop, ~610 after), and
+    ``python -m provider.bench.edge --calls`` lists where they come from."""
+    what, build, frame = edge.edge_workloads()["theta"]
+    c_calls, py_calls = edge.calls_per_frame(build(), frame)
+    assert 0 < sum(c_calls.values()) < 800
+    # The fold's per-band work is its x folds (three cv2 calls a lens and band half); its
+    # products with the quarter tables run once a frame, not per band.
+    bands = -(-frame.shape[0] // SH9Projector.BAND_ROWS)
+    assert c_calls["lens_fold.py:x_fold"] <= 3 * 2 * 2 * bands
+    assert c_calls["lens_fold.py:add"] <= 3 * bands
+    assert edge.main(["--calls", "pi"]) == 0
+    out = capsys.readouterr().out
+    assert "calls into C" in out and "lens_fold.py:x_fold" in out

@@ -82,3 +82,34 @@ def test_off_grid_centre_keeps_the_dense_table():
     assert p._fold is None and p._weights.shape == (640 * 480, 9)
     frame = np.full((480, 640, 3), 128, np.uint8)
     assert np.all(np.isfinite(p.project(frame).coefficients))
+
+
+def test_frames_in_a_row_reuse_the_fold_buffers_without_stale_rows():
+    """The per-lens fold buffers are kept from frame to frame: every frame's coefficients
+    (and up-facing sums) are those of a projector that never saw the frames before it,
+    whatever their type, and two frames in flight at once each get their own buffers."""
+    w, h = 1280, 720
+    rng = np.random.default_rng(7)
+    frames = [rng.integers(0, 256, (h, w, 3), dtype=np.uint8),
+              rng.random((h, w, 3), dtype=np.float32) * 3,
+              np.full((h, w, 3), 40, np.uint8),
+              rng.integers(0, 65536, (h, w, 3), dtype=np.uint16)]
+    used = SH9Projector(w, h, "dual-fisheye")
+    fresh = SH9Projector(w, h, "dual-fisheye")
+    assert used._fold is not None
+    for frame in frames:
+        fresh._fold._pool.clear()                  # a new set of buffers for each frame
+        got, want = used.project(frame).coefficients, fresh.project(frame).coefficients
+        assert np.array_equal(got, want)
+    # Two accumulators at once (two frames in flight): separate buffers, separate sums.
+    fold = used._fold
+    states = [fold.new(used.BAND_ROWS), fold.new(used.BAND_ROWS)]
+    lins = [np.asarray(used._linearise(f), np.float32) for f in (frames[0], frames[2])]
+    for r0 in range(0, h, used.BAND_ROWS):
+        for lin, state in zip(lins, states):
+            fold.add(lin[r0:r0 + used.BAND_ROWS], r0, state)
+    for lin, state in zip(lins, states):
+        alone = fold.new(used.BAND_ROWS)
+        fold.add(lin, 0, alone)                    # the whole frame as one band
+        np.testing.assert_allclose(fold.coefficients(state), fold.coefficients(alone),
+                                   rtol=1e-5, atol=1e-7 * np.abs(fold.coefficients(alone)).max())

@@ -14,7 +14,8 @@ cycle on such code, so the frames per second it means is ``1e9 / instructions``:
 *estimate* (x86-64 instructions with SIMD, counted here; ARM NEON is narrower, memory
 slower). Projectors are built once outside valgrind and pickled into the counted runs, so
 the count costs seconds, not the minutes the precomputation would take under emulation.
-Without valgrind the section says so and reports times only.
+Without valgrind the section says so and reports times only. ``python -m
+provider.bench.edge --calls theta`` lists the calls one frame makes instead (no valgrind).
 """
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+from collections import Counter
 from pathlib import Path
 
 from .common import SINGLE_CORE_ENV, _median_ms, _progress
@@ -112,6 +114,31 @@ def instructions_per_frame(projector, frame) -> float:
     return (long - short) / (FRAMES_LONG - FRAMES_SHORT)
 
 
+def calls_per_frame(projector, frame) -> tuple[Counter, Counter]:
+    """What one steady-state ``projector.project(frame)`` calls (``sys.setprofile``):
+    (calls into C by calling function, Python-level calls by function), each keyed
+    ``"module.py:function"``. Deterministic, unlike time: each C call costs thousands of
+    instructions of argument parsing and array wrapping whatever its size (issue 34)."""
+    projector.project(frame)                 # the first frame: lazy tables, caches
+    c_calls, py_calls = Counter(), Counter()
+
+    def where(code):
+        return f"{code.co_filename.rsplit('/', 1)[-1]}:{code.co_name}"
+
+    def profile(fr, event, arg):
+        if event == "c_call":
+            c_calls[where(fr.f_code)] += 1
+        elif event == "call":
+            py_calls[where(fr.f_code)] += 1
+
+    sys.setprofile(profile)
+    try:
+        projector.project(frame)
+    finally:
+        sys.setprofile(None)
+    return c_calls, py_calls
+
+
 def valgrind_missing() -> str | None:
     """Why instructions cannot be counted here, or None."""
     if shutil.which("valgrind") is None:
@@ -157,8 +184,21 @@ def bench_edge(hdri, out: Path, args):
 
 
 def main(argv=None) -> int:
-    """``python -m provider.bench.edge [workload ...]``: print instructions per frame."""
-    names = (argv if argv is not None else sys.argv[1:]) or ["theta", "cube", "pi", "pi-fast"]
+    """``python -m provider.bench.edge [--calls] [workload ...]``: print instructions per
+    frame, or (``--calls``) the calls one frame makes, by calling function."""
+    names = list(argv if argv is not None else sys.argv[1:])
+    calls = "--calls" in names
+    names = [n for n in names if n != "--calls"] or ["theta", "cube", "pi", "pi-fast"]
+    if calls:
+        workloads = edge_workloads()
+        for name in names:
+            what, build, frame = workloads[name]
+            c_calls, py_calls = calls_per_frame(build(), frame)
+            print(f"{name}: {what}: {sum(c_calls.values())} calls into C, "
+                  f"{sum(py_calls.values())} Python calls a frame; C calls from:")
+            for where, n in c_calls.most_common(12):
+                print(f"  {n:5d}  {where}")
+        return 0
     missing = valgrind_missing()
     if missing:
         print(missing)

@@ -259,7 +259,7 @@ class SH9Projector(FrameDecoder):
 
     def _new_accumulator(self):
         if self._fold is not None:
-            return self._fold.new()
+            return self._fold.new(self.BAND_ROWS)
         w = self.projection.width
         if self._weights is None:
             return np.zeros((6 + self._up_in_pass, w * 3), np.float32)

@@ -57,26 +57,34 @@ class _FoldedLens:
     #                         k < 9 a lens-frame SH weight, k ≥ 9 the extra column k − 9
 
     @property
-    def top(self):          # rows [Y//2 − ny, Y//2) mirror the bottom rows [Yb, Yb + ny)
-        return self.Y // 2 - self.ny, self.Y // 2
+    def rows(self):
+        """(first, skip): the lens's folded rows are frame rows [first, first + ny) (top)
+        and [first + ny + skip, first + 2·ny + skip) (bottom); skip = 1 for a centre row
+        through pixel centres (unpaired: the residual list)."""
+        return self.Y // 2 - self.ny, self.Y % 2
 
-    @property
-    def bottom(self):
-        yb = self.Y - self.Y // 2
-        return yb, yb + self.ny
-
-    def x_fold(self, rows: np.ndarray):
-        """(E, O) (h, nx, 3): right half + and − the mirrored left half."""
+    def x_fold(self, rows: np.ndarray, even: np.ndarray, odd: np.ndarray,
+               flipped: np.ndarray) -> None:
+        """``even``, ``odd`` (h, nx, 3) = right half + and − the mirrored left half of
+        ``rows``; ``flipped`` a scratch buffer of the same shape."""
         xl, xr = self.X // 2, self.X - self.X // 2
         right = rows[:, xr:xr + self.nx]
-        left = cv2.flip(rows[:, xl - self.nx:xl], 1)
-        return cv2.add(right, left), cv2.subtract(right, left)
+        cv2.flip(rows[:, xl - self.nx:xl], 1, dst=flipped)
+        cv2.add(right, flipped, dst=even)
+        cv2.subtract(right, flipped, dst=odd)
 
 
 class LensFold:
     """The folded projection of one fisheye or dual-fisheye geometry: :meth:`new` an
     accumulator per frame, :meth:`add` rows in increasing order (bands, or the whole
-    frame), :meth:`coefficients` at the end."""
+    frame), :meth:`coefficients` at the end.
+
+    Per band only the x fold runs (three cv2 calls a lens, into the frame's per-lens
+    buffers); the y fold, the split into planes and the products with the quarter tables run
+    once per lens at the end of the frame (:meth:`_reduce`): a few dozen calls a frame
+    instead of ~30 a band and lens (issue 34: the Python calls cost more than their work).
+    The buffers (7 × 3 floats a quarter pixel: 17 MB for a Theta S 1280×720 frame) stay with
+    the fold from frame to frame, one set a frame in flight."""
 
     def __init__(self, lenses, residual_index, residual_weights, width, extras=0):
         self.lenses = lenses
@@ -84,57 +92,127 @@ class LensFold:
         self.extras = extras                        # extra world-frame weight columns
         self._res_index = residual_index            # sorted flat pixel indices
         self._res_weights = residual_weights        # (R, 9 + extras) float32, world frame
+        self._pool = []
+        self._res_rows = {}     # (r0, r1) -> (band-local residual indices, their weights)
+        self._ops = {}          # (r0, r1) -> the band's x folds (:meth:`_band_ops`)
+
+    def __getstate__(self):      # buffers and lookups are per process, not pickled
+        return {**self.__dict__, "_pool": [], "_res_rows": {}, "_ops": {}}
 
     @property
     def table_floats(self) -> int:
         """Weights read per frame (floats): quarter tables and the residual list."""
         return sum(t.size for L in self.lenses for _, _, t in L.groups) + self._res_weights.size
 
-    def new(self) -> dict:
-        return {"stash": [(np.empty((L.ny, L.nx, 3), np.float32),
-                           np.empty((L.ny, L.nx, 3), np.float32)) for L in self.lenses],
-                "acc": [[np.zeros((3, len(k))) for _, k, _ in L.groups]
-                        for L in self.lenses],
+    def _buffers(self, band_rows: int) -> list:
+        """Per lens: x-folded (even, odd) rows (2·ny, nx, 3) float32, the y fold's flipped
+        top halves and its output (ny, nx, 3), and a band's flip scratch; reused across frames (one set a frame in
+        flight): allocating them a frame costs page faults."""
+        try:
+            return self._pool.pop()
+        except IndexError:
+            f32 = np.float32
+            return [{"E": np.empty((2 * L.ny, L.nx, 3), f32),
+                     "O": np.empty((2 * L.ny, L.nx, 3), f32),
+                     "topE": np.empty((L.ny, L.nx, 3), f32),
+                     "topO": np.empty((L.ny, L.nx, 3), f32),
+                     "fold": np.empty((L.ny, L.nx, 3), f32),
+                     "flip": np.empty((max(band_rows, 1), L.nx, 3), f32)}
+                    for L in self.lenses]
+
+    def new(self, band_rows: int = 32) -> dict:
+        return {"buffers": None, "band_rows": band_rows, "sums": None,
                 "res": np.zeros((3, 9 + self.extras), np.float32)}
 
     def add(self, lin: np.ndarray, r0: int, state: dict) -> None:
         """Add linear float32 rows [r0, r0 + len(lin)) (full width) of the frame."""
+        if lin.dtype != np.float32:
+            lin = lin.astype(np.float32)
         r1 = r0 + lin.shape[0]
-        for L, (st_e, st_o), acc in zip(self.lenses, state["stash"], state["acc"]):
-            t0, t1 = max(L.top[0], r0), min(L.top[1], r1)
-            if t0 < t1:     # top rows: folded in x, stored by distance from the centre row
-                e, o = L.x_fold(lin[t0 - r0:t1 - r0])
-                s0, s1 = L.Y // 2 - t1, L.Y // 2 - t0
-                st_e[s0:s1] = e[::-1]
-                st_o[s0:s1] = o[::-1]
-            b0, b1 = max(L.bottom[0], r0), min(L.bottom[1], r1)
-            if b0 < b1:     # bottom rows meet their mirror rows: the four parities
-                e, o = L.x_fold(lin[b0 - r0:b1 - r0])
-                s0, s1 = b0 - L.bottom[0], b1 - L.bottom[0]
-                et, ot = st_e[s0:s1], st_o[s0:s1]
-                folded = {("E", "E"): cv2.add(e, et), ("E", "O"): cv2.subtract(e, et),
-                          ("O", "E"): cv2.add(o, ot), ("O", "O"): cv2.subtract(o, ot)}
-                lo, hi = s0 * L.nx, s1 * L.nx
-                for a, (parity, _, table) in zip(acc, L.groups):
-                    # One contiguous dot product per channel and weight (BLAS sdot): a
-                    # matrix product with 3 rows and 1–4 columns wastes most of its lanes.
-                    planes = cv2.split(folded[parity])
-                    for c, plane in enumerate(planes):
-                        flat = plane.reshape(-1)
-                        for j, row in enumerate(table):
-                            a[c, j] += float(np.dot(flat, row[lo:hi]))
+        buffers = state["buffers"]
+        if buffers is None:
+            buffers = state["buffers"] = self._buffers(max(state["band_rows"], lin.shape[0]))
+        for i, a, b, i0 in self._band_ops(r0, r1):
+            L, buf = self.lenses[i], buffers[i]
+            flip = buf["flip"]
+            if flip.shape[0] < b - a:
+                flip = buf["flip"] = np.empty((b - a, L.nx, 3), np.float32)
+            L.x_fold(lin[a - r0:b - r0], buf["E"][i0:i0 + b - a], buf["O"][i0:i0 + b - a],
+                     flip[:b - a])
         if self._res_index.size:
-            lo, hi = np.searchsorted(self._res_index, [r0 * self.width, r1 * self.width])
-            if hi > lo:
-                px = lin.reshape(-1, 3)[self._res_index[lo:hi] - r0 * self.width]
-                state["res"] += px.T @ self._res_weights[lo:hi]
+            rows = self._res_rows.get((r0, r1))
+            if rows is None:        # the same bands every frame: looked up once
+                lo, hi = np.searchsorted(self._res_index, [r0 * self.width, r1 * self.width])
+                rows = self._res_rows[(r0, r1)] = (
+                    (self._res_index[lo:hi] - r0 * self.width, self._res_weights[lo:hi])
+                    if hi > lo else None)
+            if rows is not None:
+                px = lin.reshape(-1, 3)[rows[0]]
+                state["res"] += px.T @ rows[1]
+
+    def _band_ops(self, r0: int, r1: int) -> list:
+        """[(lens, frame rows a, b, buffer row)] of frame rows [r0, r1): the same bands every
+        frame, so worked out once."""
+        ops = self._ops.get((r0, r1))
+        if ops is None:
+            ops = []
+            for i, L in enumerate(self.lenses):
+                first, skip = L.rows
+                # Frame rows → buffer rows: the top ny rows, then the bottom ny past the
+                # centre row.
+                for f0, at in ((first, 0), (first + L.ny + skip, L.ny)):
+                    a, b = max(f0, r0), min(f0 + L.ny, r1)
+                    if a < b:
+                        ops.append((i, a, b, at + a - f0))
+            self._ops[(r0, r1)] = ops
+        return ops
+
+    def _reduce(self, state: dict) -> list:
+        """Per lens, per parity group: (3, len(k)) float64 sums of the whole frame (after
+        every row was added): the y fold of the stored rows, then one dot product
+        per weight and plane. The buffers go back to the pool."""
+        if state["sums"] is not None:
+            return state["sums"]
+        buffers = state["buffers"]
+        if buffers is None:                     # no rows were added
+            state["sums"] = [[np.zeros((3, len(k))) for _, k, _ in L.groups]
+                             for L in self.lenses]
+            return state["sums"]
+        sums = []
+        for L, buf in zip(self.lenses, buffers):
+            ny = L.ny
+            halves = {}
+            for name in {parity[0] for parity, _, _ in L.groups}:
+                # Top rows by distance from the centre row (flipped), against the bottom's.
+                cv2.flip(buf[name][:ny], 0, dst=buf["top" + name])
+                halves[name] = (buf[name][ny:], buf["top" + name])
+            out, folded = [], buf["fold"]
+            for parity, k, table in L.groups:
+                bottom, top = halves[parity[0]]
+                if parity[1] == "E":
+                    cv2.add(bottom, top, dst=folded)
+                else:
+                    cv2.subtract(bottom, top, dst=folded)
+                acc = np.empty((3, len(k)))
+                for c, plane in enumerate(cv2.split(folded)):
+                    flat = plane.reshape(-1)
+                    # One BLAS sdot a weight: 0.4 instructions a float against sgemv's 1.2
+                    # for k = 3 rows at once, and 14 for a product with the 3 interleaved
+                    # channels (callgrind, 320² quarter).
+                    for j, row in enumerate(table):
+                        acc[c, j] = np.dot(flat, row)
+                out.append(acc)
+            sums.append(out)
+        self._pool.append(buffers)
+        state["buffers"], state["sums"] = None, sums
+        return sums
 
     def coefficients(self, state: dict) -> np.ndarray:
         """(9, 3) float64 world-frame coefficients of the rows added."""
         out = state["res"].T[:9].astype(np.float64)
-        for L, acc in zip(self.lenses, state["acc"]):
+        for L, sums in zip(self.lenses, self._reduce(state)):
             local = np.zeros((9 + self.extras, 3))
-            for a, (_, k, _) in zip(acc, L.groups):
+            for a, (_, k, _) in zip(sums, L.groups):
                 local[k] += a.T
             out += L.D @ local[:9]
         return out
@@ -142,8 +220,8 @@ class LensFold:
     def extra_sums(self, state: dict) -> np.ndarray:
         """(extras, 3) float64: the frame's sums against the extra weight columns."""
         out = state["res"].T[9:].astype(np.float64)
-        for L, acc in zip(self.lenses, state["acc"]):
-            for a, (_, k, _) in zip(acc, L.groups):
+        for L, sums in zip(self.lenses, self._reduce(state)):
+            for a, (_, k, _) in zip(sums, L.groups):
                 for j, kk in enumerate(k):
                     if kk >= 9:
                         out[kk - 9] += a[:, j]
