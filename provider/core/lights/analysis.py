@@ -478,20 +478,29 @@ class Analysis:
         idx = [int(i) for i in indices]
         lights = []
         ambient = self.coefficients.copy()
-        chained = False
         for j, (i, m) in enumerate(zip(idx, self.chain_counts(idx, max_lights))):
             c = self.candidates[i]
             key, level = -1 if keys is None else keys[j], self.x.thresholds[c.level]
-            chained |= c.most_segments > 1
             parts = ([Segment(c.direction, c.moment, c.flux, c.spread_deg,
                               c.angular_radius_deg)] if m == 1 else c.segments(m))
             for g in parts:
                 ambient -= sh.sh_basis(g.direction)[:, None] * g.irradiance[None, :]
                 lights.append(Light(g.direction.copy(), g.irradiance.copy(), g.flux.copy(),
                                     g.spread_deg, level, key, i, g.angular_radius_deg, m))
-        # A chain's evaluation was for its most segments and one colour: measure exactly.
-        error = self.error_of(self.lights_model(lights)) if chained else self.evaluate(idx)
-        return LightsResult(lights, ambient, error, self.sh9_error, self.candidates)
+        return LightsResult(lights, ambient, self.error_of(self.served_model(lights)),
+                            self.sh9_error, self.candidates)
+
+    def served_model(self, lights) -> np.ndarray:
+        """Model irradiance (N, 3) at the extractor's normals of the lights a frame serves
+        (any :class:`Light` s from :meth:`result`, possibly refined): the precomputed
+        :meth:`model` of their candidates when none is elongated, else :meth:`lights_model`
+        of the lights themselves: an elongated candidate's precomputed shape is its chain of
+        the most segments in one colour, not what was served (fewer segments, or the whole
+        region when no light was left free)."""
+        if all(light.source >= 0 and self.candidates[light.source].most_segments == 1
+               for light in lights):
+            return self.model([light.source for light in lights])
+        return self.lights_model(lights)
 
     def lights_model(self, lights) -> np.ndarray:
         """Model irradiance (N, 3) at the extractor's normals of the full SH9 with these

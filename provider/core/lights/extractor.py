@@ -476,10 +476,8 @@ class LightExtractor:
         if process is not None:
             processed = process(r.ambient)
             if not np.array_equal(processed, r.ambient):
-                idx = [light.source for light in r.lights]
-                model = (a.model(idx) if all(light.chain == 1 for light in r.lights)
-                         else a.lights_model(r.lights))
-                r.light_error = a.error_of(model + self._irr_basis @ (processed - r.ambient))
+                r.light_error = a.error_of(a.served_model(r.lights)
+                                           + self._irr_basis @ (processed - r.ambient))
                 r.ambient = processed
         return r
 
