@@ -352,9 +352,7 @@ class Analysis:
             else:
                 share = np.array([g.irradiance @ LUMA for g in segs]) / y
                 D = np.array([g.direction for g in segs])                 # (m, 3)
-                residuals = (np.maximum(extractor.normals @ D.T, 0.0)
-                             - extractor._irr_basis @ sh.sh_basis(D).T)  # (N, m): g(d_s)
-                cols.append(residuals @ share)
+                cols.append(extractor._residual(D) @ share)               # Σ_s share_s g(d_s)
         if nc:
             G = np.stack(cols, axis=1)
             self._G = G                                                  # (N, nc)
@@ -505,8 +503,9 @@ class Analysis:
     def lights_model(self, lights) -> np.ndarray:
         """Model irradiance (N, 3) at the extractor's normals of the full SH9 with these
         lights taken out of it as directional lights (any :class:`Light` s)."""
-        E = self.E_sh.copy()
-        for light in lights:
-            E += np.outer(self.x._residual(light.direction), light.irradiance)
-        return E
+        if not lights:
+            return self.E_sh.copy()
+        D = np.array([light.direction for light in lights], np.float64)          # (k, 3)
+        I = np.array([light.irradiance for light in lights], np.float64)         # (k, 3)
+        return self.E_sh + self.x._residual(D) @ I
 

@@ -223,8 +223,10 @@ class LightExtractor:
         return K
 
     def _residual(self, d: np.ndarray) -> np.ndarray:
-        """g(n) = max(0, n·d) − SH9 irradiance of a unit directional light d, at the normals."""
-        return np.maximum(self.normals @ d, 0.0) - self._irr_basis @ sh.sh_basis(d)
+        """g(n) = max(0, n·d) − SH9 irradiance of a unit directional light d, at the normals:
+        (N,) for one direction (3,), (N, m) for m directions (m, 3)."""
+        d = np.asarray(d, np.float64)
+        return np.maximum(self.normals @ d.T, 0.0) - self._irr_basis @ sh.sh_basis(d).T
 
     # -- per frame ------------------------------------------------------------------------------
     def reduce(self, frame: np.ndarray) -> np.ndarray:
