@@ -154,19 +154,27 @@ function shadowSetup(opts) {
   const state = { light, catcher, key: null, occluder: opts.occluder || null };
   if (catcher && catcher.userData.shOccluder) {
     // the hologram may move every frame: its sphere is taken just before the catcher is drawn
-    // (once a frame: three calls onBeforeRender once per view, twice in stereo)
-    const sphere = new THREE.Sphere(), before = catcher.onBeforeRender;
-    let frame = -1;
-    catcher.onBeforeRender = function (renderer, ...rest) {
-      if (before) before.call(this, renderer, ...rest);
-      const now = renderer && renderer.info ? renderer.info.render.frame : NaN;
-      if (now === frame) return;
-      frame = now;
-      setCatcherOccluder(catcher, state.occluder ? occluderSphere(THREE, state.occluder, sphere) : null);
-    };
+    const sphere = new THREE.Sphere();
+    onceAFrame(catcher, () =>
+      setCatcherOccluder(catcher, state.occluder ? occluderSphere(THREE, state.occluder, sphere) : null));
   }
   return { THREE, light, catcher, up: opts.up || [0, 1, 0], casterHeight: opts.casterHeight ?? 0.5,
            distance: opts.distance ?? 5, state };
+}
+
+// Run fn just before `catcher` is drawn, once a frame: three calls onBeforeRender once per view
+// (twice a frame in stereo). Whatever onBeforeRender the catcher had (connectLightProbe's own,
+// when xrShadows shares its catcher) runs first, every call, as before.
+function onceAFrame(catcher, fn) {
+  const before = catcher.onBeforeRender;
+  let frame = -1;
+  catcher.onBeforeRender = function (renderer, ...rest) {
+    if (before) before.call(this, renderer, ...rest);
+    const now = renderer && renderer.info ? renderer.info.render.frame : NaN;
+    if (now === frame) return;
+    frame = now;
+    fn();
+  };
 }
 
 // A shadow-casting light's map (1024²) and square shadow camera, `size` wide, from `near` to `far`
@@ -829,17 +837,6 @@ export function xrShadows(THREE, xrLight, opts = {}) {
     light.shadow.radius = shadowRadiusTexels(state.angularRadiusDeg, { casterHeight,
       mapSize: light.shadow.mapSize.x, frustumWidth: size });
   }
-  if (catcher) {
-    // three calls onBeforeRender once per view (twice a frame in stereo): the work is done once a frame
-    const before = catcher.onBeforeRender;       // connectLightProbe's own, when it shares the catcher
-    let frame = -1;
-    catcher.onBeforeRender = function (renderer, ...rest) {
-      if (before) before.call(this, renderer, ...rest);
-      const now = renderer && renderer.info ? renderer.info.render.frame : NaN;
-      if (now === frame) return;
-      frame = now;
-      update();
-    };
-  }
+  if (catcher) onceAFrame(catcher, update);
   return state;
 }
