@@ -156,3 +156,26 @@ def test_a_chain_is_ordered_along_a_fixed_sense(along):
     key = east if abs(a @ east) / np.linalg.norm(east) >= 0.5 else np.array([0.0, 1.0, 0.0])
     steps = [float((q.direction - p.direction) @ key) for p, q in zip(lights, lights[1:])]
     assert all(step > 0 for step in steps), steps
+
+
+def test_a_chain_served_whole_reports_the_error_of_what_is_served():
+    """A 60° × 4° strip and a 3° disc with two lights allowed: the strip may be a chain
+    but no light is left free, so it is served whole (chain 1). The reported light_error
+    after the engine's processing of the ambient (here order-1 truncation) is the exact
+    error of the lights served plus the processed ambient, not that of the chain the
+    strip could have been."""
+    from provider.core.geometry.projections import Equirect
+    from provider.core.lights.extractor import LightExtractor
+    image = (strip_equirect(512, LENGTH, 4.0, TOWARD, ALONG, flux=30.0, background=0.5)
+             + disc_equirect(512, 3.0, toward=(-0.6, 0.3, 0.7), flux=30.0, background=0.0))
+    coefficients = compute_sh9(image, error_estimate=False).coefficients
+    x = LightExtractor(Equirect(512, 256), max_lights=2)
+    served = x.extract(image, coefficients, process=lambda c: sh.truncate_order(c, 1))
+    a = x.analyse(image, coefficients)
+    assert len(served.lights) == 2 and {light.chain for light in served.lights} == {1}
+    assert max(a.candidates[light.source].most_segments for light in served.lights) > 1
+    # exact: the processed ambient's irradiance + each served light as a directional light
+    E = sh.irradiance(served.ambient, x.normals) + analysis.model_irradiance(
+        np.zeros((9, 3)), served.lights, x.normals)
+    exact = math.sqrt(float(np.sum((E - a.truth) ** 2)) / float(np.sum(a.truth ** 2)))
+    assert served.light_error == pytest.approx(exact, rel=1e-6)

@@ -395,6 +395,17 @@ def test_two_lights_each_cast_their_shadow_with_the_occluder(browser, tmp_path):
             alpha = _alpha(page)
             page.evaluate("window.t.onlyCatcher(false)")
             shown = png_of(page.evaluate("window.t.render()")) if os.environ.get("SHLIGHT_DOCS_SCREENSHOT") else None
+            # a message whose light_irradiance disagrees with its `lights` has no lights, for the
+            # catcher as for keyLight/otherLights: the ambient's occluder term stays, no light's share
+            bad = page.evaluate("""() => { const t = window.t, s = t.conn.shadows, u = s.catcher.userData.shOccluder;
+              const m = t.conn.latest.message, b = { ...m, light_irradiance: m.light_irradiance.slice(0, 3) };
+              const read = () => ({ share: u.shOtherShare.value.toArray(), scale: u.shOccluderScale.value });
+              const good = read();
+              t.a.setCatcherLighting(t.THREE, s.catcher, b, { key: s.key.index });
+              return { good, bad: read(), key: t.a.keyLight(b), others: t.a.otherLights(b) }; }""")
+    assert bad["good"]["share"][0] > 0 and bad["good"]["scale"] > 0, bad
+    assert bad["bad"]["share"] == [0, 0, 0] and bad["bad"]["scale"] > bad["good"]["scale"], bad
+    assert bad["key"] is None and bad["others"] == [], bad
     msg, key = got["msg"], got["key"]
     k = msg["lights"]
     d = np.reshape(msg["light_directions"], (k, 3))

@@ -356,6 +356,15 @@ def picture(results: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def _coverage(width: int, sub: int, inside) -> np.ndarray:
+    """(width/2, width): the share of each pixel of a width × width/2 equirect that a region
+    covers, from ``sub`` × ``sub`` samples a pixel: ``inside`` maps the samples' directions
+    (width/2·sub, width·sub, 3), a finer equirect's pixel centres, to booleans."""
+    h = width // 2
+    d = _equirect_directions(width * sub, h * sub)[0].reshape(h * sub, width * sub, 3)
+    return inside(d).reshape(h, sub, width, sub).mean(axis=(1, 3))
+
+
 def disc_equirect(width: int, radius_deg: float, toward=(0.3, 0.8, -0.5), flux: float = 30.0,
                   background: float = 0.5, sub: int = 4,
                   colour=(1.0, 0.9, 0.8)) -> np.ndarray:
@@ -363,12 +372,7 @@ def disc_equirect(width: int, radius_deg: float, toward=(0.3, 0.8, -0.5), flux: 
     (total flux ``flux``, radiance × sr, times ``colour``) on a uniform ``background``; each
     pixel holds the disc's exact share of it (``sub`` × ``sub`` samples a pixel)."""
     toward = np.asarray(toward, np.float64) / np.linalg.norm(toward)
-    h = width // 2
-    py, px = np.mgrid[0:h * sub, 0:width * sub] + 0.5
-    theta, phi = math.pi * py / (h * sub), 2 * math.pi * (px / (width * sub) - 0.5)
-    d = np.stack([np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)], -1)
-    cover = ((d @ toward) >= math.cos(math.radians(radius_deg))).reshape(
-        h, sub, width, sub).mean(axis=(1, 3))
+    cover = _coverage(width, sub, lambda d: (d @ toward) >= math.cos(math.radians(radius_deg)))
     radiance = flux / (2 * math.pi * (1 - math.cos(math.radians(radius_deg))))
     return (background + cover[..., None] * radiance * np.asarray(colour)).astype(np.float32)
 
@@ -386,15 +390,13 @@ def strip_equirect(width: int, length_deg: float, width_deg: float, toward=(0.3,
     a = np.asarray(along, np.float64) - (np.asarray(along, np.float64) @ t) * t
     a /= np.linalg.norm(a)
     normal = np.cross(t, a)
-    h = width // 2
-    py, px = np.mgrid[0:h * sub, 0:width * sub] + 0.5
-    theta, phi = math.pi * py / (h * sub), 2 * math.pi * (px / (width * sub) - 0.5)
-    d = np.stack([np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)], -1)
-    across = np.arcsin(np.clip(d @ normal, -1, 1))
-    position = np.arctan2(d @ a, d @ t)
-    inside = ((np.abs(across) <= math.radians(width_deg) / 2)
-              & (np.abs(position) <= math.radians(length_deg) / 2))
-    cover = inside.reshape(h, sub, width, sub).mean(axis=(1, 3))
+
+    def inside(d):
+        across = np.arcsin(np.clip(d @ normal, -1, 1))
+        position = np.arctan2(d @ a, d @ t)
+        return ((np.abs(across) <= math.radians(width_deg) / 2)
+                & (np.abs(position) <= math.radians(length_deg) / 2))
+    cover = _coverage(width, sub, inside)
     area = math.radians(length_deg) * 2 * math.sin(math.radians(width_deg) / 2)
     return (background + cover[..., None] * np.full(3, flux / area)).astype(np.float32)
 

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.options import MAX_LIGHTS      # the shaders' light slots (SH_MAX_LIGHTS)
+
 #: The shipped shaders: package data (provider/shaders, in a source checkout a link to the
 #: repository's shaders/ folder, which the Unity package and the examples use too).
 SHADER_DIR = Path(__file__).resolve().parents[1] / "shaders"
@@ -220,9 +222,6 @@ def srgb_encode(linear):
 
 
 # -- the lights uniforms of shaders/sh9_lights.glsl (provider.verify.lights) ---------------------
-
-#: Light slots in the shaders (SH_MAX_LIGHTS; provider.core.sh9.engine.MAX_LIGHTS).
-MAX_LIGHTS = 4
 
 
 def _slots(directions, irradiance) -> np.ndarray:

@@ -100,8 +100,13 @@ static class ShadowsTest
             checks.Compare("values_slot_directions", values.LightDirections, Numbers(c, "slot_directions"), 1e-12, where);
             checks.Compare("values_slot_irradiance", values.LightIrradiances, Numbers(c, "slot_irradiance"), 1e-12, where);
             checks.Compare("values_slot_radii", values.LightAngularRadiiDeg, Numbers(c, "slot_radii"), 1e-12, where);
+            // the drawn light Unity draws is slot 0
+            checks.Compare("values_drawn_is_slot_0", values.LightDirection, Numbers(c, "unity_direction"), 1e-12, where);
+            checks.Compare("values_drawn_irradiance", values.LightIrradiance, Numbers(c, "irradiance"), 1e-12, where);
             values.Set(snap, 0, 0, 0, 1, 1.0, false);
             checks.Expect("values_no_light_no_slots", values.LightCount == 0 && values.LightAngularRadiiDeg[0] == 0, where);
+            checks.Expect("values_no_light_no_drawn", values.LightAngularRadiusDeg == 0 && values.LightDirection[0] == 0 &&
+                          values.LightDirection[1] == 0 && values.LightDirection[2] == 0 && values.LightIrradiance[0] == 0, where);
         }
     }
 

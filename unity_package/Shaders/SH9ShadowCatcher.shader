@@ -100,7 +100,7 @@ Shader "Shlight/SH9 Shadow Catcher"
             #endif
                 // lights 1..3 past the hologram's bounding sphere (set by SH9ShadowOccluder), and the ambient it hides;
                 // SH9LightingClient keeps lights 1..3 in the SH9 globals too (folded), which this takes out again
-                float3 ratio = SHShadowRatioOfSphere(n, i.worldPos, _SHOccluderSphere, keyVisibility, _ShadowStrength, true);
+                float3 ratio = SHShadowRatioOfSphere(n, i.worldPos, _SHOccluderSphere, keyVisibility, _ShadowStrength);
                 // rgb: the factor (Multiply); a: 1 − its luminance (Passthrough alpha)
                 return float4(ratio, 1.0 - dot(ratio, float3(0.2126, 0.7152, 0.0722)));
             }

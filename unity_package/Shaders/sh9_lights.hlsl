@@ -81,6 +81,24 @@ float SHCapProjectedSolidAngle(float cosToCap, float sinHalfAngle)
     return max((h * acos(y) - x * sy) * s2 + atan2(sy, x), 0.0);
 }
 
+// The radiance of _SHIrradianceR/G/B toward unit d, per colour (SHRadianceFromMatrix; not clamped).
+float3 SHAmbientRadiance(float3 d)
+{
+    return float3(SHRadianceFromMatrix(_SHIrradianceR, d), SHRadianceFromMatrix(_SHIrradianceG, d),
+                  SHRadianceFromMatrix(_SHIrradianceB, d));
+}
+
+// An occluding sphere (xyz: centre, w: radius, p's frame) seen from point p: the unit direction
+// toward its centre (n for p at the centre: inside, the hemisphere about n) and, in sinHalfAngle,
+// R/|c − p| (≥ 1 inside).
+float3 SHTowardSphere(float3 n, float3 p, float4 sphere, out float sinHalfAngle)
+{
+    float3 toCentre = sphere.xyz - p;
+    float dist = length(toCentre);
+    sinHalfAngle = sphere.w / max(dist, 1e-30);
+    return dist > 0.0 ? toCentre / dist : n;
+}
+
 // The ambient irradiance an occluding sphere hides from a receiver (docs/contract.md §10,
 // provider/core/lights/shadows.py occluded_ambient): n the receiver's unit normal,
 // toOccluder = (c − p)/|c − p| toward the sphere's centre c, sinHalfAngle = R/|c − p| (R its
@@ -90,10 +108,7 @@ float SHCapProjectedSolidAngle(float cosToCap, float sinHalfAngle)
 // (Snyder 1996), 0 below. Everything in the frame of n and the matrices.
 float3 SHOccludedAmbient(float3 n, float3 toOccluder, float sinHalfAngle)
 {
-    float3 radiance = float3(SHRadianceFromMatrix(_SHIrradianceR, toOccluder),
-                             SHRadianceFromMatrix(_SHIrradianceG, toOccluder),
-                             SHRadianceFromMatrix(_SHIrradianceB, toOccluder));
-    return max(radiance, 0.0) * SHCapProjectedSolidAngle(dot(n, toOccluder), sinHalfAngle);
+    return max(SHAmbientRadiance(toOccluder), 0.0) * SHCapProjectedSolidAngle(dot(n, toOccluder), sinHalfAngle);
 }
 
 // SHOccludedAmbient for a receiver at point p and an occluding sphere (xyz: centre, w: radius,
@@ -103,10 +118,9 @@ float3 SHOccludedAmbientOfSphere(float3 n, float3 p, float4 sphere)
 {
     if (sphere.w <= 0.0)
         return 0.0;
-    float3 toCentre = sphere.xyz - p;
-    float dist = length(toCentre);
-    float3 d = dist > 0.0 ? toCentre / dist : n;
-    return SHOccludedAmbient(n, d, sphere.w / max(dist, 1e-30));
+    float sinHalfAngle;
+    float3 d = SHTowardSphere(n, p, sphere, sinHalfAngle);
+    return SHOccludedAmbient(n, d, sinHalfAngle);
 }
 
 // SHShadowRatioOccluded with the ambient E_a(n) (≥ 0, per colour) given instead of read from the globals.
@@ -255,28 +269,26 @@ float3 SHFoldedLightRadiance(float3 d, int i)
 // w <= 0: none) for a receiver of unit normal n at point p (docs/contract.md §10; the CPU's shadow_ratio(n, V,
 // occluded_ambient) with V from sphere_light_visibility): light 0 seen by keyVisibility (the engine's shadow map,
 // which has the hologram's real shape), lights 1..3 by SHSphereLightVisibility, the ambient less what the sphere
-// hides of it; strength in [0, 1] scales every blocked part (1: as measured). foldedLights: lights
-// 1.._SHLightCount − 1 are also in _SHIrradianceR/G/B as their SH9 projections (Unity's SH9LightingClient); they are
-// taken out first, so the ambient is the message's.
-float3 SHShadowRatioOfSphere(float3 n, float3 p, float4 sphere, float keyVisibility, float strength, bool foldedLights)
+// hides of it; strength in [0, 1] scales every blocked part (1: as measured). Lights 1.._SHLightCount − 1 are also
+// in _SHIrradianceR/G/B as their SH9 projections (Unity's SH9LightingClient folds them there for the ambient probe);
+// they are taken out first, so the ambient is the message's.
+float3 SHShadowRatioOfSphere(float3 n, float3 p, float4 sphere, float keyVisibility, float strength)
 {
+    float sinHalfAngle;
+    float3 d = SHTowardSphere(n, p, sphere, sinHalfAngle);
     float3 ambient = SHIrradianceUnclamped(n);
-    float3 toCentre = sphere.xyz - p;
-    float dist = length(toCentre);
-    float3 d = dist > 0.0 ? toCentre / dist : n;
-    float3 radiance = float3(SHRadianceFromMatrix(_SHIrradianceR, d), SHRadianceFromMatrix(_SHIrradianceG, d),
-                             SHRadianceFromMatrix(_SHIrradianceB, d));
+    float3 radiance = SHAmbientRadiance(d);
     [unroll]
     for (int i = 1; i < 4; ++i)
     {
-        if (foldedLights && i < _SHLightCount)
+        if (i < _SHLightCount)
         {
             ambient -= SHFoldedLightIrradiance(n, i);
             radiance -= SHFoldedLightRadiance(d, i);
         }
     }
     float3 occluded = sphere.w > 0.0
-        ? max(radiance, 0.0) * SHCapProjectedSolidAngle(dot(n, d), sphere.w / max(dist, 1e-30)) : (float3)0.0;
+        ? max(radiance, 0.0) * SHCapProjectedSolidAngle(dot(n, d), sinHalfAngle) : (float3)0.0;
     float4 v = SHSphereLightsVisibility(p, sphere);
     v.x = keyVisibility;
     return SHShadowRatioOfAmbient(n, max(ambient, 0.0), lerp((float4)1.0, v, saturate(strength)),

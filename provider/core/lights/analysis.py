@@ -99,6 +99,8 @@ class Candidate:
         :meth:`Analysis.rank`.
     most_segments : how many lights it may become (:func:`chain_count`): 1 for a round
         region; :meth:`segments` gives its chain of m ≤ ``most_segments``.
+    position : (n,) for an elongated region (``most_segments`` > 1), each of its pixels'
+        coordinate along its major axis (radians, :func:`elongation`), else None.
     """
 
     direction: np.ndarray
@@ -114,14 +116,19 @@ class Candidate:
     gain: float = 0.0
     angular_radius_deg: float = 0.0
     most_segments: int = 1
-    split: tuple | None = field(default=None, repr=False)      # split_chain's arguments
+    position: np.ndarray | None = field(default=None, repr=False)
     _chains: dict = field(default_factory=dict, repr=False)
 
-    def segments(self, count: int) -> list:
+    def segments(self, count: int, extractor) -> list:
         """Its chain of ``count`` (2 ≤ count ≤ ``most_segments``) :class:`Segment` s, made
-        once (:func:`split_chain`)."""
+        once (:func:`split_chain`); ``extractor`` the
+        :class:`~provider.core.lights.extractor.LightExtractor` that found it (its pixels'
+        directions, solid angles and footprints)."""
         if count not in self._chains:
-            self._chains[count] = split_chain(*self.split, count)
+            pix = self.pixels
+            self._chains[count] = split_chain(
+                extractor._dirs[pix], self.excess, extractor._omega[pix],
+                extractor._footprint2[pix], self.position, count)
         return self._chains[count]
 
 
@@ -180,11 +187,53 @@ def angular_radius_deg(weights, angles, footprint2) -> float:
     the extractor's compact regions; the nine panoramas give at most 27°).
     """
     w = np.asarray(weights, np.float64)
-    total = float(w.sum())
+    m2w = float(w @ (np.asarray(angles, np.float64) ** 2 - np.asarray(footprint2, np.float64)))
+    return _disc_radius_deg(m2w, float(w.sum()))
+
+
+def _disc_radius_deg(m2w: float, total: float) -> float:
+    """:func:`angular_radius_deg` from its sums: ``m2w`` = Σ w (angle² − footprint²) (rad²
+    × flux), ``total`` = Σ w; 0 for no flux."""
     if not total > 0:
         return 0.0
-    m2 = float(w @ (np.asarray(angles, np.float64) ** 2 - np.asarray(footprint2, np.float64)))
-    return min(90.0, math.degrees(math.sqrt(2.0 * max(m2 / total, 0.0))))
+    return min(90.0, math.degrees(math.sqrt(2.0 * max(m2w / total, 0.0))))
+
+
+def measure(directions, excess, omega, footprint2, part=None, count: int = 1):
+    """Measure pixels as lights: one :class:`Segment` per part (a candidate's region, or
+    each segment of a chain), as the extractor measures a light.
+
+    ``directions`` (n, 3) pixel centres, ``excess`` (n, 3) RGB excess radiance, ``omega``
+    (n,) solid angles (sr), ``footprint2`` (n,) rad²; ``part`` (n,) each pixel's part in
+    [0, ``count``) (None: all in one). Per part: direction = its excess-luminance-flux
+    centroid d; irradiance = ``max(0, Σ excess ω (d_i · d))`` (a light's first moment);
+    flux = ``Σ excess ω``; spread_deg = the flux-weighted RMS angle about d;
+    angular_radius_deg as :func:`angular_radius_deg`.
+
+    Returns ``(segments, angles)``: the segments of the parts that hold flux, in part
+    order, and (n,) each pixel's angle (radians) from its part's direction.
+    """
+    dirs = np.asarray(directions, np.float64)
+    ex, om = np.asarray(excess, np.float64), np.asarray(omega, np.float64)
+    w = (ex @ LUMA) * om                                              # excess luminance flux
+    # Per-part sums as products with the (count, n) membership matrix (a few parts).
+    P = (np.ones((1, len(w))) if part is None
+         else (np.arange(count)[:, None] == np.asarray(part)[None, :]).astype(np.float64))
+    part = np.zeros(len(w), np.intp) if part is None else np.asarray(part)
+    first = P @ np.column_stack([w, w[:, None] * dirs])               # (count, 4)
+    total, v = first[:, 0], first[:, 1:]
+    d = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+    cos = np.clip(np.einsum("ij,ij->i", dirs, d[part]), -1.0, 1.0)
+    ang = np.arccos(cos)
+    ang2 = ang * ang
+    exom = ex * om[:, None]
+    sums = P @ np.column_stack([exom * cos[:, None], exom, w * ang2,
+                                w * (ang2 - np.asarray(footprint2, np.float64))])  # (count, 8)
+    segments = [Segment(d[s], np.maximum(sums[s, 0:3], 0.0), sums[s, 3:6],
+                        math.degrees(math.sqrt(sums[s, 6] / total[s])),
+                        _disc_radius_deg(sums[s, 7], total[s]))
+                for s in range(len(total)) if total[s] > 0]
+    return segments, ang
 
 
 #: A region whose flux-weighted RMS extent along its major axis is at least this many times
@@ -262,11 +311,11 @@ def split_chain(directions, excess, omega, footprint2, position, count: int) -> 
     angles (sr), ``footprint2`` (n,) rad² of the region's pixels. Each pixel goes to the
     segment holding the middle of its flux in the running sum along the axis, so the
     segments partition the pixels (fluxes add up to the region's exactly). Each segment
-    is measured as a light is: direction = its flux centroid, irradiance = ``Σ excess ω
-    (d_i · d)`` (the irradiance of every normal that sees the whole segment, hence at least
-    the whole region's about its single centroid), radius from its own pixels.
+    is measured as a light is (:func:`measure`): direction = its flux centroid, irradiance
+    = ``Σ excess ω (d_i · d)`` (the irradiance of every normal that sees the whole segment,
+    hence at least the whole region's about its single centroid), radius from its own
+    pixels.
     """
-    dirs = np.asarray(directions, np.float64)
     ex, om = np.asarray(excess, np.float64), np.asarray(omega, np.float64)
     w = (ex @ LUMA) * om
     order = np.argsort(position, kind="stable")
@@ -274,23 +323,7 @@ def split_chain(directions, excess, omega, footprint2, position, count: int) -> 
     part = np.empty(len(w), np.intp)
     part[order] = np.minimum((run * count / max(float(w.sum()), 1e-300)).astype(np.intp),
                              count - 1)
-    # Per-segment sums by bincount (one pass for all segments).
-    def per_segment(values):
-        return np.bincount(part, values, minlength=count)
-    total = per_segment(w)
-    v = np.stack([per_segment(w * dirs[:, k]) for k in range(3)], 1)        # (count, 3)
-    d = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
-    cos = np.clip(np.einsum("ij,ij->i", dirs, d[part]), -1.0, 1.0)
-    ang2 = np.arccos(cos) ** 2
-    moment = np.stack([per_segment(ex[:, k] * om * cos) for k in range(3)], 1)
-    flux = np.stack([per_segment(ex[:, k] * om) for k in range(3)], 1)
-    spread2 = per_segment(w * ang2)
-    # angular_radius_deg per segment: sqrt(2·m2), m2 less the pixels' footprint
-    m2 = per_segment(w * (ang2 - np.asarray(footprint2, np.float64)))
-    return [Segment(d[s], np.maximum(moment[s], 0.0), flux[s],
-                    math.degrees(math.sqrt(spread2[s] / total[s])),
-                    min(90.0, math.degrees(math.sqrt(2.0 * max(m2[s] / total[s], 0.0)))))
-            for s in range(count) if total[s] > 0]
+    return measure(directions, ex, om, footprint2, part, count)[0]
 
 
 def model_irradiance(ambient, lights, normals) -> np.ndarray:
@@ -344,7 +377,7 @@ class Analysis:
         self._M = np.zeros((nc, 3))
         cols = []
         for j, c in enumerate(candidates):
-            segs = c.segments(c.most_segments) if c.most_segments > 1 else None
+            segs = c.segments(c.most_segments, extractor) if c.most_segments > 1 else None
             self._M[j] = c.moment if segs is None else np.sum([g.irradiance for g in segs], 0)
             y = float(self._M[j] @ LUMA)
             if segs is None or not y > 0:
@@ -352,9 +385,7 @@ class Analysis:
             else:
                 share = np.array([g.irradiance @ LUMA for g in segs]) / y
                 D = np.array([g.direction for g in segs])                 # (m, 3)
-                residuals = (np.maximum(extractor.normals @ D.T, 0.0)
-                             - extractor._irr_basis @ sh.sh_basis(D).T)  # (N, m): g(d_s)
-                cols.append(residuals @ share)
+                cols.append(extractor._residual(D) @ share)               # Σ_s share_s g(d_s)
         if nc:
             G = np.stack(cols, axis=1)
             self._G = G                                                  # (N, nc)
@@ -478,26 +509,36 @@ class Analysis:
         idx = [int(i) for i in indices]
         lights = []
         ambient = self.coefficients.copy()
-        chained = False
         for j, (i, m) in enumerate(zip(idx, self.chain_counts(idx, max_lights))):
             c = self.candidates[i]
             key, level = -1 if keys is None else keys[j], self.x.thresholds[c.level]
-            chained |= c.most_segments > 1
             parts = ([Segment(c.direction, c.moment, c.flux, c.spread_deg,
-                              c.angular_radius_deg)] if m == 1 else c.segments(m))
+                              c.angular_radius_deg)] if m == 1 else c.segments(m, self.x))
             for g in parts:
                 ambient -= sh.sh_basis(g.direction)[:, None] * g.irradiance[None, :]
                 lights.append(Light(g.direction.copy(), g.irradiance.copy(), g.flux.copy(),
                                     g.spread_deg, level, key, i, g.angular_radius_deg, m))
-        # A chain's evaluation was for its most segments and one colour: measure exactly.
-        error = self.error_of(self.lights_model(lights)) if chained else self.evaluate(idx)
-        return LightsResult(lights, ambient, error, self.sh9_error, self.candidates)
+        return LightsResult(lights, ambient, self.error_of(self.served_model(lights)),
+                            self.sh9_error, self.candidates)
+
+    def served_model(self, lights) -> np.ndarray:
+        """Model irradiance (N, 3) at the extractor's normals of the lights a frame serves
+        (any :class:`Light` s from :meth:`result`, possibly refined): the precomputed
+        :meth:`model` of their candidates when none is elongated, else :meth:`lights_model`
+        of the lights themselves: an elongated candidate's precomputed shape is its chain of
+        the most segments in one colour, not what was served (fewer segments, or the whole
+        region when no light was left free)."""
+        if all(light.source >= 0 and self.candidates[light.source].most_segments == 1
+               for light in lights):
+            return self.model([light.source for light in lights])
+        return self.lights_model(lights)
 
     def lights_model(self, lights) -> np.ndarray:
         """Model irradiance (N, 3) at the extractor's normals of the full SH9 with these
         lights taken out of it as directional lights (any :class:`Light` s)."""
-        E = self.E_sh.copy()
-        for light in lights:
-            E += np.outer(self.x._residual(light.direction), light.irradiance)
-        return E
+        if not lights:
+            return self.E_sh.copy()
+        D = np.array([light.direction for light in lights], np.float64)          # (k, 3)
+        I = np.array([light.irradiance for light in lights], np.float64)         # (k, 3)
+        return self.E_sh + self.x._residual(D) @ I
 

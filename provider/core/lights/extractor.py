@@ -59,7 +59,7 @@ import numpy as np
 
 from ..geometry import sh
 from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
-                       chain_count, elongation, model_irradiance)
+                       chain_count, elongation, measure, model_irradiance)
 from ..geometry.projections import Fisheye, Projection
 
 __all__ = ["LightExtractor", "Analysis", "Candidate", "Light", "LightsResult", "LUMA",
@@ -223,8 +223,10 @@ class LightExtractor:
         return K
 
     def _residual(self, d: np.ndarray) -> np.ndarray:
-        """g(n) = max(0, n·d) − SH9 irradiance of a unit directional light d, at the normals."""
-        return np.maximum(self.normals @ d, 0.0) - self._irr_basis @ sh.sh_basis(d)
+        """g(n) = max(0, n·d) − SH9 irradiance of a unit directional light d, at the normals:
+        (N,) for one direction (3,), (N, m) for m directions (m, 3)."""
+        d = np.asarray(d, np.float64)
+        return np.maximum(self.normals @ d.T, 0.0) - self._irr_basis @ sh.sh_basis(d).T
 
     # -- per frame ------------------------------------------------------------------------------
     def reduce(self, frame: np.ndarray) -> np.ndarray:
@@ -396,25 +398,19 @@ class LightExtractor:
         out = []
         for k in order:
             sel = np.flatnonzero(g == k)
-            pix, exm, wk = pix_all[sel], ex[sel], wgt[sel]
+            pix, exm = pix_all[sel], ex[sel]
             dk = self._dirs[pix]
-            v = wk @ dk
-            d = v / np.linalg.norm(v)
-            cosang = dk @ d
-            ang = np.arccos(np.clip(cosang, -1, 1))
-            flux = exm.T @ om[sel]
-            moment = exm.T @ (om[sel] * cosang)
-            out.append(Candidate(d, flux, np.maximum(moment, 0.0),
-                                 math.degrees(math.sqrt((wk @ ang ** 2) / wk.sum())),
-                                 math.degrees(float(ang.max())), level, k, pix, exm,
-                                 local=loc[sel], angular_radius_deg=angular_radius_deg(
-                                     wk, ang, self._footprint2[pix])))
+            (whole,), ang = measure(dk, exm, om[sel], self._footprint2[pix])
+            out.append(Candidate(whole.direction, whole.flux, whole.irradiance,
+                                 whole.spread_deg, math.degrees(float(ang.max())), level, k,
+                                 pix, exm, local=loc[sel],
+                                 angular_radius_deg=whole.angular_radius_deg))
             # An elongated region may become a chain of discs (docs/shadows.md).
-            ratio, major, position = elongation(dk, wk, d)
+            ratio, major, position = elongation(dk, wgt[sel], whole.direction)
             most = chain_count(ratio, major, self._pixel_angle, self.max_lights)
             if most > 1:
                 out[-1].most_segments = most
-                out[-1].split = (dk, exm, om[sel], self._footprint2[pix], position)
+                out[-1].position = position
         return out, glocal
 
     def refine(self, result: LightsResult, analysis: Analysis, frame) -> LightsResult:
@@ -493,10 +489,8 @@ class LightExtractor:
         if process is not None:
             processed = process(r.ambient)
             if not np.array_equal(processed, r.ambient):
-                idx = [light.source for light in r.lights]
-                model = (a.model(idx) if all(light.chain == 1 for light in r.lights)
-                         else a.lights_model(r.lights))
-                r.light_error = a.error_of(model + self._irr_basis @ (processed - r.ambient))
+                r.light_error = a.error_of(a.served_model(r.lights)
+                                           + self._irr_basis @ (processed - r.ambient))
                 r.ambient = processed
         return r
 

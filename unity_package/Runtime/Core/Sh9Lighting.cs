@@ -152,37 +152,34 @@ namespace Shlight.Lighting
             bool light = drawLight && snapshot.UnityAmbientMatrices != null;
             LightActive = light;
             Apply(light ? snapshot.UnityAmbientMatrices : snapshot.UnityMatrices, this.rotation, intensity);
-            LightAngularRadiusDeg = light ? snapshot.LightAngularRadiusDeg : 0;
             Array.Clear(LightDirections, 0, LightDirections.Length);
             Array.Clear(LightIrradiances, 0, LightIrradiances.Length);
             Array.Clear(LightAngularRadiiDeg, 0, LightAngularRadiiDeg.Length);
             LightCount = 0;
-            if (!light)
+            if (light)
             {
-                LightDirection[0] = LightDirection[1] = LightDirection[2] = 0;
-                LightIrradiance[0] = LightIrradiance[1] = LightIrradiance[2] = 0;
-                return;
+                // the slots: the drawn light, then the others in the message's order
+                Sh9Message m = snapshot.Message;
+                double[] r = this.rotation;
+                bool radii = m.LightAngularRadiusDeg.Length == m.Lights;      // else none sent: 0
+                for (int k = -1; k < m.Lights && LightCount < MaxShaderLights; k++)
+                {
+                    int i = k < 0 ? snapshot.DrawnLight : k;
+                    if (k >= 0 && i == snapshot.DrawnLight) continue;
+                    double x = m.LightDirections[3 * i], y = m.LightDirections[3 * i + 1], z = -m.LightDirections[3 * i + 2];
+                    int o = 3 * LightCount;
+                    LightDirections[o] = r[0] * x + r[1] * y + r[2] * z;
+                    LightDirections[o + 1] = r[3] * x + r[4] * y + r[5] * z;
+                    LightDirections[o + 2] = r[6] * x + r[7] * y + r[8] * z;
+                    for (int c = 0; c < 3; c++) LightIrradiances[o + c] = m.LightIrradiance[3 * i + c] * intensity;
+                    LightAngularRadiiDeg[LightCount] = radii ? m.LightAngularRadiusDeg[i] : 0;
+                    LightCount++;
+                }
             }
-            double[] d = snapshot.UnityLightDirection, r = this.rotation;
-            LightDirection[0] = r[0] * d[0] + r[1] * d[1] + r[2] * d[2];
-            LightDirection[1] = r[3] * d[0] + r[4] * d[1] + r[5] * d[2];
-            LightDirection[2] = r[6] * d[0] + r[7] * d[1] + r[8] * d[2];
-            for (int c = 0; c < 3; c++) LightIrradiance[c] = snapshot.LightIrradiance[c] * intensity;
-            // the slots: the drawn light, then the others in the message's order
-            Sh9Message m = snapshot.Message;
-            for (int k = -1; k < m.Lights && LightCount < MaxShaderLights; k++)
-            {
-                int i = k < 0 ? snapshot.DrawnLight : k;
-                if (k >= 0 && i == snapshot.DrawnLight) continue;
-                double x = m.LightDirections[3 * i], y = m.LightDirections[3 * i + 1], z = -m.LightDirections[3 * i + 2];
-                int o = 3 * LightCount;
-                LightDirections[o] = r[0] * x + r[1] * y + r[2] * z;
-                LightDirections[o + 1] = r[3] * x + r[4] * y + r[5] * z;
-                LightDirections[o + 2] = r[6] * x + r[7] * y + r[8] * z;
-                for (int c = 0; c < 3; c++) LightIrradiances[o + c] = m.LightIrradiance[3 * i + c] * intensity;
-                LightAngularRadiiDeg[LightCount] = m.LightAngularRadiusDeg.Length == m.Lights ? m.LightAngularRadiusDeg[i] : 0;
-                LightCount++;
-            }
+            // the drawn light is slot 0 (all zero without a light)
+            Array.Copy(LightDirections, LightDirection, 3);
+            Array.Copy(LightIrradiances, LightIrradiance, 3);
+            LightAngularRadiusDeg = LightAngularRadiiDeg[0];
         }
 
         void Apply(double[] unityMatrices, double[] rotation, double intensity)

@@ -154,19 +154,27 @@ function shadowSetup(opts) {
   const state = { light, catcher, key: null, occluder: opts.occluder || null };
   if (catcher && catcher.userData.shOccluder) {
     // the hologram may move every frame: its sphere is taken just before the catcher is drawn
-    // (once a frame: three calls onBeforeRender once per view, twice in stereo)
-    const sphere = new THREE.Sphere(), before = catcher.onBeforeRender;
-    let frame = -1;
-    catcher.onBeforeRender = function (renderer, ...rest) {
-      if (before) before.call(this, renderer, ...rest);
-      const now = renderer && renderer.info ? renderer.info.render.frame : NaN;
-      if (now === frame) return;
-      frame = now;
-      setCatcherOccluder(catcher, state.occluder ? occluderSphere(THREE, state.occluder, sphere) : null);
-    };
+    const sphere = new THREE.Sphere();
+    onceAFrame(catcher, () =>
+      setCatcherOccluder(catcher, state.occluder ? occluderSphere(THREE, state.occluder, sphere) : null));
   }
   return { THREE, light, catcher, up: opts.up || [0, 1, 0], casterHeight: opts.casterHeight ?? 0.5,
            distance: opts.distance ?? 5, state };
+}
+
+// Run fn just before `catcher` is drawn, once a frame: three calls onBeforeRender once per view
+// (twice a frame in stereo). Whatever onBeforeRender the catcher had (connectLightProbe's own,
+// when xrShadows shares its catcher) runs first, every call, as before.
+function onceAFrame(catcher, fn) {
+  const before = catcher.onBeforeRender;
+  let frame = -1;
+  catcher.onBeforeRender = function (renderer, ...rest) {
+    if (before) before.call(this, renderer, ...rest);
+    const now = renderer && renderer.info ? renderer.info.render.frame : NaN;
+    if (now === frame) return;
+    frame = now;
+    fn();
+  };
 }
 
 // A shadow-casting light's map (1024²) and square shadow camera, `size` wide, from `near` to `far`
@@ -406,13 +414,41 @@ function turn(R, d) {
               R[6] * d[0] + R[7] * d[1] + R[8] * d[2]] : [d[0], d[1], d[2]];
 }
 
-/** 27 radiance coefficients less a directional light's projection E·Y(d) (contract §1 basis). */
-export function withoutLight(coefficients, d, e) {
+/**
+ * 27 radiance coefficients less a directional light's projection E·Y(d) (contract §1 basis),
+ * into `out` (27 numbers; a new Float32Array by default; `coefficients` itself works: in place).
+ */
+export function withoutLight(coefficients, d, e, out = new Float32Array(27)) {
   const [x, y, z] = d;
   const Y = [0.282095, 0.488603 * y, 0.488603 * z, 0.488603 * x, 1.092548 * x * y, 1.092548 * y * z,
              0.315392 * (3 * z * z - 1), 1.092548 * x * z, 0.546274 * (x * x - y * y)];
-  const out = Float32Array.from(coefficients);
+  if (out !== coefficients) for (let i = 0; i < 27; i++) out[i] = coefficients[i];
   for (let i = 0; i < 9; i++) for (let c = 0; c < 3; c++) out[3 * i + c] -= e[c] * Y[i];
+  return out;
+}
+
+// The lights of a Lighting (client.js decodeLighting) or an "sh9" message: { message, count,
+// directions (3·count, provider frame, as sent), irradiance (3·count, RGB), radii (count
+// angular radii, degrees ≥ 0: 0, a point light, where the provider sends none or a bad one) };
+// count 0 where it has no lights or its arrays disagree with its `lights`.
+function messageLights(lighting) {
+  const m = (lighting && lighting.message ? lighting.message : lighting) || null;
+  const k = m && Number.isInteger(m.lights) ? m.lights : 0;
+  const dirs = m && m.light_directions, irr = m && m.light_irradiance;
+  if (!(k > 0) || !dirs || !irr || dirs.length !== 3 * k || irr.length !== 3 * k) {
+    return { message: m, count: 0, directions: [], irradiance: [], radii: [] };
+  }
+  const r = m.light_angular_radius_deg;
+  const radii = Array.isArray(r) && r.length === k ? r.map((v) => (Number.isFinite(+v) ? Math.max(0, +v) : 0))
+    : new Array(k).fill(0);
+  return { message: m, count: k, directions: dirs, irradiance: irr, radii };
+}
+
+// The indices of the lights other than the key one, at most 3 (the shaders' other-light slots),
+// in order: those a catcher shadows past its occluder's sphere.
+function otherLightIndices(count, key) {
+  const out = [];
+  for (let i = 0; i < count && out.length < 3; i++) if (i !== key) out.push(i);
   return out;
 }
 
@@ -448,13 +484,9 @@ function floorIrradiance(ambient, n, dirs, irr) {
  * full SH9 less the key light, provider frame) }. `previous`: the last key light's index.
  */
 export function keyLight(lighting, { rotation = null, up = [0, 1, 0], previous = -1 } = {}) {
-  const m = lighting && lighting.message ? lighting.message : lighting;
-  const k = m && Number.isInteger(m.lights) ? m.lights : 0;
-  const dirs = m && m.light_directions, irr = m && m.light_irradiance;
-  if (!(k > 0) || !dirs || !irr || dirs.length !== 3 * k || irr.length !== 3 * k) return null;
+  const { message: m, count, directions: dirs, irradiance: irr, radii } = messageLights(lighting);
+  if (!count) return null;
   const index = keyLightIndex(irr, previous);
-  const radii = m.light_angular_radius_deg;
-  const radius = Array.isArray(radii) && radii.length === k && Number.isFinite(+radii[index]) ? Math.max(0, +radii[index]) : 0;
   // the floor normal in the provider's frame: Rᵀ·up
   const n = rotation ? [0, 1, 2].map((j) => rotation[j] * up[0] + rotation[3 + j] * up[1] + rotation[6 + j] * up[2]) : up;
   const { total, lights } = floorIrradiance(ambientMatricesOf(m), n, dirs, irr);
@@ -463,7 +495,7 @@ export function keyLight(lighting, { rotation = null, up = [0, 1, 0], previous =
   const e0 = irr.slice(3 * index, 3 * index + 3).map(Number);
   const coefficients = withoutLight(lighting.coefficients || m.coefficients, d0.map((v) => v / len), e0);
   return { index, direction: turn(rotation, d0.map((v) => v / len)), irradiance: e0,
-           angularRadiusDeg: radius, share: total > 0 ? key / total : 0, coefficients };
+           angularRadiusDeg: radii[index], share: total > 0 ? key / total : 0, coefficients };
 }
 
 /**
@@ -473,19 +505,12 @@ export function keyLight(lighting, { rotation = null, up = [0, 1, 0], previous =
  * WebXR's estimate has one light and folds these into its SH.
  */
 export function otherLights(lighting, { rotation = null, previous = -1 } = {}) {
-  const m = lighting && lighting.message ? lighting.message : lighting;
-  const k = m && Number.isInteger(m.lights) ? m.lights : 0;
-  const dirs = m && m.light_directions, irr = m && m.light_irradiance;
-  if (!(k > 1) || !dirs || !irr || dirs.length !== 3 * k || irr.length !== 3 * k) return [];
-  const key = keyLightIndex(irr, previous), radii = m.light_angular_radius_deg, out = [];
-  for (let i = 0; i < k && out.length < 3; i++) {
-    if (i === key) continue;
+  const { count, directions: dirs, irradiance: irr, radii } = messageLights(lighting);
+  return otherLightIndices(count, count ? keyLightIndex(irr, previous) : -1).map((i) => {
     const d = dirs.slice(3 * i, 3 * i + 3), len = Math.hypot(d[0], d[1], d[2]) || 1;
-    const r = Array.isArray(radii) && radii.length === k && Number.isFinite(+radii[i]) ? Math.max(0, +radii[i]) : 0;
-    out.push({ direction: turn(rotation, d.map((v) => v / len)), irradiance: irr.slice(3 * i, 3 * i + 3).map(Number),
-               angularRadiusDeg: r });
-  }
-  return out;
+    return { direction: turn(rotation, d.map((v) => v / len)), irradiance: irr.slice(3 * i, 3 * i + 3).map(Number),
+             angularRadiusDeg: radii[i] };
+  });
 }
 
 /**
@@ -716,15 +741,10 @@ export function setCatcherLighting(THREE, catcher, lighting, { rotation = null, 
     rotation = null;
     for (const l of lights) { dirs.push(...l.direction); irr.push(...l.irradiance); radii.push(l.angularRadiusDeg || 0); }
   } else {
-    const m = lighting && lighting.message ? lighting.message : lighting;
-    if (!m) return;
-    ambient = ambientMatricesOf(m);
-    const k = Number.isInteger(m.lights) ? m.lights : 0;
-    if (k > 0 && m.light_directions && m.light_directions.length === 3 * k) {
-      dirs = m.light_directions; irr = m.light_irradiance;
-      const r = m.light_angular_radius_deg;
-      radii = Array.isArray(r) && r.length === k ? r.map((v) => Math.max(0, +v || 0)) : new Array(k).fill(0);
-    }
+    const ml = messageLights(lighting);
+    if (!ml.message) return;
+    ambient = ambientMatricesOf(ml.message);
+    ({ directions: dirs, irradiance: irr, radii } = ml);
   }
   const R = rotation || [1, 0, 0, 0, 1, 0, 0, 0, 1];
   u.shToProvider.value.set(R[0], R[3], R[6], R[1], R[4], R[7], R[2], R[5], R[8]);     // Rᵀ
@@ -737,13 +757,11 @@ export function setCatcherLighting(THREE, catcher, lighting, { rotation = null, 
   u.shOccluderScale.value = total > 0 ? 1 / total : 0;
   // the lights but the key one (up to 3), each shadowed by the occluder in the shader
   const share = [0, 0, 0];
-  let slot = 0;
-  for (let i = 0; i < shares.length && slot < 3; i++) {
-    if (i === key) continue;
+  otherLightIndices(shares.length, key).forEach((i, slot) => {
     const d = dirs.slice(3 * i, 3 * i + 3), dl = Math.hypot(d[0], d[1], d[2]) || 1;
     u.shOtherLight.value[slot].set(d[0] / dl, d[1] / dl, d[2] / dl, (radii[i] * Math.PI) / 180);
-    share[slot++] = total > 0 ? shares[i] / total : 0;
-  }
+    share[slot] = total > 0 ? shares[i] / total : 0;
+  });
   u.shOtherShare.value.set(share[0], share[1], share[2]);
   [u.shIrradianceR, u.shIrradianceG, u.shIrradianceB].forEach((m, c) =>
     m.value.fromArray(ambient, 16 * c));      // symmetric: either order; no per-frame copies
@@ -815,7 +833,7 @@ export function xrShadows(THREE, xrLight, opts = {}) {
         irradiance: [light.color.r * light.intensity, light.color.g * light.intensity, light.color.b * light.intensity] }] : [];
       const others = (typeof opts.otherLights === "function" ? opts.otherLights() : opts.otherLights) || [];
       if (lights.length && state.occluder) {
-        for (const l of others) { ambient.set(withoutLight(ambient, l.direction, l.irradiance)); lights.push(l); }
+        for (const l of others) { withoutLight(ambient, l.direction, l.irradiance, ambient); lights.push(l); }
       }
       setCatcherLighting(THREE, catcher, null, { up: up.toArray(), ambientCoefficients: ambient, lights, key: 0 });
       setCatcherOccluder(catcher, state.occluder ? occluderSphere(THREE, state.occluder, sphere) : null);
@@ -829,17 +847,6 @@ export function xrShadows(THREE, xrLight, opts = {}) {
     light.shadow.radius = shadowRadiusTexels(state.angularRadiusDeg, { casterHeight,
       mapSize: light.shadow.mapSize.x, frustumWidth: size });
   }
-  if (catcher) {
-    // three calls onBeforeRender once per view (twice a frame in stereo): the work is done once a frame
-    const before = catcher.onBeforeRender;       // connectLightProbe's own, when it shares the catcher
-    let frame = -1;
-    catcher.onBeforeRender = function (renderer, ...rest) {
-      if (before) before.call(this, renderer, ...rest);
-      const now = renderer && renderer.info ? renderer.info.render.frame : NaN;
-      if (now === frame) return;
-      frame = now;
-      update();
-    };
-  }
+  if (catcher) onceAFrame(catcher, update);
   return state;
 }
