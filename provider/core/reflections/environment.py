@@ -317,7 +317,9 @@ class EnvironmentProjector(FrameDecoder):
 
     @property
     def nnz(self) -> int:
-        """Non-zeros of the per-frame operators (overlap + prefilter): the per-frame cost."""
+        """Sparse entries of the per-frame operators (overlap + the prefilter's sparse parts;
+        its dense parts hold ``_prefilter.dense_elements`` more, each ~1/30 of an entry's
+        cost: :data:`~provider.core.reflections.prefilter.DENSE_COST`)."""
         return int(self._val.size) + (self._prefilter.nnz if self._prefilter else 0)
 
     # -- per frame ------------------------------------------------------------------------
