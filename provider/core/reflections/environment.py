@@ -286,23 +286,17 @@ class EnvironmentProjector(FrameDecoder):
         self._source_first = next(a for a, n in enumerate(self.levels)
                                   if n <= PREFILTER_MAX_SOURCE)
         geom = prefilter.PyramidGeometry(self.levels[self._source_first:])
-        rows, cols, vals, offset = [], [], [], 0
-        self._mip_rows, self._outputs, self._norms = [], [], []
+        mips = []
+        self._outputs, self._norms = [], []
         for k, n in enumerate(self.sizes[1:], start=1):
             n = min(n, PREFILTER_MAX_FACE)
             out = cubemap.texel_directions(n).reshape(-1, 3)
             r, c, v, norm = prefilter.build_operator(out, self.roughness[k] ** 2, geom,
                                                      prefilter.mip_tolerance(k, n))
-            rows.append(r + offset)
-            cols.append(c)
-            vals.append(v)
+            mips.append(prefilter.fold_cheapest(r, c, v, len(out), geom))
             self._outputs.append(out)
             self._norms.append(norm)
-            self._mip_rows.append((offset, offset + len(out)))
-            offset += len(out)
-        self._prefilter = (prefilter.SparseOperator(np.concatenate(rows), np.concatenate(cols),
-                                                    np.concatenate(vals), (offset, geom.total))
-                           if rows else None)
+        self._prefilter = prefilter.MipChain(mips) if mips else None
 
     def at_roughness(self, mip_roughness) -> "EnvironmentProjector":
         """A projector of the same frames, geometry and options whose mips are prefiltered at
@@ -323,7 +317,9 @@ class EnvironmentProjector(FrameDecoder):
 
     @property
     def nnz(self) -> int:
-        """Non-zeros of the per-frame operators (overlap + prefilter): the per-frame cost."""
+        """Sparse entries of the per-frame operators (overlap + the prefilter's sparse parts;
+        its dense parts hold ``_prefilter.dense_elements`` more, each ~1/30 of an entry's
+        cost: :data:`~provider.core.reflections.prefilter.DENSE_COST`)."""
         return int(self._val.size) + (self._prefilter.nnz if self._prefilter else 0)
 
     # -- per frame ------------------------------------------------------------------------
@@ -446,10 +442,8 @@ class EnvironmentProjector(FrameDecoder):
             return mips
         bright, excess = source.bright, source.excess
         filtered = self._prefilter.apply(source.pyramid)
-        for (a, b), size, out, norm in zip(self._mip_rows, self.sizes[1:], self._outputs,
-                                            self._norms):
+        for mip, size, out, norm in zip(filtered, self.sizes[1:], self._outputs, self._norms):
             n = min(size, PREFILTER_MAX_FACE)
-            mip = filtered[a:b]
             if bright is not None:
                 k = len(mips)
                 kern = prefilter.ggx_weight(out[:, None, :], self._pix_dir[bright][None],
