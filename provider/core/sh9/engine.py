@@ -134,7 +134,7 @@ class SH9Projector(FrameDecoder):
         keeping a light only where it lowers the measured irradiance error
         (:mod:`provider.core.lights.extractor`; docs/contract.md §10). "off": the exact path, unchanged.
     max_lights : int
-        At most this many lights per frame, 1 to :data:`~provider.core.options.MAX_LIGHTS` (default 4: the shaders' slots).
+        At most this many lights per frame, 1 to :data:`~provider.core.options.MAX_LIGHTS` (default 4).
     response : CameraResponse or None
         The camera's inverse response: integer frames are decoded with it (a table at
         t = 1, like the sRGB one) instead of sRGB. None (default): sRGB, as ``encoding``.
@@ -419,7 +419,8 @@ class SH9Projector(FrameDecoder):
         absolute = UNITS_ABSOLUTE in (stats["coefficient_units"], units)
         coeffs, small, light_input, clipped, up = self._project_frame(frame, stats, work=work)
         if absolute and up is not None:     # the 10th weight's sum, from the same pass
-            stats["illuminance_lux"] = max(float(luminance(up)) * float(k or 1.0), 0.0)
+            scale = 1.0 if k is None else float(k)     # None: no exposure known
+            stats["illuminance_lux"] = max(float(luminance(up)) * scale, 0.0)
         if k is not None:
             coeffs, clipped = coeffs * k, clipped * k
         integer = frame.dtype in (np.uint8, np.uint16)
