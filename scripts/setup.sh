@@ -28,7 +28,12 @@ if [ ! -x .venv/bin/python ]; then
 fi
 
 stamp=.venv/.shlight-install
-want="$(.venv/bin/python -c 'import hashlib; print(hashlib.sha256(open("pyproject.toml", "rb").read()).hexdigest())') ${extras}"
+# The stamp covers what the install builds: pyproject.toml, setup.py and the C kernels.
+want="$(.venv/bin/python -c 'import glob, hashlib
+h = hashlib.sha256()
+for name in ["pyproject.toml", "setup.py"] + sorted(glob.glob("provider/**/*.c", recursive=True)):
+    h.update(open(name, "rb").read())
+print(h.hexdigest())') ${extras}"
 have=$(cat "$stamp" 2>/dev/null || true)
 # An install with extras also serves a plain request (serve-demo.sh after test.sh).
 if [ -x .venv/bin/shlight ] && { [ "$have" = "$want" ] || [ "${have%% *} " = "$want" ]; } &&

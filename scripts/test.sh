@@ -2,7 +2,8 @@
 # One command on a fresh machine: install what the tests need and run them.
 #   system packages (Debian): Mesa EGL for headless OpenGL, Chromium for the dashboard,
 #   Mono for the C# client, glslang + spirv-cross for the HLSL, Xvfb for the viewer,
-#   mosquitto for the MQTT tests, npm (when missing) for three.js;
+#   mosquitto for the MQTT tests, npm (when missing) for three.js, a C compiler (when
+#   missing) for the provider's C kernels (tests/test_kernels.py checks they are built);
 #   Python: shlight[test] into .venv; npm: three.js into tests/node (pinned by its
 #   package-lock.json) for the export tests (three's own SphericalHarmonics3 and
 #   XREstimatedLight in node) and the browser client tests (three.js in headless Chromium).
@@ -16,6 +17,10 @@ for p in $PKGS; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 command -v npm >/dev/null || missing+=(npm)
+command -v cc >/dev/null || missing+=(gcc)
+# The kernels compile against Python's headers: Debian's own python3 keeps them apart.
+py_include=$(${PYTHON:-python3} -c 'import sysconfig; print(sysconfig.get_paths()["include"])')
+[ -f "$py_include/Python.h" ] || missing+=(python3-dev)
 if [ ${#missing[@]} -gt 0 ]; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
         echo "installing system packages: ${missing[*]}"

@@ -46,7 +46,7 @@ def installed(tmp_path_factory):
     # A copy, so that building leaves no build/ or egg-info in the checkout; links stay links.
     shutil.copytree(ROOT, src, symlinks=True, ignore=shutil.ignore_patterns(
         ".venv", ".git", "build", "*.egg-info", "out", "bench-results", "__pycache__",
-        ".pytest_cache", ".hypothesis", "node_modules"))
+        ".pytest_cache", ".hypothesis", "node_modules", "*.so"))
     dist = tmp / "dist"
     build = _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
                   "--no-index", "-w", str(dist), str(src)], cwd=tmp)
@@ -77,6 +77,9 @@ def test_the_wheel_holds_the_shaders_and_the_panoramas(installed):
     assert not missing, missing
     assert sum(n.startswith("provider/data/hdri/") and n.endswith(".exr") for n in names) == 9
     assert any(n.endswith("licenses/LICENSE") for n in names)
+    # The C kernels (setup.py) are compiled into it.
+    for kernel in ("provider/core/radiometry/_blocks",):
+        assert any(n.startswith(kernel) and n.endswith((".so", ".pyd")) for n in names), kernel
 
 
 def test_compute_from_the_wheel(installed):
