@@ -15,6 +15,8 @@ FLAGS = [] if sys.platform == "win32" else ["-O3"]
 KERNELS = [
     Extension("provider.core.radiometry._blocks", ["provider/core/radiometry/_blocks.c"],
               extra_compile_args=FLAGS, optional=True),
+    Extension("provider.core.sh9._fold", ["provider/core/sh9/_fold.c"],
+              extra_compile_args=FLAGS, optional=True),
 ]
 
 setup(ext_modules=[] if os.environ.get("SHLIGHT_BUILD_KERNELS") == "no" else KERNELS)

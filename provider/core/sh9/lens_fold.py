@@ -36,6 +36,16 @@ import numpy as np
 
 from ..geometry import sh
 
+try:
+    from ._fold import fold_lens as _fold_kernel
+except ImportError:          # built without a C compiler: the numpy/OpenCV fold below
+    _fold_kernel = None
+
+#: True when the C kernel that decodes an 8-bit frame inside the fold is built (setup.py).
+KERNEL = _fold_kernel is not None
+#: The kernel's code of each (x parity, y parity) fold (see ``_fold.c``).
+_PARITY_CODE = {("E", "E"): 0, ("O", "E"): 1, ("E", "O"): 2, ("O", "O"): 3}
+
 #: Largest |mirror weight − sign × weight| accepted, relative to the coefficient's largest
 #: weight: float64 rounding is ~1e-13; float32 tables round at 6e-8.
 SYMMETRY_TOLERANCE = 1e-7
@@ -62,6 +72,25 @@ class _FoldedLens:
         and [first + ny + skip, first + 2·ny + skip) (bottom); skip = 1 for a centre row
         through pixel centres (unpaired: the residual list)."""
         return self.Y // 2 - self.ny, self.Y % 2
+
+    @property
+    def kernel_data(self) -> tuple:
+        """The C kernel's constant arguments (made once): geometry (xl, xr, yt, yb, nx, ny),
+        per row pair the columns to read (up to the last where some weight is non-zero),
+        the stacked quarter tables (K, ny·nx) and each row's fold code."""
+        data = self.__dict__.get("_kernel_data")
+        if data is None:
+            tables = np.ascontiguousarray(np.concatenate([t for _, _, t in self.groups]),
+                                          np.float32)
+            codes = np.array([_PARITY_CODE[parity] for parity, k, _ in self.groups for _ in k],
+                             np.int32)
+            seen = np.any(tables.reshape(-1, self.ny, self.nx) != 0, axis=0)
+            extent = np.where(seen.any(axis=1), self.nx - np.argmax(seen[:, ::-1], axis=1), 0)
+            xl, yt = self.X // 2, self.Y // 2
+            geometry = (xl, self.X - xl, yt, self.Y - yt, self.nx, self.ny)
+            data = self.__dict__["_kernel_data"] = (geometry, extent.astype(np.int32),
+                                                    tables, codes)
+        return data
 
     def x_fold(self, rows: np.ndarray, even: np.ndarray, odd: np.ndarray,
                flipped: np.ndarray) -> None:
@@ -149,6 +178,72 @@ class LensFold:
             if rows is not None:
                 px = lin.reshape(-1, 3)[rows[0]]
                 state["res"] += px.T @ rows[1]
+
+    def decodes(self, frame: np.ndarray, mid_shape: tuple | None = None,
+                factor: int = 1) -> bool:
+        """True when :meth:`decode_project` takes ``frame``: an 8-bit (H, W, 3) frame of
+        this geometry (or a float32 one: no decode) and the C kernel built; ``mid_shape``:
+        the lights' (h, w) copy of ``factor`` × ``factor`` block means, which must tile the
+        frame."""
+        if (not KERNEL or frame.dtype not in (np.uint8, np.float32) or frame.ndim != 3
+                or frame.shape[2] != 3 or frame.shape[1] != self.width):
+            return False
+        h, w = frame.shape[:2]
+        return mid_shape is None or (h % factor == 0 and w % factor == 0
+                                     and tuple(mid_shape) == (h // factor, w // factor))
+
+    def decode_project(self, frame: np.ndarray, table: np.ndarray | None, state: dict,
+                       mid: np.ndarray | None = None, factor: int = 1) -> None:
+        """The whole 8-bit ``frame`` decoded through ``table`` inside the fold (the C
+        kernel, one call a lens: no float copy of the frame), into ``state`` as :meth:`add`
+        of every row would; ``table`` None: ``frame`` is linear float32 already. ``mid``
+        (see :meth:`decodes`) gets the block means of the pixels that carry a weight, the
+        others counted as black (as a lens's surround)."""
+        t = None if table is None else np.ascontiguousarray(table, np.float32).reshape(-1)
+        item = frame.itemsize
+        if frame.strides[2] != item or frame.strides[1] != 3 * item:
+            frame = np.ascontiguousarray(frame)
+        sums = []
+        for n, L in enumerate(self.lenses):
+            geometry, extent, tables, codes = L.kernel_data
+            out = np.zeros((tables.shape[0], 3))
+            # The first lens's call zeroes mid: every lens, then the unpaired pixels, add.
+            _fold_kernel(frame, t, geometry, extent, tables, codes, out, mid, factor, n == 0)
+            parts, at = [], 0
+            for _, k, _ in L.groups:
+                parts.append(out[at:at + len(k)].T)
+                at += len(k)
+            sums.append(parts)
+        state["sums"] = sums
+        if self._res_index.size:           # the unpaired pixels: a gather, a product
+            samples = self._ops.get("samples")
+            if samples is None:           # their samples' flat indices (R, 3), once
+                samples = self._ops["samples"] = self._res_index[:, None] * 3 + np.arange(3)
+            if frame.flags.c_contiguous:
+                codes = np.take(frame.reshape(-1), samples)          # (R, 3)
+            else:
+                rows, cols = np.divmod(self._res_index, self.width)
+                codes = frame[rows, cols]
+            px = (codes if t is None else t[codes] if t.size == 256
+                  else t.reshape(256, 3)[codes, np.arange(3)])
+            state["res"] += px.T @ self._res_weights
+            if mid is not None:
+                blocks, at = self._residual_blocks(mid.shape[1], factor)
+                flat = mid.reshape(-1, 3)
+                for c in range(3):
+                    flat[blocks, c] += np.bincount(at, px[:, c], minlength=blocks.size)
+        if mid is not None:
+            mid *= np.float32(1.0 / (factor * factor))
+
+    def _residual_blocks(self, mid_width: int, factor: int) -> tuple:
+        """The distinct blocks of the unpaired pixels (flat indices in the lights' copy)
+        and each pixel's place among them."""
+        key = ("blocks", mid_width, factor)
+        if key not in self._ops:
+            rows, cols = np.divmod(self._res_index, self.width)
+            flat = (rows // factor) * mid_width + cols // factor
+            self._ops[key] = np.unique(flat, return_inverse=True)
+        return self._ops[key]
 
     def _band_ops(self, r0: int, r1: int) -> list:
         """[(lens, frame rows a, b, buffer row)] of frame rows [r0, r1): the same bands every

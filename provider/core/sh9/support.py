@@ -15,6 +15,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..radiometry.blocks import shrink  # noqa: F401  (the fast path's; the engine imports it here)
 from ..radiometry.response import apply_lut
 
 #: Column gaps narrower than this are decoded anyway: one more cv2.LUT call costs more
@@ -107,22 +108,6 @@ class DecodeSpans:
     def columns(self, r0: int) -> list:
         """The column spans decoded in the band that starts at row ``r0``."""
         return self.spans[r0 // self.band_rows]
-
-
-def shrink(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
-    """``image`` (H, W, C) float area-averaged to ``size`` (w, h), as ``cv2.INTER_AREA``.
-    Where both sides shrink by the same power of two, halved again and again with
-    ``cv2.INTER_LINEAR``, which at exactly half size samples between each pixel pair with
-    weights ½, ½: the 2×2 block mean to float rounding, at about a third of
-    ``INTER_AREA``'s instructions (23 against 66 µs a 32×640 band here)."""
-    h, w = image.shape[:2]
-    factor = w // size[0] if size[0] else 0
-    if factor < 2 or factor & (factor - 1) or (w, h) != (size[0] * factor, size[1] * factor):
-        return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
-    while factor > 1:
-        h, w, factor = h // 2, w // 2, factor // 2
-        image = cv2.resize(image, (w, h), interpolation=cv2.INTER_LINEAR)
-    return image
 
 
 class DownsampledSpans:

@@ -1,0 +1,449 @@
+/* One lens's folded SH projection of an 8-bit frame, decoded through its table in the same
+ * pass (issue 34), and the lights' block means of the same decoded pixels.
+ *
+ * The lens is radially symmetric about its centre, so the four pixels mirrored about it
+ * carry the same lens-frame weights up to a sign per axis (provider/core/sh9/lens_fold.py):
+ *
+ *   sums[k][c] += sum over quarter pixels q of tables[k][q] * fold_{parity[k]}(q, c)
+ *
+ * where, for q = (i, j) (row i below the centre, column j right of it), a, b the bottom
+ * row's right and left pixels and c, d the top row's (channel c, decoded), the folds are
+ *   parity 0 (x even, y even): (a + b) + (c + d)    parity 1 (x odd, y even): (a - b) + (c - d)
+ *   parity 2 (x even, y odd):  (a + b) - (c + d)    parity 3 (x odd, y odd):  (a - b) - (c - d)
+ *
+ * fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, factor, clear)
+ *   frame     uint8 (H, W, 3), pixels contiguous (rows may be strided); or, without a
+ *             table, linear float32 (H, W, 3) (the fast path's block means, a float frame)
+ *   table     float32, 256 entries (one curve) or 768 (per channel, entry v*3 + c); or None
+ *   geometry  (xl, xr, yt, yb, nx, ny): quarter pixel (i, j) reads columns xr + j, xl - 1 - j
+ *             and rows yb + i, yt - 1 - i, for i < ny, j < nx
+ *   extents   int32 (ny,): row pair i reads columns j < extents[i] only (beyond, every
+ *             weight is zero and no block of mid is seen)
+ *   tables    float32 (K, ny * nx), row k the quarter table of weight k
+ *   parities  int32 (K,): the fold each weight meets (0..3 above)
+ *   sums      float64 (K, 3), added to
+ *   mid       None, or float32 (H / f, W / f, 3): the sums of the decoded pixels over f x f
+ *             blocks are added to it (the caller divides by f * f once every pixel is in:
+ *             the lights' block copy, black where nothing was read)
+ *   factor    f >= 1 (ignored without mid)
+ *   clear     true: mid is zeroed first (the first lens's call)
+ *
+ * Per row pair: the four half rows decoded into planar float rows (a byte load and a table
+ * load a sample: the only scalar loop), then plain loops over j that the compiler
+ * runs four floats at a time (GCC's vector extension: SSE, NEON): the four folds with each
+ * half row added to its column sums over the rows of its block row (spilled into mid by
+ * blocks when the block row changes), and the dot products of up to three weights with
+ * their fold's three channels, added to float64 sums once a row. */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Four floats: GCC's and Clang's vector extension, SSE on x86-64 and NEON on 64-bit ARM. */
+typedef float v4 __attribute__((vector_size(16)));
+
+static inline v4
+load4(const float *p)
+{
+    v4 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+static inline void
+store4(float *p, v4 v)
+{
+    memcpy(p, &v, sizeof v);
+}
+
+static int
+get_view(PyObject *obj, Py_buffer *view, int writable, const char *fmt, int ndim,
+         const char *name)
+{
+    int flags = PyBUF_RECORDS_RO | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(obj, view, flags) < 0)
+        return -1;
+    if (view->ndim != ndim || view->format == NULL || strcmp(view->format, fmt) != 0) {
+        PyErr_Format(PyExc_ValueError, "%s: expected a %d-d array of format '%s'", name, ndim,
+                     fmt);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+static int
+contiguous(const Py_buffer *v)
+{
+    Py_ssize_t step = v->itemsize;
+    for (int d = v->ndim - 1; d >= 0; d--) {
+        if (v->shape[d] > 1 && v->strides[d] != step)
+            return 0;
+        step *= v->shape[d];
+    }
+    return 1;
+}
+
+/* A half row of n pixels decoded into three planar rows; step = +3 (rightwards from p) or
+ * -3 (leftwards: p is the pixel next to the centre). */
+static inline void
+decode_half(const unsigned char *restrict p, Py_ssize_t step, Py_ssize_t n,
+            const float *restrict t, int shared, float *restrict r, float *restrict g,
+            float *restrict b)
+{
+    Py_ssize_t j = 0;
+    if (shared) {
+        for (; j + 2 <= n; j += 2, p += 2 * step) {   /* two pixels a turn: less loop */
+            const float r0 = t[p[0]], g0 = t[p[1]], b0 = t[p[2]];
+            const float r1 = t[p[step]], g1 = t[p[step + 1]], b1 = t[p[step + 2]];
+            r[j] = r0; g[j] = g0; b[j] = b0;
+            r[j + 1] = r1; g[j + 1] = g1; b[j + 1] = b1;
+        }
+        for (; j < n; j++, p += step) {
+            r[j] = t[p[0]];
+            g[j] = t[p[1]];
+            b[j] = t[p[2]];
+        }
+    } else {
+        for (; j < n; j++, p += step) {
+            r[j] = t[p[0] * 3];
+            g[j] = t[p[1] * 3 + 1];
+            b[j] = t[p[2] * 3 + 2];
+        }
+    }
+}
+
+/* A half row of n linear float32 pixels split into three planar rows (step as above). */
+static inline void
+split_half(const float *restrict p, Py_ssize_t step, Py_ssize_t n, float *restrict r,
+           float *restrict g, float *restrict b)
+{
+    for (Py_ssize_t j = 0; j < n; j++, p += step) {
+        r[j] = p[0];
+        g[j] = p[1];
+        b[j] = p[2];
+    }
+}
+
+/* n floats set to 0 with vector stores: for long runs glibc's memset uses "rep stosb",
+ * which callgrind (the edge bench's counter) counts a byte at a time. */
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("no-tree-loop-distribute-patterns")))   /* not back into memset */
+#endif
+static void
+zero(float *p, Py_ssize_t n)
+{
+    const v4 z = {0, 0, 0, 0};
+    Py_ssize_t j = 0;
+    for (; j + 4 <= n; j += 4)
+        store4(p + j, z);
+    for (; j < n; j++)
+        p[j] = 0.0f;
+}
+
+/* Column sums (3 planar rows of n, stride apart) of one half row's block row into mid's
+ * row of blocks: column x0 + j (dir +1) or x0 - j (dir -1) is in block x / f; then the sums
+ * are zeroed. Runs once every f rows. */
+static void
+spill(float *restrict col, Py_ssize_t stride, Py_ssize_t n, Py_ssize_t x0, int dir, int f,
+      float *restrict mrow)
+{
+    Py_ssize_t blk = x0 / f, run = dir > 0 ? f - x0 % f : x0 % f + 1, j = 0;
+    for (; j < n; j += run, run = f, blk += dir) {
+        if (run > n - j)
+            run = n - j;
+        if (run == 4) {         /* whole blocks of the usual factor, written out */
+            for (int c = 0; c < 3; c++) {
+                const float *x = col + c * stride + j;
+                mrow[blk * 3 + c] += (x[0] + x[1]) + (x[2] + x[3]);
+            }
+            continue;
+        }
+        for (int c = 0; c < 3; c++) {
+            float s = 0.0f;
+            for (Py_ssize_t l = j; l < j + run; l++)
+                s += col[c * stride + l];
+            mrow[blk * 3 + c] += s;
+        }
+    }
+    for (int c = 0; c < 3; c++)       /* short: memset's vector stores */
+        memset(col + c * stride, 0, sizeof(float) * (size_t)n);
+}
+
+/* The four folds of one channel's quarter row (bottom right a, bottom left b, top right c,
+ * top left d). */
+static inline void
+fold_row(const float *restrict a, const float *restrict b, const float *restrict c,
+         const float *restrict d, float *restrict ee, float *restrict oe, float *restrict eo,
+         float *restrict oo, Py_ssize_t n)
+{
+    Py_ssize_t j = 0;
+    for (; j + 4 <= n; j += 4) {
+        const v4 va = load4(a + j), vb = load4(b + j), vc = load4(c + j), vd = load4(d + j);
+        const v4 s1 = va + vb, d1 = va - vb, s2 = vc + vd, d2 = vc - vd;
+        store4(ee + j, s1 + s2);
+        store4(oe + j, d1 + d2);
+        store4(eo + j, s1 - s2);
+        store4(oo + j, d1 - d2);
+    }
+    for (; j < n; j++) {
+        const float s1 = a[j] + b[j], d1 = a[j] - b[j];
+        const float s2 = c[j] + d[j], d2 = c[j] - d[j];
+        ee[j] = s1 + s2;
+        oe[j] = d1 + d2;
+        eo[j] = s1 - s2;
+        oo[j] = d1 - d2;
+    }
+}
+
+/* fold_row, and each of the four half rows added to its column sums (ca .. cd). */
+static inline void
+fold_row_sums(const float *restrict a, const float *restrict b, const float *restrict c,
+              const float *restrict d, float *restrict ee, float *restrict oe,
+              float *restrict eo, float *restrict oo, float *restrict ca, float *restrict cb,
+              float *restrict cc, float *restrict cd, Py_ssize_t n)
+{
+    Py_ssize_t j = 0;
+    for (; j + 4 <= n; j += 4) {
+        const v4 va = load4(a + j), vb = load4(b + j), vc = load4(c + j), vd = load4(d + j);
+        const v4 s1 = va + vb, d1 = va - vb, s2 = vc + vd, d2 = vc - vd;
+        store4(ee + j, s1 + s2);
+        store4(oe + j, d1 + d2);
+        store4(eo + j, s1 - s2);
+        store4(oo + j, d1 - d2);
+        store4(ca + j, load4(ca + j) + va);
+        store4(cb + j, load4(cb + j) + vb);
+        store4(cc + j, load4(cc + j) + vc);
+        store4(cd + j, load4(cd + j) + vd);
+    }
+    fold_row(a + j, b + j, c + j, d + j, ee + j, oe + j, eo + j, oo + j, n - j);
+    for (; j < n; j++) {
+        ca[j] += a[j];
+        cb[j] += b[j];
+        cc[j] += c[j];
+        cd[j] += d[j];
+    }
+}
+
+/* For m (1 to 3) weight rows w[0..m) that meet the same fold (x0, x1, x2: its three
+ * channels): out[r][c] += sum_j w[r][j] * x_c[j], in four float lanes per sum. Inlined with
+ * m constant: the fold is loaded once for the m rows, the 3m sums stay in registers. */
+static inline __attribute__((always_inline)) void
+dots(const float *const *w, int m, const float *restrict x0, const float *restrict x1,
+     const float *restrict x2, Py_ssize_t n, double *const *out)
+{
+    v4 acc[3][3];
+    for (int r = 0; r < m; r++)
+        for (int c = 0; c < 3; c++)
+            acc[r][c] = (v4){0, 0, 0, 0};
+    Py_ssize_t j = 0;
+    for (; j + 4 <= n; j += 4) {
+        const v4 a = load4(x0 + j), b = load4(x1 + j), c = load4(x2 + j);
+        for (int r = 0; r < m; r++) {
+            const v4 wv = load4(w[r] + j);
+            acc[r][0] += wv * a;
+            acc[r][1] += wv * b;
+            acc[r][2] += wv * c;
+        }
+    }
+    for (int r = 0; r < m; r++) {
+        float s[3];
+        for (int c = 0; c < 3; c++)
+            s[c] = (acc[r][c][0] + acc[r][c][1]) + (acc[r][c][2] + acc[r][c][3]);
+        for (Py_ssize_t l = j; l < n; l++) {
+            s[0] += w[r][l] * x0[l];
+            s[1] += w[r][l] * x1[l];
+            s[2] += w[r][l] * x2[l];
+        }
+        for (int c = 0; c < 3; c++)
+            out[r][c] += s[c];
+    }
+}
+
+static PyObject *
+fold_lens(PyObject *self, PyObject *args)
+{
+    PyObject *frame_obj, *table_obj, *ext_obj, *tab_obj, *par_obj, *sums_obj, *mid_obj;
+    Py_ssize_t xl, xr, yt, yb, nx, ny;
+    int f, clear;
+    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOOOOip", &frame_obj, &table_obj, &xl, &xr, &yt,
+                          &yb, &nx, &ny, &ext_obj, &tab_obj, &par_obj, &sums_obj, &mid_obj,
+                          &f, &clear))
+        return NULL;
+    Py_buffer views[7];
+    int got[7] = {0, 0, 0, 0, 0, 0, 0};
+    int use_mid = mid_obj != Py_None, linear = table_obj == Py_None;
+    const char *err = NULL;
+#define VIEW(n, obj, w, fmt, nd, name) \
+    do { if (get_view(obj, &views[n], w, fmt, nd, name) < 0) goto fail; got[n] = 1; } while (0)
+    VIEW(0, frame_obj, 0, linear ? "f" : "B", 3, linear ? "frame (no table: float32)"
+                                                       : "frame (with a table: uint8)");
+    if (!linear)
+        VIEW(1, table_obj, 0, "f", 1, "table");
+    VIEW(2, ext_obj, 0, "i", 1, "extents");
+    VIEW(3, tab_obj, 0, "f", 2, "tables");
+    VIEW(4, par_obj, 0, "i", 1, "parities");
+    VIEW(5, sums_obj, 1, "d", 2, "sums");
+    if (use_mid)
+        VIEW(6, mid_obj, 1, "f", 3, "mid");
+#undef VIEW
+    Py_buffer fr = views[0], tb = views[1], ex = views[2], tabs = views[3], par = views[4];
+    Py_buffer sums = views[5], mid = views[6];
+    Py_ssize_t H = fr.shape[0], W = fr.shape[1], K = tabs.shape[0];
+    const Py_ssize_t item = linear ? 4 : 1;
+    if (fr.shape[2] != 3 || fr.strides[2] != item || fr.strides[1] != 3 * item)
+        err = "frame: (H, W, 3) with contiguous pixels";
+    else if (!linear && (!contiguous(&tb) || (tb.shape[0] != 256 && tb.shape[0] != 768)))
+        err = "table: 256 contiguous entries, or 768 (per channel)";
+    else if (nx < 1 || ny < 1 || xl - nx < 0 || xr + nx > W || yt - ny < 0 || yb + ny > H)
+        err = "geometry: the square must lie inside the frame";
+    else if (!contiguous(&ex) || ex.shape[0] != ny)
+        err = "extents: (ny,) contiguous int32";
+    else if (!contiguous(&tabs) || tabs.shape[1] != nx * ny)
+        err = "tables: (K, ny * nx) contiguous float32";
+    else if (!contiguous(&par) || par.shape[0] != K)
+        err = "parities: (K,) contiguous int32";
+    else if (!contiguous(&sums) || sums.shape[0] != K || sums.shape[1] != 3)
+        err = "sums: (K, 3) contiguous float64";
+    else if (use_mid && (f < 1 || !contiguous(&mid) || mid.shape[0] != H / f
+                         || mid.shape[1] != W / f || mid.shape[2] != 3
+                         || (xr + nx) > (W / f) * f || (yb + ny) > (H / f) * f))
+        err = "mid: (H / f, W / f, 3) float32 holding the square's blocks";
+    const int *extent = (const int *)ex.buf;
+    const int *parity = (const int *)par.buf;
+    for (Py_ssize_t i = 0; !err && i < ny; i++)
+        if (extent[i] < 0 || extent[i] > nx)
+            err = "extents: in [0, nx]";
+    for (Py_ssize_t k = 0; !err && k < K; k++)
+        if (parity[k] < 0 || parity[k] > 3)
+            err = "parities: 0 to 3";
+    if (err) {
+        PyErr_SetString(PyExc_ValueError, err);
+        goto fail;
+    }
+    /* Planar rows: 4 half rows x 3 channels decoded, 4 folds x 3 channels, and per half
+     * row and channel the block sums of a block row (mid). */
+    float *buf = (float *)malloc(sizeof(float) * (size_t)(36 * nx));
+    if (buf == NULL) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    {
+        float *half = buf;                  /* [h][c][j], h: 0 bottom right, 1 bottom left,
+                                               2 top right, 3 top left */
+        float *folds = buf + 12 * nx;       /* [parity][c][j] */
+        float *cols = folds + 12 * nx;      /* [h][c][j]: column sums of a block row */
+        Py_ssize_t block_row[4] = {-1, -1, -1, -1}, used[4] = {0, 0, 0, 0};
+        const Py_ssize_t x0[4] = {xr, xl - 1, xr, xl - 1};
+        const int dir[4] = {1, -1, 1, -1};
+        const float *t = linear ? NULL : (const float *)tb.buf;
+        const int shared = linear || tb.shape[0] == 256;
+        const float *tab = (const float *)tabs.buf;
+        double *out = (double *)sums.buf;
+        float *midp = use_mid ? (float *)mid.buf : NULL;
+        const Py_ssize_t mw = use_mid ? W / f : 0;
+        Py_BEGIN_ALLOW_THREADS
+        zero(cols, 12 * nx);            /* only the column sums are read before written */
+        if (use_mid && clear) {
+            zero(midp, (H / f) * mw * 3);
+        }
+        for (Py_ssize_t i = 0; i < ny; i++) {
+            const Py_ssize_t e = extent[i];
+            const char *bottom = (const char *)fr.buf + (yb + i) * fr.strides[0];
+            const char *top = (const char *)fr.buf + (yt - 1 - i) * fr.strides[0];
+            const char *start[4] = {bottom + 3 * item * xr, bottom + 3 * item * (xl - 1),
+                                    top + 3 * item * xr, top + 3 * item * (xl - 1)};
+            for (int h = 0; h < 4; h++) {
+                float *r = half + (3 * h) * nx;
+                if (linear)
+                    split_half((const float *)start[h], h % 2 ? -3 : 3, e, r, r + nx,
+                               r + 2 * nx);
+                else
+                    decode_half((const unsigned char *)start[h], h % 2 ? -3 : 3, e, t, shared,
+                                r, r + nx, r + 2 * nx);
+            }
+            if (use_mid) {
+                for (int h = 0; h < 4; h++) {
+                    const Py_ssize_t br = (h < 2 ? yb + i : yt - 1 - i) / f;
+                    float *col = cols + (3 * h) * nx;
+                    if (br != block_row[h]) {
+                        if (block_row[h] >= 0)
+                            spill(col, nx, used[h], x0[h], dir[h], f,
+                                  midp + block_row[h] * mw * 3);
+                        block_row[h] = br;
+                        used[h] = 0;
+                    }
+                    if (e > used[h])
+                        used[h] = e;
+                }
+            }
+            for (int c = 0; c < 3; c++)
+                if (use_mid)
+                    fold_row_sums(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
+                                  half + (9 + c) * nx, folds + c * nx, folds + (3 + c) * nx,
+                                  folds + (6 + c) * nx, folds + (9 + c) * nx, cols + c * nx,
+                                  cols + (3 + c) * nx, cols + (6 + c) * nx,
+                                  cols + (9 + c) * nx, e);
+                else
+                    fold_row(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
+                             half + (9 + c) * nx, folds + c * nx, folds + (3 + c) * nx,
+                             folds + (6 + c) * nx, folds + (9 + c) * nx, e);
+            /* Runs of up to three weights that meet the same fold (the rows are
+             * grouped by fold). */
+            for (Py_ssize_t k = 0; e > 0 && k < K;) {
+                int m = 1;
+                while (m < 3 && k + m < K && parity[k + m] == parity[k])
+                    m++;
+                const float *x = folds + (parity[k] * 3) * nx;
+                const float *w[3];
+                double *o[3];
+                for (int r = 0; r < m; r++) {
+                    w[r] = tab + (k + r) * nx * ny + i * nx;
+                    o[r] = out + 3 * (k + r);
+                }
+                if (m == 3)
+                    dots(w, 3, x, x + nx, x + 2 * nx, e, o);
+                else if (m == 2)
+                    dots(w, 2, x, x + nx, x + 2 * nx, e, o);
+                else
+                    dots(w, 1, x, x + nx, x + 2 * nx, e, o);
+                k += m;
+            }
+        }
+        for (int h = 0; use_mid && h < 4; h++)
+            if (block_row[h] >= 0)
+                spill(cols + (3 * h) * nx, nx, used[h], x0[h], dir[h], f,
+                      midp + block_row[h] * mw * 3);
+        Py_END_ALLOW_THREADS
+        free(buf);
+    }
+    for (int v = 0; v < 7; v++)
+        if (got[v])
+            PyBuffer_Release(&views[v]);
+    Py_RETURN_NONE;
+fail:
+    for (int v = 0; v < 7; v++)
+        if (got[v])
+            PyBuffer_Release(&views[v]);
+    return NULL;
+}
+
+static PyMethodDef methods[] = {
+    {"fold_lens", fold_lens, METH_VARARGS,
+     "fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, factor, clear): "
+     "one lens's folded projection of an 8-bit frame decoded through table (or of a float32 "
+     "frame, table None), and its block means into mid."},
+    {NULL, NULL, 0, NULL}
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "_fold",
+    "One lens's folded SH projection of an 8-bit frame, decoded in the same pass.", -1,
+    methods
+};
+
+PyMODINIT_FUNC
+PyInit__fold(void)
+{
+    return PyModule_Create(&module);
+}
