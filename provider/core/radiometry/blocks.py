@@ -22,7 +22,8 @@ KERNEL = _decode_blocks is not None
 
 
 def decode_blocks(frame: np.ndarray, table: np.ndarray, factor: int,
-                  out: np.ndarray | None = None, *, kernel: bool = True) -> np.ndarray:
+                  out: np.ndarray | None = None, *, spans: np.ndarray | None = None,
+                  kernel: bool = True) -> np.ndarray:
     """The mean of ``table[frame]`` over ``factor × factor`` blocks.
 
     frame : (H, W, 3) uint8, pixels contiguous (rows may be strided: a window's view).
@@ -31,6 +32,8 @@ def decode_blocks(frame: np.ndarray, table: np.ndarray, factor: int,
     factor : block side f ≥ 1; rows and columns past ``H // f · f``, ``W // f · f`` are
         not read.
     out : (H // f, W // f, 3) float32 to write, or None for a new array.
+    spans : None, or int32 (H // f, 2): only blocks ``[spans[y, 0], spans[y, 1])`` of output
+        row y are read (those a projection gives a weight); the rest are 0.
     kernel : False takes the OpenCV path even where the kernel is built (its tests).
 
     Returns ``out``: linear float32, the block means summed in float32 (equal to the
@@ -48,11 +51,25 @@ def decode_blocks(frame: np.ndarray, table: np.ndarray, factor: int,
     if kernel and _decode_blocks is not None:
         if frame.strides[2] != 1 or frame.strides[1] != frame.shape[2]:
             frame = np.ascontiguousarray(frame)
-        _decode_blocks(frame, np.ascontiguousarray(table, np.float32).reshape(-1), f, out)
+        _decode_blocks(frame, np.ascontiguousarray(table, np.float32).reshape(-1), f, out,
+                       None if spans is None else np.ascontiguousarray(spans, np.int32))
         return out
     lin = cv2.LUT(frame[:h * f, :w * f], table)
     out[...] = lin if f == 1 else cv2.resize(lin, (w, h), interpolation=cv2.INTER_AREA)
+    if spans is not None:
+        columns = np.arange(w)
+        out[(columns < spans[:, :1]) | (columns >= spans[:, 1:])] = 0.0
     return out
+
+
+def block_spans(seen: np.ndarray) -> np.ndarray:
+    """(h, 2) int32 ``spans`` for :func:`decode_blocks` from an (h, w) mask of the blocks a
+    projection gives a weight: each row's first and last such block, + 1 (0, 0 for none)."""
+    seen = np.asarray(seen, bool)
+    any_ = seen.any(axis=1)
+    first = np.argmax(seen, axis=1)
+    stop = seen.shape[1] - np.argmax(seen[:, ::-1], axis=1)
+    return np.where(any_[:, None], np.stack([first, stop], axis=1), 0).astype(np.int32)
 
 
 def shrink(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:

@@ -172,6 +172,8 @@ class SH9Projector(FrameDecoder):
                 self._weights = (dense if extra is None else np.hstack([dense, extra])
                                  ).astype(np.float32)
             seen = np.any(dense != 0, axis=1).reshape(p.height, p.width)
+            #: The fast path's blocks with a weight, per row (decode_blocks reads only them).
+            self._block_spans = blocks.block_spans(seen) if downsample > 1 else None
             if downsample == 1:      # 8/16-bit bands decode only the columns seen (.support)
                 self._spans = DecodeSpans.of(seen, self.BAND_ROWS,
                                              self._extractor.mid_factor if self._fuse_lights else 1)
@@ -296,7 +298,8 @@ class SH9Projector(FrameDecoder):
         table = (self._lut(frame.dtype) if lut is None else lut) if integer else None
         if frame.dtype == np.uint8 and blocks.KERNEL and self._extractor is None:
             bw, bh = self._block      # the C kernel: decode and block means in one pass
-            lin, small = None, blocks.decode_blocks(frame[:bh, :bw], table, self.downsample)
+            lin, small = None, blocks.decode_blocks(frame[:bh, :bw], table, self.downsample,
+                                                    spans=self._block_spans)
         elif integer and self._spans is not None:        # only the blocks seen (.support)
             lin, small = None, self._spans.small(frame, table)
         else:
