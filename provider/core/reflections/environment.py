@@ -21,7 +21,9 @@ does for SH9 (and decodes frames the same way: :class:`~provider.core.radiometry
    directions, exactly. Cubes above 32² read the pyramid from 64² down and evaluate mips
    above 32² at 32², upsampled (the bench says what that costs).
 
-Per frame: decode, one resize, one gather-and-sum for the base, the pools, one for the mips.
+Per frame: decode and shrink (8-bit frames in one pass where the crop is whole blocks:
+:func:`~provider.core.radiometry.blocks.decode_blocks`), one gather-and-sum for the base,
+the pools, one for the mips.
 Units are those of the SH9 coefficients of the same options (exposure, ``exposure_s``/``gain``
 divide the same way), so the cube and SH9 describe the same light.
 """
@@ -39,6 +41,7 @@ from ..geometry import cubemap
 from . import prefilter
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from ..geometry import projections_exr  # noqa: F401  (registers exr-latlong, exr-cube)
+from ..radiometry.blocks import decode_blocks
 from ..radiometry.decode import FrameDecoder, image_array
 from ..options import check_options, exposure_scale, freeze_options
 from ..blas import one_blas_thread
@@ -59,6 +62,8 @@ SUBPIXELS = 4
 PREFILTER_MAX_SOURCE, PREFILTER_MAX_FACE = 64, 32
 #: Work pixels whose light above the rest is prefiltered exactly (a sun, a lamp).
 BRIGHT_PIXELS = 64
+#: Rec. 709 luminance of linear RGB, as a (1, 3) matrix for ``cv2.transform``.
+_LUMINANCE = np.array([[0.2126, 0.7152, 0.0722]], np.float32)
 
 
 @dataclass
@@ -149,9 +154,15 @@ class EnvironmentProjector(FrameDecoder):
         self.base = min(4 * self.size, 64) if self.size <= 32 else self.size
         self.levels = cubemap.mip_sizes(self.base)
         self._omega = [cubemap.texel_solid_angles(n) for n in self.levels]
-        self._shares = [cubemap.pool_shares(fine, coarse)
+        # one share a channel: a (6, n, n, 1) share broadcast over three channels made numpy
+        # multiply in runs of three (~2 M instructions of the 32² cube's pools; issue 34)
+        self._shares = [np.repeat(cubemap.pool_shares(fine, coarse), 3, axis=-1)
                         for fine, coarse in zip(self._omega, self._omega[1:])]
         self._work, self._crop = self._work_geometry(full)
+        #: The work image's block side in frame pixels where the crop is whole blocks of it
+        #: (1 without a crop), else None: an 8-bit frame is then decoded and averaged in one
+        #: pass (:func:`~provider.core.radiometry.blocks.decode_blocks`).
+        self._block_factor = self._whole_blocks()
         self._build_overlap(self._work)
         if not self.coverage > 0:
             raise InputError("no pixel of the frame sees anything with this geometry "
@@ -178,6 +189,13 @@ class EnvironmentProjector(FrameDecoder):
             return full.scaled(factor), full.scaled_source_size(factor)
         except (NotImplementedError, ProjectionError):
             return full, None
+
+    def _whole_blocks(self) -> int | None:
+        if self._crop is None:
+            return 1
+        (cw, ch), w = self._crop, self._work
+        f = ch // w.height
+        return f if (cw, ch) == (f * w.width, f * w.height) else None
 
     def _subpixel_samples(self, p: Projection, q: int = SUBPIXELS):
         """Directions (P, 3), solid angles (P,) and pixel index (P,) of q×q sub-pixels."""
@@ -341,7 +359,10 @@ class EnvironmentProjector(FrameDecoder):
         if integer and work is not None and work.complete and self._same_geometry(work.projector):
             result = self._project_work(work.array, scale)
             stats["shared_decode"] = True
-        elif integer and self._crop is not None:   # decode and shrink band by band, in cache
+        elif frame.dtype == np.uint8 and self._block_factor is not None:
+            # the table and the block means in one pass: no float copy of the frame (issue 34)
+            result = self._project_work(self._decode_blocks(frame), scale)
+        elif integer and self._whole_rows():   # decode and shrink band by band, in cache
             result = self._project_work(self._decode_work(frame), scale)
         else:
             result = self.project_linear(self.decode(frame, stats), scale)
@@ -372,9 +393,25 @@ class EnvironmentProjector(FrameDecoder):
                 or decoder.response is not self.response
                 or getattr(decoder, "window", None) != self.window):
             return None
-        if self._crop is not None and band_rows % (self._crop[1] // self._work.height):
+        if self._crop is not None and (not self._whole_rows()
+                                       or band_rows % (self._crop[1] // self._work.height)):
             return None
         return WorkImage(self)
+
+    def _whole_rows(self) -> bool:
+        """Whether the crop's rows are whole rows of work-image blocks (bands of them make
+        the work image): not where an equirect's height is no multiple of the work image's
+        (950 rows to 135: the whole-frame area resize spreads the rows, 7.04 a work row)."""
+        return self._crop is not None and self._crop[1] % self._work.height == 0
+
+    def _decode_blocks(self, frame: np.ndarray) -> np.ndarray:
+        """The work image of an 8-bit frame in one call: each block of ``_block_factor``²
+        pixels of the crop linearised through the table and averaged (equal to
+        :meth:`_decode_work`'s decode-then-area-resize to float rounding, ~1e-7 relative)."""
+        if self._crop is not None:
+            cw, ch = self._crop
+            frame = frame[:ch, :cw]
+        return decode_blocks(frame, self._lut(np.uint8), self._block_factor)
 
     def _decode_work(self, frame: np.ndarray) -> np.ndarray:
         """The work image of an integer frame: linearised and area-averaged band by band
@@ -399,12 +436,17 @@ class EnvironmentProjector(FrameDecoder):
         if self._fill_weights is not None:
             fill = self._fill_weights @ px                     # (3,)
             base += self._fill_share[:, None] * fill[None, :].astype(np.float32)
-        mip0 = self._pyramid(base)[self.levels.index(self.size)]
+        at = self.levels.index(self.size)
         if self._prefilter is None:
+            mip0 = self._pyramid(base, at)[at]
             source = _PrefilterSource(self._overlap_op, mip0, None, None, None)
             return EnvironmentResult([mip0], list(self.roughness), {}, source)
         bright, excess = self._bright_split(px)
-        if bright is not None:   # the pyramid the operator reads keeps the smooth rest
+        if bright is None:
+            levels = self._pyramid(base)
+            mip0 = levels[at]
+        else:   # the pyramid the operator reads keeps the smooth rest
+            mip0 = self._pyramid(base, at)[at]
             # the overlap's entries are sorted by pixel: each bright pixel's run of them
             lo = np.searchsorted(self._pix, bright)
             hi = np.searchsorted(self._pix, bright, side="right")
@@ -412,7 +454,8 @@ class EnvironmentProjector(FrameDecoder):
             sel = np.arange(pos.size) - np.repeat(np.cumsum(hi - lo) - (hi - lo), hi - lo) \
                 + np.repeat(lo, hi - lo)
             base = base - self._overlap(excess, pos, self._val[sel], self._tex[sel])
-        levels = self._pyramid(base)[self._source_first:]
+            levels = self._pyramid(base)
+        levels = levels[self._source_first:]
         source = _PrefilterSource(self._overlap_op, mip0,
                                   np.concatenate([lv.reshape(-1, 3) for lv in levels]),
                                   bright, excess)
@@ -464,10 +507,11 @@ class EnvironmentProjector(FrameDecoder):
         return np.stack([np.bincount(tex, weights=gathered[:, c], minlength=ntex)
                          for c in range(3)], axis=1).astype(np.float32)
 
-    def _pyramid(self, base: np.ndarray) -> list:
-        """The base cube and its exact 2×2 solid-angle pools (:func:`cubemap.pool`)."""
+    def _pyramid(self, base: np.ndarray, last: int | None = None) -> list:
+        """The base cube and its exact 2×2 solid-angle pools (:func:`cubemap.pool`), down
+        to level ``last`` (default: all)."""
         levels = [base.reshape(6, self.base, self.base, 3)]
-        for share in self._shares:
+        for share in self._shares[:last]:
             levels.append(cubemap.pool(levels[-1], share))
         return levels
 
@@ -476,9 +520,13 @@ class EnvironmentProjector(FrameDecoder):
         prefiltered mips exactly from their own directions instead of through the pyramid's
         texels: a sun is a delta that no texel-sized quadrature gets right. Returns the
         (sorted) pixel indices and their excess radiance (K, 3), or Nones."""
-        lum = px @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+        # OpenCV's 3 → 1 channel transform: half the instructions of numpy's (P, 3) @ (3,)
+        lum = cv2.transform(px.reshape(-1, 1, 3), _LUMINANCE).reshape(-1)
         k = min(BRIGHT_PIXELS, lum.size - 1)
-        top = np.argpartition(lum, lum.size - k - 1)[lum.size - k - 1:]
+        among = _holding_the_largest(lum, k + 1)
+        sub = lum if among is None else lum[among]
+        top = np.argpartition(sub, sub.size - k - 1)[sub.size - k - 1:]
+        top = top if among is None else among[top]
         cap = lum[top].min()
         bright = np.sort(top[lum[top] > cap])
         if bright.size == 0 or not cap >= 0:
@@ -486,6 +534,25 @@ class EnvironmentProjector(FrameDecoder):
         keep = (cap / lum[bright])[:, None]
         excess = (px[bright] * (1 - keep)).astype(np.float64)
         return bright, excess
+
+
+def _holding_the_largest(lum: np.ndarray, m: int, block: int = 64):
+    """Indices (ascending) of the values of ``lum`` (P,) at or above a bound that the m-th
+    largest value is known to reach, so that they hold the m largest (ties included); or
+    None where the bound does not help (fewer than 4m blocks, NaNs). The bound is the m-th
+    largest maximum of blocks of ``block`` values: m blocks each hold a value at least that
+    large. Partitioning these few instead of all P values saves ~3 M instructions of the
+    Theta frame's cube (230 400 work pixels; issue 34). Any partition into blocks will do:
+    values ``j, j + B, j + 2B…`` make block j, so that the maxima are ``block`` − 1
+    element-wise maxima of whole rows (numpy's maximum along a short axis is 5× dearer)."""
+    blocks = lum.size // block
+    if blocks < 4 * m:
+        return None
+    peaks = lum[:blocks * block].reshape(block, blocks).max(axis=0)
+    if np.isnan(peaks).any():
+        return None
+    bound = np.partition(peaks, blocks - m)[blocks - m]
+    return np.flatnonzero(lum >= bound)
 
 
 @dataclass(frozen=True)
