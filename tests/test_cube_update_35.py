@@ -7,8 +7,8 @@ import pytest
 
 from provider.core.radiometry.response import CameraResponse
 from provider.core.reflections import prefilter
-from provider.core.reflections.environment import (BRIGHT_PIXELS, EnvironmentProjector,
-                                                   _holding_the_largest)
+from provider.core.reflections.bright import BRIGHT_PIXELS, bright_split, holding_the_largest
+from provider.core.reflections.environment import EnvironmentProjector
 
 
 def per_channel_response():
@@ -122,7 +122,7 @@ def test_the_bright_pixels_are_those_of_a_full_partition(case):
     elif case == "lamps":
         px[rng.integers(0, n, 40)] = 1e4
     want = full_partition_split(px)
-    got = EnvironmentProjector._bright_split(None, px)
+    got = bright_split(px)
     if want[0] is None:
         assert got == (None, None)
     else:
@@ -133,9 +133,9 @@ def test_the_bright_pixels_are_those_of_a_full_partition(case):
 def test_the_candidates_hold_the_largest_values_or_say_they_cannot():
     rng = np.random.default_rng(9)
     lum = rng.random(100_000).astype(np.float32)
-    among = _holding_the_largest(lum, 65)
+    among = holding_the_largest(lum, 65)
     assert among.size < lum.size // 10
     assert set(np.argsort(lum)[-65:]) <= set(among.tolist())
-    assert _holding_the_largest(lum[:1000], 65) is None       # too few blocks to help
+    assert holding_the_largest(lum[:1000], 65) is None       # too few blocks to help
     lum[5] = np.nan
-    assert _holding_the_largest(lum, 65) is None              # NaN: the full partition
+    assert holding_the_largest(lum, 65) is None              # NaN: the full partition

@@ -39,6 +39,8 @@ import numpy as np
 
 from ..geometry import cubemap
 from . import prefilter
+from .bright import bright_split
+from .work_image import WorkImage
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from ..geometry import projections_exr  # noqa: F401  (registers exr-latlong, exr-cube)
 from ..radiometry.blocks import decode_blocks
@@ -60,10 +62,6 @@ WORK_MAX_WIDTH = 1024
 SUBPIXELS = 4
 #: Largest pyramid level the prefilter reads, and largest face it evaluates directly.
 PREFILTER_MAX_SOURCE, PREFILTER_MAX_FACE = 64, 32
-#: Work pixels whose light above the rest is prefiltered exactly (a sun, a lamp).
-BRIGHT_PIXELS = 64
-#: Rec. 709 luminance of linear RGB, as a (1, 3) matrix for ``cv2.transform``.
-_LUMINANCE = np.array([[0.2126, 0.7152, 0.0722]], np.float32)
 
 
 @dataclass
@@ -273,7 +271,7 @@ class EnvironmentProjector(FrameDecoder):
         self._fill_share = (1.0 - frac).astype(np.float32)          # (6n²,)
         self._fill_weights = self._fill_model(p, d, w, pix)
         # Each work pixel's solid angle and mean direction (world frame): where the light
-        # of its brightest pixels is sent exactly (see _bright_split).
+        # of its brightest pixels is sent exactly (see :func:`.bright.bright_split`).
         npx = p.width * p.height
         self._pix_omega = np.bincount(pix, weights=w, minlength=npx)
         dsum = np.stack([np.bincount(pix, weights=w * d[:, c], minlength=npx)
@@ -441,7 +439,7 @@ class EnvironmentProjector(FrameDecoder):
             mip0 = self._pyramid(base, at)[at]
             source = _PrefilterSource(self._overlap_op, mip0, None, None, None)
             return EnvironmentResult([mip0], list(self.roughness), {}, source)
-        bright, excess = self._bright_split(px)
+        bright, excess = bright_split(px)
         if bright is None:
             levels = self._pyramid(base)
             mip0 = levels[at]
@@ -515,45 +513,6 @@ class EnvironmentProjector(FrameDecoder):
             levels.append(cubemap.pool(levels[-1], share))
         return levels
 
-    def _bright_split(self, px: np.ndarray):
-        """The brightest work pixels' light above the next one's luminance, sent to the
-        prefiltered mips exactly from their own directions instead of through the pyramid's
-        texels: a sun is a delta that no texel-sized quadrature gets right. Returns the
-        (sorted) pixel indices and their excess radiance (K, 3), or Nones."""
-        # OpenCV's 3 → 1 channel transform: half the instructions of numpy's (P, 3) @ (3,)
-        lum = cv2.transform(px.reshape(-1, 1, 3), _LUMINANCE).reshape(-1)
-        k = min(BRIGHT_PIXELS, lum.size - 1)
-        among = _holding_the_largest(lum, k + 1)
-        sub = lum if among is None else lum[among]
-        top = np.argpartition(sub, sub.size - k - 1)[sub.size - k - 1:]
-        top = top if among is None else among[top]
-        cap = lum[top].min()
-        bright = np.sort(top[lum[top] > cap])
-        if bright.size == 0 or not cap >= 0:
-            return None, None
-        keep = (cap / lum[bright])[:, None]
-        excess = (px[bright] * (1 - keep)).astype(np.float64)
-        return bright, excess
-
-
-def _holding_the_largest(lum: np.ndarray, m: int, block: int = 64):
-    """Indices (ascending) of the values of ``lum`` (P,) at or above a bound that the m-th
-    largest value is known to reach, so that they hold the m largest (ties included); or
-    None where the bound does not help (fewer than 4m blocks, NaNs). The bound is the m-th
-    largest maximum of blocks of ``block`` values: m blocks each hold a value at least that
-    large. Partitioning these few instead of all P values saves ~3 M instructions of the
-    Theta frame's cube (230 400 work pixels; issue 34). Any partition into blocks will do:
-    values ``j, j + B, j + 2B…`` make block j, so that the maxima are ``block`` − 1
-    element-wise maxima of whole rows (numpy's maximum along a short axis is 5× dearer)."""
-    blocks = lum.size // block
-    if blocks < 4 * m:
-        return None
-    peaks = lum[:blocks * block].reshape(block, blocks).max(axis=0)
-    if np.isnan(peaks).any():
-        return None
-    bound = np.partition(peaks, blocks - m)[blocks - m]
-    return np.flatnonzero(lum >= bound)
-
 
 @dataclass(frozen=True)
 class _PrefilterSource:
@@ -582,41 +541,6 @@ def _check_roughness(mip_roughness, mips: int) -> list:
         raise InputError(f"mip_roughness must hold {mips} non-decreasing values in [0, 1], "
                          f"the first 0 (mip 0 is the radiance), got {mip_roughness!r}")
     return r
-
-
-class WorkImage:
-    """The work image of one integer frame, filled band by band by a pass that decodes the
-    frame anyway (SH9's: :meth:`~provider.core.sh9.engine.SH9Projector.project`'s ``work``), so
-    that the frame is decoded once for both products. Made by
-    :meth:`EnvironmentProjector.new_work`; bands must come in order from row 0."""
-
-    def __init__(self, projector: EnvironmentProjector):
-        self.projector = projector
-        w = projector._work
-        self.array = np.empty((w.height, w.width, 3), np.float32)
-        self.rows = 0                   # frame rows received, in order
-        self.complete = False
-
-    def add_band(self, lin: np.ndarray, r0: int) -> None:
-        """Linear float32 rows ``[r0, r0 + len(lin))`` of the frame (after its window)."""
-        if r0 != self.rows:             # out of order: this work image is not usable
-            self.rows = -1
-            return
-        n = lin.shape[0]
-        self.rows += n
-        crop = self.projector._crop
-        if crop is None:
-            self.array[r0:r0 + n] = lin
-            self.complete = self.rows >= self.array.shape[0]
-            return
-        cw, ch = crop
-        f = ch // self.array.shape[0]
-        stop = min(r0 + n, ch)
-        if stop > r0:
-            self.array[r0 // f:stop // f] = cv2.resize(
-                lin[:stop - r0, :cw], (self.array.shape[1], (stop - r0) // f),
-                interpolation=cv2.INTER_AREA)
-        self.complete = self.rows >= ch
 
 
 def _upsample_face(face: np.ndarray, size: int) -> np.ndarray:

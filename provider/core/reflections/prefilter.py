@@ -250,16 +250,17 @@ def length_groups(counts: np.ndarray) -> list:
     :data:`PAD_COST` a padding entry (dynamic programming over the distinct lengths)."""
     lengths, rows = np.unique(counts, return_counts=True)
     m = lengths.size
-    best = np.full(m + 1, np.inf)
-    best[0] = 0.0
+    # prefix sums: padding of lengths[start:end] to hi is hi·Σrows − Σ(length·rows)
+    n_rows = np.concatenate([[0], np.cumsum(rows)]).astype(np.float64)
+    n_entries = np.concatenate([[0], np.cumsum(lengths * rows)]).astype(np.float64)
+    best = np.zeros(m + 1)
     cut = np.zeros(m + 1, np.int64)
-    for end in range(1, m + 1):               # groups ending with lengths[end - 1]
-        hi = lengths[end - 1]
-        for start in range(end):
-            pad = float(np.dot(hi - lengths[start:end], rows[start:end]))
-            cost = best[start] + GROUP_COST + PAD_COST * pad
-            if cost < best[end]:
-                best[end], cut[end] = cost, start
+    for end in range(1, m + 1):               # the last group ends with lengths[end - 1]
+        hi = float(lengths[end - 1])
+        pad = hi * (n_rows[end] - n_rows[:end]) - (n_entries[end] - n_entries[:end])
+        cost = best[:end] + GROUP_COST + PAD_COST * pad
+        cut[end] = int(np.argmin(cost))
+        best[end] = cost[cut[end]]
     groups, end = [], m
     while end:
         start = cut[end]
