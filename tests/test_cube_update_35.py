@@ -139,3 +139,19 @@ def test_the_candidates_hold_the_largest_values_or_say_they_cannot():
     assert holding_the_largest(lum[:1000], 65) is None       # too few blocks to help
     lum[5] = np.nan
     assert holding_the_largest(lum, 65) is None              # NaN: the full partition
+
+
+def test_without_the_c_kernel_8bit_frames_take_the_band_path(monkeypatch):
+    """Where the C kernel was not built, an 8-bit frame is decoded band by band as before
+    (each band's float copy in cache, not OpenCV's whole-frame fallback): the same cube."""
+    from provider.core.radiometry import blocks
+    frame = np.random.default_rng(10).integers(0, 256, (720, 1280, 3), dtype=np.uint8)
+    proj = EnvironmentProjector(1280, 720, "dual-fisheye", size=8)
+    with_kernel = proj.project(frame)
+    calls = []
+    monkeypatch.setattr(blocks, "KERNEL", False)
+    monkeypatch.setattr(blocks, "decode_blocks", lambda *a, **k: calls.append(a))
+    without = proj.project(frame)
+    assert calls == []
+    for x, y in zip(without.mips, with_kernel.mips):
+        np.testing.assert_allclose(x, y, rtol=1e-6, atol=1e-9)

@@ -43,7 +43,7 @@ from .bright import bright_split
 from .work_image import WorkImage
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from ..geometry import projections_exr  # noqa: F401  (registers exr-latlong, exr-cube)
-from ..radiometry.blocks import decode_blocks
+from ..radiometry import blocks
 from ..radiometry.decode import FrameDecoder, image_array
 from ..options import check_options, exposure_scale, freeze_options
 from ..blas import one_blas_thread
@@ -357,8 +357,9 @@ class EnvironmentProjector(FrameDecoder):
         if integer and work is not None and work.complete and self._same_geometry(work.projector):
             result = self._project_work(work.array, scale)
             stats["shared_decode"] = True
-        elif frame.dtype == np.uint8 and self._block_factor is not None:
-            # the table and the block means in one pass: no float copy of the frame (issue 34)
+        elif frame.dtype == np.uint8 and self._block_factor is not None and blocks.KERNEL:
+            # the table and the block means in one pass: no float copy of the frame (issue 34;
+            # without the C kernel, the bands below keep their float copies in cache)
             result = self._project_work(self._decode_blocks(frame), scale)
         elif integer and self._whole_rows():   # decode and shrink band by band, in cache
             result = self._project_work(self._decode_work(frame), scale)
@@ -409,7 +410,7 @@ class EnvironmentProjector(FrameDecoder):
         if self._crop is not None:
             cw, ch = self._crop
             frame = frame[:ch, :cw]
-        return decode_blocks(frame, self._lut(np.uint8), self._block_factor)
+        return blocks.decode_blocks(frame, self._lut(np.uint8), self._block_factor)
 
     def _decode_work(self, frame: np.ndarray) -> np.ndarray:
         """The work image of an integer frame: linearised and area-averaged band by band
