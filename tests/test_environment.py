@@ -282,8 +282,9 @@ def test_light_probe_projections_make_the_same_cube(projection):
 
 @pytest.mark.parametrize("projection,w,h", [("equirect", 1920, 960), ("dual-fisheye", 1280, 720)])
 def test_8bit_frames_decoded_band_by_band_equal_the_whole_frame(projection, w, h):
-    """The integer path linearises and shrinks the frame in bands; the result is that of
-    the whole decoded frame."""
+    """The integer path linearises and shrinks the frame in bands (8-bit frames in one
+    pass, decode_blocks, whose block sums run in another order: float rounding, rtol 1e-6);
+    the result is that of the whole decoded frame."""
     frame = np.random.default_rng(1).integers(0, 256, (h, w, 3), dtype=np.uint8)
     proj = EnvironmentProjector(w, h, projection, size=8)
     whole = proj.project_linear(proj.decode(proj._prepare(frame), {}))

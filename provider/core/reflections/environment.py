@@ -21,7 +21,9 @@ does for SH9 (and decodes frames the same way: :class:`~provider.core.radiometry
    directions, exactly. Cubes above 32² read the pyramid from 64² down and evaluate mips
    above 32² at 32², upsampled (the bench says what that costs).
 
-Per frame: decode, one resize, one gather-and-sum for the base, the pools, one for the mips.
+Per frame: decode and shrink (8-bit frames in one pass where the crop is whole blocks:
+:func:`~provider.core.radiometry.blocks.decode_blocks`), one gather-and-sum for the base,
+the pools, one for the mips.
 Units are those of the SH9 coefficients of the same options (exposure, ``exposure_s``/``gain``
 divide the same way), so the cube and SH9 describe the same light.
 """
@@ -37,8 +39,11 @@ import numpy as np
 
 from ..geometry import cubemap
 from . import prefilter
+from .bright import bright_split
+from .work_image import WorkImage
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from ..geometry import projections_exr  # noqa: F401  (registers exr-latlong, exr-cube)
+from ..radiometry import blocks
 from ..radiometry.decode import FrameDecoder, image_array
 from ..options import check_options, exposure_scale, freeze_options
 from ..blas import one_blas_thread
@@ -57,8 +62,6 @@ WORK_MAX_WIDTH = 1024
 SUBPIXELS = 4
 #: Largest pyramid level the prefilter reads, and largest face it evaluates directly.
 PREFILTER_MAX_SOURCE, PREFILTER_MAX_FACE = 64, 32
-#: Work pixels whose light above the rest is prefiltered exactly (a sun, a lamp).
-BRIGHT_PIXELS = 64
 
 
 @dataclass
@@ -149,9 +152,15 @@ class EnvironmentProjector(FrameDecoder):
         self.base = min(4 * self.size, 64) if self.size <= 32 else self.size
         self.levels = cubemap.mip_sizes(self.base)
         self._omega = [cubemap.texel_solid_angles(n) for n in self.levels]
-        self._shares = [cubemap.pool_shares(fine, coarse)
+        # one share a channel: a (6, n, n, 1) share broadcast over three channels made numpy
+        # multiply in runs of three (~2 M instructions of the 32² cube's pools; issue 34)
+        self._shares = [np.repeat(cubemap.pool_shares(fine, coarse), 3, axis=-1)
                         for fine, coarse in zip(self._omega, self._omega[1:])]
         self._work, self._crop = self._work_geometry(full)
+        #: The work image's block side in frame pixels where the crop is whole blocks of it
+        #: (1 without a crop), else None: an 8-bit frame is then decoded and averaged in one
+        #: pass (:func:`~provider.core.radiometry.blocks.decode_blocks`).
+        self._block_factor = self._whole_blocks()
         self._build_overlap(self._work)
         if not self.coverage > 0:
             raise InputError("no pixel of the frame sees anything with this geometry "
@@ -178,6 +187,13 @@ class EnvironmentProjector(FrameDecoder):
             return full.scaled(factor), full.scaled_source_size(factor)
         except (NotImplementedError, ProjectionError):
             return full, None
+
+    def _whole_blocks(self) -> int | None:
+        if self._crop is None:
+            return 1
+        (cw, ch), w = self._crop, self._work
+        f = ch // w.height
+        return f if (cw, ch) == (f * w.width, f * w.height) else None
 
     def _subpixel_samples(self, p: Projection, q: int = SUBPIXELS):
         """Directions (P, 3), solid angles (P,) and pixel index (P,) of q×q sub-pixels."""
@@ -255,7 +271,7 @@ class EnvironmentProjector(FrameDecoder):
         self._fill_share = (1.0 - frac).astype(np.float32)          # (6n²,)
         self._fill_weights = self._fill_model(p, d, w, pix)
         # Each work pixel's solid angle and mean direction (world frame): where the light
-        # of its brightest pixels is sent exactly (see _bright_split).
+        # of its brightest pixels is sent exactly (see :func:`.bright.bright_split`).
         npx = p.width * p.height
         self._pix_omega = np.bincount(pix, weights=w, minlength=npx)
         dsum = np.stack([np.bincount(pix, weights=w * d[:, c], minlength=npx)
@@ -341,7 +357,11 @@ class EnvironmentProjector(FrameDecoder):
         if integer and work is not None and work.complete and self._same_geometry(work.projector):
             result = self._project_work(work.array, scale)
             stats["shared_decode"] = True
-        elif integer and self._crop is not None:   # decode and shrink band by band, in cache
+        elif frame.dtype == np.uint8 and self._block_factor is not None and blocks.KERNEL:
+            # the table and the block means in one pass: no float copy of the frame (issue 34;
+            # without the C kernel, the bands below keep their float copies in cache)
+            result = self._project_work(self._decode_blocks(frame), scale)
+        elif integer and self._whole_rows():   # decode and shrink band by band, in cache
             result = self._project_work(self._decode_work(frame), scale)
         else:
             result = self.project_linear(self.decode(frame, stats), scale)
@@ -372,9 +392,25 @@ class EnvironmentProjector(FrameDecoder):
                 or decoder.response is not self.response
                 or getattr(decoder, "window", None) != self.window):
             return None
-        if self._crop is not None and band_rows % (self._crop[1] // self._work.height):
+        if self._crop is not None and (not self._whole_rows()
+                                       or band_rows % (self._crop[1] // self._work.height)):
             return None
         return WorkImage(self)
+
+    def _whole_rows(self) -> bool:
+        """Whether the crop's rows are whole rows of work-image blocks (bands of them make
+        the work image): not where an equirect's height is no multiple of the work image's
+        (950 rows to 135: the whole-frame area resize spreads the rows, 7.04 a work row)."""
+        return self._crop is not None and self._crop[1] % self._work.height == 0
+
+    def _decode_blocks(self, frame: np.ndarray) -> np.ndarray:
+        """The work image of an 8-bit frame in one call: each block of ``_block_factor``²
+        pixels of the crop linearised through the table and averaged (equal to
+        :meth:`_decode_work`'s decode-then-area-resize to float rounding, ~1e-7 relative)."""
+        if self._crop is not None:
+            cw, ch = self._crop
+            frame = frame[:ch, :cw]
+        return blocks.decode_blocks(frame, self._lut(np.uint8), self._block_factor)
 
     def _decode_work(self, frame: np.ndarray) -> np.ndarray:
         """The work image of an integer frame: linearised and area-averaged band by band
@@ -399,12 +435,17 @@ class EnvironmentProjector(FrameDecoder):
         if self._fill_weights is not None:
             fill = self._fill_weights @ px                     # (3,)
             base += self._fill_share[:, None] * fill[None, :].astype(np.float32)
-        mip0 = self._pyramid(base)[self.levels.index(self.size)]
+        at = self.levels.index(self.size)
         if self._prefilter is None:
+            mip0 = self._pyramid(base, at)[at]
             source = _PrefilterSource(self._overlap_op, mip0, None, None, None)
             return EnvironmentResult([mip0], list(self.roughness), {}, source)
-        bright, excess = self._bright_split(px)
-        if bright is not None:   # the pyramid the operator reads keeps the smooth rest
+        bright, excess = bright_split(px)
+        if bright is None:
+            levels = self._pyramid(base)
+            mip0 = levels[at]
+        else:   # the pyramid the operator reads keeps the smooth rest
+            mip0 = self._pyramid(base, at)[at]
             # the overlap's entries are sorted by pixel: each bright pixel's run of them
             lo = np.searchsorted(self._pix, bright)
             hi = np.searchsorted(self._pix, bright, side="right")
@@ -412,7 +453,8 @@ class EnvironmentProjector(FrameDecoder):
             sel = np.arange(pos.size) - np.repeat(np.cumsum(hi - lo) - (hi - lo), hi - lo) \
                 + np.repeat(lo, hi - lo)
             base = base - self._overlap(excess, pos, self._val[sel], self._tex[sel])
-        levels = self._pyramid(base)[self._source_first:]
+            levels = self._pyramid(base)
+        levels = levels[self._source_first:]
         source = _PrefilterSource(self._overlap_op, mip0,
                                   np.concatenate([lv.reshape(-1, 3) for lv in levels]),
                                   bright, excess)
@@ -464,28 +506,13 @@ class EnvironmentProjector(FrameDecoder):
         return np.stack([np.bincount(tex, weights=gathered[:, c], minlength=ntex)
                          for c in range(3)], axis=1).astype(np.float32)
 
-    def _pyramid(self, base: np.ndarray) -> list:
-        """The base cube and its exact 2×2 solid-angle pools (:func:`cubemap.pool`)."""
+    def _pyramid(self, base: np.ndarray, last: int | None = None) -> list:
+        """The base cube and its exact 2×2 solid-angle pools (:func:`cubemap.pool`), down
+        to level ``last`` (default: all)."""
         levels = [base.reshape(6, self.base, self.base, 3)]
-        for share in self._shares:
+        for share in self._shares[:last]:
             levels.append(cubemap.pool(levels[-1], share))
         return levels
-
-    def _bright_split(self, px: np.ndarray):
-        """The brightest work pixels' light above the next one's luminance, sent to the
-        prefiltered mips exactly from their own directions instead of through the pyramid's
-        texels: a sun is a delta that no texel-sized quadrature gets right. Returns the
-        (sorted) pixel indices and their excess radiance (K, 3), or Nones."""
-        lum = px @ np.array([0.2126, 0.7152, 0.0722], np.float32)
-        k = min(BRIGHT_PIXELS, lum.size - 1)
-        top = np.argpartition(lum, lum.size - k - 1)[lum.size - k - 1:]
-        cap = lum[top].min()
-        bright = np.sort(top[lum[top] > cap])
-        if bright.size == 0 or not cap >= 0:
-            return None, None
-        keep = (cap / lum[bright])[:, None]
-        excess = (px[bright] * (1 - keep)).astype(np.float64)
-        return bright, excess
 
 
 @dataclass(frozen=True)
@@ -515,41 +542,6 @@ def _check_roughness(mip_roughness, mips: int) -> list:
         raise InputError(f"mip_roughness must hold {mips} non-decreasing values in [0, 1], "
                          f"the first 0 (mip 0 is the radiance), got {mip_roughness!r}")
     return r
-
-
-class WorkImage:
-    """The work image of one integer frame, filled band by band by a pass that decodes the
-    frame anyway (SH9's: :meth:`~provider.core.sh9.engine.SH9Projector.project`'s ``work``), so
-    that the frame is decoded once for both products. Made by
-    :meth:`EnvironmentProjector.new_work`; bands must come in order from row 0."""
-
-    def __init__(self, projector: EnvironmentProjector):
-        self.projector = projector
-        w = projector._work
-        self.array = np.empty((w.height, w.width, 3), np.float32)
-        self.rows = 0                   # frame rows received, in order
-        self.complete = False
-
-    def add_band(self, lin: np.ndarray, r0: int) -> None:
-        """Linear float32 rows ``[r0, r0 + len(lin))`` of the frame (after its window)."""
-        if r0 != self.rows:             # out of order: this work image is not usable
-            self.rows = -1
-            return
-        n = lin.shape[0]
-        self.rows += n
-        crop = self.projector._crop
-        if crop is None:
-            self.array[r0:r0 + n] = lin
-            self.complete = self.rows >= self.array.shape[0]
-            return
-        cw, ch = crop
-        f = ch // self.array.shape[0]
-        stop = min(r0 + n, ch)
-        if stop > r0:
-            self.array[r0 // f:stop // f] = cv2.resize(
-                lin[:stop - r0, :cw], (self.array.shape[1], (stop - r0) // f),
-                interpolation=cv2.INTER_AREA)
-        self.complete = self.rows >= ch
 
 
 def _upsample_face(face: np.ndarray, size: int) -> np.ndarray:

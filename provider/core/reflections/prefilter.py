@@ -167,24 +167,55 @@ def build_operator(outputs: np.ndarray, alpha: float, geom: PyramidGeometry,
 
 
 class SparseOperator:
-    """``y = A x`` for a fixed sparse ``A`` (CSR: rows sorted), x of shape (M, 3)."""
+    """``y = A x`` for a fixed sparse ``A``, x of shape (M, 3).
+
+    The rows are grouped by their number of entries (each group's rows padded with zero
+    entries to the group's longest, the grouping chosen by :func:`length_groups`), and each
+    group's entries stored slot-major: entry s of every row of the group, then entry s + 1.
+    A group's segment sums are then L − 1 additions of contiguous (rows, 4) blocks, one
+    numpy reduction for the group, where ``np.add.reduceat`` paid ~50 instructions a
+    segment and channel (callgrind: 16 M of the Theta frame's 32² cube update; issue 34).
+    The groups' sums land in group order and are put back in row order by one gather."""
 
     def __init__(self, rows, cols, vals, shape):
         order = np.lexsort((cols, rows))
         rows, cols, vals = rows[order], cols[order], vals[order]
         self.shape = shape
-        # intp: numpy's gather casts other index types on every call; the columns are in
-        # range by construction, so ``take`` needs no per-element bounds check (mode="clip").
-        self.cols = cols.astype(np.intp)
-        self.vals = vals.astype(np.float32)
-        self._vals4 = np.repeat(self.vals, 4)     # one weight for each of four lanes
         counts = np.bincount(rows, minlength=shape[0])
         if np.any(counts == 0):
             raise ValueError("every output needs at least one input")
-        self.starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        self.entries = int(vals.size)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        cols_g, vals_g, plan = [], [], []
+        self._row_of = np.empty(shape[0], np.intp)   # row r's sums are the group sums' [..]
+        done, offset = 0, 0
+        for lo, hi in length_groups(counts):
+            members = np.flatnonzero((counts >= lo) & (counts <= hi))
+            slot = np.arange(hi)[:, None]                              # (L, 1)
+            real = slot < counts[members][None, :]                     # (L, n)
+            at = np.where(real, starts[members][None, :] + slot, 0)
+            cols_g.append(np.where(real, cols[at], 0).reshape(-1))
+            vals_g.append(np.where(real, vals[at], 0).reshape(-1))
+            plan.append((offset, hi, members.size, done))
+            self._row_of[members] = done + np.arange(members.size)
+            offset += hi * members.size
+            done += members.size
+        # intp: numpy's gather casts other index types on every call; the columns are in
+        # range by construction, so ``take`` needs no per-element bounds check (mode="clip").
+        self.cols = np.concatenate(cols_g).astype(np.intp)
+        self.vals = np.concatenate(vals_g).astype(np.float32)
+        self._vals4 = np.repeat(self.vals, 4)     # one weight for each of four lanes
+        #: (first stored entry, entries a row L, rows n, first row of the group's sums)
+        self._plan = tuple(plan)
 
     @property
     def nnz(self) -> int:
+        """Entries of ``A`` (the groups' zero padding not counted: :attr:`stored`)."""
+        return self.entries
+
+    @property
+    def stored(self) -> int:
+        """Entries gathered per apply, the groups' padding included."""
         return int(self.vals.size)
 
     def apply(self, x: np.ndarray) -> np.ndarray:
@@ -192,19 +223,50 @@ class SparseOperator:
         OpenCV's RGB → RGBA over one wide row: numpy pads row by row, 20× dearer), are
         gathered as single 16-byte scalars through a complex128 view: one gather for all
         channels, where numpy gathers rows of three several times slower than scalars
-        (callgrind, whole apply: about 20 instructions an entry, 46 with one gather a
-        channel). The segment sums run a channel at a time: numpy's ``reduceat`` along
-        axis 0 of the (entries, 4) products costs a quarter more."""
+        (callgrind: about 20 instructions an entry, 46 with one gather a channel)."""
         rgba = cv2.cvtColor(np.ascontiguousarray(x, np.float32).reshape(1, -1, 3),
                             cv2.COLOR_RGB2RGBA)
         gathered = np.take(rgba.view(np.complex128).reshape(-1), self.cols, mode="clip")
         products = gathered.view(np.float32)
         products *= self._vals4
-        products = products.reshape(-1, 4)
-        out = np.empty((self.shape[0], 3), np.float32)
-        for c in range(3):
-            out[:, c] = np.add.reduceat(products[:, c], self.starts)
-        return out
+        sums = np.empty(4 * self.shape[0], np.float32)
+        for first, length, n, row in self._plan:
+            np.add.reduce(products[4 * first:4 * (first + length * n)].reshape(length, 4 * n),
+                          axis=0, out=sums[4 * row:4 * (row + n)])
+        rows = np.take(sums.view(np.complex128), self._row_of, mode="clip")
+        return cv2.cvtColor(rows.view(np.float32).reshape(1, -1, 4),
+                            cv2.COLOR_RGBA2RGB).reshape(-1, 3)
+
+
+#: Modelled instructions of one group of :class:`SparseOperator` rows (a numpy reduction
+#: and its slicing), and of one padding entry (a gather, a multiply and an add).
+GROUP_COST, PAD_COST = 15000.0, 20.0
+
+
+def length_groups(counts: np.ndarray) -> list:
+    """Groups of the row lengths ``counts`` (entries a row), as ranges (lo, hi) of lengths
+    that cover every row: each group's rows are padded to ``hi`` entries. The ranges are the
+    cheapest partition of the sorted distinct lengths under :data:`GROUP_COST` a group and
+    :data:`PAD_COST` a padding entry (dynamic programming over the distinct lengths)."""
+    lengths, rows = np.unique(counts, return_counts=True)
+    m = lengths.size
+    # prefix sums: padding of lengths[start:end] to hi is hi·Σrows − Σ(length·rows)
+    n_rows = np.concatenate([[0], np.cumsum(rows)]).astype(np.float64)
+    n_entries = np.concatenate([[0], np.cumsum(lengths * rows)]).astype(np.float64)
+    best = np.zeros(m + 1)
+    cut = np.zeros(m + 1, np.int64)
+    for end in range(1, m + 1):               # the last group ends with lengths[end - 1]
+        hi = float(lengths[end - 1])
+        pad = hi * (n_rows[end] - n_rows[:end]) - (n_entries[end] - n_entries[:end])
+        cost = best[:end] + GROUP_COST + PAD_COST * pad
+        cut[end] = int(np.argmin(cost))
+        best[end] = cost[cut[end]]
+    groups, end = [], m
+    while end:
+        start = cut[end]
+        groups.append((int(lengths[start]), int(lengths[end - 1])))
+        end = start
+    return groups[::-1]
 
 
 class MipOperator:
