@@ -36,7 +36,14 @@ for name in ["pyproject.toml", "setup.py"] + sorted(glob.glob("provider/**/*.c",
 print(h.hexdigest())') ${extras}"
 have=$(cat "$stamp" 2>/dev/null || true)
 # An install with extras also serves a plain request (serve-demo.sh after test.sh).
-if [ -x .venv/bin/shlight ] && { [ "$have" = "$want" ] || [ "${have%% *} " = "$want" ]; } &&
+# The C kernels are optional in pip's build (no compiler: it still installs without them), so
+# the stamp also says whether a compiler and Python's headers were there: installing them
+# since is a reason to install again.
+toolchain="cc:$(command -v cc >/dev/null && echo yes || echo no)"
+toolchain="$toolchain,headers:$(.venv/bin/python -c 'import os, sysconfig
+print("yes" if os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")) else "no")')"
+want="${want%% *} $toolchain ${extras}"
+if [ -x .venv/bin/shlight ] && { [ "$have" = "$want" ] || [ "${have% *} " = "$want" ]; } &&
         .venv/bin/python -c 'import provider' 2>/dev/null; then
     exit 0
 fi

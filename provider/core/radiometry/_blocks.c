@@ -26,7 +26,11 @@ get_view(PyObject *obj, Py_buffer *view, int writable, const char *fmt, int ndim
     int flags = PyBUF_RECORDS_RO | (writable ? PyBUF_WRITABLE : 0);
     if (PyObject_GetBuffer(obj, view, flags) < 0)
         return -1;
-    if (view->ndim != ndim || view->format == NULL || strcmp(view->format, fmt) != 0) {
+    /* int32 arrays: numpy says "i", or "l" where a long is 4 bytes (Windows) */
+    const int int32 = strcmp(fmt, "i") == 0 && view->format != NULL && view->itemsize == 4
+                      && (strcmp(view->format, "i") == 0 || strcmp(view->format, "l") == 0);
+    if (view->ndim != ndim || view->format == NULL
+            || (!int32 && strcmp(view->format, fmt) != 0)) {
         PyErr_Format(PyExc_ValueError, "%s: expected a %d-d array of format '%s'", name, ndim,
                      fmt);
         PyBuffer_Release(view);
@@ -109,11 +113,13 @@ decode_blocks(PyObject *self, PyObject *args)
     float *acc = (float *)malloc(sizeof(float) * (size_t)(w * C + 1));
     if (acc == NULL) {
         PyBuffer_Release(&fr); PyBuffer_Release(&tb); PyBuffer_Release(&out);
+        if (use_spans)
+            PyBuffer_Release(&sp);
         return PyErr_NoMemory();
     }
     const float *t = (const float *)tb.buf;
     const int shared = n == 256;
-    const float inv = 1.0f / (float)(f * f);
+    const float inv = 1.0f / ((float)f * (float)f);
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t y = 0; y < h; y++) {
         float *o = (float *)((char *)out.buf + y * out.strides[0]);

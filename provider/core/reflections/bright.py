@@ -11,10 +11,12 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..radiometry.photometry import LUMINANCE_WEIGHTS
+
 #: Work pixels whose light above the rest is prefiltered exactly (a sun, a lamp).
 BRIGHT_PIXELS = 64
 #: Rec. 709 luminance of linear RGB, as a (1, 3) matrix for ``cv2.transform``.
-LUMINANCE = np.array([[0.2126, 0.7152, 0.0722]], np.float32)
+LUMINANCE = LUMINANCE_WEIGHTS.astype(np.float32)[None]
 
 
 def bright_split(px: np.ndarray):

@@ -8,8 +8,9 @@ not decode the frame again; the projector's own band path fills one the same way
 """
 from __future__ import annotations
 
-import cv2
 import numpy as np
+
+from ..radiometry.blocks import shrink
 
 
 class WorkImage:
@@ -42,7 +43,6 @@ class WorkImage:
         f = ch // self.array.shape[0]
         stop = min(r0 + n, ch)
         if stop > r0:
-            self.array[r0 // f:stop // f] = cv2.resize(
-                lin[:stop - r0, :cw], (self.array.shape[1], (stop - r0) // f),
-                interpolation=cv2.INTER_AREA)
+            self.array[r0 // f:stop // f] = shrink(
+                lin[:stop - r0, :cw], (self.array.shape[1], (stop - r0) // f))
         self.complete = self.rows >= ch

@@ -63,7 +63,11 @@ get_view(PyObject *obj, Py_buffer *view, int writable, const char *fmt, int ndim
     int flags = PyBUF_RECORDS_RO | (writable ? PyBUF_WRITABLE : 0);
     if (PyObject_GetBuffer(obj, view, flags) < 0)
         return -1;
-    if (view->ndim != ndim || view->format == NULL || strcmp(view->format, fmt) != 0) {
+    /* int32 arrays: numpy says "i", or "l" where a long is 4 bytes (Windows) */
+    const int int32 = strcmp(fmt, "i") == 0 && view->format != NULL && view->itemsize == 4
+                      && (strcmp(view->format, "i") == 0 || strcmp(view->format, "l") == 0);
+    if (view->ndim != ndim || view->format == NULL
+            || (!int32 && strcmp(view->format, fmt) != 0)) {
         PyErr_Format(PyExc_ValueError, "%s: expected a %d-d array of format '%s'", name, ndim,
                      fmt);
         PyBuffer_Release(view);
@@ -271,6 +275,7 @@ fold_lens(PyObject *self, PyObject *args)
                           &f, &clear))
         return NULL;
     Py_buffer views[7];
+    memset(views, 0, sizeof views);
     int got[7] = {0, 0, 0, 0, 0, 0, 0};
     int use_mid = mid_obj != Py_None, linear = table_obj == Py_None;
     const char *err = NULL;
@@ -295,7 +300,10 @@ fold_lens(PyObject *self, PyObject *args)
         err = "frame: (H, W, 3) with contiguous pixels";
     else if (!linear && (!contiguous(&tb) || (tb.shape[0] != 256 && tb.shape[0] != 768)))
         err = "table: 256 contiguous entries, or 768 (per channel)";
-    else if (nx < 1 || ny < 1 || xl - nx < 0 || xr + nx > W || yt - ny < 0 || yb + ny > H)
+    /* xl <= xr, yt <= yb and the square's outer edges inside the frame bound every row and
+     * column read (written as differences: no overflow whatever the arguments). */
+    else if (nx < 1 || ny < 1 || xl < nx || yt < ny || xr < xl || yb < yt || nx > W - xr
+             || ny > H - yb)
         err = "geometry: the square must lie inside the frame";
     else if (!contiguous(&ex) || ex.shape[0] != ny)
         err = "extents: (ny,) contiguous int32";
@@ -307,7 +315,7 @@ fold_lens(PyObject *self, PyObject *args)
         err = "sums: (K, 3) contiguous float64";
     else if (use_mid && (f < 1 || !contiguous(&mid) || mid.shape[0] != H / f
                          || mid.shape[1] != W / f || mid.shape[2] != 3
-                         || (xr + nx) > (W / f) * f || (yb + ny) > (H / f) * f))
+                         || nx > (W / f) * f - xr || ny > (H / f) * f - yb))
         err = "mid: (H / f, W / f, 3) float32 holding the square's blocks";
     const int *extent = (const int *)ex.buf;
     const int *parity = (const int *)par.buf;

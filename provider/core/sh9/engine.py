@@ -29,10 +29,11 @@ import numpy as np
 
 from ..geometry import sh
 from .clipping import ClippedLight
-from .lens_fold import lens_fold
-from .result import SH9Result  # noqa: F401  (the engine's result, imported from here too)
+from . import lens_fold as _lens_fold
+from .lens_fold import centred_on_grid, lens_fold
+from .result import SH9Result
 from .meter import has_absolute_scale, pixels_up_illuminance, up_weights
-from .support import DecodeSpans, DownsampledSpans, shrink
+from .support import DecodeSpans, DownsampledSpans
 from ..blas import one_blas_thread
 from ..errors import InputError
 from ..lights.extractor import LightExtractor, LinearView
@@ -43,6 +44,7 @@ from ..radiometry.photometry import (UNITS_ABSOLUTE, UNITS_RELATIVE, absolute_ca
                                      absolute_factor, luminance)
 from ..options import check_lighting, check_options, exposure_scale, freeze_options
 from ..radiometry import blocks
+from ..radiometry.blocks import shrink
 from ..radiometry.float_clean import FloatCleaner
 from ..radiometry.decode import FrameDecoder, image_array, srgb_to_linear  # noqa: F401
 
@@ -110,7 +112,12 @@ class SH9Projector(FrameDecoder):
             else:
                 full = make_projection(projection, width, height, **projection_options)
             withdrawn = isinstance(full, Equirect) and downsample > 1
-            if withdrawn:
+            # A lens folded at full size whose half-size centre falls between pixels: the
+            # small frame's dense table (9 weights a small pixel) reads as many floats as
+            # the full frame's quarter tables (9 per 4 pixels), and the C fold is faster.
+            dense_half = (downsample == 2 and _lens_fold.KERNEL and centred_on_grid(full)
+                          and not centred_on_grid(full.scaled(2)))
+            if withdrawn or dense_half:
                 downsample = 1
             self.projection = full if downsample == 1 else full.scaled(downsample)
             self._full = full
@@ -123,6 +130,11 @@ class SH9Projector(FrameDecoder):
             self.warnings.append(
                 "--downsample on an equirect frame is withdrawn: its exact path is faster "
                 "(separable weights), so the frame is projected exactly")
+        elif dense_half:
+            self.warnings.append(
+                "--downsample 2 is withdrawn for this lens: its centre falls between the "
+                "half-size pixels, so the small frame needs a full table and the exact path "
+                "is faster; the frame is projected exactly (--downsample 4 is faster)")
         #: (x0, y0, x1, y1): the part of each frame the projection covers (a ball's box).
         self.window = getattr(full, "window", None)
         self.downsample = downsample
@@ -173,7 +185,8 @@ class SH9Projector(FrameDecoder):
                                  ).astype(np.float32)
             seen = np.any(dense != 0, axis=1).reshape(p.height, p.width)
             #: The fast path's blocks with a weight, per row (decode_blocks reads only them).
-            self._block_spans = blocks.block_spans(seen) if downsample > 1 else None
+            self._block_spans = (blocks.block_spans(seen)
+                                 if downsample > 1 and self._extractor is None else None)
             if downsample == 1:      # 8/16-bit bands decode only the columns seen (.support)
                 self._spans = DecodeSpans.of(seen, self.BAND_ROWS,
                                              self._extractor.mid_factor if self._fuse_lights else 1)
@@ -259,9 +272,10 @@ class SH9Projector(FrameDecoder):
                 table = self._lut(frame.dtype) if lut is None else lut
                 mid = self._extractor.new_mid() if self._fuse_lights else None
                 f = self._extractor.mid_factor if mid is not None else 1
-                if work is None and self._fold is not None and self._fold.decodes(
+                if self._fold is not None and self._fold.decodes(
                         frame, None if mid is None else mid.shape[:2], f):
-                    # The C kernel: decoded inside the fold, no float copy of the frame.
+                    # The C kernel: decoded inside the fold, no float copy of the frame
+                    # (a cube's ``work`` stays empty: its own decode_blocks is cheaper).
                     self._fold.decode_project(frame, table, acc, mid, f)
                     return (self._coefficients(acc) * scale, None, mid,
                             self.clipping(frame, table, stats), self._up_sum(acc))
@@ -293,9 +307,8 @@ class SH9Projector(FrameDecoder):
             return (self._coefficients(acc) * scale, None, lin, 0.0,
                     None if up is None else up * scale)
         # Fast path: area-average the *linear* frame, then project the small one.
-        clipped = (self.clipping(frame, self._lut(frame.dtype) if lut is None else lut, stats)
-                   if integer else 0.0)
         table = (self._lut(frame.dtype) if lut is None else lut) if integer else None
+        clipped = self.clipping(frame, table, stats) if integer else 0.0
         if frame.dtype == np.uint8 and blocks.KERNEL and self._extractor is None:
             bw, bh = self._block      # the C kernel: decode and block means in one pass
             lin, small = None, blocks.decode_blocks(frame[:bh, :bw], table, self.downsample,
@@ -344,10 +357,12 @@ class SH9Projector(FrameDecoder):
         """Coefficients, matrices and statistics of one frame (``error_estimate``: whether
         to estimate SH9's error on this frame; None: as the projector was built).
 
-        ``work``: a :class:`~provider.core.reflections.environment.WorkImage`
+        ``work``: a :class:`~provider.core.reflections.work_image.WorkImage`
         (``EnvironmentProjector.new_work(this projector)``) that the decoding pass of an 8- or
         16-bit frame fills on its way, so that the reflection cube of the same frame needs no
-        second decode (left incomplete by float frames and ``downsample`` > 1).
+        second decode (left incomplete by float frames, ``downsample`` > 1, and 8-bit frames
+        that the C fold kernel decodes inside its own pass: that pass and the cube's own
+        one-pass decode cost less than a float copy of the frame shared by both).
 
         With ``lights="auto"`` the result also holds ``lights`` and ``ambient_coefficients``;
         ``tracker`` (a :class:`~provider.core.lights.tracking.LightTracker`, owned by the

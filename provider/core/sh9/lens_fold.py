@@ -29,6 +29,7 @@ the fold of its own parity; each non-zero part is one more row of that parity's 
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import cv2
@@ -73,24 +74,20 @@ class _FoldedLens:
         through pixel centres (unpaired: the residual list)."""
         return self.Y // 2 - self.ny, self.Y % 2
 
-    @property
+    @functools.cached_property
     def kernel_data(self) -> tuple:
         """The C kernel's constant arguments (made once): geometry (xl, xr, yt, yb, nx, ny),
         per row pair the columns to read (up to the last where some weight is non-zero),
         the stacked quarter tables (K, ny·nx) and each row's fold code."""
-        data = self.__dict__.get("_kernel_data")
-        if data is None:
-            tables = np.ascontiguousarray(np.concatenate([t for _, _, t in self.groups]),
-                                          np.float32)
-            codes = np.array([_PARITY_CODE[parity] for parity, k, _ in self.groups for _ in k],
-                             np.int32)
-            seen = np.any(tables.reshape(-1, self.ny, self.nx) != 0, axis=0)
-            extent = np.where(seen.any(axis=1), self.nx - np.argmax(seen[:, ::-1], axis=1), 0)
-            xl, yt = self.X // 2, self.Y // 2
-            geometry = (xl, self.X - xl, yt, self.Y - yt, self.nx, self.ny)
-            data = self.__dict__["_kernel_data"] = (geometry, extent.astype(np.int32),
-                                                    tables, codes)
-        return data
+        tables = np.ascontiguousarray(np.concatenate([t for _, _, t in self.groups]),
+                                      np.float32)
+        codes = np.array([_PARITY_CODE[parity] for parity, k, _ in self.groups for _ in k],
+                         np.int32)
+        seen = np.any(tables.reshape(-1, self.ny, self.nx) != 0, axis=0)
+        extent = np.where(seen.any(axis=1), self.nx - np.argmax(seen[:, ::-1], axis=1), 0)
+        xl, yt = self.X // 2, self.Y // 2
+        geometry = (xl, self.X - xl, yt, self.Y - yt, self.nx, self.ny)
+        return geometry, extent.astype(np.int32), tables, codes
 
     def x_fold(self, rows: np.ndarray, even: np.ndarray, odd: np.ndarray,
                flipped: np.ndarray) -> None:
@@ -344,6 +341,15 @@ def _lenses(projection) -> tuple:
     if hasattr(projection, "normalised") and hasattr(projection, "cx"):
         return (_DiscAxes(projection.cx, projection.cy),)
     return ()
+
+
+def centred_on_grid(projection) -> bool:
+    """True when ``projection`` has radially symmetric images (lenses, a probe's disc)
+    whose centres all fall on the pixel grid (a pixel's corner or centre): the condition
+    for the fold, checked before any weight is made."""
+    lenses = _lenses(projection)
+    return bool(lenses) and all(abs(2 * v - round(2 * v)) <= 1e-9
+                                for lens in lenses for v in (lens.cx, lens.cy))
 
 
 def _lens_region(projection, i, n):

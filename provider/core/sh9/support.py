@@ -15,7 +15,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..radiometry.blocks import shrink  # noqa: F401  (the fast path's; the engine imports it here)
+from ..radiometry.blocks import shrink
 from ..radiometry.response import apply_lut
 
 #: Column gaps narrower than this are decoded anyway: one more cv2.LUT call costs more

@@ -247,7 +247,7 @@ class EnvironmentWorker:
             self._thread.join(timeout)
 
     def work_for(self, image, decoder):
-        """A :class:`~provider.core.reflections.environment.WorkImage` for the SH9 pass (``decoder``, its
+        """A :class:`~provider.core.reflections.work_image.WorkImage` for the SH9 pass (``decoder``, its
         projector) to fill while it decodes ``image`` anyway, so that the cube of this frame
         needs no second decode; None unless a cube may be due (at most ``hz`` a second) and
         the cube's projector for this frame size is built. Called from the probe's worker
