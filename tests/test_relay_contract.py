@@ -404,6 +404,7 @@ def test_a_flooding_upstream_does_not_drive_the_probe(fps):
                 connect(pc.url) as ws:
             recv_json(ws)
             recv_until(ws, fresh, timeout=20)
+            counted_from = time.monotonic()
             before = health(pc.http)["probes"]["pc"]["frames"]
             cpu = _cpu_seconds(pc.proc.pid)
             texts = [json.dumps(message(scale=1.0 + 1e-6 * (i + 1))) for i in range(FLOOD)]
@@ -417,12 +418,16 @@ def test_a_flooding_upstream_does_not_drive_the_probe(fps):
             recv_until(ws, newest_arrived, timeout=60, what="the newest upstream lighting")
             assert up.flooded.wait(10)
             frames = health(pc.http)["probes"]["pc"]["frames"] - before
+            counted_for = time.monotonic() - counted_from
             cpu = _cpu_seconds(pc.proc.pid) - cpu
     seconds = up.flood_seconds
     print(f"relay --fps {fps}: {frames} frames of {FLOOD} sent in {seconds:.2f} s "
           f"({frames / seconds:.1f}/s); the client got {len(received)}; server CPU {cpu:.2f} s meanwhile")
     assert frames <= FLOOD // 5
-    assert frames <= pace * seconds + 3           # the pacer's bound, whatever the load
+    # The pacer's bound, whatever the load: frames counted between the two health reads,
+    # which on a busy machine span more than the flood itself (94 frames in a 3.0 s flood
+    # failed a bound on the flood's seconds once, under a CPU hog).
+    assert frames <= pace * counted_for + 3
     assert len(received) <= frames + seconds + 2  # + keepalives: no backlog of the flood
 
 
