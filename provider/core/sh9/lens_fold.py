@@ -348,8 +348,12 @@ def centred_on_grid(projection) -> bool:
     whose centres all fall on the pixel grid (a pixel's corner or centre): the condition
     for the fold, checked before any weight is made."""
     lenses = _lenses(projection)
-    return bool(lenses) and all(abs(2 * v - round(2 * v)) <= 1e-9
-                                for lens in lenses for v in (lens.cx, lens.cy))
+    return bool(lenses) and all(_on_grid(lens) for lens in lenses)
+
+
+def _on_grid(lens) -> bool:
+    """The lens's centre on a pixel's corner or centre (twice it an integer, both axes)."""
+    return all(abs(2 * v - round(2 * v)) <= 1e-9 for v in (lens.cx, lens.cy))
 
 
 def _lens_region(projection, i, n):
@@ -364,10 +368,9 @@ def _fold_lens(lens, region, weights, height, extra=None):
     """A :class:`_FoldedLens` of ``lens`` over columns ``region`` of the (H, W, 9) world
     weights (and the (H, W, E) ``extra`` world-frame columns, split into parity parts), and
     the mask of the pixels it folds; None where the grid is not symmetric."""
-    X, Y = 2 * lens.cx, 2 * lens.cy
-    if abs(X - round(X)) > 1e-9 or abs(Y - round(Y)) > 1e-9:
+    if not _on_grid(lens):
         return None
-    X, Y = int(round(X)), int(round(Y))
+    X, Y = int(round(2 * lens.cx)), int(round(2 * lens.cy))
     a, b = region
     nx = min(X // 2 - a, b - (X - X // 2))
     ny = min(Y // 2, height - (Y - Y // 2))
