@@ -47,8 +47,10 @@ def test_folded_projection_equals_the_dense_table(case, dtype):
     scale = np.abs(want.coefficients).max()
     assert np.abs(got.coefficients - want.coefficients).max() <= 1e-5 * scale  # float32 sums
     assert got.stats["clipped_fraction"] == want.stats["clipped_fraction"]
+    # a ratio of two float32 sums, each within ~1e-5 of the other path's (the bound on the
+    # coefficients above): BLAS's kernel, chosen by CPU, moves it by 4e-6 (AVX-512 against AVX2)
     assert got.stats["clipped_light_fraction"] == pytest.approx(
-        want.stats["clipped_light_fraction"], rel=1e-6, abs=1e-12)
+        want.stats["clipped_light_fraction"], rel=2e-5, abs=1e-12)
 
 
 def test_fast_path_is_folded_too():
