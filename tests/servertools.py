@@ -27,10 +27,17 @@ ROOT = Path(__file__).resolve().parent.parent
 SHLIGHT = [sys.executable, "-m", "provider.cli"]
 SERVING = re.compile(r"serving wss?://[^ ]*:(\d+)/")
 
+#: Every wait for something to happen (poll, recv_until) is a guard against a hung test, never
+#: a measure of speed: its deadline is what an idle machine needs with a margin, times PATIENCE.
+#: A cube's first build or a server's start takes several times as long on 2 shared cores
+#: beside a CPU hog (CI) as alone; a passing test waits only as long as the event takes.
+PATIENCE = float(os.environ.get("SHLIGHT_TEST_PATIENCE", "4"))
+
 
 def poll(predicate, timeout: float = 10.0, interval: float = 0.02, what: str = "condition"):
-    """Wait until ``predicate()`` is truthy (returns it); AssertionError at the deadline."""
-    deadline = time.monotonic() + timeout
+    """Wait until ``predicate()`` is truthy (returns it); AssertionError at the deadline
+    (``timeout`` × PATIENCE seconds)."""
+    deadline = time.monotonic() + timeout * PATIENCE
     while True:
         value = predicate()
         if value:
@@ -88,7 +95,7 @@ class ServerThread(_Loopback):
 
     def __enter__(self) -> "ServerThread":
         self.thread.start()
-        self._ready.wait(30)
+        self._ready.wait(30 * PATIENCE)
         if self.error is not None:
             raise self.error
         return self
@@ -151,7 +158,7 @@ class ServeProcess(_Loopback):
         self._found.set()
 
     def __enter__(self) -> "ServeProcess":
-        self._found.wait(60)
+        self._found.wait(60 * PATIENCE)
         if self.port is None:
             self.stop()
             raise AssertionError("shlight serve did not start:\n" + self.output)
@@ -173,8 +180,9 @@ class ServeProcess(_Loopback):
 
 
 def run_cli(*argv: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    """``shlight ARGV`` as a subprocess; ``timeout`` (× PATIENCE) guards against a hang."""
     return subprocess.run([*SHLIGHT, *argv], cwd=ROOT, capture_output=True, text=True,
-                          timeout=timeout)
+                          timeout=timeout * PATIENCE)
 
 
 # ---- HTTP helpers ------------------------------------------------------------------------------------
@@ -228,13 +236,14 @@ def recv_json(ws, timeout: float = 10.0) -> dict:
 
 def recv_until(ws, predicate, timeout: float = 10.0, what: str = "message") -> dict:
     """Read messages until one satisfies ``predicate`` (returned); AssertionError at the
-    deadline."""
-    deadline = time.monotonic() + timeout
+    deadline (``timeout`` × PATIENCE seconds)."""
+    deadline = time.monotonic() + timeout * PATIENCE
     last = None
     while True:
         left = deadline - time.monotonic()
         if left <= 0:
-            raise AssertionError(f"no {what} within {timeout} s; last message: {last}")
+            raise AssertionError(
+                f"no {what} within {timeout * PATIENCE:g} s; last message: {last}")
         try:
             msg = recv_json(ws, timeout=left)
         except TimeoutError:
