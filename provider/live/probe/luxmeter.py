@@ -19,8 +19,8 @@ SOURCE is one of
 The probe asks :meth:`LuxMeter.lux` for every frame: the latest reading no older than
 ``max_age_s`` (a meter that stopped answering must not hold a stale sun), else None, and
 the frame's clipped light stays a reported lower bound. :meth:`LuxMeter.health` is the
-meter's part of the probe's ``/healthz`` entry (last reading, its age, refusals, broker). Sensor protocols, from the data
-sheets:
+meter's part of the probe's ``/healthz`` entry (last reading, its age, refusals, broker).
+Sensor protocols, from the data sheets:
 
 * BH1750 (ROHM BH1750FVI): opcode 0x01 power on, 0x10 continuous high-resolution mode
   (1 lx, 120 ms); a read returns two bytes, big-endian; lux = count / 1.2 at the default
