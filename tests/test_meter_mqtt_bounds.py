@@ -233,3 +233,11 @@ def test_serve_healthz_shows_the_meter_through_a_flood_and_a_broker_restart(
             assert refusals and len(refusals) < sent, proc.output   # rate-limited
         finally:
             publisher.close()
+
+
+def test_serve_refuses_a_fixed_reading_no_meter_reads(camera):  # noqa: F811
+    from servertools import run_cli
+    p = run_cli("serve", "--source", "demo", "--camera", str(camera), "--lux", "1e39")
+    assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
+    (line,) = p.stderr.strip().splitlines()
+    assert "--lux 1e+39: above 200,000 lux" in line
