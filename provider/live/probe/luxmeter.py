@@ -7,15 +7,20 @@ SOURCE is one of
   number or a JSON object with a ``lux`` number (what Zigbee2MQTT / Tasmota / ESPHome
   illuminance sensors publish); paho-mqtt in its own thread, the URL and the client (user,
   password, TLS with system trust or ``--lux-ca``) those of ``serve --mqtt``
-  (:mod:`provider.live.wire.mqtt_link`);
+  (:mod:`provider.live.wire.mqtt_link`). Anyone who can publish on the topic can send
+  anything: every payload is read under bounds (:func:`parse_payload`: size, nesting,
+  digits, 0 … :data:`MAX_LUX`), a bad one is counted, logged (rate-limited) and dropped, and
+  nothing raised reaches paho's network thread (an exception there would end it, and with
+  it every later reading);
 * ``i2c:BUS[:bh1750|tsl2591][@ADDRESS]``: a BH1750 (default, address 0x23) or TSL2591
   (0x29) on the Raspberry Pi's I²C bus BUS (``/dev/i2c-BUS``) through smbus2 (the
   ``sensors`` extra), polled in its own thread.
 
 The probe asks :meth:`LuxMeter.lux` for every frame: the latest reading no older than
 ``max_age_s`` (a meter that stopped answering must not hold a stale sun), else None, and
-the frame's clipped light stays a reported lower bound. Sensor protocols, from the data
-sheets:
+the frame's clipped light stays a reported lower bound. :meth:`LuxMeter.health` is the
+meter's part of the probe's ``/healthz`` entry (last reading, its age, refusals, broker).
+Sensor protocols, from the data sheets:
 
 * BH1750 (ROHM BH1750FVI): opcode 0x01 power on, 0x10 continuous high-resolution mode
   (1 lx, 120 ms); a read returns two bytes, big-endian; lux = count / 1.2 at the default
@@ -41,6 +46,23 @@ log = logging.getLogger("shlight.luxmeter")
 
 #: A reading older than this is not used (seconds).
 MAX_AGE_S = 10.0
+#: The brightest reading taken (lux): the top of hand-held lux meters' range (200,000 lx).
+#: The noon sun at sea level gives about 1.2e5 lux (1.3e5 above the atmosphere), so a
+#: larger number is a sensor or a publisher gone wrong, not light, and must not reach the
+#: clients as a sun.
+MAX_LUX = 2e5
+#: The largest MQTT payload read (bytes): a sensor's message (Zigbee2MQTT, Tasmota,
+#: ESPHome) with all its other fields is a few hundred bytes.
+MAX_PAYLOAD_BYTES = 4096
+#: The deepest nesting of JSON objects and arrays read: a sensor's message nests 2-3 deep;
+#: Python's json recurses once per level (RecursionError near 1,000).
+MAX_DEPTH = 8
+#: The longest JSON number read (characters): a double holds 17 significant digits, an
+#: exponent and signs; longer (a 401-digit integer) is no reading and overflows a float.
+MAX_NUMBER_CHARS = 32
+#: Seconds between two log lines about refused readings (each says how many so far): a
+#: flood of bad payloads must not flood the log.
+LOG_EVERY_S = 10.0
 #: Seconds between two sensor reads (the BH1750 integrates 120 ms, the TSL2591 100+ ms).
 POLL_S = 0.25
 
@@ -68,7 +90,10 @@ class LuxMeter:
         self._value: float | None = None
         self._at = -math.inf
         self._lock = threading.Lock()
-        self.errors = 0
+        self.readings = 0               # readings taken
+        self.errors = 0                 # readings refused (or reads failed)
+        self.last_error = ""            # why the last one was refused
+        self._logged_at = -math.inf     # when a refusal was last logged (monotonic)
         #: where the meter faces (``--lux-facing``: :func:`provider.core.sh9.meter.parse_facing`;
         #: None: up)
         self.facing = None
@@ -87,26 +112,48 @@ class LuxMeter:
 
     def set(self, lux: float, at: float | None = None, colour=None) -> bool:
         """Store a reading (and its (CCT, Duv) when the meter says it); refuses (counts,
-        logs once in a while) a non-finite or negative one: a broken sensor must not close
-        anything."""
+        logs once in a while) one that is not a number of lux within 0 … :data:`MAX_LUX`:
+        a broken sensor must not close anything."""
         try:
-            lux = float(lux)
-        except (TypeError, ValueError):
-            lux = math.nan
-        if not (math.isfinite(lux) and lux >= 0):
-            if self._count_error():
-                log.warning("lux meter %s: refused reading %r (%d so far)", self.description,
-                            lux, self.errors)
+            lux = checked_lux(lux)
+        except RefusedReading as exc:
+            self.refuse(str(exc))
             return False
         with self._lock:
             self._value, self._at = lux, time.monotonic() if at is None else at
             self._reading_colour = colour
+            self.readings += 1
         return True
 
-    def _count_error(self) -> bool:
-        """Count one error; whether to log it (the 1st, 10th, 100th, then every 1000th)."""
+    def refuse(self, reason: str) -> None:
+        """Count a refused reading (or a failed read) and its reason; log it, one line at
+        most every :data:`LOG_EVERY_S` seconds, with the count so far."""
         self.errors += 1
-        return self.errors in (1, 10, 100) or self.errors % 1000 == 0
+        self.last_error = reason
+        now = time.monotonic()
+        if now - self._logged_at >= LOG_EVERY_S:
+            self._logged_at = now
+            log.warning("lux meter %s: refused: %s (%d so far)", self.description, reason,
+                        self.errors)
+
+    def health(self) -> dict:
+        """The meter's part of its probe's /healthz entry: ``state`` (``reading``: its
+        latest reading is in use; ``stale``: older than ``max_age_s``, not used;
+        ``waiting``: none yet), the last reading's ``lux`` and ``age_s`` (seconds),
+        ``readings`` taken, ``rejected`` and ``last_rejection`` (why the last one was
+        refused)."""
+        with self._lock:
+            value, at = self._value, self._at
+        age = None if value is None else time.monotonic() - at
+        state = ("waiting" if value is None else
+                 "reading" if age <= self.max_age_s else "stale")
+        health = {"source": self.description, "state": state, "lux": value,
+                  "age_s": None if age is None else round(age, 3),
+                  "readings": self.readings, "rejected": self.errors,
+                  "last_rejection": self.last_error}
+        if math.isfinite(self.max_age_s):       # a fixed reading never goes stale
+            health["max_age_s"] = self.max_age_s
+        return health
 
     def lux(self) -> float | None:
         """The latest reading in lux, or None (none yet, or older than ``max_age_s``)."""
@@ -135,6 +182,9 @@ class FixedLux(LuxMeter):
         super().__init__(f"{lux:g} lux", max_age_s=math.inf)
         if not (math.isfinite(lux) and lux > 0):
             raise InputError(f"--lux must be a positive number of lux, got {lux:g}")
+        if lux > MAX_LUX:
+            raise InputError(f"--lux {lux:g}: above {MAX_LUX:,.0f} lux, more than the noon "
+                             "sun gives (about 120,000)")
         self.set(lux)
 
 
@@ -155,9 +205,7 @@ class PolledLuxMeter(LuxMeter):
         try:
             return self.set(self.read())
         except OSError as exc:
-            if self._count_error():
-                log.warning("lux meter %s: %s (%d errors so far)", self.description, exc,
-                            self.errors)
+            self.refuse(str(exc))
             return False
 
     def _run(self) -> None:
@@ -216,15 +264,139 @@ class TSL2591(PolledLuxMeter):
         return max((full - ir) * (1.0 - ir / full) / cpl, 0.0)
 
 
-def _is_number(v) -> bool:
-    return not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+class RefusedReading(ValueError):
+    """A reading (or an MQTT payload) that is not one: its message says why, in a few
+    words, for the log and /healthz."""
+
+
+def checked_lux(value) -> float:
+    """``value`` as lux, or :class:`RefusedReading`: a number (not a bool), finite, within
+    0 … :data:`MAX_LUX`."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise RefusedReading(f"{_kind(value)} is not a number of lux")
+    try:
+        lux = float(value)
+    except OverflowError:       # an int beyond a double
+        raise RefusedReading("a number beyond a double is not a reading") from None
+    if not math.isfinite(lux):
+        raise RefusedReading(f"{lux} lux is not a reading")
+    if lux < 0:
+        raise RefusedReading(f"{lux:g} lux is negative")
+    if lux > MAX_LUX:
+        raise RefusedReading(f"{lux:g} lux is above {MAX_LUX:,.0f}, more than the noon sun "
+                             "gives")
+    return lux
+
+
+def _kind(value) -> str:
+    """A few words on what a JSON value is, for a refusal (never the value itself: it may
+    be megabytes)."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, dict):
+        return "an object"
+    return f"a {type(value).__name__}"
+
+
+def _depth(text: str) -> int:
+    """The deepest nesting of objects and arrays in JSON text (brackets inside strings do
+    not count), without parsing it."""
+    depth = deepest = 0
+    in_string = escaped = False
+    for ch in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+        elif ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif ch in "]}":
+            depth -= 1
+    return deepest
+
+
+def _number(token: str) -> float:
+    """json's hook for every number in a payload: refuses one of more than
+    :data:`MAX_NUMBER_CHARS` characters before converting it."""
+    if len(token) > MAX_NUMBER_CHARS:
+        raise RefusedReading(f"a number of {len(token)} characters (at most "
+                             f"{MAX_NUMBER_CHARS})")
+    number = float(token)
+    if not math.isfinite(number):               # 1e400
+        raise RefusedReading(f"{token} is beyond a double")
+    return number
+
+
+def _constant(name: str):
+    raise RefusedReading(f"{name} is not a number of lux")
+
+
+_LUX_KEYS = ("lux", "illuminance_lux", "illuminance")
+_CCT_KEYS = ("cct", "cct_k", "color_temperature", "colour_temperature")
+
+
+def parse_payload(payload: bytes) -> tuple[float, tuple[float, float] | None]:
+    """``(lux, colour)`` of an MQTT payload: a number, or an object with a ``lux`` number
+    (or ``illuminance_lux``, ``illuminance``) and, from a chroma meter, its CCT in kelvin
+    (``cct``, ``cct_k``, ``color_temperature`` or ``colour_temperature``) and ``duv``
+    (default 0); ``colour`` is ``(CCT, Duv)`` or None. :class:`RefusedReading`, saying why,
+    for anything else, checked in order of cost: at most :data:`MAX_PAYLOAD_BYTES` bytes of
+    UTF-8, nested at most :data:`MAX_DEPTH` deep, numbers of at most
+    :data:`MAX_NUMBER_CHARS` characters (no NaN or Infinity), lux within 0 …
+    :data:`MAX_LUX`. A CCT that is not a number within 1,000-25,000 K (or a Duv beyond
+    ±0.05) refuses the whole reading: a colour sensor gone wrong must not tint the sun."""
+    if len(payload) > MAX_PAYLOAD_BYTES:
+        raise RefusedReading(f"a payload of {len(payload):,} bytes (at most "
+                             f"{MAX_PAYLOAD_BYTES:,})")
+    try:
+        text = bytes(payload).decode("utf-8")
+    except UnicodeDecodeError:
+        raise RefusedReading("a payload that is not UTF-8 text") from None
+    if _depth(text) > MAX_DEPTH:
+        raise RefusedReading(f"JSON nested more than {MAX_DEPTH} deep")
+    try:
+        value = json.loads(text, parse_int=_number, parse_float=_number,
+                           parse_constant=_constant)
+    except RefusedReading:
+        raise
+    except ValueError:
+        raise RefusedReading("a payload that is neither a number nor JSON") from None
+    colour = None
+    if isinstance(value, dict):
+        key = next((k for k in _LUX_KEYS if k in value), None)
+        if key is None:
+            raise RefusedReading("an object without a lux, illuminance_lux or "
+                                 "illuminance number")
+        cct = next((value[k] for k in _CCT_KEYS if k in value), None)
+        duv = value.get("duv", 0.0)
+        value = value[key]
+        if cct is not None:
+            if not (isinstance(cct, float) and 1000 <= cct <= 25000):
+                raise RefusedReading("a CCT that is not a number within 1,000-25,000 K")
+            if not (isinstance(duv, float) and abs(duv) <= 0.05):
+                raise RefusedReading("a Duv that is not a number within ±0.05")
+            colour = (cct, duv)
+    return checked_lux(value), colour
 
 
 class MqttLuxMeter(LuxMeter):
     """The latest number (or JSON ``{"lux": ...}``) published on an MQTT topic
     (``target.prefix``), over the link ``serve --mqtt`` uses (user, password, TLS).
     Connection problems are logged (once per kind) and paho reconnects; the reading then
-    goes stale after ``max_age_s``."""
+    goes stale after ``max_age_s``. ``broker`` (``connecting``, ``connected``, ``down``,
+    ``refused``) and ``broker_error`` say where the link stands (/healthz)."""
 
     def __init__(self, target: MqttTarget, ca_file: str | None = None, **kw):
         super().__init__(target.url, **kw)
@@ -232,12 +404,19 @@ class MqttLuxMeter(LuxMeter):
         self._client = paho_client(target, ca_file, ca_option="--lux-ca")
         self._client.reconnect_delay_set(0.5, 10.0)
         self._client.on_connect = self._on_connect
-        self._client.on_message = lambda c, u, msg: self.on_payload(msg.payload)
+        self._client.on_connect_fail = self._on_connect_fail
+        self._client.on_disconnect = self._on_disconnect
+        self._client.on_message = self._on_message
+        # A second guard behind _on_message's own: whatever a callback raises is logged by
+        # paho, not raised out of its network thread (which would end the meter).
+        self._client.suppress_exceptions = True
         self._said = ""
         self.connected = threading.Event()
+        self.broker, self.broker_error = "connecting", ""
 
     def _on_connect(self, client, userdata, flags, reason_code, properties) -> None:
         if reason_code.is_failure:
+            self.broker, self.broker_error = "refused", str(reason_code)
             if str(reason_code) != self._said:
                 self._said = str(reason_code)
                 log.warning("lux meter %s: the broker refused: %s", self.description,
@@ -245,33 +424,41 @@ class MqttLuxMeter(LuxMeter):
             return
         self._said = ""
         client.subscribe(self.topic, qos=0)
+        self.broker, self.broker_error = "connected", ""
         self.connected.set()
 
-    def on_payload(self, payload: bytes) -> bool:
-        """Store a payload's reading: a number, or an object with a ``lux`` number (or
-        ``illuminance_lux``, ``illuminance``) and, from a chroma meter, its CCT in kelvin
-        (``cct``, ``cct_k``, ``color_temperature`` or ``colour_temperature``) and ``duv``
-        (default 0). A CCT that is not a number within 1,000-25,000 K (or a Duv beyond
-        ±0.05) refuses the whole reading: a colour sensor gone wrong must not tint the sun."""
+    def _on_connect_fail(self, client, userdata) -> None:
+        self.broker, self.broker_error = "down", "cannot reach the broker"
+        if self._said != self.broker_error:
+            self._said = self.broker_error
+            log.warning("lux meter %s: cannot reach the broker (retrying)", self.description)
+
+    def _on_disconnect(self, client, userdata, flags, reason_code, properties) -> None:
+        self.connected.clear()
+        if self.broker != "refused":
+            self.broker, self.broker_error = "down", f"disconnected: {reason_code}"
+
+    def _on_message(self, client, userdata, msg) -> None:
+        # The callback boundary: nothing may escape into paho's thread.
         try:
-            value = json.loads(payload.decode("utf-8", "replace"))
-        except ValueError:
-            value = None
-        colour = None
-        if isinstance(value, dict):
-            cct = next((value[k] for k in ("cct", "cct_k", "color_temperature",
-                                           "colour_temperature") if k in value), None)
-            duv = value.get("duv", 0.0)
-            value = value.get("lux", value.get("illuminance_lux", value.get("illuminance")))
-            if cct is not None:
-                if (_is_number(cct) and _is_number(duv) and 1000 <= cct <= 25000
-                        and abs(duv) <= 0.05):
-                    colour = (float(cct), float(duv))
-                else:
-                    value = math.nan
-        if not _is_number(value):
-            value = math.nan
-        return self.set(value, colour=colour)
+            self.on_payload(msg.payload)
+        except Exception as exc:    # noqa: BLE001 - a bug here must not end the meter
+            self.refuse(f"{type(exc).__name__}: {exc}"[:200])
+
+    def on_payload(self, payload: bytes) -> bool:
+        """Store a payload's reading (:func:`parse_payload`); a refused one is counted,
+        logged (rate-limited) and dropped, and the last good reading stays."""
+        try:
+            lux, colour = parse_payload(payload)
+        except RefusedReading as exc:
+            self.refuse(str(exc))
+            return False
+        return self.set(lux, colour=colour)
+
+    def health(self) -> dict:
+        health = super().health()
+        health.update(broker=self.broker, broker_error=self.broker_error)
+        return health
 
     def start(self) -> None:
         self._client.connect_async(self.target.host, self.target.port)

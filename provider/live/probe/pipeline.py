@@ -526,6 +526,8 @@ class Probe:
             health["ball"] = self.ball
         if self.registrar is not None:  # --marker: found or not, tries and misses
             health["registration"] = self.registrar.health(now)
+        if self.meter is not None:      # --lux: its last reading, refusals, broker
+            health["meter"] = self.meter.health()
         camera = self.capture.source_health()
         if camera:                      # a Theta: its settings, battery, temperature
             health["camera"] = camera

@@ -41,7 +41,10 @@ class MetricsText:
 def health(server) -> dict:
     """The /healthz document: overall status, each probe's state, each publisher's."""
     probes = {name: p.health() for name, p in server.probes.items()}
-    ok = all(p["state"] == "live" and "outdated" not in p for p in probes.values())
+    # a --lux meter without a reading in use: the lighting lacks the light it would close
+    ok = all(p["state"] == "live" and "outdated" not in p
+             and p.get("meter", {}).get("state", "reading") == "reading"
+             for p in probes.values())
     health = {"status": "ok" if ok else "degraded", "provider": f"shlight {__version__}",
               "uptime_s": round(time.time() - server.started_at, 3),
               "clients": len(server.clients), "probes": probes}
