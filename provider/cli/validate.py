@@ -49,21 +49,14 @@ def check_arguments(args) -> None:
         raise InputError(f"--normals must be between 1 and {MAX_NORMALS}, got {args.normals}")
     if not (math.isfinite(args.tolerance) and args.tolerance > 0):
         raise InputError(f"--tolerance must be a finite number above 0, got {args.tolerance:g}")
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise InputError(f"--out {args.out} is a file; give a folder for the pictures and "
-                         "report.json")
-    existing = os.path.abspath(args.out)
-    while not os.path.exists(existing):
-        existing = os.path.dirname(existing)
-    if not os.path.isdir(existing) or not os.access(existing, os.W_OK):
-        raise InputError(f"--out {args.out}: cannot write under {existing}")
-    if args.write_vectors:
-        folder = os.path.dirname(os.path.abspath(args.write_vectors))
-        if os.path.isdir(args.write_vectors):
-            raise InputError(f"--write-vectors {args.write_vectors} is a folder; give a .json "
-                             "file")
-        if not os.path.isdir(folder):
-            raise InputError(f"--write-vectors {args.write_vectors}: no folder {folder}")
+    from .outputs import output_file, output_folder
+    output_folder(args.out, holds="the pictures and report.json")
+    if args.write_vectors:      # written by the harness, to a name checked here
+        inputs = [(p, "an input panorama") for p in args.panoramas]
+        if args.vectors:
+            inputs.append((args.vectors, "the --vectors file"))
+        output_file(args.write_vectors, option="--write-vectors", inputs=inputs,
+                    product="contract vectors", extension=".json")
     if args.panoramas:          # the user's own files: unreadable ones refused before work
         from ..core.radiometry.images import read_image
         for path in args.panoramas:
