@@ -163,7 +163,8 @@ def test_a_file_under_a_file_is_refused(inputs, tmp_path, command):
     folder is a regular file."""
     plain = tmp_path / "plain"
     plain.write_bytes(b"keep")
-    _refused(_run(inputs, command, plain / "out.json"), f"{plain} is a file, not a folder")
+    _refused(_run(inputs, command, plain / "out.json"),
+             f"{plain / 'out.json'}: cannot write it: {plain} is a file, not a folder")
     assert plain.read_bytes() == b"keep"
 
 
@@ -178,8 +179,8 @@ def test_an_output_folder_under_a_file_is_refused(tmp_path, command):
 
 @pytest.mark.parametrize("command", FILE_COMMANDS)
 def test_a_missing_folder_is_refused(inputs, tmp_path, command):
-    _refused(_run(inputs, command, tmp_path / "nowhere" / "out.json"),
-             f"no folder {tmp_path / 'nowhere'}")
+    out = tmp_path / "nowhere" / "out.json"
+    _refused(_run(inputs, command, out), f"{out}: cannot write it: no folder {tmp_path / 'nowhere'}")
     assert list(tmp_path.iterdir()) == []
 
 
@@ -192,8 +193,8 @@ def test_a_folder_even_root_cannot_write_is_refused(inputs, command):
         res = run_cli(*FOLDER_COMMANDS[command], "/proc/b")
         _refused(res, "--out /proc/b: cannot write under /proc")
     else:
-        _refused(_run(inputs, command, "/proc/out.png"), "-o /proc/out.png: cannot write in "
-                                                         "/proc")
+        _refused(_run(inputs, command, "/proc/out.png"),
+                 "-o /proc/out.png: cannot write in /proc (")
 
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root may write into a read-only folder")
@@ -203,7 +204,8 @@ def test_a_read_only_folder_is_refused(inputs, tmp_path, command):
     ro.mkdir()
     ro.chmod(0o555)
     try:
-        _refused(_run(inputs, command, ro / "out.png"), f"cannot write in {ro}")
+        _refused(_run(inputs, command, ro / "out.png"),
+                 f"-o {ro / 'out.png'}: cannot write in {ro} (Permission denied)")
     finally:
         ro.chmod(0o755)
 

@@ -204,8 +204,8 @@ def output_file(path: str, *, option: str = "-o", inputs=(), product: str = "out
         while not os.path.lexists(above):
             above = os.path.dirname(above)
         if not os.path.isdir(above):
-            raise InputError(f"{name}: {above} is a file, not a folder")
-        raise InputError(f"{name}: no folder {folder}")
+            raise InputError(f"{name}: cannot write it: {above} is a file, not a folder")
+        raise InputError(f"{name}: cannot write it: no folder {folder}")
     why = _probe_folder(folder)
     if why:
         raise InputError(f"{name}: cannot write in {folder} ({why})")
