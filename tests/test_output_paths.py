@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from servertools import ROOT, SHLIGHT, run_cli
+from test_lens_calibration import calibrated  # noqa: F401  (chessboard photos of one lens)
 
 
 def _refused(res, *words):
@@ -180,7 +181,8 @@ def test_an_output_folder_under_a_file_is_refused(tmp_path, command):
 @pytest.mark.parametrize("command", FILE_COMMANDS)
 def test_a_missing_folder_is_refused(inputs, tmp_path, command):
     out = tmp_path / "nowhere" / "out.json"
-    _refused(_run(inputs, command, out), f"{out}: cannot write it: no folder {tmp_path / 'nowhere'}")
+    _refused(_run(inputs, command, out),
+             f"{out}: cannot write it: no folder {tmp_path / 'nowhere'}")
     assert list(tmp_path.iterdir()) == []
 
 
@@ -324,3 +326,16 @@ def test_the_target_is_checked_again_just_before_the_rename(tmp_path):
         out.write("{}")
     assert stat.S_ISFIFO(os.lstat(target).st_mode)
     assert [p.name for p in tmp_path.iterdir()] == ["late.json"]
+
+
+def test_calibrate_lens_writes_its_lens_file_to_standard_output(calibrated):
+    """``-o -``: the lens file alone on stdout (a pipe into a file or another tool), the
+    summary on stderr."""
+    import json
+    d, _, _ = calibrated
+    photos = [str(d / f"board{i:02d}.png") for i in range(14)]
+    res = run_cli("calibrate-lens", *photos, "--board", "8x5", "-o", "-", timeout=300)
+    assert res.returncode == 0, res.stderr
+    lens = json.loads(res.stdout)
+    assert lens["shlight_lens"] == 1 and lens["views"] == 14
+    assert "reprojection error" in res.stderr and "wrote" not in res.stderr + res.stdout

@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import sys
 
-from ..core.errors import InputError
 from .options import add_budget_argument, add_engine_arguments
 
 

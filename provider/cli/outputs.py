@@ -35,7 +35,8 @@ def file_kind(mode: int) -> str:
     """What a stat mode is, in a user's words (for a refusal)."""
     for test, name in ((stat.S_ISDIR, "folder"), (stat.S_ISCHR, "character device"),
                        (stat.S_ISBLK, "block device"), (stat.S_ISFIFO, "FIFO (a named pipe)"),
-                       (stat.S_ISSOCK, "socket"), (stat.S_ISREG, "file")):
+                       (stat.S_ISSOCK, "socket"), (stat.S_ISLNK, "symbolic link"),
+                       (stat.S_ISREG, "file")):
         if test(mode):
             return name
     return "special file"
@@ -181,7 +182,8 @@ def output_file(path: str, *, option: str = "-o", inputs=(), product: str = "out
     stem = os.path.splitext(path)[0]
     ext = extension or os.path.splitext(path)[1]
     if example is None:
-        example = f"{option} {stem}{ext}" if f"{stem}{ext}" != path else f"{option} {stem}-out{ext}"
+        example = f"{option} {stem}{ext}" if f"{stem}{ext}" != path else \
+            f"{option} {stem}-out{ext}"
     example = f", e.g. {example}" if example else ""
     if _DESCRIPTOR.fullmatch(os.path.abspath(path)) or _DESCRIPTOR.match(target):
         raise InputError(f"{name} is an open descriptor, not a file: give a file's name"
