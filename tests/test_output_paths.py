@@ -339,3 +339,21 @@ def test_calibrate_lens_writes_its_lens_file_to_standard_output(calibrated):
     lens = json.loads(res.stdout)
     assert lens["shlight_lens"] == 1 and lens["views"] == 14
     assert "reprojection error" in res.stderr and "wrote" not in res.stderr + res.stdout
+
+
+def test_write_vectors_replaces_a_file_whole(tmp_path):
+    """``--write-vectors``: written beside its target and renamed over it (its mode kept),
+    then checked by the shaders as ``--vectors`` would be (where OpenGL is missing the
+    check is refused after the write, in one line)."""
+    import json
+    out = tmp_path / "v.json"
+    out.write_text("old")
+    out.chmod(0o600)
+    res = run_cli("validate-shaders", "--write-vectors", str(out), "--out", str(tmp_path / "o"),
+                  "--no-pictures", "--no-hlsl", "--normals", "64", timeout=600)
+    assert res.returncode == 0 or "cannot validate the shaders" in res.stderr, res.stderr
+    assert f"wrote {out}" in res.stdout
+    names = {c["name"] for c in json.loads(out.read_text())["cases"]}
+    assert {"furnace", "panorama_sky"} <= names
+    assert stat.S_IMODE(out.stat().st_mode) == 0o600
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

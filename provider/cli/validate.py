@@ -37,8 +37,9 @@ def add_arguments(p) -> None:
 MAX_NORMALS = 1 << 22
 
 
-def check_arguments(args) -> None:
-    """Every option checked before any work starts (no OpenGL context, nothing written)."""
+def check_arguments(args):
+    """Every option checked before any work starts (no OpenGL context, nothing written);
+    the checked ``--write-vectors`` output (:func:`.outputs.output_file`), or None."""
     import json
     import math
     import os
@@ -51,12 +52,16 @@ def check_arguments(args) -> None:
         raise InputError(f"--tolerance must be a finite number above 0, got {args.tolerance:g}")
     from .outputs import output_file, output_folder
     output_folder(args.out, holds="the pictures and report.json")
-    if args.write_vectors:      # written by the harness, to a name checked here
+    vectors = None
+    if args.write_vectors:
         inputs = [(p, "an input panorama") for p in args.panoramas]
         if args.vectors:
             inputs.append((args.vectors, "the --vectors file"))
-        output_file(args.write_vectors, option="--write-vectors", inputs=inputs,
-                    product="contract vectors", extension=".json")
+        vectors = output_file(args.write_vectors, option="--write-vectors", inputs=inputs,
+                              product="contract vectors", extension=".json")
+        if not args.write_vectors.endswith(".json"):  # `--write-vectors pano.exr` is a slip
+            raise InputError(f"--write-vectors {args.write_vectors}: the vectors file must end "
+                             "in .json (put panoramas before --write-vectors)")
     if args.panoramas:          # the user's own files: unreadable ones refused before work
         from ..core.radiometry.images import read_image
         for path in args.panoramas:
@@ -74,10 +79,20 @@ def check_arguments(args) -> None:
         if not ok:
             raise InputError(f"--vectors {args.vectors} is not a contract vectors file (write "
                              "one with --write-vectors)")
+    return vectors
 
 
 def run(args) -> int:
     from ..verify import lights, reflections
     from ..verify.harness import run as run_validation
-    check_arguments(args)
+    vectors = check_arguments(args)
+    if vectors is not None:     # written whole here, then checked by the harness as --vectors
+        import argparse
+        from pathlib import Path
+        from ..verify import contract
+        with vectors.writing() as tmp:
+            contract.write_contract_vectors(Path(tmp))
+        print(f"wrote {args.write_vectors}")
+        args = argparse.Namespace(**{**vars(args), "write_vectors": None,
+                                     "vectors": args.vectors or args.write_vectors})
     return run_validation(args, extensions=(lights, reflections))
