@@ -38,13 +38,8 @@ def check_arguments(args) -> None:
     if unknown:
         raise InputError(f"unknown bench sections: {', '.join(unknown)} "
                          f"(sections: {', '.join(SECTION_COST_S)})")
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise InputError(f"--out {args.out} is a file; give a folder for the results")
-    existing = os.path.abspath(args.out)     # the folder that will hold it (as validate-shaders)
-    while not os.path.exists(existing):
-        existing = os.path.dirname(existing)
-    if not os.path.isdir(existing) or not os.access(existing, os.W_OK):
-        raise InputError(f"--out {args.out}: cannot write under {existing}")
+    from .outputs import output_folder
+    output_folder(args.out, holds="the results")
     if not os.path.isdir(args.hdri):
         raise InputError(f"--hdri {args.hdri}: no such folder")
 

@@ -51,7 +51,7 @@ def run(args) -> int:
     from ..live.probe.camerafile import save_camera
     from .compute import exposure_of
     from .frames import read_exposed_frames
-    check_arguments(args)
+    camera, picture = check_arguments(args)
     print(f"reading {len(args.frames)} frames ...", file=sys.stderr, flush=True)
     images, exposures, paths = read_exposed_frames(args.frames, need_times=True)
     times, gain, f_number = exposure_of(exposures)
@@ -76,9 +76,11 @@ def run(args) -> int:
     if args.lux is not None:
         response.params["absolute"] = absolute_scale(response, images, times, args.lux,
                                                      f_number, iso, args.projection)
-    save_camera(response, args.output)
-    png = os.path.splitext(args.output)[0] + ".png"
-    plot_response(response, png)
+    with camera.writing() as tmp:
+        save_camera(response, tmp)
+    with picture.writing() as tmp:
+        plot_response(response, tmp)
+    png = picture.path
     print("\n".join(summary_lines(response) + quality_lines(response)
                     + absolute_lines(response)))
     print(f"wrote {args.output} and {png}")
@@ -113,8 +115,9 @@ def absolute_lines(response) -> list[str]:
             f"({a['vs_iso12232']:.2f}× the ISO 12232 nominal camera)"]
 
 
-def check_arguments(args) -> None:
-    """Everything about the options, before any frame is read (exit 2, nothing written)."""
+def check_arguments(args):
+    """Everything about the options, before any frame is read (exit 2, nothing written);
+    the two outputs, camera.json and its picture (:func:`.outputs.output_file`)."""
     from ..core.errors import InputError
     if args.lux is not None and not (math.isfinite(args.lux) and args.lux > 0):
         raise InputError(f"--lux must be a positive number of lux, got {args.lux:g}")
@@ -143,11 +146,19 @@ def check_arguments(args) -> None:
                              "every pixel)")
         if args.samples < 10:
             raise InputError(f"--samples must be at least 10, got {args.samples}")
-    out = os.path.dirname(os.path.abspath(args.output))
-    if not os.path.isdir(out):
-        raise InputError(f"cannot write {args.output}: no folder {out}")
-    if os.path.isdir(args.output):
-        raise InputError(f"cannot write {args.output}: it is a folder")
+    from .outputs import frame_inputs, output_file
+    inputs = frame_inputs(args.frames, "an input frame")
+    camera = output_file(args.output, inputs=inputs, product="response",
+                         extension=".json")
+    png = os.path.splitext(args.output)[0] + ".png"
+    if os.path.abspath(png) == os.path.abspath(args.output):
+        raise InputError(f"-o {args.output}: the curve's picture is written beside the "
+                         f"response as CAMERA.png; name the response .json, e.g. -o "
+                         f"{os.path.splitext(args.output)[0]}.json")
+    picture = output_file(png, inputs=inputs, product="curve's picture",
+                          name=f"-o {args.output}: its picture {png}",
+                          example=f"-o {os.path.splitext(args.output)[0]}-camera.json")
+    return camera, picture
 
 
 def check_frames(images, times, samples) -> None:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import sys
 
-from ..core.errors import InputError
 from .options import add_budget_argument, add_engine_arguments
 
 
@@ -26,27 +25,21 @@ def add_arguments(p) -> None:
     add_engine_arguments(p)
 
 
-def check_output(output: str, image: str) -> str | None:
-    """Refuse (InputError) an output that is the input image (by name, or the same file by
-    another path or link: it would be overwritten with KTX2); the warning for a name whose
-    extension says another format, or None."""
-    from .frames import parse_frame
-    if output == "-":
-        return None
-    source = parse_frame(image)[0]
-    same = os.path.abspath(output) == os.path.abspath(source)
-    try:
-        same = same or (os.path.exists(output) and os.path.samefile(output, source))
-    except OSError:
-        pass
-    if same:
-        raise InputError(f"-o {output} is the input image: the cube would overwrite it; "
-                         f"give another file, e.g. -o {os.path.splitext(output)[0]}.ktx2")
+def check_output(output: str, image: str, args=None):
+    """The checked output (:func:`.outputs.output_file`: refused in one line where it is a
+    device, a FIFO, a folder, in a folder that cannot be written, or the input image or
+    another input file by any path or link) and the warning for a name whose extension
+    says another format, or None."""
+    from .outputs import engine_inputs, frame_inputs, output_file
+    inputs = frame_inputs([image], "the input image")
+    if args is not None:
+        inputs += engine_inputs(args)
+    out = output_file(output, inputs=inputs, product="cube", extension=".ktx2", stdout=True)
     ext = os.path.splitext(output)[1]
-    if ext and ext.lower() != ".ktx2":
-        return (f"-o {output}: the file holds a KTX2 cube map, not what '{ext}' says; "
-                "name it .ktx2")
-    return None
+    if not out.stdout and ext and ext.lower() != ".ktx2":
+        return out, (f"-o {output}: the file holds a KTX2 cube map, not what '{ext}' says; "
+                     "name it .ktx2")
+    return out, None
 
 
 def run(args) -> int:
@@ -55,7 +48,7 @@ def run(args) -> int:
     from .frames import read_frames
     from .options import engine_options, say_fifo_waits, say_frame_warnings
     size = check_size(args.size)
-    foreign = check_output(args.output, args.image)
+    out, foreign = check_output(args.output, args.image, args)
     options = engine_options(args)
     say_fifo_waits([args.image], "environment")
     images, times, paths = read_frames([args.image], need_times=False,
@@ -79,7 +72,7 @@ def run(args) -> int:
     cube = encode_environment(result, probe=args.probe, seq=0, sh9_seq=None,
                               time_s=os.path.getmtime(paths[0]),
                               exposure=options.get("exposure", 1.0), exposure_s=times[0])
-    _write(args.output, cube.ktx2)
+    out.write(cube.ktx2)
     where = "standard output" if args.output == "-" else args.output
     rough = ", ".join(f"{r:g}" for r in cube.roughness)
     print(f"shlight environment: {where}: {cube.size}×{cube.size}×6 cube, "
@@ -87,20 +80,3 @@ def run(args) -> int:
           f"{len(cube.ktx2):,} bytes, {cube.compute_ms:.1f} ms", file=sys.stderr)
     return 0
 
-
-def _write(path: str, data: bytes) -> None:
-    if path == "-":
-        sys.stdout.buffer.write(data)
-        sys.stdout.buffer.flush()
-        return
-    tmp = f"{path}.part"
-    try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except OSError as exc:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None

@@ -26,7 +26,7 @@ def add_arguments(p) -> None:
                    help="for a dual-fisheye frame: the Theta profile whose layout (the other "
                         "circle's centre, the front) the lens file keeps (default theta-s)")
     p.add_argument("-o", "--output", required=True, metavar="LENS.json",
-                   help="where to write the lens file")
+                   help="where to write the lens file ('-': standard output)")
 
 
 def _board(text: str) -> tuple:
@@ -45,9 +45,9 @@ def run(args) -> int:
     board = _board(args.board)
     if not 0 < args.fov <= 360:
         raise InputError(f"--fov {args.fov:g}: a field of view is in (0, 360] degrees")
-    out_dir = os.path.dirname(os.path.abspath(args.output))
-    if not os.path.isdir(out_dir):
-        raise InputError(f"cannot write {args.output}: no folder {out_dir}")
+    from .outputs import output_file
+    out = output_file(args.output, inputs=[(p, "an input photo") for p in args.photos],
+                      product="lens file", extension=".json", stdout=True)
     corners, size, missed = [], None, []
     for path in args.photos:
         img = cv2.imread(path, cv2.IMREAD_GRAYSCALE)
@@ -70,12 +70,12 @@ def run(args) -> int:
         lens = calibrate_lens(corners, board, size, fov_deg=args.fov, profile=args.profile)
     except ProjectionError as exc:
         raise InputError(str(exc)) from None
-    with open(args.output, "w") as f:
-        json.dump(lens, f, indent=1)
-        f.write("\n")
+    out.write(json.dumps(lens, indent=1) + "\n")
+    said = sys.stderr if out.stdout else sys.stdout     # the lens file alone on stdout
     print(f"{lens['views']} photos, reprojection error {lens['rms_px']:.3f} px RMS; focal "
           f"{lens['focal']:.2f} px, centre ({lens['center'][0]:.2f}, {lens['center'][1]:.2f}), "
           f"corners seen up to {lens['max_corner_deg']:.0f}° from the axis (the curve beyond "
-          f"is extrapolated to {args.fov / 2:g}°)")
-    print(f"wrote {args.output}")
+          f"is extrapolated to {args.fov / 2:g}°)", file=said)
+    if not out.stdout:
+        print(f"wrote {args.output}")
     return 0

@@ -17,7 +17,8 @@ def add_arguments(p) -> None:
                    help="side of the printed square (ArUco: black border edge to edge; "
                         "QR: the symbol without its quiet zone); default 0.2")
     p.add_argument("--dpi", type=finite_float, default=300.0, help="print resolution (default 300)")
-    p.add_argument("-o", "--output", required=True, metavar="FILE.png", help="PNG to write")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.png",
+                   help="PNG to write ('-': standard output)")
 
 
 def png_with_dpi(gray, dpi: float) -> bytes:
@@ -38,17 +39,16 @@ def run(args) -> int:
     import sys
     from ..core.registration.marker_detect import parse_marker
     from ..core.registration.marker_print import printable_marker, printed_side_m
-    if not args.output.lower().endswith(".png"):
+    from .outputs import output_file
+    out = output_file(args.output, product="marker", stdout=True)
+    if not out.stdout and not args.output.lower().endswith(".png"):
         raise InputError(f"-o {args.output}: write a .png (it carries its print resolution)")
     spec = parse_marker(args.marker)
     page = printable_marker(spec, args.size, args.dpi)
-    try:
-        with open(args.output, "wb") as f:
-            f.write(png_with_dpi(page, args.dpi))
-    except OSError as exc:
-        raise InputError(f"cannot write {args.output}: {exc.strerror or exc}") from None
+    out.write(png_with_dpi(page, args.dpi))
     side = printed_side_m(spec, args.size, args.dpi)
-    print(f"shlight marker: wrote {args.output}: {spec}, side {side * 1000:.1f} mm at "
+    where = "standard output" if out.stdout else args.output
+    print(f"shlight marker: wrote {where}: {spec}, side {side * 1000:.1f} mm at "
           f"{args.dpi:g} dpi; register with --marker {spec} --marker-size {side:.4f}",
           file=sys.stderr)
     w_mm, h_mm = (n / args.dpi * 25.4 for n in page.shape[::-1])

@@ -37,8 +37,9 @@ def add_arguments(p) -> None:
 MAX_NORMALS = 1 << 22
 
 
-def check_arguments(args) -> None:
-    """Every option checked before any work starts (no OpenGL context, nothing written)."""
+def check_arguments(args):
+    """Every option checked before any work starts (no OpenGL context, nothing written);
+    the checked ``--write-vectors`` output (:func:`.outputs.output_file`), or None."""
     import json
     import math
     import os
@@ -49,21 +50,18 @@ def check_arguments(args) -> None:
         raise InputError(f"--normals must be between 1 and {MAX_NORMALS}, got {args.normals}")
     if not (math.isfinite(args.tolerance) and args.tolerance > 0):
         raise InputError(f"--tolerance must be a finite number above 0, got {args.tolerance:g}")
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise InputError(f"--out {args.out} is a file; give a folder for the pictures and "
-                         "report.json")
-    existing = os.path.abspath(args.out)
-    while not os.path.exists(existing):
-        existing = os.path.dirname(existing)
-    if not os.path.isdir(existing) or not os.access(existing, os.W_OK):
-        raise InputError(f"--out {args.out}: cannot write under {existing}")
+    from .outputs import output_file, output_folder
+    output_folder(args.out, holds="the pictures and report.json")
+    vectors = None
     if args.write_vectors:
-        folder = os.path.dirname(os.path.abspath(args.write_vectors))
-        if os.path.isdir(args.write_vectors):
-            raise InputError(f"--write-vectors {args.write_vectors} is a folder; give a .json "
-                             "file")
-        if not os.path.isdir(folder):
-            raise InputError(f"--write-vectors {args.write_vectors}: no folder {folder}")
+        inputs = [(p, "an input panorama") for p in args.panoramas]
+        if args.vectors:
+            inputs.append((args.vectors, "the --vectors file"))
+        vectors = output_file(args.write_vectors, option="--write-vectors", inputs=inputs,
+                              product="contract vectors", extension=".json")
+        if not args.write_vectors.endswith(".json"):  # `--write-vectors pano.exr` is a slip
+            raise InputError(f"--write-vectors {args.write_vectors}: the vectors file must end "
+                             "in .json (put panoramas before --write-vectors)")
     if args.panoramas:          # the user's own files: unreadable ones refused before work
         from ..core.radiometry.images import read_image
         for path in args.panoramas:
@@ -81,10 +79,20 @@ def check_arguments(args) -> None:
         if not ok:
             raise InputError(f"--vectors {args.vectors} is not a contract vectors file (write "
                              "one with --write-vectors)")
+    return vectors
 
 
 def run(args) -> int:
     from ..verify import lights, reflections
     from ..verify.harness import run as run_validation
-    check_arguments(args)
+    vectors = check_arguments(args)
+    if vectors is not None:     # written whole here, then checked by the harness as --vectors
+        import argparse
+        from pathlib import Path
+        from ..verify import contract
+        with vectors.writing() as tmp:
+            contract.write_contract_vectors(Path(tmp))
+        print(f"wrote {args.write_vectors}")
+        args = argparse.Namespace(**{**vars(args), "write_vectors": None,
+                                     "vectors": args.vectors or args.write_vectors})
     return run_validation(args, extensions=(lights, reflections))
