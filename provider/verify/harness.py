@@ -439,13 +439,9 @@ def run(args, extensions=()) -> int:
         if not p.is_file():
             raise InputError(f"no such panorama: {p}")
 
-    if args.write_vectors:
-        if not args.write_vectors.endswith(".json"):  # `--write-vectors pano.exr` is a slip
-            raise InputError(f"--write-vectors {args.write_vectors}: the vectors file must end "
-                             "in .json (put panoramas before --write-vectors)")
-        path = contract.write_contract_vectors(Path(args.write_vectors))
-        print(f"wrote {path}")
-    vectors_path = Path(args.vectors or args.write_vectors or contract.VECTORS_PATH)
+    # --write-vectors is written by the command (provider/cli/validate.py, through the
+    # output rule) before it calls here, and then read as --vectors
+    vectors_path = Path(args.vectors or contract.VECTORS_PATH)
     if args.vectors and not vectors_path.is_file():
         raise InputError(f"no such vectors file: {vectors_path}")
 
