@@ -133,9 +133,8 @@ class FixedLux(LuxMeter):
 
     def __init__(self, lux: float):
         super().__init__(f"{lux:g} lux", max_age_s=math.inf)
-        if not (math.isfinite(lux) and lux > 0):
-            raise InputError(f"--lux must be a positive number of lux, got {lux:g}")
-        self.set(lux)
+        from ...core.radiometry.photometry import LUX_RANGE, check_physical
+        self.set(check_physical("--lux", lux, LUX_RANGE, " lux"))
 
 
 class PolledLuxMeter(LuxMeter):
