@@ -150,7 +150,7 @@ def test_mqtt_ports_given_and_left_out():
 def test_bench_repeat_is_bounded(tmp_path):
     out = tmp_path / "b"
     _refused(run_cli("bench", "--repeat", "1000000000", "--out", str(out)),
-             "shlight bench: error: --repeat must be from 1 to 1000")
+             "shlight bench: error: --repeat must be at least 1 and at most 1000")
     assert not out.exists()
     from provider.cli.bench import HDRI_DIR, MAX_REPEAT, check_arguments
     check_arguments(argparse.Namespace(repeat=MAX_REPEAT, sections="speed", out=str(out),

@@ -34,8 +34,8 @@ def check_arguments(args) -> None:
     from ..bench import SECTION_COST_S
     from ..core.errors import InputError
     if not 1 <= args.repeat <= MAX_REPEAT:
-        raise InputError(f"--repeat must be from 1 to {MAX_REPEAT} (timed runs per path; "
-                         f"default 15), got {args.repeat}")
+        raise InputError(f"--repeat must be at least 1 and at most {MAX_REPEAT} (timed runs "
+                         f"per path; default 15), got {args.repeat}")
     order = [s.strip() for s in args.sections.split(",") if s.strip()]
     if not order:
         raise InputError(f"--sections names no section (sections: {', '.join(SECTION_COST_S)})")
