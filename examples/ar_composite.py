@@ -480,8 +480,23 @@ def _floats(text: str, n: int, what: str):
     return v
 
 
+def check_numbers(args) -> None:
+    """The numeric options, before any frame or connection: a size, a scale or a field of
+    view that is not a positive finite number would draw nothing (or NaN) and exit 0."""
+    for flag, value, high in (("--marker-length", args.marker_length, None),
+                              ("--scale", args.scale, None),
+                              ("--hfov", args.hfov, 180.0),
+                              ("--lighting-timeout", args.lighting_timeout, None)):
+        if not (math.isfinite(value) and value > 0 and (high is None or value < high)):
+            raise UserError(f"{flag} must be a finite number above 0"
+                            + (f" and below {high:g}" if high else "") + f", got {value:g}")
+    if args.max_frames < 0:
+        raise UserError(f"--max-frames must be 0 (all) or more, got {args.max_frames}")
+
+
 def run(args) -> int:
     import cv2
+    check_numbers(args)
     albedo = _floats(args.albedo, 3, "--albedo")
     probe_rotation = rotation_from_euler(*_floats(args.probe_rotate, 3, "--probe-rotate"))
     exposure = None if args.exposure == "auto" else _floats(args.exposure, 1, "--exposure")[0]

@@ -48,8 +48,9 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"shlight {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     wanted = None if argv is None else next((a for a in argv if not a.startswith("-")), "")
+    parser.commands = {}        # name -> its parser, whose errors name the command
     for name, module, helptext in COMMANDS:
-        p = sub.add_parser(name, help=helptext)
+        p = parser.commands[name] = sub.add_parser(name, help=helptext)
         if wanted is None or wanted == name:
             mod = importlib.import_module(f"{__name__}.{module}")
             mod.add_arguments(p)
@@ -68,7 +69,10 @@ def _run(args) -> int:
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:   # argparse's own parse_args says these as "shlight: error:"; the command's does
+        parser.commands.get(getattr(args, "command", None), parser).error(
+            "unrecognized arguments: " + " ".join(extra))
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

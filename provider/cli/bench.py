@@ -6,6 +6,9 @@ from pathlib import Path
 
 #: The real panoramas shipped with the package (CC0; the tests' frames too).
 HDRI_DIR = Path(__file__).resolve().parents[1] / "data" / "hdri"
+#: Most timed runs per path (``--repeat``): a median of more is no steadier on a busy
+#: machine's clock, and a mistyped billion would run for days.
+MAX_REPEAT = 1000
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -14,7 +17,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="small sizes, few repetitions (a smoke run, numbers are rough)")
     p.add_argument("--hdri", default=str(HDRI_DIR),
                    help="folder of equirect .exr/.hdr panoramas used as test frames")
-    p.add_argument("--repeat", type=int, default=15, help="timed runs per path (median)")
+    p.add_argument("--repeat", type=int, default=15,
+                   help=f"timed runs per path (median; 1 to {MAX_REPEAT}, default 15)")
     p.add_argument("--instructions", action=argparse.BooleanOptionalAction, default=None,
                    help="count instructions per frame with valgrind's callgrind in the edge "
                         "section (slow: about 2 min; default: on, off with --quick)")
@@ -29,8 +33,9 @@ def check_arguments(args) -> None:
     import os
     from ..bench import SECTION_COST_S
     from ..core.errors import InputError
-    if args.repeat < 1:
-        raise InputError(f"--repeat must be at least 1, got {args.repeat}")
+    if not 1 <= args.repeat <= MAX_REPEAT:
+        raise InputError(f"--repeat must be at least 1 and at most {MAX_REPEAT} (timed runs "
+                         f"per path; default 15), got {args.repeat}")
     order = [s.strip() for s in args.sections.split(",") if s.strip()]
     if not order:
         raise InputError(f"--sections names no section (sections: {', '.join(SECTION_COST_S)})")

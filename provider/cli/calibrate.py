@@ -119,13 +119,16 @@ def check_arguments(args):
     """Everything about the options, before any frame is read (exit 2, nothing written);
     the two outputs, camera.json and its picture (:func:`.outputs.output_file`)."""
     from ..core.errors import InputError
-    if args.lux is not None and not (math.isfinite(args.lux) and args.lux > 0):
-        raise InputError(f"--lux must be a positive number of lux, got {args.lux:g}")
-    for name, v in (("--f-number", args.f_number), ("--iso", args.iso)):
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(f"{name} must be a positive number, got {v:g}")
+    from ..core.radiometry.photometry import (F_NUMBER_RANGE, ISO_RANGE, LUX_RANGE,
+                                              check_physical)
+    if args.lux is not None:
+        check_physical("--lux", args.lux, LUX_RANGE, " lux")
+    for name, v, bounds in (("--f-number", args.f_number, F_NUMBER_RANGE),
+                            ("--iso", args.iso, ISO_RANGE)):
         if v is not None and args.lux is None:
             raise InputError(f"{name} is for --lux (the absolute scale)")
+        if v is not None:
+            check_physical(name, v, bounds)
     if len(args.frames) < 3:
         raise InputError(f"calibration needs at least 3 frames of one static view, got "
                          f"{len(args.frames)}")

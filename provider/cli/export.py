@@ -29,7 +29,8 @@ def add_arguments(p) -> None:
                    help="gltf: edge of mip 0 (specularImageSize), a power of two from 8 to "
                         "256 (default 32); arcore: always 16, ARCore's size")
     c.add_argument("--no-cube", action="store_true",
-                   help="SH only: no cube (gltf then lists specularImages as missing)")
+                   help="gltf, arcore: SH only, no cube (gltf then lists specularImages as "
+                        "missing); the other formats carry no cube")
     add_input_arguments(p)
 
 
@@ -69,6 +70,9 @@ def cube_size(args) -> int | None:
         except InputError:
             raise InputError(f"--cube-size {args.cube_size}: a power of two from 8 to 256 "
                              f"(default {CUBE_FORMATS['gltf']})") from None
+    if args.no_cube and args.to not in CUBE_FORMATS:     # the rule of options that do nothing
+        raise InputError(f"--no-cube has no effect with --to {args.to}: it carries no "
+                         f"reflection cube (only {' and '.join(CUBE_FORMATS)} do); leave it out")
     if args.to not in CUBE_FORMATS or args.no_cube:
         return None
     return CUBE_FORMATS[args.to]

@@ -10,7 +10,7 @@ from .options import finite_float
 
 def add_arguments(p) -> None:
     p.description = ("Write a registration marker to print (docs/contract.md §13): the pattern, "
-                     "a white quiet zone and its size under it. Print at 100 %% (no 'fit to "
+                     "a white quiet zone and its size under it. Print at 100 % (no 'fit to "
                      "page') and measure the black square: pass that to --marker-size.")
     p.add_argument("marker", metavar="SPEC", help="aruco:DICT_4X4_50:7, or qr:TEXT")
     p.add_argument("--size", type=finite_float, default=0.2, metavar="METRES",

@@ -453,5 +453,10 @@ def check_meter_arguments(args, where: str = "") -> tuple:
     if given and getattr(args, "lux", None) is None:
         raise InputError(f"{where}{' and '.join(given)} {'is' if len(given) == 1 else 'are'} "
                          "for --lux (a lux meter's reading)")
-    return (parse_facing(getattr(args, "lux_facing", None) or "up"),
+    lux = getattr(args, "lux", None)
+    if isinstance(lux, float):          # compute's reading (serve's SOURCE: its meter's own)
+        from ..core.radiometry.photometry import LUX_RANGE, check_physical
+        check_physical(f"{where}--lux", lux, LUX_RANGE, " lux")
+    facing = getattr(args, "lux_facing", None)
+    return (parse_facing("up" if facing is None else facing),
             parse_meter_colour(getattr(args, "lux_cct", None)))

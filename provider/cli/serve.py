@@ -389,7 +389,7 @@ def build_server(args):
         from .register import registrar_for
         probes[-1].registrar = registrar_for(ns, name)
     publishers = []
-    if args.mqtt:
+    if args.mqtt is not None:       # '' too: refused by the parser, never "no MQTT"
         from ..live.mqtt import MqttPublisher, parse_mqtt_url
         publishers.append(MqttPublisher(parse_mqtt_url(args.mqtt), ca_file=args.mqtt_ca,
                                         backoff_max=args.reconnect_max))

@@ -238,8 +238,8 @@ class Comparison:
                f"  indep {self.independent_max_rel:.1e}/{self.independent_tolerance:.0e}")
         ring = f"  clamps {self.ringing_normals}" if self.ringing_normals else ""
         return (f"{'PASS' if self.passed else 'FAIL'}  {self.path:4s}  {self.case:28s} "
-                f"max {self.max_rel:.2e}  rms {self.rms_rel:.2e}  "
-                f"clamped {self.clamp_max_rel:.2e}{ring}{ind}")
+                f"max {self.max_rel:.2e} (tolerance {self.tolerance:.1e})  "
+                f"rms {self.rms_rel:.2e}  clamped {self.clamp_max_rel:.2e}{ring}{ind}")
 
 
 def compare(case: ShaderCase, path: str, clamped, unclamped, normals,
@@ -416,6 +416,22 @@ def lit_diffuse_checks(ctx, size: int = 96) -> list[DemoCheck]:
     return out
 
 
+def summary_lines(results, paths) -> list[str]:
+    """One line per shader path and tolerance: the :class:`Comparison` results judged at it
+    (the SH9 cases at ``--tolerance``; the shadow and occluder cases at their own, scaled by
+    it), their worst errors beside that tolerance, never beside another case's."""
+    own = [r for r in results if isinstance(r, Comparison)]
+    lines = []
+    for p in paths:
+        for tol in sorted({r.tolerance for r in own if r.path == p}):
+            mine = [r for r in own if r.path == p and r.tolerance == tol]
+            worst = max(mine, key=lambda r: r.max_rel)
+            lines.append(f"{p}: {len(mine)} comparisons at tolerance {tol:.2e}, worst max "
+                         f"relative error {worst.max_rel:.2e} ({worst.case}), worst relative "
+                         f"RMS {max(r.rms_rel for r in mine):.2e}")
+    return lines
+
+
 # -- command line ------------------------------------------------------------------------------------
 
 def default_panoramas() -> list[Path]:
@@ -507,16 +523,10 @@ def run(args, extensions=()) -> int:
         for ext in extensions:
             pictures += ext.pictures(ctx, panoramas, out_dir)
 
-    # The summary of the irradiance functions (one error measure and tolerance); extensions
-    # with a measure of their own (e.g. reflections) summarise theirs with ``summary``.
-    own = [r for r in compared if isinstance(r, Comparison)]
-    worst = {p: max((r.max_rel for r in own if r.path == p), default=None) for p in paths}
-    rms = {p: max((r.rms_rel for r in own if r.path == p), default=None) for p in paths}
-    for p in paths:
-        if worst[p] is not None:
-            print(f"{p}: {sum(r.path == p for r in own)} comparisons, worst max relative "
-                  f"error {worst[p]:.2e}, worst relative RMS {rms[p]:.2e} "
-                  f"(tolerance {args.tolerance:.2e})")
+    # Extensions with a measure of their own (e.g. reflections) summarise theirs with
+    # ``summary``.
+    for line in summary_lines(compared, paths):
+        print(line)
     for ext in extensions:
         if hasattr(ext, "summary"):
             for line in ext.summary(compared, paths):

@@ -53,6 +53,44 @@ Y00 = 0.282095
 UNITS_ABSOLUTE = "cd/m²"
 UNITS_RELATIVE = "relative"
 
+# ---- what a camera and a lux meter can read: one place for every command's bounds. A number
+# beyond them is a typo or a unit slip (klux for lux, a focal length for an f-number), and
+# through N²/(t·S) and lux/(N²·E) it would give a camera constant or a light no display or
+# float32 can hold; the commands refuse it in one line (:func:`check_physical`).
+
+#: Lux of a meter's reading, above 0 and at most 2e5: the brightest daylight at the ground
+#: is about 1.3e5 lux (a clear sky, the sun near the zenith), so 2e5 leaves room for a
+#: meter's own error and a bright reflection, and nothing brighter is a room's light.
+LUX_RANGE = (0.0, 2.0e5)
+#: f-number N: 0.5 is the limit of a lens in air (N = 1/(2·NA), NA ≤ 1); 128 is the
+#: smallest stop of large-format lenses (a pinhole beyond it is no light probe).
+F_NUMBER_RANGE = (0.5, 128.0)
+#: ISO (S): 1 is below any sensor's or film's base sensitivity; 1e7 above the highest any
+#: camera offers (a few million, extended).
+ISO_RANGE = (1.0, 1.0e7)
+#: Exposure time (s): 1 µs is shorter than any still camera's shutter (1/32,000 s
+#: electronic); a day is longer than any exposure of a room's light.
+EXPOSURE_S_RANGE = (1.0e-6, 86400.0)
+
+
+def check_physical(what: str, value, bounds: tuple, unit: str = "") -> float:
+    """``value`` as a float if it lies within ``bounds`` (low exclusive when it is 0,
+    else inclusive; high inclusive), else one :class:`InputError` naming ``what`` (the
+    option) and the range."""
+    low, high = bounds
+    try:
+        v = float(value)
+        got = f"{v:g}"
+    except (TypeError, ValueError):
+        v, got = math.nan, repr(value)
+    inside = (v > low if low == 0 else v >= low) and v <= high
+    if not (math.isfinite(v) and inside):
+        span = (f"a positive number of at most {high:g}{unit}" if low == 0 else
+                f"a number from {low:g} to {high:g}{unit}")
+        raise InputError(f"{what} must be {span}, got {got} (beyond what a camera or a "
+                         "lux meter can read: docs/photometry.md)")
+    return v
+
 
 def luminance(rgb) -> np.ndarray:
     """Rec. 709 luminance of linear RGB (..., 3)."""
@@ -122,9 +160,9 @@ def calibrate_absolute(illuminance_relative: float, lux: float, f_number: float,
     """``params.absolute`` from a bracket's up-facing illuminance, in units of
     radiance per (t · ISO/100) (``illuminance_relative``), and a lux meter's reading ``lux``
     at the camera at the same time: C = lux / (N² · E_rel)."""
-    for name, v in (("--lux", lux), ("f-number", f_number), ("ISO", iso)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise InputError(f"{name} must be a positive number, got {v!r}")
+    lux = check_physical("--lux", lux, LUX_RANGE, " lux")
+    f_number = check_physical("f-number", f_number, F_NUMBER_RANGE)
+    iso = check_physical("ISO", iso, ISO_RANGE)
     if not (illuminance_relative > 0 and math.isfinite(illuminance_relative)):
         raise InputError("the bracket shows no light on an up-facing surface: the absolute "
                          "scale needs a lit scene (is the camera upright, the lens uncovered?)")

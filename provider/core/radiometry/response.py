@@ -92,7 +92,8 @@ _SECONDS = re.compile(r"\s*(\d+(?:\.\d*)?|\.\d+)(?:\s*/\s*(\d+(?:\.\d*)?|\.\d+))
 
 def parse_seconds(text: str) -> float:
     """An exposure time written as a decimal (``0.004``) or a fraction (``1/250``), in
-    seconds; :class:`ResponseError` unless it is a positive finite number."""
+    seconds; :class:`InputError` unless it is a positive finite number within
+    :data:`~.photometry.EXPOSURE_S_RANGE`."""
     m = _SECONDS.fullmatch(str(text))
     if not m:
         raise ResponseError(f"exposure time {text!r} is not a number of seconds (a decimal "
@@ -100,7 +101,9 @@ def parse_seconds(text: str) -> float:
     num, den = float(m.group(1)), float(m.group(2)) if m.group(2) else 1.0
     if den == 0:
         raise ResponseError(f"exposure time {text!r} divides by zero")
-    return check_time(num / den, f"exposure time {text!r}")
+    from .photometry import EXPOSURE_S_RANGE, check_physical
+    t = check_time(num / den, f"exposure time {text!r}")
+    return check_physical(f"exposure time {text.strip()!r}", t, EXPOSURE_S_RANGE, " s")
 
 
 def check_bracket(frames, times) -> tuple[list, np.ndarray, int]:

@@ -88,7 +88,10 @@ def parse_facing(text) -> np.ndarray | str:
     with the front to the north, a compass bearing), elevation above the horizon; returned
     as a unit world vector (sin az cos el, sin el, −cos az cos el). One InputError else."""
     t = str(text).strip().lower()
-    if t in ("", "up"):
+    if not t:           # an empty value is a script's unset variable, not "up"
+        raise InputError("--lux-facing is empty: expected up, sun or AZ,EL in degrees "
+                         "(e.g. 120,5)")
+    if t == "up":
         return UP.copy()
     if t == "sun":
         return "sun"

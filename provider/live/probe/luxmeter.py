@@ -40,17 +40,18 @@ import threading
 import time
 
 from ...core.errors import InputError
+from ...core.radiometry.photometry import LUX_RANGE, check_physical
 from ..wire.mqtt_link import MqttTarget, paho_client, parse_mqtt_url
 
 log = logging.getLogger("shlight.luxmeter")
 
 #: A reading older than this is not used (seconds).
 MAX_AGE_S = 10.0
-#: The brightest reading taken (lux): the top of hand-held lux meters' range (200,000 lx).
-#: The noon sun at sea level gives about 1.2e5 lux (1.3e5 above the atmosphere), so a
-#: larger number is a sensor or a publisher gone wrong, not light, and must not reach the
-#: clients as a sun.
-MAX_LUX = 2e5
+#: The brightest reading taken (lux): the top of hand-held lux meters' range (200,000 lx),
+#: the bound every command holds a lux reading to (photometry.LUX_RANGE). The noon sun at
+#: sea level gives about 1.2e5 lux (1.3e5 above the atmosphere), so a larger number is a
+#: sensor or a publisher gone wrong, not light, and must not reach the clients as a sun.
+MAX_LUX = LUX_RANGE[1]
 #: The largest MQTT payload read (bytes): a sensor's message (Zigbee2MQTT, Tasmota,
 #: ESPHome) with all its other fields is a few hundred bytes.
 MAX_PAYLOAD_BYTES = 4096
@@ -180,12 +181,7 @@ class FixedLux(LuxMeter):
 
     def __init__(self, lux: float):
         super().__init__(f"{lux:g} lux", max_age_s=math.inf)
-        if not (math.isfinite(lux) and lux > 0):
-            raise InputError(f"--lux must be a positive number of lux, got {lux:g}")
-        if lux > MAX_LUX:
-            raise InputError(f"--lux {lux:g}: above {MAX_LUX:,.0f} lux, more than the noon "
-                             "sun gives (about 120,000)")
-        self.set(lux)
+        self.set(check_physical("--lux", lux, LUX_RANGE, " lux"))
 
 
 class PolledLuxMeter(LuxMeter):

@@ -47,6 +47,9 @@ def parse_mqtt_url(text: str, option: str = "--mqtt",
     """``mqtt[s]://[USER[:PASS]@]HOST[:PORT][/TOPIC]`` → :class:`MqttTarget`
     (:class:`InputError` with one line on anything else, naming ``option``). Without a
     topic: ``default_topic``, or an error when it is None."""
+    if not str(text).strip():   # a script's unset variable: never a silent "no broker"
+        raise InputError(f"{option} is empty: expected mqtt[s]://[USER:PASS@]HOST[:PORT]/"
+                         f"{'PREFIX' if default_topic else 'TOPIC'}, or leave {option} out")
     try:
         parts = urlsplit(text.strip())
         port = parts.port
@@ -65,8 +68,12 @@ def parse_mqtt_url(text: str, option: str = "--mqtt",
     if re.search(r"[+#\x00]", prefix) or "//" in prefix:
         raise InputError(f"{option} {text}: the topic {prefix!r} may not contain '+', "
                          "'#' or empty levels")
+    if port == 0:   # urlsplit reads ":0" as 0, which paho would take for its default 1883
+        raise InputError(f"{option} {text}: port 0 is no broker's port (1-65535; leave it out "
+                         "for 1883, mqtts 8883)")
     tls = parts.scheme == "mqtts"
-    return MqttTarget(tls=tls, host=parts.hostname, port=port or (8883 if tls else 1883),
+    return MqttTarget(tls=tls, host=parts.hostname,
+                      port=port if port is not None else (8883 if tls else 1883),
                       prefix=prefix,
                       username=unquote(parts.username) if parts.username else None,
                       password=unquote(parts.password) if parts.password is not None else None)
