@@ -306,14 +306,31 @@ def add_lens_arguments(g) -> None:
                         "centre does (default: the lens profile's, right for every Theta)")
 
 
+#: Largest lens file read (bytes): calibrate-lens writes about 600.
+MAX_LENS_FILE_BYTES = 64 * 1024
+
+
 def _lens_file(path: str) -> dict:
+    """A lens file's JSON object: a regular file (a FIFO would wait for a writer, a device
+    never end), at most MAX_LENS_FILE_BYTES, strict JSON (InputError in one line)."""
+    import stat
+    from ..core.json_text import parse_json
     try:
-        with open(path) as f:
-            data = json.load(f)
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            raise InputError(f"--lens {path}: not a regular file (a lens file is the JSON file "
+                             "shlight calibrate-lens writes)")
+        if st.st_size > MAX_LENS_FILE_BYTES:
+            raise InputError(f"--lens {path}: {st.st_size:,} bytes, not a lens file of shlight "
+                             f"calibrate-lens (at most {MAX_LENS_FILE_BYTES // 1024} KiB)")
+        with open(path, "rb") as f:
+            text = f.read(MAX_LENS_FILE_BYTES + 1).decode("utf-8")
     except UnicodeDecodeError:
         raise InputError(f"--lens {path}: not a JSON lens file (shlight calibrate-lens)") from None
-    except (OSError, ValueError) as exc:
-        raise InputError(f"--lens {path}: {exc}") from None
+    except OSError as exc:
+        raise InputError(f"--lens {path}: {exc.strerror or exc}") from None
+    # a lens file is one flat object of numbers and lists of numbers: 2 levels
+    data = parse_json(text, f"--lens {path}", max_depth=2)
     if not isinstance(data, dict):
         raise InputError(f"--lens {path}: not a lens file (shlight calibrate-lens)")
     return data
