@@ -307,7 +307,7 @@ def _check_numbers(ns, where: str = "") -> None:
                 raise InputError(f"{where}--fps {value:g}: out of range (0, {MAX_FPS:g}] "
                                  "frames a second")
             if flag == "--theta-check":
-                raise InputError(f"{where}--theta-check {value:g}: out of range (0, "
+                raise InputError(f"{where}--theta-check {value}: out of range (0, "
                                  f"{THETA_CHECK_MAX_S:g}] seconds (a Theta that lost its "
                                  "settings is set again at the next check)")
             raise InputError(f"{where}{flag} {value}: out of range")
