@@ -63,12 +63,13 @@ def _lens_cases(d):
          ["Infinity is not a JSON number"]),
         (_lens(d, "big.json", json.dumps(LENS).replace("1280", "1e400")),
          ["1e400 is beyond the range of a JSON number"]),
-        (_lens(d, "float.json", image_size=[1280.5, 720]), ["image_size must be two whole numbers"]),
+        (_lens(d, "float.json", image_size=[1280.5, 720]),
+         ["image_size must be two whole numbers"]),
         (_lens(d, "plist.json", profile=["theta-s"]), ["profile must be one of", "['theta-s']"]),
         (_lens(d, "brackets.json", "[" * 50_000), ["JSON nested too deeply (at most 2 levels)"]),
         (_lens(d, "huge.json", "[" * 100_000), ["100,000 bytes", "at most 64 KiB"]),
         (_lens(d, "terms.json", curve=[1.0] + [0.0] * MAX_CURVE_TERMS),
-         ["curve must be a list of 1-16 numbers, got 17 items"]),
+         ["curve has 17 terms, at most 16 (a calibration writes 5"]),
         (_lens(d, "many.json", curve=[1.0] + [0.0] * 100_000), ["at most 64 KiB"]),
         (_lens(d, "nested.json", curve=[[1.0, -0.01], [0.0, 0.0]]),
          ["JSON nested too deeply (at most 2 levels)"]),
@@ -98,8 +99,10 @@ def test_lens_from_dict_bounds_the_curve_and_refuses_lists_for_words():
     """The same rules for a lens given as a dict (the library's entry): 100,001 terms are
     refused at once (evaluating them for every pixel would take minutes), a nested curve is
     not flattened, a profile must be a word."""
-    for bad, words in [(dict(LENS, curve=[1.0] + [0.0] * 100_000), "got 100001 items"),
+    for bad, words in [(dict(LENS, curve=[1.0] + [0.0] * 100_000),
+                        "curve has 100,001 terms, at most 16"),
                        (dict(LENS, curve=[[1.0, -0.01]]), "curve[0] must be a number"),
+                       (dict(LENS, curve=[]), "curve must be a list of 1-16 numbers, got 0"),
                        (dict(LENS, image_size=[math.inf, 720]), "image_size[0] must be a finite"),
                        (dict(LENS, center=[640, 10 ** 400]), "center[1] must be a finite"),
                        (dict(LENS, profile={"a": 1}), "profile must be one of"),

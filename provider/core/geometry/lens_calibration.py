@@ -49,9 +49,10 @@ def calibrate_lens(corners: list, board: tuple, image_size: tuple, *, square: fl
         raise ProjectionError(f"unknown lens profile {profile!r}; choose from {', '.join(PROFILES)}")
     distinct = _distinct_views(corners)
     if distinct < 3:
+        places = f"{distinct} distinct place{'' if distinct == 1 else 's'}"
         raise ProjectionError(f"the board is found in {len(corners)} photos but in only "
-                              f"{distinct} distinct place{'' if distinct == 1 else 's'} (the same photo twice?): a lens "
-                              "calibration needs at least 3; move or tilt the board between photos")
+                              f"{places} (the same photo twice?): a lens calibration needs "
+                              "at least 3; move or tilt the board between photos")
     w, h = (int(v) for v in image_size)
     obj = board_points(board, square)
     objs = [obj.reshape(1, -1, 3) for _ in corners]
@@ -165,8 +166,8 @@ def _numbers(value, count, name: str, key: str) -> list:
     if not isinstance(value, (list, tuple)) or len(value) not in sizes:
         want = (f"{count}" if isinstance(count, int)
                 else f"{sizes.start}-{sizes.stop - 1}")
-        raise ProjectionError(f"{name}: {key} must be a list of {want} numbers, got "
-                              f"{_shown(value) if not isinstance(value, (list, tuple)) else f'{len(value)} items'}")
+        got = f"{len(value)} items" if isinstance(value, (list, tuple)) else _shown(value)
+        raise ProjectionError(f"{name}: {key} must be a list of {want} numbers, got {got}")
     return [_number(v, name, f"{key}[{i}]") for i, v in enumerate(value)]
 
 
@@ -183,7 +184,12 @@ def lens_from_dict(data: dict, name: str = "lens file") -> dict:
     fov = _number(data["fov_deg"], name, "fov_deg")
     if not 0 < fov <= 360:
         raise ProjectionError(f"{name}: fov_deg {fov:g} is not a field of view in (0, 360] degrees")
-    coefficients = _numbers(data["curve"], range(1, MAX_CURVE_TERMS + 1), name, "curve")
+    curve = data["curve"]
+    if isinstance(curve, (list, tuple)) and len(curve) > MAX_CURVE_TERMS:
+        raise ProjectionError(f"{name}: curve has {len(curve):,} terms, at most "
+                              f"{MAX_CURVE_TERMS} (a calibration writes 5, Ricoh's curves have "
+                              "7; every pixel's angle evaluates them all)")
+    coefficients = _numbers(curve, range(1, MAX_CURVE_TERMS + 1), name, "curve")
     focal = _number(data["focal"], name, "focal")
     cx, cy = _numbers(data["center"], 2, name, "center")
     size = _numbers(data["image_size"], 2, name, "image_size")
