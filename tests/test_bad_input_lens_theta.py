@@ -67,7 +67,7 @@ def _lens_cases(d):
          ["image_size must be two whole numbers"]),
         (_lens(d, "plist.json", profile=["theta-s"]), ["profile must be one of", "['theta-s']"]),
         (_lens(d, "brackets.json", "[" * 50_000), ["JSON nested too deeply (at most 2 levels)"]),
-        (_lens(d, "huge.json", "[" * 100_000), ["100,000 bytes", "at most 64 KiB"]),
+        (_lens(d, "huge.json", "[" * 100_000), ["100,000 bytes, too large", "at most 64 KiB"]),
         (_lens(d, "terms.json", curve=[1.0] + [0.0] * MAX_CURVE_TERMS),
          ["curve has 17 terms, at most 16 (a calibration writes 5"]),
         (_lens(d, "many.json", curve=[1.0] + [0.0] * 100_000), ["at most 64 KiB"]),
@@ -119,6 +119,22 @@ def test_a_lens_file_that_is_a_fifo_is_refused_not_waited_on(frames):
                  ["register", str(frames / "dual.png"), "--marker", "qr", "--marker-size", "0.1",
                   "--projection", "dual-fisheye"]):
         _refused(run_cli(*argv, "--lens", str(fifo)), "not a regular file")
+
+
+@pytest.mark.parametrize("text, words", [
+    ("[" * 50_000, ["JSON nested too deeply (at most 3 levels)"]),
+    ('{"K": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "D": [NaN, 0, 0, 0]}', ["NaN is not a JSON number"]),
+    ("[1, 2]", ['not {"K": 3x3, "D": 4}']),
+    (None, ["not a regular file"])])
+def test_a_bad_opencv_calibration_file_is_one_line(frames, tmp_path, text, words):
+    """--calibration (an OpenCV fisheye K, D) is read by the lens file's rules."""
+    path = tmp_path / "kd.json"
+    if text is None:
+        os.mkfifo(path)
+    else:
+        path.write_text(text)
+    _refused(run_cli("compute", str(frames / "dual.png"), "--projection", "fisheye", "--fov",
+                     "170", "--calibration", str(path)), f"cannot use calibration {path}", *words)
 
 
 def test_a_narrow_lens_file_is_read_without_naming_a_downsample_nobody_gave(frames):
