@@ -75,7 +75,9 @@ def test_a_setting_the_camera_refuses_is_said_and_the_stream_goes_on(caplog):
      "--theta-option iso and --bracket both set the exposure: give one"),
     (["--source", "demo", "--theta-option", "whiteBalance=daylight"],
      "--theta-option has no effect on a demo source (only theta:// reads it): leave it out"),
-    (["--source", "theta://127.0.0.1:9", "--theta-check", "0"], "--theta-check 0.0: out of range"),
+    (["--source", "theta://127.0.0.1:9", "--theta-check", "0"],
+     "--theta-check 0.0: out of range (0, 3600] seconds (a Theta that lost its settings is set "
+     "again at the next check)"),
 ])
 def test_theta_options_that_cannot_work_are_one_line(argv, line):
     res = run_cli("serve", "--port", "0", *argv)

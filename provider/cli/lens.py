@@ -37,6 +37,23 @@ def _board(text: str) -> tuple:
     return int(m[1]), int(m[2])
 
 
+def _check_header(path: str) -> None:
+    """Refuse a photo whose header declares a size OpenCV would not decode (one line, not
+    OpenCV's exception)."""
+    from ..core.errors import InputError
+    from ..core.radiometry.image_size import HEADER_BYTES, check_decodable, header_size
+    if not os.path.isfile(path):      # missing: said by the reading; a FIFO is not opened twice
+        return
+    try:
+        with open(path, "rb") as f:
+            data = f.read(HEADER_BYTES)
+    except OSError as exc:
+        raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
+    size = header_size(data)
+    if size is not None:
+        check_decodable(*size, data, f"cannot read {path}")
+
+
 def run(args) -> int:
     import cv2
     from ..core.errors import InputError
@@ -48,6 +65,8 @@ def run(args) -> int:
     from .outputs import output_file
     out = output_file(args.output, inputs=[(p, "an input photo") for p in args.photos],
                       product="lens file", extension=".json", stdout=True)
+    for path in args.photos:        # every photo's size from its header, before any work
+        _check_header(path)
     corners, size, missed = [], None, []
     for path in args.photos:
         img = cv2.imread(path, cv2.IMREAD_GRAYSCALE)

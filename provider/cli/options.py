@@ -306,16 +306,39 @@ def add_lens_arguments(g) -> None:
                         "centre does (default: the lens profile's, right for every Theta)")
 
 
-def _lens_file(path: str) -> dict:
+#: Largest lens or calibration file read (bytes): calibrate-lens writes about 600.
+MAX_LENS_FILE_BYTES = 64 * 1024
+
+
+def small_json_file(path: str, what: str, max_depth: int, kind: str):
+    """The JSON of a small settings file the user names (a lens file, an OpenCV
+    calibration): a regular file (a FIFO would wait for a writer, a device never end), at
+    most MAX_LENS_FILE_BYTES, strict JSON at most ``max_depth`` deep. InputError in one line
+    ``"{what}: ..."``; ``kind`` says what the file should be."""
+    import stat
+    from ..core.json_text import parse_json
     try:
-        with open(path) as f:
-            data = json.load(f)
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            raise InputError(f"{what}: not a regular file ({kind})")
+        if st.st_size > MAX_LENS_FILE_BYTES:
+            raise InputError(f"{what}: {st.st_size:,} bytes, too large ({kind}; at most "
+                             f"{MAX_LENS_FILE_BYTES // 1024} KiB)")
+        with open(path, "rb") as f:
+            text = f.read(MAX_LENS_FILE_BYTES + 1).decode("utf-8")
     except UnicodeDecodeError:
-        raise InputError(f"--lens {path}: not a JSON lens file (shlight calibrate-lens)") from None
-    except (OSError, ValueError) as exc:
-        raise InputError(f"--lens {path}: {exc}") from None
+        raise InputError(f"{what}: not a JSON text file ({kind})") from None
+    except OSError as exc:
+        raise InputError(f"{what}: {exc.strerror or exc}") from None
+    return parse_json(text, what, max_depth)
+
+
+def _lens_file(path: str) -> dict:
+    # a lens file is one flat object of numbers and lists of numbers: 2 levels
+    kind = "a lens file is the JSON file shlight calibrate-lens writes"
+    data = small_json_file(path, f"--lens {path}", 2, kind)
     if not isinstance(data, dict):
-        raise InputError(f"--lens {path}: not a lens file (shlight calibrate-lens)")
+        raise InputError(f"--lens {path}: not a lens file ({kind})")
     return data
 
 
@@ -369,17 +392,15 @@ def fisheye_calibration(path: str) -> dict:
     """``{"K": 3×3, "D": 4}`` of an OpenCV fisheye calibration file, as float arrays for the
     projection (InputError in one line for a file that is not one)."""
     import numpy as np
+    kind = "{\"K\": 3x3, \"D\": 4}"
+    cal = small_json_file(path, f"cannot use calibration {path}", 3, kind)
+    if not isinstance(cal, dict):
+        raise InputError(f"cannot use calibration {path}: not {kind}")
     try:
-        with open(path) as f:
-            cal = json.load(f)
         return {"K": np.asarray(cal["K"], float), "D": np.asarray(cal["D"], float)}
-    except UnicodeDecodeError:
-        raise InputError(f"cannot use calibration {path}: not a JSON text "
-                         "file ({\"K\": 3x3, \"D\": 4})") from None
     except KeyError as exc:
-        raise InputError(f"cannot use calibration {path}: no {exc} "
-                         "({\"K\": 3x3, \"D\": 4})") from None
-    except (OSError, ValueError, TypeError) as exc:
+        raise InputError(f"cannot use calibration {path}: no {exc} ({kind})") from None
+    except (ValueError, TypeError) as exc:
         raise InputError(f"cannot use calibration {path}: {exc}") from None
 
 

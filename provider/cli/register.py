@@ -98,6 +98,13 @@ def measure(args, command: str = "register"):
     spec = parse_marker(args.marker)
     check_marker_size(args.marker_size, "--marker-size")
     options = projection_options(args)
+    # every input checked before the first still is taken or the first image read
+    from ..live.sources.theta import theta_url
+    from .options import say_fifo_waits
+    for name in args.image:
+        if name.startswith("theta://"):
+            theta_url(name)
+    say_fifo_waits([n for n in args.image if not n.startswith("theta://")], command)
     poses, missing = [], []
     for name in args.image:
         if name.startswith("theta://"):

@@ -177,17 +177,33 @@ def _add_source_arguments(g) -> None:
 _BRACKET_OPTIONS = ("exposureProgram", "shutterSpeed", "iso")
 
 
+#: How deep a --theta-option value may nest: OSC's deepest option (previewFormat, an
+#: object in a list of choices) has 2 levels.
+THETA_OPTION_DEPTH = 4
+#: Longest wait (s) between checks of a Theta's settings (--theta-check): a camera that
+#: slept or was switched off and lost them is set again within it.
+THETA_CHECK_MAX_S = 3600.0
+
+
 def _theta_option(text: str) -> tuple:
-    """``NAME=VALUE`` -> (NAME, VALUE as JSON, else the word)."""
-    import json
+    """``NAME=VALUE`` -> (NAME, VALUE): strict JSON (finite numbers, at most
+    THETA_OPTION_DEPTH levels) where VALUE starts as JSON does (a digit, '-', '{', '[',
+    '"'), true, false and null; else the word, sent as a string. NaN and Infinity are
+    refused in any spelling: no camera reads them."""
+    from ..core.json_text import parse_json
     name, sep, value = text.partition("=")
-    if not sep or not name.strip() or not value.strip():
+    name, value = name.strip(), value.strip()
+    if not sep or not name or not value:
         raise argparse.ArgumentTypeError(f"{text!r}: expected NAME=VALUE, e.g. whiteBalance=daylight")
-    try:
-        parsed = json.loads(value)
-    except ValueError:
-        parsed = value.strip()
-    return name.strip(), parsed
+    if value.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+        raise argparse.ArgumentTypeError(f"{name}={value}: not a number a camera reads "
+                                         "(OSC values are JSON, whose numbers are finite)")
+    if value[0] in '{["-0123456789' or value in ("true", "false", "null"):
+        try:
+            return name, parse_json(value, f"{name}={value[:40]}", THETA_OPTION_DEPTH)
+        except InputError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    return name, value
 
 
 def _add_temporal_arguments(g) -> None:
@@ -281,7 +297,7 @@ def _check_numbers(ns, where: str = "") -> None:
               ("--change-threshold", ns.change_threshold, ns.change_threshold >= 0),
               ("--source-timeout", ns.source_timeout, ns.source_timeout > 0),
               ("--reconnect-max", ns.reconnect_max, ns.reconnect_max > 0),
-              ("--theta-check", ns.theta_check, ns.theta_check > 0),
+              ("--theta-check", ns.theta_check, 0 < ns.theta_check <= THETA_CHECK_MAX_S),
               ("--fps", ns.fps, ns.fps is None or 0 < ns.fps <= MAX_FPS),
               ("--exposure", ns.exposure, ns.exposure > 0),
               ("--downsample", ns.downsample, ns.downsample >= 1)]
@@ -290,6 +306,10 @@ def _check_numbers(ns, where: str = "") -> None:
             if flag == "--fps":
                 raise InputError(f"{where}--fps {value:g}: out of range (0, {MAX_FPS:g}] "
                                  "frames a second")
+            if flag == "--theta-check":
+                raise InputError(f"{where}--theta-check {value}: out of range (0, "
+                                 f"{THETA_CHECK_MAX_S:g}] seconds (a Theta that lost its "
+                                 "settings is set again at the next check)")
             raise InputError(f"{where}{flag} {value}: out of range")
 
 
@@ -402,10 +422,16 @@ def _given(words) -> set:
     """The dests that ``--probe-args`` words set themselves (not inherited from the command
     line): argparse leaves an attribute the namespace already has alone, so a namespace
     whose every attribute is a marker shows which ones the words changed."""
-    p, marker = _probe_parser(), object()
-    ns = argparse.Namespace(**{a.dest: marker for a in p._actions})
+    p = _probe_parser()
+    # a list each (argparse's append copies a list it finds, then appends: a new object)
+    markers = {a.dest: _Unset() for a in p._actions}
+    ns = argparse.Namespace(**markers)
     p.parse_args(words, namespace=ns)
-    return {k for k, v in vars(ns).items() if v is not marker}
+    return {k for k, v in vars(ns).items() if v is not markers.get(k)}
+
+
+class _Unset(list):
+    """The value of an option ``--probe-args`` words did not give (see _given)."""
 
 
 def _check_option_use(args, names, overrides: dict, given: dict) -> None:

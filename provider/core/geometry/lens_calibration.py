@@ -47,6 +47,12 @@ def calibrate_lens(corners: list, board: tuple, image_size: tuple, *, square: fl
                               f"photos; found in {len(corners)}")
     if profile not in PROFILES:
         raise ProjectionError(f"unknown lens profile {profile!r}; choose from {', '.join(PROFILES)}")
+    distinct = _distinct_views(corners)
+    if distinct < 3:
+        places = f"{distinct} distinct place{'' if distinct == 1 else 's'}"
+        raise ProjectionError(f"the board is found in {len(corners)} photos but in only "
+                              f"{places} (the same photo twice?): a lens calibration needs "
+                              "at least 3; move or tilt the board between photos")
     w, h = (int(v) for v in image_size)
     obj = board_points(board, square)
     objs = [obj.reshape(1, -1, 3) for _ in corners]
@@ -57,13 +63,26 @@ def calibrate_lens(corners: list, board: tuple, image_size: tuple, *, square: fl
     K = np.array([[f0, 0, w / 2 - 0.5], [0, f0, h / 2 - 0.5], [0, 0, 1.0]])
     flags = cv2.CALIB_RECOMPUTE_EXTRINSIC | cv2.CALIB_FIX_SKEW | cv2.CALIB_USE_INTRINSIC_GUESS
     try:
-        rms, K, D, _, _ = cv2.fisheye.calibrate(
+        rms, K, D, rvecs, _ = cv2.fisheye.calibrate(
             objs, imgs, (w, h), K, np.zeros((4, 1)), flags=flags,
             criteria=(cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12))
     except cv2.error as exc:
         raise ProjectionError("the lens calibration did not converge (OpenCV: "
                               f"{str(exc).strip().splitlines()[-1]}): take more photos, the "
                               "board at several angles and distances") from None
+    # OpenCV hands back its starting guess, or a lens that fits anything, without an error
+    # where the photos cannot pin the lens down: refused here, not written.
+    if not rms <= MAX_RMS_PX:
+        raise ProjectionError(f"the lens calibration did not fit the photos (reprojection "
+                              f"error {rms:.3g} px RMS, at most {MAX_RMS_PX:g}): the boards "
+                              "found do not come from one fisheye lens; take more photos, the "
+                              "board at several angles and distances")
+    spread = _tilt_spread(rvecs)
+    if spread < MIN_TILT_SPREAD_DEG:
+        raise ProjectionError(f"the boards in all {len(corners)} photos face the lens at one "
+                              f"tilt (within {spread:.1f}°, at least {MIN_TILT_SPREAD_DEG:g}° "
+                              "needed): a flat board at one tilt cannot tell the focal length "
+                              "from the curve; tilt it, and move it across the circle")
     fx, fy = float(K[0, 0]), float(K[1, 1])
     out = {"shlight_lens": LENS_FILE_VERSION, "model": "kannala-brandt",
            "curve": [1.0] + [float(v) for v in np.ravel(D)],
@@ -72,8 +91,41 @@ def calibrate_lens(corners: list, board: tuple, image_size: tuple, *, square: fl
            "image_size": [w, h], "fov_deg": float(fov_deg), "profile": profile,
            "rms_px": float(rms), "views": len(corners), "board": list(board),
            "max_corner_deg": _max_angle(imgs, K, D)}
+    if out["max_corner_deg"] > fov_deg / 2 + 1.0:     # 1°: the corners' own scatter
+        raise ProjectionError(f"the photos show corners {out['max_corner_deg']:.0f}° from the "
+                              f"lens's axis, outside a field of view of {fov_deg:g}° (--fov): "
+                              f"give the lens's field of view, at least "
+                              f"{2 * math.ceil(out['max_corner_deg']):g}°")
     lens_from_dict(out)        # refuse a curve that turns back before fov/2 now
     return out
+
+
+#: Largest reprojection error (px RMS) of a calibration that is written: the corner finder
+#: is good to a fraction of a pixel (measured 0.08-0.3 px on rendered boards); OpenCV's
+#: unmoved starting guess on boards it cannot fit misses them by 100-230 px.
+MAX_RMS_PX = 3.0
+#: Least angle (degrees) between the boards' tilts over all photos: boards that all face the
+#: lens the same way are Zhang's degenerate case (measured 1-2° for boards moved or scaled
+#: in the image only, 91-135° for photos that follow the advice).
+MIN_TILT_SPREAD_DEG = 10.0
+#: Corners that move less than this on average (px) are the same view (the same photo).
+SAME_VIEW_PX = 0.5
+
+
+def _distinct_views(corners: list) -> int:
+    """How many of the photos' corner sets differ from every one before it."""
+    kept = []
+    for c in corners:
+        c = np.asarray(c, np.float64).reshape(-1, 2)
+        if all(np.hypot(*(c - k).T).mean() >= SAME_VIEW_PX for k in kept):
+            kept.append(c)
+    return len(kept)
+
+
+def _tilt_spread(rvecs) -> float:
+    """Largest angle (degrees) between the board normals of any two views."""
+    normals = np.array([cv2.Rodrigues(np.asarray(r, np.float64))[0][:, 2] for r in rvecs])
+    return float(np.degrees(np.arccos(np.clip(normals @ normals.T, -1.0, 1.0))).max())
 
 
 def _max_angle(imgs, K, D) -> float:
@@ -83,30 +135,75 @@ def _max_angle(imgs, K, D) -> float:
     return float(np.degrees(np.arctan(np.hypot(und[:, 0], und[:, 1]))).max())
 
 
+#: Most terms of a lens file's curve (c₁θ … c₃₁θ³¹): a calibration writes 5, Ricoh's
+#: curves have 7; more is no lens but a cost (every pixel's angle evaluates them all).
+MAX_CURVE_TERMS = 16
+#: Largest side (px) of a lens file's frame: above any camera's.
+MAX_LENS_FRAME_SIDE = 1_000_000
+
+
+def _shown(value, limit: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 4] + " ..."
+
+
+def _number(value, name: str, key: str) -> float:
+    """A finite number of a lens file (no bool, no text, no list)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ProjectionError(f"{name}: {key} must be a number, got {_shown(value)}")
+    try:
+        v = float(value)
+    except OverflowError:
+        v = math.inf
+    if not math.isfinite(v):
+        raise ProjectionError(f"{name}: {key} must be a finite number, got {_shown(value)}")
+    return v
+
+
+def _numbers(value, count, name: str, key: str) -> list:
+    """A flat list of ``count`` (an int, or a range) finite numbers of a lens file."""
+    sizes = range(count, count + 1) if isinstance(count, int) else count
+    if not isinstance(value, (list, tuple)) or len(value) not in sizes:
+        want = (f"{count}" if isinstance(count, int)
+                else f"{sizes.start}-{sizes.stop - 1}")
+        got = f"{len(value)} items" if isinstance(value, (list, tuple)) else _shown(value)
+        raise ProjectionError(f"{name}: {key} must be a list of {want} numbers, got {got}")
+    return [_number(v, name, f"{key}[{i}]") for i, v in enumerate(value)]
+
+
 def lens_from_dict(data: dict, name: str = "lens file") -> dict:
     """The validated contents of a lens file: ``curve`` a LensCurve, ``focal`` (px),
     ``center`` (px), ``image_size``, ``fov_deg``, ``profile``. ProjectionError in one line
-    naming what is wrong."""
-    try:
-        if data.get("shlight_lens") != LENS_FILE_VERSION:
-            raise ProjectionError(f"{name} is not a lens file of shlight calibrate-lens "
-                                  f"(no \"shlight_lens\": {LENS_FILE_VERSION})")
-        fov = float(data["fov_deg"])
-        curve = LensCurve(data["curve"], math.radians(fov / 2), f"{name}")
-        focal, (cx, cy) = float(data["focal"]), (float(v) for v in data["center"])
-        w, h = (int(v) for v in data["image_size"])
-        profile = data.get("profile", "theta-s")
-    except ProjectionError:
-        raise
-    except KeyError as exc:
-        raise ProjectionError(f"{name}: no {exc} (write it with shlight calibrate-lens)") from None
-    except (TypeError, ValueError, AttributeError) as exc:
-        raise ProjectionError(f"{name}: {exc}") from None
-    if not (math.isfinite(focal) and focal > 0 and math.isfinite(cx) and math.isfinite(cy)
-            and w > 0 and h > 0):
-        raise ProjectionError(f"{name}: focal, center and image_size must be finite and positive")
-    if profile not in PROFILES:
-        raise ProjectionError(f"{name}: unknown profile {profile!r}")
+    naming what is wrong (every field is checked for its type and range before use)."""
+    if not isinstance(data, dict) or data.get("shlight_lens") != LENS_FILE_VERSION:
+        raise ProjectionError(f"{name} is not a lens file of shlight calibrate-lens "
+                              f"(no \"shlight_lens\": {LENS_FILE_VERSION})")
+    missing = [k for k in ("curve", "focal", "center", "image_size", "fov_deg") if k not in data]
+    if missing:
+        raise ProjectionError(f"{name}: no '{missing[0]}' (write it with shlight calibrate-lens)")
+    fov = _number(data["fov_deg"], name, "fov_deg")
+    if not 0 < fov <= 360:
+        raise ProjectionError(f"{name}: fov_deg {fov:g} is not a field of view in (0, 360] degrees")
+    curve = data["curve"]
+    if isinstance(curve, (list, tuple)) and len(curve) > MAX_CURVE_TERMS:
+        raise ProjectionError(f"{name}: curve has {len(curve):,} terms, at most "
+                              f"{MAX_CURVE_TERMS} (a calibration writes 5, Ricoh's curves have "
+                              "7; every pixel's angle evaluates them all)")
+    coefficients = _numbers(curve, range(1, MAX_CURVE_TERMS + 1), name, "curve")
+    focal = _number(data["focal"], name, "focal")
+    cx, cy = _numbers(data["center"], 2, name, "center")
+    size = _numbers(data["image_size"], 2, name, "image_size")
+    if not all(v == int(v) and 1 <= v <= MAX_LENS_FRAME_SIDE for v in size):
+        raise ProjectionError(f"{name}: image_size must be two whole numbers of pixels, 1 to "
+                              f"{MAX_LENS_FRAME_SIDE:,}, got {_shown(data['image_size'])}")
+    w, h = (int(v) for v in size)
+    if focal <= 0:
+        raise ProjectionError(f"{name}: focal must be positive, got {focal:g}")
+    profile = data.get("profile", "theta-s")
+    if not isinstance(profile, str) or profile not in PROFILES:
+        raise ProjectionError(f"{name}: profile must be one of {', '.join(PROFILES)}, got "
+                              f"{_shown(profile)}")
+    curve = LensCurve(coefficients, math.radians(fov / 2), f"{name}")
     return {"curve": curve, "focal": focal, "center": (cx, cy), "image_size": (w, h),
             "fov_deg": fov, "profile": profile}
 

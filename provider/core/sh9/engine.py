@@ -535,19 +535,33 @@ class SH9Projector(FrameDecoder):
         """
         if self._estimator is None:
             p = self.projection
-            factor = max(1, int(math.sqrt(p.width * p.height / 4096)))
-            coarse = p if factor == 1 else p.scaled(factor)
+            factor = wanted = max(1, int(math.sqrt(p.width * p.height / 4096)))
+            coarse = p
+            while factor > 1:
+                try:
+                    coarse = p.scaled(factor)
+                    break
+                except ProjectionError:     # a lens circle too small for this copy: finer
+                    factor //= 2
             crop = p.scaled_source_size(factor)
             dirs = coarse.directions().reshape(-1, 3)
             omega = coarse.solid_angle.reshape(-1)
+            sh_w = coarse.sh_weights  # (P, 9), includes any fill model
+            # A finer copy than wanted (a small lens circle in a large frame): only the
+            # pixels that carry light, or the kernel would be (256, the whole frame).
+            seen = None if factor == wanted else \
+                np.flatnonzero((omega != 0) | np.any(sh_w != 0, axis=1))
+            if seen is not None:
+                dirs, omega, sh_w = dirs[seen], omega[seen], sh_w[seen]
             normals = sh.fibonacci_sphere(256)
             kernel = np.maximum(normals @ dirs.T, 0.0) * omega  # (256, P)
-            sh_w = coarse.sh_weights  # (P, 9), includes any fill model
-            self._estimator = (factor, coarse, crop, normals, kernel, sh_w)
-        factor, coarse, crop, normals, kernel, sh_w = self._estimator
+            self._estimator = (factor, coarse, crop, normals, kernel, sh_w, seen)
+        factor, coarse, crop, normals, kernel, sh_w, seen = self._estimator
         small = lin if factor == 1 else cv2.resize(
             lin[:crop[1], :crop[0]], (coarse.width, coarse.height), interpolation=cv2.INTER_AREA)
         px = small.reshape(-1, 3).astype(np.float64)
+        if seen is not None:
+            px = px[seen]
         truth = kernel @ px
         coarse_coeffs = sh_w.T @ px
         # The same order/window choices as the result, applied to the coarse projection.

@@ -109,7 +109,9 @@ def _check_host(url: str, scheme: str) -> None:
         parts = urllib.parse.urlsplit(url)
         parts.port                                  # noqa: B018 - raises on a bad port
     except ValueError as exc:
-        raise InputError(f"{scheme}:// source {redact(url)}: {exc}") from None
+        # not echoed: redact cannot take it apart either, and it may hold a password
+        raise InputError(f"{scheme}:// source: {exc} (e.g. {scheme}://192.168.1.20, "
+                         f"{scheme}://[::1])") from None
     if not parts.hostname and scheme not in ("udp", "srt"):   # udp://@:1234 listens
         raise InputError(f"{scheme}:// source needs a host, e.g. {scheme}://192.168.1.20"
                          f"{':8765/' if scheme.startswith('ws') else '/'}: {redact(url)}")
@@ -140,16 +142,17 @@ def parse_source(spec: str, options: SourceOptions | None = None) -> SourceSpec:
         return SourceSpec("picamera2", index, o, f"Raspberry Pi camera {index} (Picamera2)")
     if low.startswith("opencv:"):
         return SourceSpec("opencv", s[7:], o, f"OpenCV {redact(s[7:])}")
-    scheme = urllib.parse.urlsplit(s).scheme.lower() if "://" in s else ""
+    try:
+        scheme = urllib.parse.urlsplit(s).scheme.lower() if "://" in s else ""
+    except ValueError:      # "theta://[::1": the scheme's own check below says what is wrong
+        scheme = s.partition("://")[0].lower()
     if scheme in ("http", "https", "ws", "wss", "rtsp", "rtsps", "rtmp", "udp", "tcp", "srt"):
         _check_host(s, scheme)
     if scheme in ("http", "https"):
         return SourceSpec("mjpeg", s, o, f"MJPEG {redact(s)}")
     if scheme in ("theta", "osc", "thetas", "oscs"):
-        if not urllib.parse.urlsplit(s).hostname:
-            raise InputError(f"theta source needs a host, e.g. theta://192.168.1.1: {s}")
         from .theta import ThetaSource
-        ThetaSource(s, o)  # validates the options
+        ThetaSource(s, o)  # validates the URL and the options
         return SourceSpec("theta", s, o, f"Ricoh Theta {redact(s)} (OSC live preview)")
     if scheme in ("ws", "wss"):
         return SourceSpec("relay", s, o, f"relay {redact(s)}")

@@ -10,7 +10,7 @@ import urllib.parse
 import urllib.request
 
 from ...core.errors import InputError
-from .base import (USER_AGENT, Frame, Source, SourceError, SourceOptions, printable,
+from .base import (USER_AGENT, Frame, Source, SourceError, SourceOptions, printable, redact,
                    split_credentials)
 from .http import MultipartJpegReader, http_opener
 from .theta_exposure import ThetaExposure
@@ -35,6 +35,24 @@ class OscCommandError(SourceError):
         self.code = code
 
 
+def theta_url(url: str) -> urllib.parse.SplitResult:
+    """The parts of a ``theta://[USER:PASSWORD@]HOST[:PORT]`` URL (serve's source,
+    register's still); InputError in one line for one that names no host or a bad one
+    (an unclosed IPv6 bracket, a port beyond 65535). The URL is not echoed: it may hold a
+    password."""
+    scheme = url.partition("://")[0]
+    try:
+        parts = urllib.parse.urlsplit(url)
+        parts.port                                  # noqa: B018 - raises on a bad port
+    except ValueError as exc:
+        raise InputError(f"{scheme}:// URL: {exc} (e.g. {scheme}://192.168.1.1, "
+                         f"{scheme}://[::1])") from None
+    if not parts.hostname:
+        raise InputError(f"theta source needs a host, e.g. theta://192.168.1.1: "
+                         f"{redact(url)}")
+    return parts
+
+
 class ThetaSource(Source):
     """A Ricoh Theta over Wi-Fi: the Open Spherical Camera live preview (docs/contract.md §8).
 
@@ -52,7 +70,7 @@ class ThetaSource(Source):
 
     def __init__(self, url: str, options: SourceOptions):
         super().__init__()
-        parts = urllib.parse.urlsplit(url)
+        parts = theta_url(url)
         query = urllib.parse.parse_qs(parts.query)
         self.api = query.get("api", [options.theta_api])[0]
         if self.api not in ("auto", "2.0", "2.1"):
