@@ -6,6 +6,11 @@ import os
 import cv2
 import numpy as np
 
+try:
+    import simplejpeg
+except ImportError:     # a declared dependency; OpenCV (which prints its warnings) otherwise
+    simplejpeg = None
+
 from ..errors import InputError
 from .image_size import (EXR_MAGIC, HEADER_BYTES, PNG_MAGIC, check_decodable, check_pixels,
                          header_size)
@@ -79,15 +84,14 @@ def read_image(path, max_pixels: int = 0, said=None) -> np.ndarray:
 
 
 def _decode(path: str, data: bytes, radiance: bool, said=None) -> np.ndarray:
-    """A file's bytes decoded as RGB (see :func:`read_image`): a JPEG by :mod:`.jpeg`,
-    anything else by OpenCV."""
+    """A file's bytes decoded as RGB (see :func:`read_image`): a JPEG by
+    :func:`decode_jpeg`, anything else by OpenCV."""
     png = check_complete(path, data)
     if png is not None:
         data = png          # the PNG as libpng is given it (no ancillary chunks)
     try:
         img = None
         if data[:3] == b"\xff\xd8\xff":
-            from .jpeg import decode_jpeg
             img, words = decode_jpeg(data, f"cannot read {path}: the JPEG is corrupt")
             if words is not None and said is not None:
                 said(words)
@@ -129,6 +133,60 @@ def _decode(path: str, data: bytes, radiance: bool, said=None) -> np.ndarray:
         raise InputError(f"cannot read {path}: not a Radiance .hdr file OpenCV can decode "
                          "(corrupt or truncated)")
     raise InputError(f"cannot read {path}: not an image OpenCV can decode")
+
+
+# ---- JPEG: the decoder's words returned, not printed ------------------------------------------
+#
+# libjpeg, as OpenCV builds it, prints "Corrupt JPEG data: ..." straight to file descriptor 2
+# for every damaged frame; capturing that meant pointing descriptor 2 elsewhere around each
+# decode, process-wide, one decode at a time (issue 41). simplejpeg (libjpeg-turbo's TurboJPEG
+# API, bundled in its wheels) keeps the decoder's message in its handle and raises it, and
+# decodes with the GIL released, so that several cameras decode side by side. OpenCV decodes
+# only where simplejpeg is not installed.
+
+def decode_jpeg(data: bytes, what: str) -> tuple[np.ndarray, str | None]:
+    """Decode a JPEG.
+
+    Parameters
+    ----------
+    data : bytes
+        The JPEG's bytes (its size already checked against the budget by the caller).
+    what : str
+        What it is, for the error (e.g. ``"corrupt JPEG frame (812 bytes)"``).
+
+    Returns
+    -------
+    (numpy.ndarray, str or None)
+        The (H, W, 3) RGB uint8 image, and what the decoder said of a frame it could decode
+        only by repairing it (e.g. "Corrupt JPEG data: premature end of data segment": the
+        rest of the picture grey, as libjpeg has always done), else None.
+
+    Raises
+    ------
+    InputError
+        ``what``, for bytes that do not decode (the decoder's words after a colon).
+    """
+    if simplejpeg is None:
+        return _decode_opencv(data, what), None
+    try:
+        return simplejpeg.decode_jpeg(data, "RGB", strict=True), None
+    except ValueError as exc:       # a warning (the data repaired) or an error (none)
+        said = " ".join(str(exc).split())
+    try:
+        # strict=False: what libjpeg itself does with a damaged scan (decode what it can)
+        return simplejpeg.decode_jpeg(data, "RGB", strict=False), said
+    except ValueError:              # a damaged header or tables: nothing to decode
+        raise InputError(f"{what}: {said[:200]}") from None
+
+
+def _decode_opencv(data: bytes, what: str) -> np.ndarray:
+    try:
+        bgr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    except cv2.error:       # a header declaring more than OpenCV decodes
+        bgr = None
+    if bgr is None:
+        raise InputError(what)
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
 
 
 def _say_on_stderr(line: str) -> None:

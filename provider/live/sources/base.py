@@ -79,8 +79,7 @@ class Frame:
         """
         from ...core.radiometry.image_size import check_decodable, check_pixels, header_size
         if self.image is None and self.jpeg is not None:
-            from ...core.radiometry.images import check_complete
-            from ...core.radiometry.jpeg import decode_jpeg
+            from ...core.radiometry.images import check_complete, decode_jpeg
             what = f"corrupt JPEG frame ({len(self.jpeg)} bytes)"
             size = header_size(self.jpeg)
             if size is not None:     # refused from its header: nothing decoded
@@ -224,7 +223,7 @@ def redact(url: str) -> str:
 # what a decoder says goes to the log as one line per source per interval, with how many were
 # held back. Nothing points descriptor 2 anywhere (issue 41: that made the decodes of all
 # sources take turns, lost a crash's faulthandler dump, and other threads' lines): JPEGs are
-# decoded by a library that returns its words (core.radiometry.jpeg), a PNG is checked before
+# decoded by a library that returns its words (core.radiometry.images), a PNG is checked before
 # libpng sees it (core.radiometry.images), and OpenCV's own log is silenced while a file
 # decodes (opencv_log_quiet): OpenEXR's bindings raise.
 
