@@ -319,11 +319,11 @@ def test_an_image_source_reads_the_file_again_after_a_failure_not_of_its_content
     os.replace(tmp_path / "new.png", path)
     real, failures = files.read_image, []
 
-    def failing_once(p, max_pixels=0):
+    def failing_once(p, max_pixels=0, said=None):
         if not failures:
             failures.append(p)
             raise TransientReadError(f"cannot read {p}: No space left on device")
-        return real(p, max_pixels)
+        return real(p, max_pixels, said)
     monkeypatch.setattr(files, "read_image", failing_once)
     frame = source.read()
     assert frame.image is first and "No space left" in frame.info["bad_file"]

@@ -121,9 +121,10 @@ def _corrupt_but_decodable_jpeg() -> bytes:
     import cv2
     import numpy as np
     from servertools import jpeg_panorama
-    data = bytearray(jpeg_panorama(128))
+    data = bytearray(jpeg_panorama(1024))
     assert cv2.imdecode(np.frombuffer(bytes(data), np.uint8), cv2.IMREAD_COLOR) is not None
     n = len(data) // 2
+    assert data.rfind(b"\xff\xda") < n     # in its scan: a header damaged does not decode
     data[n:n + 40] = b"\0" * 40
     return bytes(data)
 

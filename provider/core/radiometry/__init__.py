@@ -1,6 +1,7 @@
 """Radiometry: from code values to light (no sockets, no threads).
 
-* :mod:`.images`: reading image files into the frame contract (RGB, uint8/uint16/float32);
+* :mod:`.images`: reading image files into the frame contract (RGB, uint8/uint16/float32),
+  and JPEG frames (``decode_jpeg``: simplejpeg, its words returned, not printed);
 * :mod:`.image_size`: the size a file's header declares, and the pixel budget checked on
   it before decoding;
 * :mod:`.decode`: :class:`~provider.core.radiometry.decode.FrameDecoder`, a frame decoded
@@ -12,6 +13,6 @@
 * :mod:`.photometry`: absolute units (cd/m², lux, EV100) from a frame's exposure;
 * :mod:`.colour_temperature`: CCT and Duv of linear Rec. 709 light.
 
-May import: numpy, OpenCV, OpenEXR, :mod:`provider.core.errors`. Nothing of geometry or the
+May import: numpy, OpenCV, OpenEXR, simplejpeg, :mod:`provider.core.errors`. Nothing of geometry or the
 products.
 """

@@ -6,6 +6,11 @@ import os
 import cv2
 import numpy as np
 
+try:
+    import simplejpeg
+except ImportError:     # a declared dependency; OpenCV (which prints its warnings) otherwise
+    simplejpeg = None
+
 from ..errors import InputError
 from .image_size import (EXR_MAGIC, HEADER_BYTES, PNG_MAGIC, check_decodable, check_pixels,
                          header_size)
@@ -19,7 +24,7 @@ class TransientReadError(InputError):
     error, memory): reading the same file again may work, so it is not remembered as bad."""
 
 
-def read_image(path, max_pixels: int = 0) -> np.ndarray:
+def read_image(path, max_pixels: int = 0, said=None) -> np.ndarray:
     """Read an image file as an (H, W, 3) RGB array.
 
     OpenEXR files are read with the ``openexr`` package (the OpenCV wheels have no EXR
@@ -34,6 +39,10 @@ def read_image(path, max_pixels: int = 0) -> np.ndarray:
         Pixel budget (width × height, pixels; 0: none). An image whose header declares more
         is refused with :class:`~.image_size.FrameTooLarge` before anything beyond its
         header is read or decoded.
+    said : callable, optional
+        Called with what the JPEG decoder said of a damaged file it decoded by repairing it
+        (e.g. "Corrupt JPEG data: premature end of data segment"); by default, one line on
+        stderr.
 
     Raises
     ------
@@ -68,17 +77,28 @@ def read_image(path, max_pixels: int = 0) -> np.ndarray:
         del data
         img = _read_exr(path)
     else:
-        img = _decode(path, data, radiance)
+        img = _decode(path, data, radiance, said)
     if size is None:   # a format whose size only its decoder reads: checked once decoded
         check_pixels(img.shape[1], img.shape[0], max_pixels, f"{path}: image", decoded=True)
     return img
 
 
-def _decode(path: str, data: bytes, radiance: bool) -> np.ndarray:
-    """OpenCV's decoding of a file's bytes, as RGB (see :func:`read_image`)."""
-    check_complete(path, data)
+def _decode(path: str, data: bytes, radiance: bool, said=None) -> np.ndarray:
+    """A file's bytes decoded as RGB (see :func:`read_image`): a JPEG by
+    :func:`decode_jpeg`, anything else by OpenCV."""
+    png = check_complete(path, data)
+    if png is not None:
+        data = png          # the PNG as libpng is given it (no ancillary chunks)
     try:
         img = None
+        if data[:3] == b"\xff\xd8\xff":
+            img, words = decode_jpeg(data, f"cannot read {path}: the JPEG is corrupt")
+            if words is not None and said is not None:
+                said(words)
+            elif words is not None:
+                _say_on_stderr(f"warning: {path}: the JPEG is damaged, decoded as far as it "
+                               f"goes (the decoder says: {words})")
+            return img
         if radiance:
             # OpenCV decodes Radiance .hdr bytes through a temporary file (its decoder reads
             # files only): with /tmp full a valid file would fail. Read from its own path,
@@ -91,7 +111,8 @@ def _decode(path: str, data: bytes, radiance: bool) -> np.ndarray:
                         data = f.read()
                     img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
         else:
-            img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+            with _opencv_log_quiet():   # libtiff's errors come through OpenCV's log
+                img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
         if img is not None:
             if img.ndim == 2:
                 return np.repeat(img[..., None], 3, axis=2)
@@ -112,6 +133,65 @@ def _decode(path: str, data: bytes, radiance: bool) -> np.ndarray:
         raise InputError(f"cannot read {path}: not a Radiance .hdr file OpenCV can decode "
                          "(corrupt or truncated)")
     raise InputError(f"cannot read {path}: not an image OpenCV can decode")
+
+
+# ---- JPEG: the decoder's words returned, not printed ------------------------------------------
+#
+# libjpeg, as OpenCV builds it, prints "Corrupt JPEG data: ..." straight to file descriptor 2
+# for every damaged frame; capturing that meant pointing descriptor 2 elsewhere around each
+# decode, process-wide, one decode at a time (issue 41). simplejpeg (libjpeg-turbo's TurboJPEG
+# API, bundled in its wheels) keeps the decoder's message in its handle and raises it, and
+# decodes with the GIL released, so that several cameras decode side by side. OpenCV decodes
+# only where simplejpeg is not installed.
+
+def decode_jpeg(data: bytes, what: str) -> tuple[np.ndarray, str | None]:
+    """Decode a JPEG.
+
+    Parameters
+    ----------
+    data : bytes
+        The JPEG's bytes (its size already checked against the budget by the caller).
+    what : str
+        What it is, for the error (e.g. ``"corrupt JPEG frame (812 bytes)"``).
+
+    Returns
+    -------
+    (numpy.ndarray, str or None)
+        The (H, W, 3) RGB uint8 image, and what the decoder said of a frame it could decode
+        only by repairing it (e.g. "Corrupt JPEG data: premature end of data segment": the
+        rest of the picture grey, as libjpeg has always done), else None.
+
+    Raises
+    ------
+    InputError
+        ``what``, for bytes that do not decode (the decoder's words after a colon).
+    """
+    if simplejpeg is None:
+        return _decode_opencv(data, what), None
+    try:
+        return simplejpeg.decode_jpeg(data, "RGB", strict=True), None
+    except ValueError as exc:       # a warning (the data repaired) or an error (none)
+        said = " ".join(str(exc).split())
+    try:
+        # strict=False: what libjpeg itself does with a damaged scan (decode what it can)
+        return simplejpeg.decode_jpeg(data, "RGB", strict=False), said
+    except ValueError:              # a damaged header or tables: nothing to decode
+        raise InputError(f"{what}: {said[:200]}") from None
+
+
+def _decode_opencv(data: bytes, what: str) -> np.ndarray:
+    try:
+        bgr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    except cv2.error:       # a header declaring more than OpenCV decodes
+        bgr = None
+    if bgr is None:
+        raise InputError(what)
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+def _say_on_stderr(line: str) -> None:
+    import sys
+    print(line, file=sys.stderr, flush=True)
 
 
 class _opencv_log_quiet:
@@ -167,10 +247,11 @@ def _read_exr(path: str) -> np.ndarray:
     return np.ascontiguousarray(rgb, dtype=np.float32)
 
 
-def check_complete(path: str, data: bytes) -> None:
+def check_complete(path: str, data: bytes):
     """Refuse a JPEG or PNG that ends before its image does (a copy cut short): OpenCV
     would decode the part it has and fill the rest with grey, and libjpeg/libpng would
-    print their own words."""
+    print their own words. For a PNG, returns what libpng is given (see
+    :func:`_check_png_chunks`); else None."""
     if data[:3] == b"\xff\xd8\xff":                                    # JPEG
         tail = data.rstrip(b"\x00\r\n ")
         scan = data.rfind(b"\xff\xda")                     # the last start of scan
@@ -178,34 +259,82 @@ def check_complete(path: str, data: bytes) -> None:
             raise InputError(f"cannot read {path}: the JPEG is truncated (it ends before its "
                              "end-of-image marker); copy it again")
     elif data[:8] == PNG_MAGIC:
-        _check_png_chunks(path, data)
+        return _check_png_chunks(path, data)
+    return None
 
 
-def _check_png_chunks(path: str, data: bytes) -> None:
-    """Walk a PNG's chunks to IEND: refuse one cut short, or whose critical chunk (IHDR,
-    PLTE, IDAT, IEND) fails its CRC (a bit flipped on the way), in our words, instead of
-    libpng's "libpng error: IDAT: CRC error" on stderr (unthrottled, and not ours to route).
-    Ancillary chunks with a bad CRC are left to libpng, which skips them."""
+#: IHDR's legal bit depths for each colour type (PNG specification, 11.2.2).
+_PNG_DEPTHS = {0: (1, 2, 4, 8, 16), 2: (8, 16), 3: (1, 2, 4, 8), 4: (8, 16), 6: (8, 16)}
+
+
+def _check_png_chunks(path: str, data: bytes):
+    """Walk a PNG's chunks to IEND and refuse, in our words, what libpng would refuse with
+    its own on stderr (libpng prints straight to descriptor 2, unthrottled and not ours to
+    route; issue 41): a file cut short; a critical chunk (IHDR, PLTE, IDAT, IEND) failing its
+    CRC (a bit flipped on the way); an IHDR with fields out of the specification; a palette
+    image without PLTE; no IDAT; an image stream without a zlib header; an unknown critical
+    chunk.
+
+    Returns
+    -------
+    bytes or memoryview
+        What libpng is given: ``data`` itself, or, when the file has ancillary chunks, the
+        file without them (libpng warns of a bad one, e.g. "iCCP: known incorrect sRGB
+        profile"; none changes the RGB that OpenCV returns: gamma, colour profiles and text
+        are not applied, and transparency is dropped).
+
+    What this cannot see without inflating the whole image first (twice the decode's
+    work): a compressed stream damaged under valid CRCs (a broken encoder), which libpng
+    still reports itself."""
     import struct
     import zlib
     pos, view = 8, memoryview(data)
+    keep, dropped, seen = [view[:8]], False, set()
+
+    def corrupt(why):
+        return InputError(f"cannot read {path}: the PNG is corrupt ({why})")
     while True:
         if pos + 12 > len(data):
             raise InputError(f"cannot read {path}: the PNG is truncated (no IEND chunk); "
                              "copy it again")
         length, kind = struct.unpack_from(">I4s", data, pos)
         end = pos + 12 + length
+        name = kind.decode("latin-1")
         if length > 0x7FFFFFFF or end > len(data):
             raise InputError(f"cannot read {path}: the PNG is truncated (its "
-                             f"{kind.decode('latin-1')!r} chunk ends beyond the file); copy "
-                             "it again")
-        if not kind[0] & 0x20:                        # critical: uppercase first letter
-            crc = struct.unpack_from(">I", data, end - 4)[0]
-            if zlib.crc32(view[pos + 4:end - 4]) != crc:
-                raise InputError(f"cannot read {path}: the PNG is corrupt (its "
-                                 f"{kind.decode('latin-1')!r} chunk fails its CRC check)")
-        if kind == b"IEND":
-            return
+                             f"{name!r} chunk ends beyond the file); copy it again")
+        if kind[0] & 0x20:                            # ancillary: lowercase first letter
+            dropped = True
+            pos = end
+            continue
+        crc = struct.unpack_from(">I", data, end - 4)[0]
+        if zlib.crc32(view[pos + 4:end - 4]) != crc:
+            raise corrupt(f"its {name!r} chunk fails its CRC check")
+        if kind == b"IHDR":
+            if pos != 8 or length != 13:
+                raise corrupt("its IHDR chunk is not the first, or not 13 bytes")
+            depth, colour, method, filtering, interlace = data[pos + 16:pos + 21]
+            if (depth not in _PNG_DEPTHS.get(colour, ()) or method or filtering
+                    or interlace > 1):
+                raise corrupt(f"its header declares bit depth {depth}, colour type "
+                              f"{colour}, methods {method}/{filtering}/{interlace}")
+        elif kind == b"IDAT" and b"IDAT" not in seen and length >= 2:
+            cmf, flg = data[pos + 8:pos + 10]
+            if cmf & 0x0F != 8 or cmf >> 4 > 7 or (cmf << 8 | flg) % 31 or flg & 0x20:
+                raise corrupt("its image data has no zlib header")
+        elif kind == b"PLTE" and (length % 3 or not 0 < length <= 768):
+            raise corrupt(f"its palette has {length} bytes")
+        elif kind not in (b"IHDR", b"PLTE", b"IDAT", b"IEND"):
+            raise corrupt(f"an unknown critical chunk {name!r}")
+        elif kind == b"IEND":
+            if b"IHDR" not in seen or b"IDAT" not in seen:
+                raise corrupt("no image data" if b"IHDR" in seen else "no IHDR chunk")
+            if data[24 + 1] == 3 and b"PLTE" not in seen:
+                raise corrupt("a palette image without its palette")
+            keep.append(view[pos:end])
+            return b"".join(keep) if dropped else data
+        seen.add(kind)
+        keep.append(view[pos:end])
         pos = end
 
 

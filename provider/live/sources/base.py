@@ -11,17 +11,13 @@ sources implements it.
 from __future__ import annotations
 
 import logging
-import os
 import re
-import sys
-import tempfile
 import threading
 import time
 import urllib.parse
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
 from ...core.errors import InputError
@@ -81,24 +77,22 @@ class Frame:
             A corrupt frame; :class:`~provider.core.radiometry.image_size.FrameTooLarge`
             past the budget.
         """
-        from ...core.radiometry.image_size import check_pixels, header_size
+        from ...core.radiometry.image_size import check_decodable, check_pixels, header_size
         if self.image is None and self.jpeg is not None:
-            from ...core.radiometry.images import check_complete
+            from ...core.radiometry.images import check_complete, decode_jpeg
+            what = f"corrupt JPEG frame ({len(self.jpeg)} bytes)"
             size = header_size(self.jpeg)
             if size is not None:     # refused from its header: nothing decoded
                 check_pixels(*size, max_pixels)
+                check_decodable(*size, self.jpeg, what)
             # a frame cut short is refused, not decoded half-way (the rest grey)
             check_complete(f"JPEG frame ({len(self.jpeg)} bytes)", self.jpeg)
-            try:
-                with codec_messages("a JPEG frame"):
-                    bgr = cv2.imdecode(np.frombuffer(self.jpeg, np.uint8), cv2.IMREAD_COLOR)
-            except cv2.error:       # a header declaring more than OpenCV decodes
-                bgr = None
-            if bgr is None:
-                raise InputError(f"corrupt JPEG frame ({len(self.jpeg)} bytes)")
+            image, said = decode_jpeg(self.jpeg, what)
+            if said:                 # decoded by repairing it: said, a line per interval
+                decoder_says("a JPEG frame", said)
             if size is None:         # a size only the decoder read: checked now
-                check_pixels(bgr.shape[1], bgr.shape[0], max_pixels, decoded=True)
-            self.image = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+                check_pixels(image.shape[1], image.shape[0], max_pixels, decoded=True)
+            self.image = image
         elif self.image is not None and self.jpeg is None and self.image.ndim >= 2:
             # decoded by its source (a camera, a video): too late to save the decoding,
             # not too late to save the projection
@@ -223,71 +217,57 @@ def redact(url: str) -> str:
     return urllib.parse.urlunsplit(parts._replace(query=query))
 
 
-# ---- what the image codecs print, routed to the log -------------------------------------------
+# ---- what the image decoders say, routed to the log ---------------------------------------------
 #
-# libjpeg's "Corrupt JPEG data ...", libpng's "libpng error: ...", OpenCV's and OpenEXR's
-# warnings: C libraries that write straight to file descriptor 2, one line per bad frame (about
-# 680 extra lines for 1,000 bad files; forever from a camera that keeps sending bad JPEGs,
-# issue 29). codec_messages points descriptor 2 at a scratch file for the length of one decode
-# (a lock makes the decodes of several sources take turns), then says the codec's lines as one
-# log line per source per interval (with how many were held back), and writes everything else
-# that reached descriptor 2 meanwhile (another thread's log line) back to the real stderr,
-# unchanged and in order.
+# A camera that keeps sending damaged JPEGs would say the same thing at every frame (issue 29):
+# what a decoder says goes to the log as one line per source per interval, with how many were
+# held back. Nothing points descriptor 2 anywhere (issue 41: that made the decodes of all
+# sources take turns, lost a crash's faulthandler dump, and other threads' lines): JPEGs are
+# decoded by a library that returns its words (core.radiometry.images), a PNG is checked before
+# libpng sees it (core.radiometry.images), and OpenCV's own log is silenced while a file
+# decodes (opencv_log_quiet): OpenEXR's bindings raise.
 
-#: The lines the codecs write (libjpeg's messages, libpng's, OpenCV's log, OpenEXR's).
-CODEC_LINE = re.compile(
-    r"^(Corrupt JPEG data|Premature end of JPEG|Invalid JPEG|Bogus |Unsupported JPEG|"
-    r"Huffman table|Quantization table|Warning: |JPEG datastream|libpng (error|warning)|"
-    r"\[ ?(WARN|ERROR|INFO)[: ]|imread_|imdecode_|OpenEXR|Iex|Cannot read|"
-    r"Error: |TIFFRead|TIFFFetch|[A-Za-z]+: .*(TIFF|tiff) )")
-
-_lock = threading.Lock()
-_scratch = None                 # one scratch file, emptied after each decode
+_said_lock = threading.Lock()
 _said: dict = {}                # source -> [monotonic time said, lines held back since]
 
 
-def _say(where: str, line: str, interval: float) -> None:
+def decoder_says(where: str, line: str, interval: float = 10.0) -> None:
+    """Log what an image decoder said of ``where`` (a file, a camera), at most one line
+    every ``interval`` seconds for each ``where`` (the next one counts those held back)."""
     now = time.monotonic()
-    seen = _said.get(where)
-    if seen is not None and now - seen[0] < interval:
-        seen[1] += 1
-        return
-    held = seen[1] if seen is not None else 0
-    if len(_said) > 1024:
-        _said.clear()
-    _said[where] = [now, 0]
+    with _said_lock:
+        seen = _said.get(where)
+        if seen is not None and now - seen[0] < interval:
+            seen[1] += 1
+            return
+        held = seen[1] if seen is not None else 0
+        if len(_said) > 1024:
+            _said.clear()
+        _said[where] = [now, 0]
     more = f" (and {held} more from the decoder in the last {interval:g} s)" if held else ""
-    log.warning("%s: the image decoder says: %s%s", where, line[:300], more)
+    log.warning("%s: the image decoder says: %s", where, printable(line, 300) + more)
+
+
+_quiet_lock = threading.Lock()
+_quiet = {"decodes": 0, "level": None}      # decodes under way; OpenCV's level before them
 
 
 @contextmanager
-def codec_messages(where: str, interval: float = 10.0):
-    """Within the block, what the codecs write to descriptor 2 goes to the log, as one line
-    about ``where`` (a file, a camera) at most every ``interval`` seconds."""
-    global _scratch
-    with _lock:
-        try:
-            sys.stderr.flush()
-        except (OSError, ValueError):
-            pass
-        if _scratch is None:
-            _scratch = tempfile.TemporaryFile()
-        saved = os.dup(2)
-        os.dup2(_scratch.fileno(), 2)
-        try:
-            yield
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            _scratch.seek(0)
-            text = _scratch.read().decode("utf-8", "replace")
-            _scratch.seek(0)
-            _scratch.truncate()
-            others = []
-            for line in text.splitlines():
-                if CODEC_LINE.match(line):
-                    _say(where, line.strip(), interval)
-                elif line:
-                    others.append(line)
-            if others:
-                os.write(2, ("\n".join(others) + "\n").encode("utf-8", "replace"))
+def opencv_log_quiet():
+    """OpenCV's log silenced while any file decodes (its "[ERROR:0@0.1] ... TIFF_Error" and
+    "imdecode_(...)" lines, which the caller says in one line of its own), and put back as it
+    was when the last one ends: decodes of several sources overlap, so a counter, not a
+    level saved by each (the lock guards the counter only: the decodes run side by side)."""
+    import cv2.utils.logging as cv_log
+    with _quiet_lock:
+        if _quiet["decodes"] == 0:
+            _quiet["level"] = cv_log.getLogLevel()
+            cv_log.setLogLevel(cv_log.LOG_LEVEL_SILENT)
+        _quiet["decodes"] += 1
+    try:
+        yield
+    finally:
+        with _quiet_lock:
+            _quiet["decodes"] -= 1
+            if _quiet["decodes"] == 0:
+                cv_log.setLogLevel(_quiet["level"])

@@ -12,7 +12,8 @@ import time
 from ...core.errors import InputError
 from ...core.radiometry.image_size import FrameTooLarge
 from ...core.radiometry.images import IMAGE_EXTENSIONS, TransientReadError, read_image
-from .base import Frame, Pacer, Source, SourceError, SourceFinished, codec_messages
+from .base import (Frame, Pacer, Source, SourceError, SourceFinished, decoder_says,
+                   opencv_log_quiet)
 from .exposure import still_info
 
 log = logging.getLogger("shlight.source")
@@ -87,9 +88,9 @@ class ImageSource(Source):
                 and time.monotonic() < self._retry_at):
             return
         try:
-            with codec_messages(self.path):
-                image = (read_image(self.path, self.max_pixels) if self._fifo is None
-                         else self._fifo.decode(data))
+            with opencv_log_quiet():
+                image = (read_image(self.path, self.max_pixels, self._said)
+                         if self._fifo is None else self._fifo.decode(data, self._said))
         except TransientReadError as exc:      # not the content: not remembered as bad
             if self._image is None:
                 raise SourceError(str(exc)) from None
@@ -113,6 +114,9 @@ class ImageSource(Source):
             self._retry_s = 1.0
             if self.exif and self._fifo is None:
                 self._still = still_info(self.path)
+
+    def _said(self, words: str) -> None:
+        decoder_says(self.path, words)
 
     def close(self) -> None:
         if self._fifo is not None:
@@ -181,7 +185,7 @@ class _FifoReader:
             else:
                 select.select([self.fd], [], [], min(left, 0.1))
 
-    def decode(self, data: bytes):
+    def decode(self, data: bytes, said=None):
         """The image in a writer's bytes (read through a temporary file of the FIFO's
         extension; errors name the FIFO)."""
         if not data:
@@ -191,7 +195,7 @@ class _FifoReader:
         try:
             with os.fdopen(fd, "wb") as f:
                 f.write(data)
-            return read_image(tmp, self.max_pixels)
+            return read_image(tmp, self.max_pixels, said)
         except InputError as exc:
             exc.args = (str(exc).replace(tmp, self.path),) + exc.args[1:]
             raise
@@ -257,8 +261,9 @@ class SequenceSource(Source):
             if self._bad.get(path) == version:
                 continue
             try:
-                with codec_messages(path):
-                    image = read_image(path, self.max_pixels)
+                with opencv_log_quiet():
+                    image = read_image(path, self.max_pixels,
+                                       lambda words: decoder_says(path, words))
             except InputError as exc:
                 info = {"path": path, "rejected": str(exc)}
                 if not isinstance(exc, TransientReadError):
