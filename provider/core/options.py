@@ -154,6 +154,24 @@ def check_lighting(coefficients, exposure: float = 1.0, exposure_s=None) -> None
                      "the frame's values)")
 
 
+def check_cube_lighting(mips, exposure: float = 1.0, exposure_s=None) -> None:
+    """Refuse a reflection cube (``mips``: its float levels, exposure applied) that overflowed,
+    by :func:`check_lighting`'s rule and in its words, so that ``environment`` and ``export``
+    refuse the frame that ``compute`` refuses (a texel beyond :data:`LIGHTING_MAX`, or not
+    finite); what lies between half float's 65504 and that is stored clamped, with a count."""
+    peak = 0.0
+    with np.errstate(invalid="ignore"):
+        for level in mips:
+            peak = max(peak, float(np.max(np.abs(level))) if np.size(level) else 0.0)
+    if math.isfinite(peak) and peak <= LIGHTING_MAX:
+        return
+    at = f"exposure {exposure:g}" + (f" and a {exposure_s:g} s frame" if exposure_s else "")
+    got = "not finite" if not math.isfinite(peak) else f"{peak:.3g}"
+    raise InputError(f"the lighting overflows at {at}: a texel of the cube is {got}, beyond "
+                     f"the {LIGHTING_MAX:.2g} that float32 shaders hold; lower the exposure "
+                     "(or the frame's values)")
+
+
 def freeze_options(options: dict):
     """``options`` as a hashable key (arrays by shape and bytes), for caches of projectors."""
     def f(v):

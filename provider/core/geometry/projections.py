@@ -93,8 +93,12 @@ class Projection:
         return np.where(valid[..., None], d, 0.0)
 
     # -- precomputed integrals ----------------------------------------------------------
+    def quadrature(self) -> tuple[np.ndarray, np.ndarray]:
+        """Nodes in [0, 1) of a pixel side and their weights (summing to 1), per axis."""
+        return _gauss_legendre(self.nodes_per_axis)
+
     def _compute_weights(self) -> np.ndarray:
-        nodes, gw = _gauss_legendre(self.nodes_per_axis)
+        nodes, gw = self.quadrature()
         out = np.zeros((self.height, self.width, 10))  # 9 SH + plain solid angle
         h = 1e-3
         cols = np.arange(self.width, dtype=np.float64)

@@ -111,6 +111,8 @@ class SH9Projector(FrameDecoder):
                 full = projection
             else:
                 full = make_projection(projection, width, height, **projection_options)
+            if isinstance(full, projections_exr.ExrCube):
+                projections_exr.check_cube_downsample(full, downsample)
             withdrawn = isinstance(full, Equirect) and downsample > 1
             # A lens folded at full size whose half-size centre falls between pixels: the
             # small frame's dense table (9 weights a small pixel) reads as many floats as
@@ -217,7 +219,10 @@ class SH9Projector(FrameDecoder):
                 acc[6] += (self._up_dense[r0:r0 + h] * lin).sum(axis=0).reshape(-1)
                 acc[:6] += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
             else:
-                acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
+                # a frame of huge values overflows here: refused after, in one line
+                # (check_lighting), so numpy's own warning is not printed
+                with np.errstate(over="ignore", invalid="ignore"):
+                    acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
         elif self._fold is not None:
             self._fold.add(lin, r0, acc)
         else:
@@ -241,8 +246,9 @@ class SH9Projector(FrameDecoder):
         rowsum = acc[:6].reshape(6, w, 3).astype(np.float64)
         partial = np.einsum("rwc,kw->rkc", rowsum, self._cols)  # (6 row fns, 6 col fns, 3)
         out = np.zeros((9, 3))
-        for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
-            out[k] += const * partial[ri, ci]
+        with np.errstate(over="ignore", invalid="ignore"):     # as in _accumulate
+            for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
+                out[k] += const * partial[ri, ci]
         return out
 
     def _up_sum(self, acc) -> np.ndarray | None:
