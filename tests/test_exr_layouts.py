@@ -269,3 +269,16 @@ def test_environment_refuses_the_frame_compute_refuses(tmp_path):
     bright = write(tmp_path / "bright.exr", np.full((32, 64, 3), 1e6), scanline())
     res = run_cli("environment", bright, "--size", "8", "-o", str(tmp_path / "b.ktx2"))
     assert res.returncode == 0 and "brighter than half float's 65504" in res.stderr
+
+
+def test_a_mipmapped_file_without_its_levels_is_one_line(tmp_path):
+    """A header that promises mipmap levels the file lacks (what OpenEXR's Python bindings
+    write for MIPMAP_LEVELS): the library reads no pixels, and compute says so in its own
+    words, not "list index out of range". (The library's own "Warning: ..." line on stdout is
+    the codec-messages work of issue 41, item 1.)"""
+    path = write(tmp_path / "nolevels.exr", np.ones((32, 64, 3)),
+                 tiled(OpenEXR.ENVMAP_LATLONG, OpenEXR.MIPMAP_LEVELS))
+    res = run_cli("compute", path)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "the OpenEXR file's pixels cannot be read" in lines[0]

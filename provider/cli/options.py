@@ -135,14 +135,20 @@ def say_frame_warnings(args, image, command: str) -> None:
     floating = getattr(image, "dtype", None) is not None and image.dtype.kind == "f"
     for line in frame_warnings(args, floating):
         say(command, "warning", line)
-    if floating:
-        line = nonfinite_warning(image, getattr(args, "projection", None))
-        if line:
-            say(command, "warning", line)
 
 
 #: OpenEXR's cube faces, top to bottom (ImfEnvmap.h).
 EXR_CUBE_FACES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
+
+
+def say_nonfinite(args, image, stats: dict, command: str) -> None:
+    """:func:`nonfinite_warning` of a frame the engine projected (``stats``: its counts; a
+    frame with no usable light at all was refused, in one line, instead)."""
+    from .feedback import say
+    if stats.get("nonfinite_pixels"):
+        line = nonfinite_warning(image, getattr(args, "projection", None))
+        if line:
+            say(command, "warning", line)
 
 
 def nonfinite_warning(image, projection) -> str | None:

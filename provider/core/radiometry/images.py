@@ -152,7 +152,12 @@ def _read_exr(path: str) -> np.ndarray:
     layout = exr_layout(path)
     try:
         with OpenEXR.File(path) as f:
-            part = f.parts[layout.part if layout is not None else 0]
+            index = layout.part if layout is not None else 0
+            if index >= len(f.parts):       # the library read no pixels (it says why itself)
+                raise InputError(f"cannot read {path}: the OpenEXR file's pixels cannot be "
+                                 "read (truncated or corrupt: a broken chunk table or "
+                                 "missing mipmap levels); copy it again")
+            part = f.parts[index]
             channels = part.channels
             if "RGB" in channels:
                 rgb = channels["RGB"].pixels
