@@ -106,16 +106,29 @@ class ExrCube(Projection):
 
 
 def _file_pixel_quadrature(p):
-    """The quadrature of a map area-averaged by ``p.factor``: each file pixel's own nodes
-    (``nodes_per_axis``, even), so the outer half of the map's edge pixels, beyond the map,
-    is split off exactly at every --downsample as it is at full size. (One set of nodes per
-    small pixel would count that half as seen: a 64² cube at --downsample 4 came to
-    12.8 sr.)"""
+    """The quadrature of a map area-averaged by ``p.factor`` = k: the small pixel split where
+    the map's edges can fall in it (half a file pixel from either side: the centres of the
+    map's outermost pixels), so the outer half of an edge pixel, beyond the map, is split
+    off exactly at every --downsample as at full size (one set of nodes per small pixel
+    counted it as seen: a 64² cube at --downsample 4 came to 12.8 sr). One node in each
+    half-pixel sliver, two Gauss-Legendre nodes between: 4 a side."""
     nodes, gw = _gauss_legendre(p.nodes_per_axis)
     k = p.factor
     if k == 1:
         return nodes, gw
-    return ((np.arange(k)[:, None] + nodes[None]) / k).ravel(), np.tile(gw, k) / k
+    edge, middle = 0.5 / k, 1 - 1 / k
+    return (np.concatenate([[edge / 2], edge + nodes * middle, [1 - edge / 2]]),
+            np.concatenate([[edge], gw * middle, [edge]]))
+
+
+def whole_face_factor(p, factor: int) -> int:
+    """The largest area-averaging factor up to ``factor`` whose blocks never straddle two
+    faces of an OpenEXR cube ``p`` (faces stacked +X above −X look opposite ways); any
+    other projection: ``factor``."""
+    if isinstance(p, ExrCube):
+        while factor > 1 and p.face % (p.factor * factor):
+            factor -= 1
+    return factor
 
 
 def check_cube_downsample(cube: ExrCube, factor: int) -> None:

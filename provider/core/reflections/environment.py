@@ -180,7 +180,8 @@ class EnvironmentProjector(FrameDecoder):
                 return full, None
             return full.scaled(factor), full.scaled_source_size(factor)
         area = target * target / 2
-        factor = max(1, int(math.sqrt(full.width * full.height / area)))
+        factor = projections_exr.whole_face_factor(
+            full, max(1, int(math.sqrt(full.width * full.height / area))))
         if factor == 1:
             return full, None
         try:

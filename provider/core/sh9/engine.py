@@ -541,7 +541,8 @@ class SH9Projector(FrameDecoder):
         """
         if self._estimator is None:
             p = self.projection
-            factor = max(1, int(math.sqrt(p.width * p.height / 4096)))
+            factor = projections_exr.whole_face_factor(
+                p, max(1, int(math.sqrt(p.width * p.height / 4096))))
             coarse = p if factor == 1 else p.scaled(factor)
             crop = p.scaled_source_size(factor)
             dirs = coarse.directions().reshape(-1, 3)
