@@ -413,6 +413,10 @@ def header_projection(given: str, layouts) -> tuple:
     file whose header says an envmap, an envmap value OpenEXR does not define, and a
     multi-part file (one part is read) are a warning each."""
     kinds = {None if layout is None else layout.envmap for layout in layouts}
+    said = {layout.envmap: layout.path for layout in layouts if layout and layout.envmap}
+    if given == "auto" and len(said) > 1:          # frames of one bracket, two layouts
+        raise InputError("the frames' OpenEXR headers disagree: " + ", ".join(
+            f"{path} says envmap {kind}" for kind, path in sorted(said.items())))
     projection = given
     if given == "auto":
         projection = ("exr-" + next(iter(kinds)) if len(kinds) == 1 and None not in kinds
