@@ -39,7 +39,7 @@ from ..errors import InputError
 from ..lights.extractor import LightExtractor, LinearView
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
-from ..geometry import projections_exr  # noqa: F401  (registers exr-latlong, exr-cube)
+from ..geometry import projections_exr  # registers exr-latlong, exr-cube; the cube's rules
 from ..radiometry.photometry import (UNITS_ABSOLUTE, UNITS_RELATIVE, absolute_calibration,
                                      absolute_factor, luminance)
 from ..options import check_lighting, check_options, exposure_scale, freeze_options
