@@ -249,13 +249,16 @@ def exr_layout(path) -> ExrLayout | None:
     pick, why = ((rgb[0], "the first with R, G and B") if rgb else
                  (grey[0], "the first with Y") if grey else (0, "the first"))
     h = headers[pick]
-    value = h.get("envmap")
-    value = None if value is None else int(value)
-    (x0, y0), (x1, y1) = h["dataWindow"]
-    tiles = h.get("tiles")
-    levels = "one"
-    if tiles is not None:
-        levels = {0: "one", 1: "mipmap", 2: "ripmap"}.get(int(tiles.mode), "one")
+    try:
+        value = h.get("envmap")
+        value = None if value is None else int(value)
+        (x0, y0), (x1, y1) = h["dataWindow"]
+        tiles = h.get("tiles")
+        levels = "one"
+        if tiles is not None:
+            levels = {0: "one", 1: "mipmap", 2: "ripmap"}.get(int(tiles.mode), "one")
+    except (KeyError, TypeError, ValueError):     # a header the library let through oddly
+        return None
     return ExrLayout(path, ENVMAP_KINDS.get(value), value, len(headers), pick,
                      names[pick] or "", int(x1 - x0 + 1), int(y1 - y0 + 1),
                      tiles is not None, levels, why)
