@@ -77,9 +77,9 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     try:
-        if getattr(args, "projection", None) == "auto":
-            from .options import auto_projection
-            args.projection = auto_projection(args)
+        if getattr(args, "projection", None) is not None:
+            from .options import resolve_projection
+            resolve_projection(args, args.command)
         code = _run(args)
         sys.stdout.flush()      # what a command printed fails here, not at exit
         return code

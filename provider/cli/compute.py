@@ -86,6 +86,8 @@ def wire_message(args, command: str = "compute") -> dict:
         result = project_bracket(projector, images, times, gain=gain, f_number=f_number)
     else:
         result = projector.project(image, exposure_s=times[0], gain=gain, f_number=f_number)
+    from .options import say_nonfinite
+    say_nonfinite(args, image, result.stats, command)
     if exposures[0].iso:
         result.stats["iso"] = exposures[0].iso
     if projector.response is not None and projector.response.params.get("absolute") \

@@ -63,6 +63,10 @@ def run(args) -> int:
     for warning in getattr(projector, "warnings", ()):
         say("environment", "warning", warning)
     result = projector.project(image, exposure_s=times[0])
+    from ..core.options import check_cube_lighting
+    from .options import say_nonfinite
+    check_cube_lighting(result.mips, options.get("exposure", 1.0), times[0])
+    say_nonfinite(args, image, result.stats, "environment")
     from ..live.reflections.ktx2 import beyond_half_float
     over, texels = beyond_half_float(result.mips)
     if over:

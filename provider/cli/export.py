@@ -102,4 +102,6 @@ def cube_mips(args, size: int) -> list:
     for warning in projector.warnings:
         say("export", "warning", f"cube: {warning}")
     mips = projector.project(images[k], exposure_s=times[k]).mips
+    from ..core.options import check_cube_lighting
+    check_cube_lighting(mips, options.get("exposure", 1.0), times[k])
     return mips if args.to == "gltf" else mips[:1]

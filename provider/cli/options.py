@@ -137,6 +137,40 @@ def say_frame_warnings(args, image, command: str) -> None:
         say(command, "warning", line)
 
 
+#: OpenEXR's cube faces, top to bottom (ImfEnvmap.h).
+EXR_CUBE_FACES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
+
+
+def say_nonfinite(args, image, stats: dict, command: str) -> None:
+    """:func:`nonfinite_warning` of a frame the engine projected (``stats``: its counts; a
+    frame with no usable light at all was refused, in one line, instead)."""
+    from .feedback import say
+    if stats.get("nonfinite_pixels"):
+        line = nonfinite_warning(image, getattr(args, "projection", None))
+        if line:
+            say(command, "warning", line)
+
+
+def nonfinite_warning(image, projection) -> str | None:
+    """A float frame's NaN or infinite pixels, which the engines take as black (counted in
+    ``nonfinite_pixels``; ``coverage_sr`` is the sphere the projection sees, not the light
+    it holds): how many, and for an OpenEXR cube the faces that hold nothing else."""
+    import numpy as np
+    bad = ~np.isfinite(image).all(axis=-1)
+    count = int(np.count_nonzero(bad))
+    if not count:
+        return None
+    h, w = bad.shape
+    where = ""
+    if projection == "exr-cube" and h == 6 * w:
+        faces = [EXR_CUBE_FACES[f] for f in range(6) if bad[f * w:(f + 1) * w].all()]
+        if faces:
+            where = f" (the whole {', '.join(faces)} face{'s' if len(faces) > 1 else ''} of " \
+                    "the cube)"
+    return (f"{count:,} of {h * w:,} pixels ({count / (h * w):.1%}) are NaN or infinite"
+            f"{where}: taken as black, so the lighting lacks what they saw (nonfinite_pixels)")
+
+
 def say_projection_warnings(projection: str, image, options: dict, command: str) -> None:
     """The warnings of ``projection`` (with its ``options``) built for ``image``'s size, each
     a line on stderr, for a command that builds it without the engine, which says them
@@ -374,18 +408,69 @@ def lens_options(args, projection: str) -> dict:
 
 
 def auto_projection(args) -> str:
-    """``--projection auto``: "exr-latlong" or "exr-cube" for one OpenEXR input whose header
-    says ``envmap`` (docs/cameras.md), else "equirect" (also for a live source)."""
-    from ..core.radiometry.images import exr_envmap
+    """``--projection auto``: "exr-latlong" or "exr-cube" for OpenEXR inputs whose headers
+    all say that ``envmap`` (read by OpenEXR's bindings: scan lines, tiles, mipmaps,
+    multi-part; docs/compute.md), else "equirect"."""
+    return header_projection("auto", _input_layouts(args))[0]
+
+
+def _input_layouts(args) -> list:
+    """The OpenEXR header (:func:`~provider.core.radiometry.images.exr_layout`, None for
+    another format) of each ``FRAME[@SECONDS]`` input of the command line."""
+    from ..core.radiometry.images import exr_layout
     inputs = getattr(args, "image", None)
     inputs = [inputs] if isinstance(inputs, str) else list(inputs or [])
-    kinds = set()
+    out = []
     for text in inputs:
         path = text if os.path.exists(text) else re.sub(r"@[0-9./]+$", "", text)
-        kinds.add(exr_envmap(path))
-    if len(kinds) == 1 and None not in kinds:
-        return "exr-" + kinds.pop()
-    return "equirect"
+        out.append(exr_layout(path))
+    return out
+
+
+def header_projection(given: str, layouts) -> tuple:
+    """(projection, warnings) of ``--projection given`` for inputs whose OpenEXR headers are
+    ``layouts`` (:class:`~provider.core.radiometry.images.ExrLayout`, None for another
+    format): ``auto`` becomes the envmap the headers all say ("exr-latlong", "exr-cube"),
+    else "equirect"; ``exr-latlong`` given for a file whose header says cube (or ``exr-cube``
+    for a latlong) is refused in one line (InputError); any other projection given for a
+    file whose header says an envmap, an envmap value OpenEXR does not define, and a
+    multi-part file (one part is read) are a warning each."""
+    kinds = {None if layout is None else layout.envmap for layout in layouts}
+    said = {layout.envmap: layout.path for layout in layouts if layout and layout.envmap}
+    if given == "auto" and len(said) > 1:          # frames of one bracket, two layouts
+        raise InputError("the frames' OpenEXR headers disagree: " + ", ".join(
+            f"{path} says envmap {kind}" for kind, path in sorted(said.items())))
+    projection = given
+    if given == "auto":
+        projection = ("exr-" + next(iter(kinds)) if len(kinds) == 1 and None not in kinds
+                      else "equirect")
+    warnings = []
+    for layout in layouts:
+        if layout is None:
+            continue
+        warnings += layout.notes
+        if layout.envmap is None or given in ("auto", "exr-" + layout.envmap):
+            continue
+        if given.startswith("exr-"):
+            raise InputError(f"--projection {given}: {layout.path}'s header says envmap "
+                             f"{layout.envmap}; give --projection exr-{layout.envmap} (or "
+                             "auto, which reads the header)")
+        warnings.append(f"{layout.path}'s header says it is an OpenEXR {layout.envmap} map; "
+                        f"read as --projection {given}, as given (--projection auto reads "
+                        f"it as exr-{layout.envmap})")
+    return projection, warnings
+
+
+def resolve_projection(args, command: str) -> None:
+    """:func:`header_projection` of the command line's ``FRAME[@SECONDS]`` inputs, before any
+    work: ``args.projection`` set, its warnings said on stderr (serve, whose sources are no
+    files here, resolves its own per probe)."""
+    from .feedback import say
+    if not hasattr(args, "image"):
+        return
+    args.projection, warnings = header_projection(args.projection, _input_layouts(args))
+    for line in warnings:
+        say(command, "warning", line)
 
 
 def fisheye_calibration(path: str) -> dict:

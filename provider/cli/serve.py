@@ -343,8 +343,10 @@ def build_server(args):
         overrides[name] = _probe_parser().parse_args(words, namespace=argparse.Namespace(**vars(args)))
         given[name] = _given(words)
     for ns in (args, *overrides.values()):
-        if getattr(ns, "projection", None) == "auto":   # live sources: no OpenEXR header
-            ns.projection = "equirect"
+        # A file's OpenEXR header says its projection, per probe (_source_projection); the
+        # options are checked meanwhile against an equirect (what live sources are).
+        if getattr(ns, "projection", None) == "auto":
+            ns.projection, ns._auto_projection = "equirect", True
     _check_option_use(args, [n for n, _ in named], overrides, given)
     s = ServeSettings(host=args.host, port=args.port, token=args.token,
                       allowed_origins=tuple(args.allow_origin), max_clients=args.max_clients,
@@ -402,7 +404,7 @@ def build_server(args):
             from ..live.probe.luxmeter import parse_lux_source
             meter = parse_lux_source(ns.lux, ca_file=ns.lux_ca)
             meter.facing, meter.colour = facing, colour
-        probes.append(Probe(name, spec, projection=ns.projection,
+        probes.append(Probe(name, spec, projection=_source_projection(name, spec, ns),
                             engine_options=engine_options(ns), temporal=temporal,
                             backoff_max=ns.reconnect_max, environment=environment,
                             meter=meter))
@@ -482,6 +484,30 @@ def _file_frame_warnings(name: str, spec, ns) -> None:
     floating = head[:4] == EXR_MAGIC or head[:2] in (b"#?", b"PF", b"Pf")
     for line in frame_warnings(ns, floating):
         logging.getLogger("shlight").warning("probe %s: %s", name, line)
+
+
+def _source_projection(name: str, spec, ns) -> str:
+    """The projection of a probe: for a file source (an image, or a sequence's first file)
+    the one ``compute`` reads the same file with (:func:`.options.header_projection`: an
+    OpenEXR header's envmap for ``auto``, a contradiction refused, its warnings logged);
+    else ``ns.projection``."""
+    from ..core.radiometry.images import exr_layout
+    from ..live.sources import SequenceSource
+    from .options import header_projection
+    given = "auto" if getattr(ns, "_auto_projection", False) else ns.projection
+    if spec.kind == "image":
+        paths = [spec.target]
+    elif spec.kind == "sequence":
+        paths = SequenceSource.expand(spec.target)[:1]
+    else:
+        return ns.projection
+    try:
+        projection, warnings = header_projection(given, [exr_layout(p) for p in paths])
+    except InputError as exc:
+        raise InputError(f"probe {name}: {exc}") from None
+    for line in warnings:
+        logging.getLogger("shlight").warning("probe %s: %s", name, line)
+    return projection
 
 
 def _check_radiometry(name: str, spec, ns) -> None:

@@ -142,16 +142,36 @@ def check_lighting(coefficients, exposure: float = 1.0, exposure_s=None) -> None
     InputError
         When a coefficient is not finite or beyond :data:`LIGHTING_MAX`.
     """
-    c = np.asarray(coefficients, np.float64)
+    _check_peak([coefficients], "a coefficient", exposure, exposure_s)
+
+
+def _check_peak(arrays, what: str, exposure: float, exposure_s) -> None:
+    """:func:`check_lighting`'s rule on the largest magnitude in ``arrays`` (``what``: what
+    one of their numbers is, for the message)."""
+    peak = 0.0
     with np.errstate(invalid="ignore"):
-        peak = float(np.max(np.abs(c))) if c.size else 0.0
+        for a in arrays:
+            a = np.asarray(a, np.float64)
+            m = float(np.max(np.abs(a))) if a.size else 0.0
+            if not m <= peak:                   # larger, or NaN: NaN stays
+                peak = m
+            if not math.isfinite(peak):
+                break
     if math.isfinite(peak) and peak <= LIGHTING_MAX:
         return
     at = f"exposure {exposure:g}" + (f" and a {exposure_s:g} s frame" if exposure_s else "")
     got = "not finite" if not math.isfinite(peak) else f"{peak:.3g}"
-    raise InputError(f"the lighting overflows at {at}: a coefficient is {got}, beyond the "
+    raise InputError(f"the lighting overflows at {at}: {what} is {got}, beyond the "
                      f"{LIGHTING_MAX:.2g} that float32 shaders hold; lower the exposure (or "
                      "the frame's values)")
+
+
+def check_cube_lighting(mips, exposure: float = 1.0, exposure_s=None) -> None:
+    """Refuse a reflection cube (``mips``: its float levels, exposure applied) that overflowed,
+    by :func:`check_lighting`'s rule and in its words, so that ``environment`` and ``export``
+    refuse the frame that ``compute`` refuses (a texel beyond :data:`LIGHTING_MAX`, or not
+    finite); what lies between half float's 65504 and that is stored clamped, with a count."""
+    _check_peak(mips, "a texel of the cube", exposure, exposure_s)
 
 
 def freeze_options(options: dict):

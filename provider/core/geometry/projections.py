@@ -3,17 +3,14 @@
 Every projection maps continuous pixel coordinates ``(px, py)`` (pixel ``(i, j)`` covers
 ``[i, i+1) × [j, j+1)``; y grows downward) to unit directions in the right-handed, +Y-up
 world frame of docs/contract.md §1. From that one map the base class precomputes, once per
-(size, options):
-
-* ``sh_weights`` (H·W, 9): ``∫_pixel Y_lm(ω) dω`` for each pixel (times any overlap or
-  fill factor), so that the coefficients of a frame are ``weightsᵀ · pixels``: the exact
-  projection of an image whose radiance is constant over each pixel;
-* ``solid_angle`` (H, W): ``∫_pixel dω`` in steradians, 0 for pixels that see nothing.
-
-The integrals use Gauss-Legendre nodes inside each pixel and the exact Jacobian
-``|∂ω/∂px × ∂ω/∂py|`` (by central differences of the direction map), so no projection
-has to derive its own solid-angle formula. Equirect, the common case, is separable and
-overrides this with closed-form row and column integrals.
+(size, options): ``sh_weights`` (H·W, 9), ``∫_pixel Y_lm(ω) dω`` for each pixel (times any
+overlap or fill factor), so that the coefficients of a frame are ``weightsᵀ · pixels``: the
+exact projection of an image whose radiance is constant over each pixel; ``solid_angle``
+(H, W), ``∫_pixel dω`` in steradians, 0 for pixels that see nothing. The integrals use
+Gauss-Legendre nodes inside each pixel (:meth:`Projection.quadrature`) and the exact Jacobian
+``|∂ω/∂px × ∂ω/∂py|`` (central differences of the direction map), so no projection derives
+its own solid-angle formula. Equirect, the common case, is separable and overrides this with
+closed-form row and column integrals.
 """
 from __future__ import annotations
 
@@ -93,8 +90,11 @@ class Projection:
         return np.where(valid[..., None], d, 0.0)
 
     # -- precomputed integrals ----------------------------------------------------------
+    def quadrature(self) -> tuple[np.ndarray, np.ndarray]:  # nodes in [0, 1), weights
+        return _gauss_legendre(self.nodes_per_axis)          # per pixel side (overridable)
+
     def _compute_weights(self) -> np.ndarray:
-        nodes, gw = _gauss_legendre(self.nodes_per_axis)
+        nodes, gw = self.quadrature()
         out = np.zeros((self.height, self.width, 10))  # 9 SH + plain solid angle
         h = 1e-3
         cols = np.arange(self.width, dtype=np.float64)

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import os
+import stat
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -221,13 +223,22 @@ def _opencv_can_open(path: str) -> bool:
 
 
 def _read_exr(path: str) -> np.ndarray:
+    """The pixels of an OpenEXR file through OpenEXR's bindings, in every layout (scan
+    lines, tiles, mipmaps: level 0, multi-part: the part :func:`exr_layout` picks)."""
     try:
         import OpenEXR
     except ImportError:  # pragma: no cover - a declared dependency
         raise InputError("reading .exr needs the 'openexr' package: pip install openexr")
+    layout = exr_layout(path)
     try:
         with OpenEXR.File(path) as f:
-            channels = f.channels()
+            index = layout.part if layout is not None else 0
+            if index >= len(f.parts):       # the library read no pixels (it says why itself)
+                raise InputError(f"cannot read {path}: the OpenEXR file's pixels cannot be "
+                                 "read (truncated or corrupt: a broken chunk table or "
+                                 "missing mipmap levels); copy it again")
+            part = f.parts[index]
+            channels = part.channels
             if "RGB" in channels:
                 rgb = channels["RGB"].pixels
             elif "RGBA" in channels:
@@ -245,6 +256,99 @@ def _read_exr(path: str) -> np.ndarray:
     except Exception as exc:
         raise InputError(f"cannot read {path} as OpenEXR: {exc}") from None
     return np.ascontiguousarray(rgb, dtype=np.float32)
+
+
+#: The ``envmap`` attribute's values (ImfEnvmap.h: ENVMAP_LATLONG = 0, ENVMAP_CUBE = 1).
+ENVMAP_KINDS = {0: "latlong", 1: "cube"}
+
+
+@dataclass(frozen=True)
+class ExrLayout:
+    """What an OpenEXR file's header says (:func:`exr_layout`), read by OpenEXR's bindings.
+
+    ``envmap``: "latlong", "cube", or None (no ``envmap`` attribute, or a value OpenEXR does
+    not define: ``envmap_value`` then holds it); ``part``: the part whose pixels are read
+    (the first with R, G and B, else the first with Y, else the first) of ``parts``;
+    ``width`` × ``height``: that part's data window; ``tiled``, ``levels`` ("one",
+    "mipmap", "ripmap": level 0, the full size, is what is read)."""
+
+    path: str
+    envmap: str | None
+    envmap_value: int | None
+    parts: int
+    part: int
+    part_name: str
+    width: int
+    height: int
+    tiled: bool
+    levels: str
+    why: str = "the first"          # why that part: "the first with R, G and B", …
+
+    @property
+    def notes(self) -> list:
+        """Legal but odd (warnings, one line each): an envmap value OpenEXR does not define,
+        several parts of which one is read."""
+        out = []
+        if self.envmap is None and self.envmap_value is not None:
+            out.append(f"{self.path}: its header's envmap = {self.envmap_value} is none that "
+                       "OpenEXR defines (0 latlong, 1 cube) and is ignored: --projection "
+                       "auto reads the file as an equirect (give --projection exr-latlong "
+                       "or exr-cube if it is one)")
+        if self.parts > 1:
+            name = f" {self.part_name!r}" if self.part_name else ""
+            out.append(f"{self.path}: an OpenEXR file of {self.parts} parts; reading part "
+                       f"{self.part}{name} ({self.width}×{self.height}, {self.why}) alone")
+        return out
+
+
+def exr_layout(path) -> ExrLayout | None:
+    """The header of an OpenEXR file (:class:`ExrLayout`), read by OpenEXR's bindings
+    (scan lines, tiles, mipmaps, multi-part alike); None for what is not a regular OpenEXR
+    file (another format, a FIFO or a device, which is never opened here: it may block) or
+    a header the library cannot read (reading its pixels then says why, in one line)."""
+    path = os.fspath(path)
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return None
+        with open(path, "rb") as f:
+            if f.read(4) != EXR_MAGIC:
+                return None
+        import OpenEXR
+        with OpenEXR.File(path, header_only=True) as f:
+            headers = [dict(part.header) for part in f.parts]
+            names = [part.name() for part in f.parts]
+    except Exception:           # OSError, the library's own errors: said when read
+        return None
+    if not headers:
+        return None
+
+    def channels(h):
+        return {c.name for c in h.get("channels", ())}
+    rgb = [i for i, h in enumerate(headers) if set("RGB") <= channels(h)]
+    grey = [i for i, h in enumerate(headers) if "Y" in channels(h)]
+    pick, why = ((rgb[0], "the first with R, G and B") if rgb else
+                 (grey[0], "the first with Y") if grey else (0, "the first"))
+    h = headers[pick]
+    try:
+        value = h.get("envmap")
+        value = None if value is None else int(value)
+        (x0, y0), (x1, y1) = h["dataWindow"]
+        tiles = h.get("tiles")
+        levels = "one"
+        if tiles is not None:
+            levels = {0: "one", 1: "mipmap", 2: "ripmap"}.get(int(tiles.mode), "one")
+    except (KeyError, TypeError, ValueError):     # a header the library let through oddly
+        return None
+    return ExrLayout(path, ENVMAP_KINDS.get(value), value, len(headers), pick,
+                     names[pick] or "", int(x1 - x0 + 1), int(y1 - y0 + 1),
+                     tiles is not None, levels, why)
+
+
+def exr_envmap(path) -> str | None:
+    """The ``envmap`` of an OpenEXR file's header (:func:`exr_layout`): "latlong", "cube",
+    or None (not OpenEXR, no such attribute, or a value OpenEXR does not define)."""
+    layout = exr_layout(path)
+    return None if layout is None else layout.envmap
 
 
 def check_complete(path: str, data: bytes):
@@ -340,34 +444,6 @@ def _check_png_chunks(path: str, data: bytes):
 
 #: Scan lines per chunk of each OpenEXR compression (by its number in the header).
 _EXR_LINES = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256}
-
-
-def exr_envmap(path) -> str | None:
-    """The ``envmap`` attribute of an OpenEXR file's header: "latlong", "cube", or None (not
-    OpenEXR, no such attribute, or a header this small parser does not read). Reads only
-    the first bytes (magic, version, then name\0type\0size value … up to an empty name)."""
-    import struct
-    if not os.path.isfile(path):        # a FIFO or a device: never opened here (it may block)
-        return None
-    try:
-        with open(os.fspath(path), "rb") as f:
-            data = f.read(HEADER_BYTES)
-    except OSError:
-        return None
-    if data[:4] != EXR_MAGIC or data[5] & 0x1E:      # long names, multi-part: not read here
-        return None
-    pos = 8
-    try:
-        while data[pos] != 0:
-            end = data.index(b"\0", pos)
-            end2 = data.index(b"\0", end + 1)
-            size = struct.unpack_from("<i", data, end2 + 1)[0]
-            if data[pos:end] == b"envmap" and data[end + 1:end2] == b"envmap" and size >= 1:
-                return {0: "latlong", 1: "cube"}.get(data[end2 + 5])
-            pos = end2 + 5 + size
-    except (IndexError, ValueError, struct.error):
-        return None
-    return None
 
 
 def _check_exr_complete(path: str, data: bytes) -> None:

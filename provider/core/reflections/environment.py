@@ -42,7 +42,7 @@ from . import prefilter
 from .bright import bright_split
 from .work_image import WorkImage
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
-from ..geometry import projections_exr  # noqa: F401  (registers exr-latlong, exr-cube)
+from ..geometry import projections_exr  # registers exr-latlong, exr-cube; the cube's rules
 from ..radiometry import blocks
 from ..radiometry.decode import FrameDecoder, image_array
 from ..options import check_options, exposure_scale, freeze_options
@@ -180,7 +180,8 @@ class EnvironmentProjector(FrameDecoder):
                 return full, None
             return full.scaled(factor), full.scaled_source_size(factor)
         area = target * target / 2
-        factor = max(1, int(math.sqrt(full.width * full.height / area)))
+        factor = projections_exr.whole_face_factor(
+            full, max(1, int(math.sqrt(full.width * full.height / area))))
         if factor == 1:
             return full, None
         try:

@@ -24,11 +24,11 @@ from __future__ import annotations
 
 import math
 import time
-import cv2
 import numpy as np
 
 from ..geometry import sh
 from .clipping import ClippedLight
+from .error_estimate import ErrorEstimator
 from . import lens_fold as _lens_fold
 from .lens_fold import centred_on_grid, lens_fold
 from .result import SH9Result
@@ -39,7 +39,7 @@ from ..errors import InputError
 from ..lights.extractor import LightExtractor, LinearView
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
-from ..geometry import projections_exr  # noqa: F401  (registers exr-latlong, exr-cube)
+from ..geometry import projections_exr  # registers exr-latlong, exr-cube; the cube's rules
 from ..radiometry.photometry import (UNITS_ABSOLUTE, UNITS_RELATIVE, absolute_calibration,
                                      absolute_factor, luminance)
 from ..options import check_lighting, check_options, exposure_scale, freeze_options
@@ -111,6 +111,8 @@ class SH9Projector(FrameDecoder):
                 full = projection
             else:
                 full = make_projection(projection, width, height, **projection_options)
+            if isinstance(full, projections_exr.ExrCube):
+                projections_exr.check_cube_downsample(full, downsample)
             withdrawn = isinstance(full, Equirect) and downsample > 1
             # A lens folded at full size whose half-size centre falls between pixels: the
             # small frame's dense table (9 weights a small pixel) reads as many floats as
@@ -217,7 +219,10 @@ class SH9Projector(FrameDecoder):
                 acc[6] += (self._up_dense[r0:r0 + h] * lin).sum(axis=0).reshape(-1)
                 acc[:6] += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
             else:
-                acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
+                # a frame of huge values overflows here: refused after, in one line
+                # (check_lighting), so numpy's own warning is not printed
+                with np.errstate(over="ignore", invalid="ignore"):
+                    acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
         elif self._fold is not None:
             self._fold.add(lin, r0, acc)
         else:
@@ -241,8 +246,9 @@ class SH9Projector(FrameDecoder):
         rowsum = acc[:6].reshape(6, w, 3).astype(np.float64)
         partial = np.einsum("rwc,kw->rkc", rowsum, self._cols)  # (6 row fns, 6 col fns, 3)
         out = np.zeros((9, 3))
-        for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
-            out[k] += const * partial[ri, ci]
+        with np.errstate(over="ignore", invalid="ignore"):     # as in _accumulate
+            for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
+                out[k] += const * partial[ri, ci]
         return out
 
     def _up_sum(self, acc) -> np.ndarray | None:
@@ -528,45 +534,11 @@ class SH9Projector(FrameDecoder):
 
     # -- error estimate ---------------------------------------------------------------------
     def _estimate_error(self, lin: np.ndarray, order: int) -> float:
-        """Relative RMS difference between SH9 irradiance and brute-force irradiance.
-
-        Both come from the same coarse copy of the frame (about 4k pixels), so the figure
-        measures SH9 truncation (and windowing/order choices), not resolution.
-        """
+        """Relative RMS difference between SH9 irradiance and brute-force irradiance
+        (:class:`~.error_estimate.ErrorEstimator`, built on the first frame)."""
         if self._estimator is None:
-            p = self.projection
-            factor = wanted = max(1, int(math.sqrt(p.width * p.height / 4096)))
-            coarse = p
-            while factor > 1:
-                try:
-                    coarse = p.scaled(factor)
-                    break
-                except ProjectionError:     # a lens circle too small for this copy: finer
-                    factor //= 2
-            crop = p.scaled_source_size(factor)
-            dirs = coarse.directions().reshape(-1, 3)
-            omega = coarse.solid_angle.reshape(-1)
-            sh_w = coarse.sh_weights  # (P, 9), includes any fill model
-            # A finer copy than wanted (a small lens circle in a large frame): only the
-            # pixels that carry light, or the kernel would be (256, the whole frame).
-            seen = None if factor == wanted else \
-                np.flatnonzero((omega != 0) | np.any(sh_w != 0, axis=1))
-            if seen is not None:
-                dirs, omega, sh_w = dirs[seen], omega[seen], sh_w[seen]
-            normals = sh.fibonacci_sphere(256)
-            kernel = np.maximum(normals @ dirs.T, 0.0) * omega  # (256, P)
-            self._estimator = (factor, coarse, crop, normals, kernel, sh_w, seen)
-        factor, coarse, crop, normals, kernel, sh_w, seen = self._estimator
-        small = lin if factor == 1 else cv2.resize(
-            lin[:crop[1], :crop[0]], (coarse.width, coarse.height), interpolation=cv2.INTER_AREA)
-        px = small.reshape(-1, 3).astype(np.float64)
-        if seen is not None:
-            px = px[seen]
-        truth = kernel @ px
-        coarse_coeffs = sh_w.T @ px
-        # The same order/window choices as the result, applied to the coarse projection.
-        approx = sh.irradiance(self._same_processing(coarse_coeffs, order), normals)
-        return sh.relative_rms(approx, truth)
+            self._estimator = ErrorEstimator(self.projection)
+        return self._estimator.estimate(lin, lambda c: self._same_processing(c, order))
 
     def _same_processing(self, coeffs, order):
         out = coeffs
