@@ -303,11 +303,35 @@ def test_environment_refuses_the_frame_compute_refuses(tmp_path):
 def test_a_mipmapped_file_without_its_levels_is_one_line(tmp_path):
     """A header that promises mipmap levels the file lacks (what OpenEXR's Python bindings
     write for MIPMAP_LEVELS): the library reads no pixels, and compute says so in its own
-    words, not "list index out of range". (The library's own "Warning: ..." line on stdout is
-    the codec-messages work of issue 41, item 1.)"""
+    words, not "list index out of range"."""
     path = write(tmp_path / "nolevels.exr", np.ones((32, 64, 3)),
                  tiled(OpenEXR.ENVMAP_LATLONG, OpenEXR.MIPMAP_LEVELS))
     res = run_cli("compute", path)
     assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and "the OpenEXR file's pixels cannot be read" in lines[0]
+
+
+def test_a_truncated_tiled_file_leaves_stdout_empty(tmp_path):
+    """ILM's tiled, mipmapped cube cut short: OpenEXR's bindings print why on Python's
+    stdout, where it would land in the JSON a pipe reads; compute's stdout stays empty, and
+    its one error line carries the library's words."""
+    whole = (DATA / "exr" / "KernerEnvCube64.exr").read_bytes()
+    path = tmp_path / "cut.exr"
+    path.write_bytes(whole[: len(whole) * 2 // 3])
+    res = run_cli("compute", str(path))
+    assert res.returncode == 2 and res.stdout == "", res.stdout
+    (line,) = res.stderr.strip().splitlines()
+    assert "pixels cannot be read" in line and "the library: reading pixel data" in line
+
+
+def test_what_others_print_while_an_exr_is_read_is_kept(capsys):
+    """Only the library's own lines are taken while a file's pixels are read: anything else
+    printed meanwhile reaches stdout, in order."""
+    from provider.core.radiometry import images
+    with images._exr_words() as said:
+        print("first")
+        print("Warning: Exception raised reading pixel data for part 0 - broken")
+        print("second")
+        assert len(said()) == 1
+    assert capsys.readouterr().out == "first\nsecond\n"

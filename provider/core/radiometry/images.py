@@ -1,8 +1,10 @@
 """Reading images from files into the engine's frame contract (RGB, uint8/uint16/float32)."""
 from __future__ import annotations
 
+import io
 import os
 import stat
+from contextlib import contextmanager, redirect_stdout
 from dataclasses import dataclass
 
 import cv2
@@ -222,6 +224,30 @@ def _opencv_can_open(path: str) -> bool:
     return os.name != "nt" or path.isascii()
 
 
+#: How OpenEXR's bindings begin what they print about a file they cannot read.
+_EXR_SAYS = "Warning: Exception raised"
+
+
+@contextmanager
+def _exr_words():
+    """OpenEXR's bindings say why a file's pixels cannot be read with Python's ``print``
+    ("Warning: Exception raised reading pixel data ..."), on stdout, where it would land in
+    the JSON a command prints. Within the block what is printed is taken (the yielded
+    function returns the library's lines so far, for the error); anything else printed
+    meanwhile is written on afterwards, in order."""
+    taken = io.StringIO()
+
+    def said() -> list:
+        return [ln for ln in taken.getvalue().splitlines() if ln.startswith(_EXR_SAYS)]
+    try:
+        with redirect_stdout(taken):
+            yield said
+    finally:
+        others = [ln for ln in taken.getvalue().splitlines() if not ln.startswith(_EXR_SAYS)]
+        if others:
+            print("\n".join(others))
+
+
 def _read_exr(path: str) -> np.ndarray:
     """The pixels of an OpenEXR file through OpenEXR's bindings, in every layout (scan
     lines, tiles, mipmaps: level 0, multi-part: the part :func:`exr_layout` picks)."""
@@ -231,12 +257,14 @@ def _read_exr(path: str) -> np.ndarray:
         raise InputError("reading .exr needs the 'openexr' package: pip install openexr")
     layout = exr_layout(path)
     try:
-        with OpenEXR.File(path) as f:
+        with _exr_words() as said, OpenEXR.File(path) as f:
             index = layout.part if layout is not None else 0
-            if index >= len(f.parts):       # the library read no pixels (it says why itself)
+            if index >= len(f.parts):       # the library read no pixels (it said why)
+                words = "".join(f" (the library: {w[len(_EXR_SAYS):].strip()[:200]})"
+                                for w in said()[:1])
                 raise InputError(f"cannot read {path}: the OpenEXR file's pixels cannot be "
                                  "read (truncated or corrupt: a broken chunk table or "
-                                 "missing mipmap levels); copy it again")
+                                 f"missing mipmap levels){words}; copy it again")
             part = f.parts[index]
             channels = part.channels
             if "RGB" in channels:
