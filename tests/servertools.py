@@ -185,6 +185,18 @@ def run_cli(*argv: str, timeout: float = 60) -> subprocess.CompletedProcess:
                           timeout=timeout * PATIENCE)
 
 
+def refused(res: subprocess.CompletedProcess, *words: str) -> str:
+    """The one line of a refused command (exit 2, nothing on stdout, no traceback, one line
+    on stderr holding each of ``words``)."""
+    assert res.returncode == 2, (res.stdout, res.stderr)
+    assert res.stdout == "" and "Traceback" not in res.stderr, (res.stdout, res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    for word in words:
+        assert word in lines[0], lines[0]
+    return lines[0]
+
+
 # ---- HTTP helpers ------------------------------------------------------------------------------------
 
 def http_get(url: str, headers=None, timeout: float = 10.0) -> tuple[int, dict, bytes]:

@@ -24,18 +24,7 @@ from provider.cli import COMMANDS
 from provider.core.errors import InputError
 from provider.core.radiometry import photometry
 from servertools import ROOT, run_cli
-
-
-def _refused(res, *words):
-    """The one line of a refused command line (exit 2, nothing on stdout, no traceback)."""
-    assert res.returncode == 2, (res.stdout, res.stderr)
-    assert res.stdout == "", res.stdout
-    assert "Traceback" not in res.stderr
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1, res.stderr
-    for w in words:
-        assert w in lines[0], lines[0]
-    return lines[0]
+from servertools import refused as _refused
 
 
 @pytest.fixture(scope="module")

@@ -19,6 +19,7 @@ import pytest
 from fakecams.osc_camera import FakeOscCamera
 from conftest import load_hdri
 from servertools import ROOT, SHLIGHT, ServerThread, poll, run_cli
+from servertools import refused as _refused
 from test_lens_calibration import BOARD, poses, render_board, true_lens
 
 from provider.core.errors import InputError
@@ -30,17 +31,6 @@ from provider.core.geometry.lens_calibration import (MAX_CURVE_TERMS, board_poin
 LENS = {"shlight_lens": 1, "model": "kannala-brandt", "curve": [1.0, -0.01, 0.0, 0.0, 0.0],
         "focal": 180.0, "aspect": 1.0, "center": [640.0, 360.0], "image_size": [1280, 720],
         "fov_deg": 200.0, "profile": "theta-s"}
-
-
-def _refused(res, *words):
-    assert res.returncode == 2, (res.stdout, res.stderr)
-    assert res.stdout == "", res.stdout
-    assert "Traceback" not in res.stderr
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1, res.stderr
-    for w in words:
-        assert w in lines[0], lines[0]
-    return lines[0]
 
 
 @pytest.fixture(scope="module")

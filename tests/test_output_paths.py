@@ -19,20 +19,12 @@ import numpy as np
 import pytest
 
 from servertools import ROOT, SHLIGHT, run_cli
+from servertools import refused as _refused
 from test_lens_calibration import calibrated  # noqa: F401  (chessboard photos of one lens)
 
 
-def _refused(res, *words):
-    """Exit 2, nothing on stdout, one line on stderr naming the command and ``words``: the
-    refusal came before any work (a command that started would have said more: "reading 3
-    frames ...", a progress line, a summary)."""
-    assert res.returncode == 2, (res.stdout, res.stderr)
-    assert res.stdout == "" and "Traceback" not in res.stderr, res.stderr
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1, res.stderr
-    for word in words:
-        assert word in lines[0], lines[0]
-    return lines[0]
+# a refusal came before any work: a command that started would have said more ("reading 3
+# frames ...", a progress line, a summary)
 
 
 @pytest.fixture(scope="module")
