@@ -95,11 +95,12 @@ def test_the_bindings_read_tiled_mipmapped_and_multi_part_headers(room, tmp_path
     assert (l.envmap, l.tiled, l.levels, l.width, l.height) == ("latlong", True, "one",
                                                                  512, 256)
     assert exr_envmap(cube) == "cube" and exr_envmap(ll) == "latlong"
-    k = exr_layout(ILM / "KernerEnvCube64.exr")
-    assert (k.envmap, k.tiled, k.levels, k.width, k.height) == ("cube", True, "mipmap", 64, 384)
+    k = exr_layout(ILM / "ilm" / "KernerEnvCube.exr")
+    assert (k.envmap, k.tiled, k.levels, k.width, k.height) == ("cube", True, "mipmap",
+                                                                 256, 1536)
     # level 0 of the mipmap is what is read: the full size
-    assert read_image(ILM / "KernerEnvCube64.exr").shape == (384, 64, 3)
-    assert read_image(ILM / "StageEnvLatLong256.exr").shape == (128, 256, 3)
+    assert read_image(ILM / "ilm" / "KernerEnvCube.exr").shape == (1536, 256, 3)
+    assert read_image(ILM / "ilm" / "StageEnvLatLong.exr").shape == (500, 1000, 3)
     flat = write(tmp_path / "flat.exr", np.ones((8, 16, 3)), scanline())
     assert exr_layout(flat).envmap is None and not exr_layout(flat).tiled
     assert exr_layout(tmp_path) is None and exr_layout("/dev/null") is None
@@ -124,38 +125,26 @@ def test_tiled_cube_and_latlong_of_one_room_give_the_same_sh9(room):
     assert np.abs(l - truth).max() < 0.005 * l00
 
 
+#: ILM's full-size maps (tests/data/exr/ilm, as in openexr-images' MultiResolution/);
+#: SHLIGHT_OPENEXR_IMAGES: a checkout of that repository instead.
+ORIGINALS = (Path(os.environ["SHLIGHT_OPENEXR_IMAGES"]) / "MultiResolution"
+             if os.environ.get("SHLIGHT_OPENEXR_IMAGES") else ILM / "ilm")
+
+
 @pytest.mark.parametrize("name", ["Kerner", "Stage"])
 def test_ilm_tiled_mipmapped_cube_and_latlong_give_the_same_sh9(name):
     """ILM's own cube and latlong of one place (KernerEnvCube.exr, KernerEnvLatLong.exr;
-    Stage…), tiled and mipmapped, read by default (auto) by their headers. These copies were
-    resampled by exrenvmap to 64² faces and 256 × 128 (tests/data/exr/README.md): that
-    resampling alone moves a map's SH9 by up to about 1 % of L00 (measured: 0.9 % Kerner,
-    1.7 % Stage between the copies; 0.01 % and 0.04 % between ILM's full-size originals,
-    which test_ilm_originals checks when they are at hand), so 2.5 % here; read as the
-    equirect auto used to fall back to, the latlong's L1 turns round (over 20 %)."""
-    cube, pc, err1 = compute(str(ILM / f"{name}EnvCube64.exr"))
-    ll, pl, err2 = compute(str(ILM / f"{name}EnvLatLong256.exr"))
+    Stage…: 256² faces, 1024 × 512 or 1000 × 500, tiled and mipmapped), read by default
+    (auto) by their headers, give the same SH9 within 0.5 % of L00 (measured 0.011 % and
+    0.036 %: two maps of one place, resampled by ILM); read as the equirect auto used to
+    fall back to, the latlong's L1 turns round (over 20 %)."""
+    cube, pc, err1 = compute(str(ORIGINALS / f"{name}EnvCube.exr"))
+    ll, pl, err2 = compute(str(ORIGINALS / f"{name}EnvLatLong.exr"))
     assert (pc, pl, err1, err2) == ("exr-cube", "exr-latlong", "", "")
     l00 = ll[0].max()
-    assert np.abs(cube - ll).max() < 0.025 * l00
-    as_equirect = compute(str(ILM / f"{name}EnvLatLong256.exr"), "--projection", "equirect")
+    assert np.abs(cube - ll).max() < 0.005 * l00
+    as_equirect = compute(str(ORIGINALS / f"{name}EnvLatLong.exr"), "--projection", "equirect")
     assert np.abs(as_equirect[0] - cube).max() > 0.2 * l00
-
-
-ORIGINALS = os.environ.get("SHLIGHT_OPENEXR_IMAGES")     # a checkout of openexr-images
-
-
-@pytest.mark.skipif(not ORIGINALS, reason="SHLIGHT_OPENEXR_IMAGES (a checkout of "
-                    "AcademySoftwareFoundation/openexr-images, 9 MB of maps) not set")
-@pytest.mark.parametrize("name", ["Kerner", "Stage"])
-def test_ilm_originals(name):
-    """ILM's full-size tiled, mipmapped maps (256² faces, 1024 × 512 or 1000 × 500): cube and
-    latlong give the same SH9 within 0.5 % of L00 (measured 0.011 % and 0.036 %)."""
-    base = Path(ORIGINALS) / "MultiResolution"
-    cube, pc, _ = compute(str(base / f"{name}EnvCube.exr"))
-    ll, pl, _ = compute(str(base / f"{name}EnvLatLong.exr"))
-    assert (pc, pl) == ("exr-cube", "exr-latlong")
-    assert np.abs(cube - ll).max() < 0.005 * ll[0].max()
 
 
 @pytest.mark.parametrize("which", [0, 1])
@@ -316,7 +305,7 @@ def test_a_truncated_tiled_file_leaves_stdout_empty(tmp_path):
     """ILM's tiled, mipmapped cube cut short: OpenEXR's bindings print why on Python's
     stdout, where it would land in the JSON a pipe reads; compute's stdout stays empty, and
     its one error line carries the library's words."""
-    whole = (DATA / "exr" / "KernerEnvCube64.exr").read_bytes()
+    whole = (ILM / "ilm" / "KernerEnvCube.exr").read_bytes()
     path = tmp_path / "cut.exr"
     path.write_bytes(whole[: len(whole) * 2 // 3])
     res = run_cli("compute", str(path))
