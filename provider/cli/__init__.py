@@ -38,6 +38,8 @@ COMMANDS = (
      "one image's reflection cube (GGX-prefiltered mips) -> KTX2 (-o cube.ktx2)"),
     ("register", "register", "where a printed marker is in a panorama: the camera's pose (§13)"),
     ("marker", "marker", "write a printable registration marker (PNG at print resolution)"),
+    ("passthrough", "passthrough",
+     "a headset camera's response, exposures and white balance from its views -> JSON"),
 )
 
 
