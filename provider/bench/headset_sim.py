@@ -238,3 +238,59 @@ def score(truth: HeadsetTruth, predict) -> dict:
             "median_view_bias": float(np.median(biases)),
             "p90_view_bias": float(np.percentile(biases, 90)),
             "pixel_p90": float(np.percentile(allpix, 90))}
+
+
+def measure(names=None, n_views: int = 40, room_seed: int = 7, seed: int = 3,
+            metadata: bool = False) -> list[dict]:
+    """The score of the fit and of the naive baseline, and the fit's ms per view, for a
+    perturbed room from each shared panorama (``python -m provider.bench.headset_sim``)."""
+    import tempfile
+    import time
+    from pathlib import Path
+    from ..core.passthrough import PassthroughFit, read_transforms
+    from ..core.passthrough.views import read_view_image
+    from ..core.radiometry.images import read_image
+    hdri = Path(__file__).resolve().parents[1] / "data" / "hdri"
+    names = names or sorted(p.stem for p in hdri.glob("*.exr"))
+    rows = []
+    for name in names:
+        room = perturb_panorama(read_image(hdri / f"{name}.exr"), seed=room_seed)
+        with tempfile.TemporaryDirectory() as folder:
+            truth = HeadsetSim(n_views=n_views, seed=seed).render(room, folder,
+                                                                  metadata=metadata)
+            views = read_transforms(os.path.join(folder, "transforms.json"))
+            images = [read_view_image(v) for v in views]
+            t0 = time.perf_counter()
+            fit = PassthroughFit(room)
+            for v, img in zip(views, images):
+                fit.add_view(v, img)
+            result = fit.solve()
+            ms = 1000 * (time.perf_counter() - t0) / n_views
+        rows.append({"room": f"{name}~{room_seed}", "ms_per_view": ms,
+                     "fit": score(truth, fitted_model(result)),
+                     "naive": score(truth, naive_model(truth, room))})
+    return rows
+
+
+def main(argv=None) -> int:
+    import argparse
+    p = argparse.ArgumentParser(description="the passthrough fit against the naive way, "
+                                            "on perturbed rooms (stops)")
+    p.add_argument("names", nargs="*", help="shared panoramas (default: all nine)")
+    p.add_argument("--views", type=int, default=40)
+    p.add_argument("--room-seed", type=int, default=7)
+    p.add_argument("--metadata", action="store_true", help="views say their exposure")
+    args = p.parse_args(argv)
+    keys = ("median_view_bias", "p90_view_bias", "pixel_p90")
+    print("| room | ms/view | fit: median view | p90 view | pixel p90 | naive: median view "
+          "| p90 view | pixel p90 |")
+    print("|---|---|---|---|---|---|---|---|")
+    for r in measure(args.names or None, args.views, args.room_seed, metadata=args.metadata):
+        cells = [f"{r['fit'][k]:.3f}" for k in keys] + [f"{r['naive'][k]:.3f}" for k in keys]
+        print(f"| {r['room']} | {r['ms_per_view']:.0f} | " + " | ".join(cells) + " |",
+              flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -285,7 +285,7 @@ class PassthroughFit:
         return len(self.views) - 1
 
     # -- the fit -----------------------------------------------------------------------------
-    def solve(self, iterations: int = 12, smoothing: float = 20.0) -> PassthroughResult:
+    def solve(self, iterations: int = 12, smoothing: float = 0.03) -> PassthroughResult:
         """The joint fit over the views held (module doc)."""
         n_views = len(self.views)
         if n_views == 0:

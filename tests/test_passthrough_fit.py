@@ -1,0 +1,217 @@
+"""``shlight passthrough`` and the joint fit (issue 42, items 1-2): a simulated headset
+(provider/bench/headset_sim.py: a filmic curve that is not sRGB, a lagging auto exposure, a
+drifting white balance, vignetting, JPEG, 1° pose error) looks around a room none of the
+tests has seen (a shared panorama turned, mirrored, re-tinted and re-lit region by region),
+and the fit must make a hologram sit where its real replica does, by the issue's score."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from provider.bench.headset_sim import (HeadsetSim, fitted_model, look_rotation,
+                                        naive_model, perturb_panorama, score)
+from provider.core.errors import InputError
+from provider.core.passthrough import PassthroughFit, read_transforms
+from provider.core.passthrough.fit import PassthroughResult, sample_equirect
+from provider.core.passthrough.views import read_view_image
+from provider.core.radiometry.response import CameraResponse
+from provider.live.probe.camerafile import load_camera
+
+from conftest import load_hdri
+from servertools import run_cli
+
+#: The issue's done-when (stops): median view bias, 90th-percentile view bias, pixels' p90.
+DONE_WHEN = {"median_view_bias": 0.10, "p90_view_bias": 0.20, "pixel_p90": 0.45}
+ROOM, ROOM_SEED = "lab", 7
+
+
+@pytest.fixture(scope="module")
+def room():
+    """A room none of the shared nine is as it stands: the lab, perturbed."""
+    return perturb_panorama(load_hdri(ROOM), seed=ROOM_SEED)
+
+
+@pytest.fixture(scope="module")
+def headset(room, tmp_path_factory):
+    """40 views of the room, no exposure metadata: (folder, truth)."""
+    folder = tmp_path_factory.mktemp("headset")
+    return folder, HeadsetSim(n_views=40, seed=3).render(room, str(folder))
+
+
+def fit_folder(room, folder) -> PassthroughResult:
+    fit = PassthroughFit(room)
+    for view in read_transforms(folder / "transforms.json"):
+        fit.add_view(view, read_view_image(view))
+    return fit.solve()
+
+
+def result_from_json(out: dict) -> PassthroughResult:
+    """The CLI's JSON as the model a consumer renders through."""
+    camera = CameraResponse.from_dict(out["camera"])
+    vig = camera.params["vignetting"]
+    views = out["views"]
+    return PassthroughResult(
+        response=camera, exposure=np.array([v["exposure"] for v in views]),
+        wb_gains=np.array([v["wb_gains"] for v in views]),
+        residual_stops=np.array([v["residual_stops"] for v in views]),
+        samples=np.array([v["samples"] for v in views]), vignetting=(vig["v1"], vig["v2"]))
+
+
+def test_the_fit_puts_a_hologram_where_its_replica_is_and_the_naive_way_does_not(room,
+                                                                                  headset):
+    folder, truth = headset
+    fitted = score(truth, fitted_model(fit_folder(room, folder)))
+    naive = score(truth, naive_model(truth, room))
+    for key, limit in DONE_WHEN.items():
+        assert fitted[key] <= limit, (key, fitted, naive)
+    # the baseline the issue measured (sRGB, mean-matched exposure, no white balance) is
+    # several times worse on every count: the score can tell them apart
+    for key in DONE_WHEN:
+        assert naive[key] >= 2 * fitted[key], (key, fitted, naive)
+    assert naive["median_view_bias"] > DONE_WHEN["median_view_bias"]
+
+
+def test_exposures_follow_the_auto_exposure_and_white_balance_its_drift(room, headset):
+    folder, truth = headset
+    res = fit_folder(room, folder)
+    # the fit's exposure is the camera's up to the anchor of its curve (g(118) = 0.18, the
+    # simulated camera's too): view to view, it follows the auto exposure's lag
+    ratio = np.log2(res.exposure / truth.exposure)
+    assert np.ptp(truth.exposure) > 0.5 * truth.exposure.mean()   # the AE did move
+    assert np.std(ratio) < 0.1, ratio
+    wb_err = np.abs(np.log2(res.wb_gains / truth.wb_gains))
+    assert np.median(wb_err) < 0.1, wb_err
+    assert np.all(res.residual_stops < 0.5)
+
+
+def test_exposure_metadata_fixes_the_views_exposures(room, tmp_path):
+    truth = HeadsetSim(n_views=24, seed=5).render(room, str(tmp_path), metadata=True)
+    res = fit_folder(room, tmp_path)
+    assert res.response.params["metadata_exposures"] is True
+    ratio = res.exposure / truth.exposure
+    # metadata leaves one constant to fit: every view's exposure is the truth × that constant
+    assert np.ptp(np.log2(ratio)) < 1e-9
+
+
+def test_cli_prints_the_model_and_writes_camera_json(room, headset, tmp_path):
+    folder, truth = headset
+    sphere = tmp_path / "room.exr"
+    _write_exr(sphere, room)
+    camera = tmp_path / "headset.json"
+    proc = run_cli("passthrough", str(folder / "transforms.json"), "--sphere", str(sphere),
+                   "--camera-out", str(camera), timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out["camera"]["format"] == "shlight-camera-response"
+    assert [v["file_path"] for v in out["views"]] == [v.file_path for v in truth.views]
+    for v in out["views"]:
+        assert set(v) >= {"file_path", "exposure", "wb_gains", "ev100", "residual_stops"}
+        assert v["wb_gains"][1] == 1.0
+        assert v["ev100"] == pytest.approx(np.log2(0.18 / v["exposure"] * 100 / 12.5))
+    # the camera.json is the one printed, and loads as any calibrated camera does
+    assert load_camera(camera).to_dict() == out["camera"]
+    # through the CLI, the done-when holds too
+    fitted = score(truth, fitted_model(result_from_json(out)))
+    for key, limit in DONE_WHEN.items():
+        assert fitted[key] <= limit, (key, fitted)
+
+
+def _write_exr(path, image):
+    import OpenEXR
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"RGB": np.ascontiguousarray(image, np.float32)}) as f:
+        f.write(str(path))
+
+
+# -- the views' records ---------------------------------------------------------------------
+
+def test_a_view_looks_where_its_transform_says(tmp_path, room):
+    """OpenGL camera axes, the world of docs/contract.md §1: the centre pixel of a view that
+    looks 90° right (yaw toward +X) sees the panorama at u = 0.75."""
+    rot = look_rotation(90.0, 0.0)
+    assert np.allclose(rot[:, 2], (-1, 0, 0), atol=1e-12)     # camera +Z is backward
+    doc = {"camera_model": "PINHOLE", "fl_x": 100, "fl_y": 100, "cx": 80, "cy": 60,
+           "w": 160, "h": 120,
+           "frames": [{"file_path": "a.jpg", "transform_matrix": _m(rot)}]}
+    (tmp_path / "a.jpg").write_bytes(b"")
+    (tmp_path / "transforms.json").write_text(json.dumps(doc))
+    view = read_transforms(tmp_path / "transforms.json")[0]
+    centre = view.directions(np.array(80.0), np.array(60.0))
+    assert np.allclose(centre, (1, 0, 0), atol=1e-12)
+    right = view.directions(np.array(160.0), np.array(60.0))   # image right: toward +Z
+    assert right[2] > 0.5 and abs(right[1]) < 1e-12
+    up = view.directions(np.array(80.0), np.array(0.0))        # image top: up
+    assert up[1] > 0.4
+    pano = np.zeros((64, 128, 3))
+    pano[:, 96] = 1.0                                         # u = 0.75 (column centre 96.5)
+    assert sample_equirect(pano, centre)[0] > 0.4
+
+
+def _m(rot, t=(0.0, 1.6, 0.0)):
+    m = np.eye(4)
+    m[:3, :3] = rot
+    m[:3, 3] = t
+    return m.tolist()
+
+
+def _bad_records():
+    good = {"file_path": "a.jpg", "transform_matrix": _m(np.eye(3))}
+    scaled = _m(2 * np.eye(3))
+    return [
+        ("not a rotation", {**good, "transform_matrix": scaled}, {}, "not a rotation"),
+        ("mirror", {**good, "transform_matrix": _m(np.diag([1.0, 1.0, -1.0]))}, {},
+         "not a rotation"),
+        ("principal point", {**good, "cx": 500}, {}, "outside the 160×120 frame"),
+        ("missing file", {**good, "file_path": "nope.jpg"}, {}, "no such file"),
+        ("camera model", good, {"camera_model": "FISHEYE"}, "camera_model 'FISHEYE'"),
+        ("no matrix", {"file_path": "a.jpg"}, {}, "transform_matrix is missing"),
+        ("short matrix", {**good, "transform_matrix": [[1, 0, 0]]}, {}, "4×4"),
+        ("focal", {**good, "fl_x": -3}, {}, "fl_x must be positive"),
+    ]
+
+
+@pytest.mark.parametrize("case,frame,top,message", _bad_records(),
+                         ids=[c[0] for c in _bad_records()])
+def test_bad_records_are_refused_in_one_line(tmp_path, case, frame, top, message):
+    import cv2
+    cv2.imwrite(str(tmp_path / "a.jpg"), np.zeros((120, 160, 3), np.uint8))
+    doc = {"camera_model": "PINHOLE", "fl_x": 100, "fl_y": 100, "cx": 80, "cy": 60,
+           "w": 160, "h": 120, **top, "frames": [frame]}
+    (tmp_path / "transforms.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match="frame 0"):
+        read_transforms(tmp_path / "transforms.json")
+    with pytest.raises(InputError) as info:
+        read_transforms(tmp_path / "transforms.json")
+    assert message in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_cli_refuses_bad_input_in_one_line(tmp_path):
+    import cv2
+    cv2.imwrite(str(tmp_path / "a.jpg"), np.zeros((120, 160, 3), np.uint8))
+    doc = {"camera_model": "PINHOLE", "fl_x": 100, "fl_y": 100, "cx": 80, "cy": 60,
+           "w": 160, "h": 120,
+           "frames": [{"file_path": "a.jpg", "transform_matrix": _m(2 * np.eye(3))}]}
+    (tmp_path / "transforms.json").write_text(json.dumps(doc))
+    sphere = tmp_path / "sphere.exr"
+    _write_exr(sphere, np.ones((32, 64, 3), np.float32))
+    square = tmp_path / "square.exr"
+    _write_exr(square, np.ones((32, 32, 3), np.float32))
+    (tmp_path / "notjson.json").write_text("{frames")
+    good = dict(doc, frames=[{"file_path": "a.jpg", "transform_matrix": _m(np.eye(3))}])
+    (tmp_path / "good.json").write_text(json.dumps(good))
+    for argv, says in [
+            ((str(tmp_path / "transforms.json"), "--sphere", str(sphere)), "not a rotation"),
+            ((str(tmp_path / "notjson.json"), "--sphere", str(sphere)), "is not JSON"),
+            ((str(tmp_path / "missing.json"), "--sphere", str(sphere)), "no such file"),
+            ((str(tmp_path / "good.json"), "--sphere", str(square)), "2:1 equirect"),
+            ((str(tmp_path / "good.json"), "--sphere", str(tmp_path / "no.exr")),
+             "no such file")]:
+        proc = run_cli("passthrough", *argv)
+        assert proc.returncode == 2, (argv, proc.stderr)
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("shlight passthrough: error: "), \
+            proc.stderr
+        assert says in lines[0]
