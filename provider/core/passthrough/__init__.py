@@ -6,6 +6,9 @@ white-balances and tone-maps every frame. Its pose-tagged views (nerfstudio's
 directions, tell its response, each view's exposure and its white balance (:mod:`.fit`):
 what a hologram must go through to look like its real replica in passthrough
 (docs/passthrough.md).
+
+It may import errors and radiometry (pyproject.toml's contracts); nothing of the products
+(sh9, lights, reflections) and they nothing of it.
 """
 from .fit import PassthroughFit, PassthroughResult, fit_views
 from .views import PassthroughView, read_transforms
