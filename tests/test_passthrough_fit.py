@@ -215,3 +215,66 @@ def test_cli_refuses_bad_input_in_one_line(tmp_path):
         assert len(lines) == 1 and lines[0].startswith("shlight passthrough: error: "), \
             proc.stderr
         assert says in lines[0]
+
+
+def test_near_objects_the_sphere_sees_elsewhere_do_not_move_the_fit(room, tmp_path):
+    """Parallax: half the views have a near object (an ellipse over ~10 % of the frame)
+    whose light the sphere has 15-30° away; the medians and the edge filter keep the fit."""
+    truth = HeadsetSim(n_views=40, seed=3, parallax=0.5).render(room, str(tmp_path))
+    fitted = score(truth, fitted_model(fit_folder(room, tmp_path)))
+    for key, limit in DONE_WHEN.items():
+        assert fitted[key] <= limit, (key, fitted)
+
+
+def test_a_black_view_is_flagged_and_the_others_still_fit(room, headset, tmp_path):
+    import shutil
+    import cv2
+    folder, truth = headset
+    copy = tmp_path / "views"
+    shutil.copytree(folder, copy)
+    cv2.imwrite(str(copy / truth.views[5].file_path), np.zeros((240, 320, 3), np.uint8))
+    sphere = tmp_path / "room.exr"
+    _write_exr(sphere, room)
+    proc = run_cli("passthrough", str(copy), "--sphere", str(sphere), timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "1 view(s) had too few usable pixels" in proc.stderr
+    assert truth.views[5].file_path in proc.stderr
+    views = json.loads(proc.stdout)["views"]
+    assert views[5]["fitted"] is False and views[5]["samples"] < 30
+    assert all("fitted" not in v for i, v in enumerate(views) if i != 5)
+    ratio = np.array([v["exposure"] for v in views]) / truth.exposure
+    others = np.delete(np.log2(ratio), 5)
+    assert np.std(others) < 0.1
+
+
+def test_opencv_distortion_is_undone_as_opencv_projects_it(tmp_path):
+    """An OPENCV record's pixel looks along the ray that cv2.projectPoints (OpenCV's own
+    forward model, camera axes x right, y down, z forward) sends back to that pixel."""
+    import cv2
+    cv2.imwrite(str(tmp_path / "a.jpg"), np.zeros((240, 320, 3), np.uint8))
+    rot = look_rotation(30.0, 10.0, 5.0)
+    dist = dict(k1=-0.12, k2=0.03, p1=0.001, p2=-0.0015)
+    doc = {"camera_model": "OPENCV", **dist, "frames": [
+        {"file_path": "a.jpg", "transform_matrix": _m(rot), "fl_x": 170.0, "fl_y": 168.0,
+         "cx": 161.0, "cy": 118.0, "w": 320, "h": 240}]}
+    (tmp_path / "transforms.json").write_text(json.dumps(doc))
+    view = read_transforms(tmp_path)[0]
+    px, py = np.meshgrid(np.linspace(5, 315, 7), np.linspace(5, 235, 5))
+    d = view.directions(px, py).reshape(-1, 3)
+    cam = d @ rot                       # world -> OpenGL camera axes
+    cv_cam = cam * (1, -1, -1)          # OpenGL -> OpenCV camera axes
+    K = np.array([[170.0, 0, 161.0], [0, 168.0, 118.0], [0, 0, 1]])
+    back, _ = cv2.projectPoints(cv_cam, np.zeros(3), np.zeros(3), K,
+                                np.array(list(dist.values())))
+    # undistortPoints iterates (5 rounds by default): a few hundredths of a pixel off
+    assert np.abs(back.reshape(-1, 2) - np.stack([px.ravel(), py.ravel()], -1)).max() < 0.05
+
+
+def test_the_fit_keeps_the_newest_views_it_is_given(room, headset):
+    folder, _ = headset
+    views = read_transforms(folder)
+    fit = PassthroughFit(room, max_views=10)
+    for v in views[:15]:
+        fit.add_view(v, read_view_image(v))
+    assert [v.file_path for v in fit.views] == [v.file_path for v in views[5:15]]
+    assert len(fit.solve().exposure) == 10

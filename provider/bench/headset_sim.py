@@ -12,6 +12,8 @@ panorama, as pose-tagged views in nerfstudio's ``transforms.json`` (docs/passthr
   the exposure moves half way there (in stops) per view;
 * a drifting white balance: red and blue gains random-walk (3 % a view, within ±25 %);
 * vignetting: sensor exposure × (1 − 0.35 ρ²), ρ from the centre over the half-diagonal;
+* optionally (``parallax``, a fraction of the views) a near object: an ellipse over ~10 %
+  of the view that shows what the sphere sees 15–30° to the side;
 * a per-channel filmic tone curve that is not sRGB (:class:`~.camera_sim.CameraSim`, other
   parameters), 8-bit clipping, and JPEG at quality 85.
 
@@ -116,6 +118,7 @@ class HeadsetSim:
     wb_step: float = 0.03
     vignetting: float = 0.35
     jpeg_quality: int = 85
+    parallax: float = 0.0
     seed: int = 0
     camera: CameraSim = field(default_factory=lambda: CameraSim(**HEADSET_CAMERA))
 
@@ -138,6 +141,7 @@ class HeadsetSim:
         frames, views, rotations, exposures, wbs, radiances, codes = [], [], [], [], [], [], []
         log_e = None
         log_wb = rng.normal(0, 0.08, 2)
+        prng = np.random.default_rng(self.seed + 1000)   # the near objects' own stream
         for i in range(self.n_views):
             t = i / self.n_views
             rec = look_rotation(540.0 * t + rng.normal(0, 4),
@@ -146,6 +150,8 @@ class HeadsetSim:
             rvec = rng.normal(0, math.radians(self.pose_noise_deg) / math.sqrt(3), 3)
             true = rec @ cv2.Rodrigues(rvec.reshape(3, 1))[0]
             L = sample_equirect(pano, cam @ true.T)
+            if self.parallax and prng.random() < self.parallax:
+                L = self._near_object(pano, cam @ true.T, L, prng)
             L = cv2.resize(L.astype(np.float32), (w, h), interpolation=cv2.INTER_AREA)
             L = L.astype(np.float64)
             target = math.log(MID_GREY / max(float(L.mean()), 1e-9))
@@ -185,6 +191,21 @@ class HeadsetSim:
             json.dump(doc, f, indent=1)
         return HeadsetTruth(views, rotations, np.array(exposures), np.array(wbs), radiances,
                             codes, rho2, self.camera)
+
+
+    @staticmethod
+    def _near_object(pano, dirs, L, rng):
+        """Parallax: an ellipse over ~10 % of the view shows what the sphere sees 15–30° to
+        the side (a near surface, seen from metres away from the 360° camera, is somewhere
+        else on its sphere)."""
+        h, w = L.shape[:2]
+        cy, cx = rng.uniform(0.25, 0.75) * h, rng.uniform(0.25, 0.75) * w
+        ry, rx = rng.uniform(0.15, 0.25) * h, rng.uniform(0.15, 0.25) * w
+        ys, xs = np.mgrid[0:h, 0:w]
+        inside = ((ys - cy) / ry) ** 2 + ((xs - cx) / rx) ** 2 <= 1
+        turn = look_rotation(rng.choice([-1, 1]) * rng.uniform(15, 30), 0.0)
+        shifted = sample_equirect(pano, dirs @ turn.T)
+        return np.where(inside[..., None], shifted, L)
 
 
 # -- the score -------------------------------------------------------------------------------

@@ -80,8 +80,12 @@ def run(args) -> int:
     for view in views:
         fit.add_view(view, read_view_image(view))
     result = fit.solve()
+    told = sum(v.exposure_s is not None for v in views)
     if result.response.params.get("metadata_exposures"):
         say("passthrough", "note", "every view says its exposure: the fit uses it")
+    elif told:
+        say("passthrough", "warning", f"{told} of {len(views)} views say their exposure_s: "
+            "it is used only when every view does (fitted from the sphere instead)")
     unfit = [v.file_path for v, ok in zip(views, result.fitted) if not ok]
     if unfit:
         say("passthrough", "warning", f"{len(unfit)} view(s) had too few usable pixels "

@@ -170,7 +170,9 @@ class PassthroughResult:
                  "exposure": float(self.exposure[i]),
                  "wb_gains": [float(g) for g in self.wb_gains[i]],
                  "ev100": float(ev[i]),
-                 "residual_stops": float(self.residual_stops[i]),
+                 # null where no sample was usable (``fitted: false``): nothing was explained
+                 "residual_stops": (float(self.residual_stops[i])
+                                    if math.isfinite(self.residual_stops[i]) else None),
                  "samples": int(self.samples[i])}
             if not self.fitted[i]:
                 v["fitted"] = False
