@@ -278,3 +278,32 @@ def test_the_fit_keeps_the_newest_views_it_is_given(room, headset):
         fit.add_view(v, read_view_image(v))
     assert [v.file_path for v in fit.views] == [v.file_path for v in views[5:15]]
     assert len(fit.solve().exposure) == 10
+
+
+def test_the_views_exposures_are_in_the_spheres_units(room, tmp_path):
+    """An 8-bit sphere with its exposure time (PANO@SECONDS) is radiance per second of
+    exposure, as compute reads it: ten times the radiance, a tenth of the exposure; the
+    curve and the white balance do not change."""
+    import cv2
+    from provider.core.radiometry.response import srgb_decode
+    HeadsetSim(n_views=16, seed=4).render(room, str(tmp_path / "views"))
+    codes = np.clip(np.rint(255 * np.interp(np.clip(room / 8.0, 0, 1),
+                                            srgb_decode(np.linspace(0, 1, 4096)),
+                                            np.linspace(0, 1, 4096))), 0, 255)
+    pano = tmp_path / "pano.png"
+    cv2.imwrite(str(pano), codes.astype(np.uint8)[..., ::-1])
+    outs = []
+    for sphere in (str(pano), f"{pano}@0.1"):
+        proc = run_cli("passthrough", str(tmp_path / "views"), "--sphere", sphere)
+        assert proc.returncode == 0, proc.stderr
+        assert "decoded as sRGB" in proc.stderr          # no --sphere-camera: said
+        outs.append(json.loads(proc.stdout))
+    plain, timed = outs
+    assert CameraResponse.from_dict(timed["camera"]).table == pytest.approx(
+        CameraResponse.from_dict(plain["camera"]).table, rel=1e-4)
+    # The fit is scale-equivariant; what differs is the float32 decode of the two spheres
+    # (radiance rounded after the division by 0.1), which can move a median by a neighbour.
+    for a, b in zip(plain["views"], timed["views"]):
+        assert b["exposure"] == pytest.approx(0.1 * a["exposure"], rel=1e-4)
+        assert b["wb_gains"] == pytest.approx(a["wb_gains"], rel=1e-4)
+        assert b["ev100"] == pytest.approx(a["ev100"] + np.log2(10), abs=1e-4)

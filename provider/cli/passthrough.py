@@ -40,6 +40,7 @@ def read_sphere(args):
     from .frames import read_exposed_frames
     images, exposures, _ = read_exposed_frames([args.sphere], need_times=False)
     img, t = images[0], exposures[0].exposure_s
+    iso, f_number = exposures[0].iso, exposures[0].f_number
     if img.ndim != 3 or img.shape[2] < 3:
         raise InputError(f"--sphere {args.sphere}: expected an RGB panorama, got shape "
                          f"{img.shape}")
@@ -62,7 +63,18 @@ def read_sphere(args):
         bits = 8 if img.dtype == np.uint8 else 16
         if response.bits != bits:
             response = response.to_bits(bits)
-        return response.linearise(img, t or 1.0).astype(np.float64)
+        # as compute: radiance per (t · ISO/100), and cd/m² with an absolute camera
+        gain = iso / 100.0 if iso and t is not None else 1.0
+        out = response.linearise(img, t or 1.0, gain).astype(np.float64)
+        from ..core.radiometry.photometry import absolute_factor
+        factor = absolute_factor(response, f_number) if t is not None else None
+        if factor is not None:
+            out *= factor
+        elif response.params.get("absolute"):
+            say("passthrough", "note", "the sphere's camera has an absolute scale but the "
+                "frame's exposure time is unknown (no @SECONDS, no EXIF ExposureTime): "
+                "units stay relative")
+        return out
     return out / t if t is not None else out
 
 
