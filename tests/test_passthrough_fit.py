@@ -208,7 +208,11 @@ def test_cli_refuses_bad_input_in_one_line(tmp_path):
             ((str(tmp_path / "missing.json"), "--sphere", str(sphere)), "no such file"),
             ((str(tmp_path / "good.json"), "--sphere", str(square)), "2:1 equirect"),
             ((str(tmp_path / "good.json"), "--sphere", str(tmp_path / "no.exr")),
-             "no such file")]:
+             "no such file"),
+            # a black view: nothing to fit, said in one line rather than a made-up curve
+            ((str(tmp_path / "good.json"), "--sphere", str(sphere)), "usable pixels"),
+            ((str(tmp_path / "good.json"), "--sphere", str(sphere), "--sigma-deg", "nan"),
+             "--sigma-deg")]:
         proc = run_cli("passthrough", *argv)
         assert proc.returncode == 2, (argv, proc.stderr)
         lines = proc.stderr.strip().splitlines()

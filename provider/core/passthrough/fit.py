@@ -234,7 +234,7 @@ def _grouped_median(keys, values, n_groups):
 class PassthroughFit:
     """The joint fit, fed one view at a time (:meth:`add_view`), solved on demand
     (:meth:`solve`). Holds only each view's samples (a few thousand pixels), so memory
-    grows by ~100 kB a view; ``max_views`` keeps the newest that many (a live feed)."""
+    grows by ~160 kB a view; ``max_views`` keeps the newest that many (a live feed)."""
 
     def __init__(self, sphere, *, sigma_deg: float = SIGMA_DEG, samples_per_view: int = 2500,
                  max_views: int | None = None, fit_vignetting: bool = True):
