@@ -29,6 +29,9 @@ def add_arguments(p) -> None:
     p.add_argument("--sigma-deg", type=float, default=1.0, metavar="DEG",
                    help="the pose error the fit tolerates: the sphere and views are blurred "
                         "by this angle (default 1)")
+    p.add_argument("--refine-deg", type=float, default=3.0, metavar="DEG",
+                   help="search each view's pose within this angle for the turn that fits "
+                        "the sphere best (default 3; 0: trust the poses)")
     p.add_argument("--pretty", action="store_true", help="indent the JSON")
 
 
@@ -88,7 +91,10 @@ def run(args) -> int:
         raise InputError(f"--sigma-deg must be between 0 and 10 degrees, got {args.sigma_deg}")
     views = read_transforms(args.views)          # every record checked before any work
     sphere = read_sphere(args)
-    fit = PassthroughFit(sphere, sigma_deg=args.sigma_deg)
+    if not (math.isfinite(args.refine_deg) and 0 <= args.refine_deg <= 10):
+        raise InputError(f"--refine-deg must be between 0 and 10 degrees, got "
+                         f"{args.refine_deg}")
+    fit = PassthroughFit(sphere, sigma_deg=args.sigma_deg, refine_deg=args.refine_deg)
     for view in views:
         fit.add_view(view, read_view_image(view))
     result = fit.solve()

@@ -13,6 +13,11 @@ lens's vignetting at ρ, the distance from the principal point over the half-dia
 
 How it is fitted, robustly (every step a median, an L1 fit):
 
+0. Poses: each view is turned (about its right and up axes, within ``refine_deg``, 3°) to
+   where its log codes correlate best with the sphere's log radiance, a grid of 1° and then
+   of 0.25° steps; a correlation needs neither the curve nor the exposure. Tracking a few
+   degrees off would otherwise bias the dark codes (a dark thing is usually small, so a
+   wrong direction sees something brighter).
 1. Samples: a grid of a few thousand pixels per view. The view is blurred and the sphere
    is blurred by the same angle (``sigma_deg``, 1°: the pose error a headset's tracking
    leaves), and samples where the sphere's radiance changes within a few sigma (edges,
@@ -59,6 +64,8 @@ MIN_SAMPLES = 30
 #: The curve is smooth in log(code + 1): its extension past the codes seen is a power law
 #: (the dark end of every camera curve is near one), not an exponential.
 CODE_AXIS = np.log(np.arange(256) + 1.0)
+#: How far (deg) each view's pose is searched for the turn that fits the sphere best.
+REFINE_DEG = 3.0
 #: Reflected-light meter constant (as :mod:`provider.core.radiometry.photometry`).
 METER_K = 12.5
 
@@ -122,6 +129,7 @@ class _Samples:
     radiance: np.ndarray  # (n, 3) blurred sphere radiance
     rho2: np.ndarray      # (n,) squared distance from the principal point / half-diagonal
     contrast: np.ndarray  # (n,) how much the sphere's log radiance changes nearby
+    turned_deg: float = 0.0   # the pose correction the samples were taken with
 
 
 @dataclass
@@ -135,6 +143,7 @@ class PassthroughResult:
     samples: np.ndarray         # (V,) samples each view's fit used
     vignetting: tuple = (0.0, 0.0)
     file_paths: list = field(default_factory=list)
+    pose_correction_deg: np.ndarray | None = None   # (V,) the turn each view's pose needed
 
     @property
     def fitted(self) -> np.ndarray:
@@ -174,6 +183,8 @@ class PassthroughResult:
                  "residual_stops": (float(self.residual_stops[i])
                                     if math.isfinite(self.residual_stops[i]) else None),
                  "samples": int(self.samples[i])}
+            if self.pose_correction_deg is not None:
+                v["pose_correction_deg"] = float(self.pose_correction_deg[i])
             if not self.fitted[i]:
                 v["fitted"] = False
             views.append(v)
@@ -237,7 +248,8 @@ class PassthroughFit:
     grows by ~160 kB a view; ``max_views`` keeps the newest that many (a live feed)."""
 
     def __init__(self, sphere, *, sigma_deg: float = SIGMA_DEG, samples_per_view: int = 2500,
-                 max_views: int | None = None, fit_vignetting: bool = True):
+                 max_views: int | None = None, fit_vignetting: bool = True,
+                 refine_deg: float = REFINE_DEG):
         self.sphere = check_sphere(sphere)
         h, w = self.sphere.shape[:2]
         px_per_deg = w / 360.0
@@ -247,6 +259,7 @@ class PassthroughFit:
         self.samples_per_view = int(samples_per_view)
         self.max_views = max_views
         self.fit_vignetting = fit_vignetting
+        self.refine_deg = float(refine_deg)
         self.views: list[PassthroughView] = []
         self._samples: list[_Samples] = []
 
@@ -271,6 +284,9 @@ class PassthroughFit:
         ys, xs = np.mgrid[step // 2:view.h:step, step // 2:view.w:step]
         xs, ys = xs.ravel(), ys.ravel()
         dirs = view.directions(xs + 0.5, ys + 0.5)
+        turned = 0.0
+        if self.refine_deg > 0:
+            dirs, turned = self._refined(dirs, blurred[ys, xs], view.rotation)
         near = sample_equirect(self._near, dirs)
         wide = sample_equirect(self._wide, dirs)
         tiny = 1e-6 * max(float(self.sphere.mean()), 1e-12)
@@ -281,10 +297,40 @@ class PassthroughFit:
         rho2 = ((xs + 0.5 - view.cx) ** 2 + (ys + 0.5 - view.cy) ** 2) / half_diag2
         self.views.append(view)
         self._samples.append(_Samples(blurred[ys, xs].astype(np.float64), ok, near, rho2,
-                                      contrast))
+                                      contrast, turned))
         if self.max_views and len(self.views) > self.max_views:
             del self.views[0], self._samples[0]
         return len(self.views) - 1
+
+    def _refined(self, dirs, codes, rotation):
+        """The sample directions turned by the small rotation (within ``refine_deg``, about
+        the view's right and up axes) under which the view's log codes correlate best with
+        the sphere's log radiance: a correlation, so it needs neither the curve nor the
+        exposure. A grid of 1° steps, then of a quarter of that around the best."""
+        lin = np.log(_SRGB_LUT[np.clip(np.rint(codes), 0, 255).astype(np.int64)].mean(-1)
+                     + 1e-4)
+        use = ((codes > CODE_LO) & (codes < CODE_HI)).all(-1)
+        if use.sum() < MIN_SAMPLES:
+            return dirs, 0.0
+        cam = dirs[use] @ rotation             # the rays in the camera's own axes
+        tiny = 1e-6 * max(float(self.sphere.mean()), 1e-12)
+        x = lin[use] - lin[use].mean()
+
+        def corr(rx, ry):
+            turn = cv2.Rodrigues(np.array([[rx], [ry], [0.0]]))[0]
+            lum = np.log(sample_equirect(self._near, cam @ turn.T @ rotation.T).mean(-1)
+                         + tiny)
+            y = lum - lum.mean()
+            return float(x @ y) / max(math.sqrt(float(x @ x) * float(y @ y)), 1e-300)
+
+        best = (0.0, 0.0)
+        for step in (1.0, 0.25):
+            span = int(round(self.refine_deg / step)) if step == 1.0 else 3
+            grid = [(best[0] + math.radians(i * step), best[1] + math.radians(j * step))
+                    for i in range(-span, span + 1) for j in range(-span, span + 1)]
+            best = max(grid, key=lambda r: corr(*r))
+        turn = cv2.Rodrigues(np.array([[best[0]], [best[1]], [0.0]]))[0]
+        return (dirs @ rotation) @ turn.T @ rotation.T, math.degrees(math.hypot(*best))
 
     # -- the fit -----------------------------------------------------------------------------
     def solve(self, iterations: int = 12, smoothing: float = 0.03) -> PassthroughResult:
@@ -362,7 +408,8 @@ class PassthroughFit:
         return PassthroughResult(
             response=response, exposure=np.exp(a[:, 1]), wb_gains=np.exp(a - a[:, 1:2]),
             residual_stops=resid, samples=counts, vignetting=(float(vig[0]), float(vig[1])),
-            file_paths=[v.file_path for v in self.views])
+            file_paths=[v.file_path for v in self.views],
+            pose_correction_deg=np.array([s.turned_deg for s in self._samples]))
 
 
 def _flattest(samples: list) -> list:
@@ -399,7 +446,7 @@ def fit_views(sphere, views, images, **options) -> PassthroughResult:
     """The joint fit of views (:class:`PassthroughView`) and their 8-bit images."""
     fit = PassthroughFit(sphere, **{k: v for k, v in options.items()
                                     if k in ("sigma_deg", "samples_per_view",
-                                             "fit_vignetting")})
+                                             "fit_vignetting", "refine_deg")})
     for view, image in zip(views, images):
         fit.add_view(view, image)
     return fit.solve(**{k: v for k, v in options.items() if k in ("iterations", "smoothing")})
