@@ -202,6 +202,9 @@ def test_cli_refuses_bad_input_in_one_line(tmp_path):
     (tmp_path / "notjson.json").write_text("{frames")
     good = dict(doc, frames=[{"file_path": "a.jpg", "transform_matrix": _m(np.eye(3))}])
     (tmp_path / "good.json").write_text(json.dumps(good))
+    cv2.imwrite(str(tmp_path / "small.jpg"), np.zeros((100, 100, 3), np.uint8))
+    small = dict(doc, frames=[{"file_path": "small.jpg", "transform_matrix": _m(np.eye(3))}])
+    (tmp_path / "small.json").write_text(json.dumps(small))
     for argv, says in [
             ((str(tmp_path / "transforms.json"), "--sphere", str(sphere)), "not a rotation"),
             ((str(tmp_path / "notjson.json"), "--sphere", str(sphere)), "is not JSON"),
@@ -209,6 +212,8 @@ def test_cli_refuses_bad_input_in_one_line(tmp_path):
             ((str(tmp_path / "good.json"), "--sphere", str(square)), "2:1 equirect"),
             ((str(tmp_path / "good.json"), "--sphere", str(tmp_path / "no.exr")),
              "no such file"),
+            ((str(tmp_path / "small.json"), "--sphere", str(sphere)),
+             "is 100×100 but its record says w 160, h 120"),
             # a black view: nothing to fit, said in one line rather than a made-up curve
             ((str(tmp_path / "good.json"), "--sphere", str(sphere)), "usable pixels"),
             ((str(tmp_path / "good.json"), "--sphere", str(sphere), "--sigma-deg", "nan"),
