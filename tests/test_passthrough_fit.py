@@ -203,6 +203,9 @@ def test_cli_refuses_bad_input_in_one_line(tmp_path):
     good = dict(doc, frames=[{"file_path": "a.jpg", "transform_matrix": _m(np.eye(3))}])
     (tmp_path / "good.json").write_text(json.dumps(good))
     cv2.imwrite(str(tmp_path / "small.jpg"), np.zeros((100, 100, 3), np.uint8))
+    (tmp_path / "reg_none.json").write_text(json.dumps({"rotation": [1, 0, 0, 0, 1, 0, 0, 0, 1]}))
+    (tmp_path / "reg_scaled.json").write_text(json.dumps({"world_to_sphere": [2, 0, 0, 0, 2, 0,
+                                                                              0, 0, 2]}))
     small = dict(doc, frames=[{"file_path": "small.jpg", "transform_matrix": _m(np.eye(3))}])
     (tmp_path / "small.json").write_text(json.dumps(small))
     for argv, says in [
@@ -214,6 +217,10 @@ def test_cli_refuses_bad_input_in_one_line(tmp_path):
              "no such file"),
             ((str(tmp_path / "small.json"), "--sphere", str(sphere)),
              "is 100×100 but its record says w 160, h 120"),
+            ((str(tmp_path / "good.json"), "--sphere", str(sphere), "--registration",
+              str(tmp_path / "reg_none.json")), "needs world_to_sphere"),
+            ((str(tmp_path / "good.json"), "--sphere", str(sphere), "--registration",
+              str(tmp_path / "reg_scaled.json")), "world_to_sphere's 3×3 part is not a rotation"),
             # a black view: nothing to fit, said in one line rather than a made-up curve
             ((str(tmp_path / "good.json"), "--sphere", str(sphere)), "usable pixels"),
             ((str(tmp_path / "good.json"), "--sphere", str(sphere), "--sigma-deg", "nan"),
@@ -342,3 +349,43 @@ def test_poses_three_degrees_off_are_found_again(tmp_path):
     axis_error = [np.degrees(np.arccos(np.clip(v.rotation[:, 2] @ r[:, 2], -1, 1)))
                   for v, r in zip(truth.views, truth.rotations)]
     assert abs(np.median(results[3.0].pose_correction_deg) - np.median(axis_error)) < 0.75
+
+
+def test_a_registration_takes_the_headsets_world_into_the_spheres(room, tmp_path):
+    """The headset's world turned 40° (and tilted) from the sphere's: with the registration,
+    in either form (world_to_sphere, or shlight register's rotation with the marker's
+    rotation in the headset's world), the fit is the one of views already in the sphere's
+    frame; without it, the views explain nothing."""
+    folder = tmp_path / "views"
+    HeadsetSim(n_views=16, seed=6).render(room, str(folder))
+    doc = json.loads((folder / "transforms.json").read_text())
+    r_ws = look_rotation(40.0, 8.0, 3.0)                # world <- sphere
+    for f in doc["frames"]:
+        m = np.array(f["transform_matrix"])
+        m[:3, :3] = r_ws @ m[:3, :3]
+        m[:3, 3] = r_ws @ m[:3, 3]
+        f["transform_matrix"] = m.tolist()
+    (folder / "world.json").write_text(json.dumps(doc))
+    r_cm = look_rotation(-120.0, 20.0, 10.0)            # camera <- marker (shlight register)
+    (tmp_path / "reg_a.json").write_text(json.dumps({"world_to_sphere": r_ws.T.ravel().tolist()}))
+    (tmp_path / "reg_b.json").write_text(json.dumps({
+        "marker": "aruco:DICT_4X4_50:7", "rotation": np.round(r_cm, 7).ravel().tolist(),
+        "position": [0.1, 0.2, -1.5], "marker_in_world": (r_ws @ r_cm).ravel().tolist()}))
+    sphere = tmp_path / "room.exr"
+    _write_exr(sphere, room)
+    runs = {}
+    for name, argv in [("sphere", (str(folder / "transforms.json"),)),
+                       ("a", (str(folder / "world.json"), "--registration",
+                              str(tmp_path / "reg_a.json"))),
+                       ("b", (str(folder / "world.json"), "--registration",
+                              str(tmp_path / "reg_b.json"))),
+                       ("none", (str(folder / "world.json"),))]:
+        proc = run_cli("passthrough", *argv, "--sphere", str(sphere), timeout=120)
+        assert proc.returncode == 0, proc.stderr
+        runs[name] = json.loads(proc.stdout)["views"]
+    base = np.array([v["exposure"] for v in runs["sphere"]])
+    for name in ("a", "b"):
+        # rounding of register's 7 digits moves the poses by ~1e-5°: the same fit
+        assert np.array([v["exposure"] for v in runs[name]]) == pytest.approx(base, rel=1e-3)
+    resid = lambda k: np.median([v["residual_stops"] or 9 for v in runs[k]])
+    assert resid("none") > 3 * resid("sphere"), (resid("none"), resid("sphere"))

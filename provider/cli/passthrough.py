@@ -29,6 +29,11 @@ def add_arguments(p) -> None:
     p.add_argument("--sigma-deg", type=float, default=1.0, metavar="DEG",
                    help="the pose error the fit tolerates: the sphere and views are blurred "
                         "by this angle (default 1)")
+    p.add_argument("--registration", default=None, metavar="FILE.json",
+                   help="where the headset's world is not the sphere's: a JSON object with "
+                        "world_to_sphere (9 numbers, row-major), or shlight register's output "
+                        "with marker_in_world added (the same marker's rotation in the "
+                        "headset's world, from its tracker; docs/contract.md §13)")
     p.add_argument("--refine-deg", type=float, default=3.0, metavar="DEG",
                    help="search each view's pose within this angle for the turn that fits "
                         "the sphere best (default 3; 0: trust the poses)")
@@ -81,6 +86,20 @@ def read_sphere(args):
     return out / t if t is not None else out
 
 
+def _read_json(path):
+    from ..core.errors import InputError
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)
+    except FileNotFoundError:
+        raise InputError(f"no such file: {path}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") \
+            from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path} is not JSON ({exc.msg}, line {exc.lineno})") from None
+
+
 def run(args) -> int:
     import math
     from ..core.errors import InputError
@@ -90,6 +109,10 @@ def run(args) -> int:
     if not (math.isfinite(args.sigma_deg) and 0 <= args.sigma_deg <= 10):
         raise InputError(f"--sigma-deg must be between 0 and 10 degrees, got {args.sigma_deg}")
     views = read_transforms(args.views)          # every record checked before any work
+    if args.registration:
+        from ..core.passthrough.views import registered, registration_rotation
+        views = registered(views, registration_rotation(_read_json(args.registration),
+                                                        args.registration))
     sphere = read_sphere(args)
     if not (math.isfinite(args.refine_deg) and 0 <= args.refine_deg <= 10):
         raise InputError(f"--refine-deg must be between 0 and 10 degrees, got "

@@ -7,7 +7,8 @@ intrinsics ``fl_x fl_y cx cy w h`` at the top level or per frame, and ``frames``
 with OpenGL camera axes (the camera looks down −Z, +Y up, +X right). Optional per frame:
 ``time`` (s), ``exposure_s``, ``gain`` or ``iso``, ``cct_k``. The world is the frame of
 docs/contract.md §1; the translation is kept but unused by the fit (the sphere is at
-infinity).
+infinity). Where the headset's world is not the sphere's, a registration takes it there
+(:func:`registration_rotation`, :func:`registered`).
 
 Every bad record is refused with one :class:`~provider.core.errors.InputError` line naming
 the frame: a matrix that is not a rotation, intrinsics outside the frame, a missing file,
@@ -95,7 +96,8 @@ def _number(record: dict, key: str, where: str, *, positive=False, required=True
     return float(v)
 
 
-def _rotation(matrix, where: str) -> tuple[np.ndarray, np.ndarray]:
+def _rotation(matrix, where: str, name: str = "transform_matrix",
+              hint: str = ": camera-to-world with OpenGL axes, no scale"):
     try:
         m = np.asarray(matrix, dtype=np.float64)
     except (TypeError, ValueError):
@@ -111,9 +113,8 @@ def _rotation(matrix, where: str) -> tuple[np.ndarray, np.ndarray]:
     err = float(np.abs(r @ r.T - np.eye(3)).max())
     det = float(np.linalg.det(r))
     if err > ROTATION_TOLERANCE or abs(det - 1) > ROTATION_TOLERANCE:
-        raise InputError(f"{where}: transform_matrix's 3×3 part is not a rotation "
-                         f"(|R·Rᵀ − I| = {err:.3g}, det = {det:.4g}): camera-to-world with "
-                         "OpenGL axes, no scale")
+        raise InputError(f"{where}: {name}'s 3×3 part is not a rotation "
+                         f"(|R·Rᵀ − I| = {err:.3g}, det = {det:.4g}){hint}")
     # re-orthonormalised (exports round to float32)
     u, _, vt = np.linalg.svd(r)
     return u @ vt, m[:3, 3].copy()
@@ -202,6 +203,45 @@ def read_transforms(path, *, check_files: bool = True) -> list[PassthroughView]:
             gain=gain, cct_k=_number(rec, "cct_k", where, positive=True, required=False),
             **intr))
     return views
+
+
+def _rotation_field(reg: dict, key: str, where: str) -> np.ndarray:
+    v = reg.get(key)
+    try:
+        m = np.asarray(v, dtype=np.float64).reshape(3, 3)
+    except (TypeError, ValueError):
+        raise InputError(f"{where}: {key} must be 9 numbers (a rotation, row-major), got "
+                         f"{v!r:.60}") from None
+    full = np.eye(4)
+    full[:3, :3] = m
+    return _rotation(full, where, key, "")[0]
+
+
+def registration_rotation(reg, where: str = "the registration") -> np.ndarray:
+    """R_sphere←world, the rotation that takes the headset's world into the sphere's frame,
+    from a registration object: either ``world_to_sphere`` (9 numbers, row-major), or what
+    ``shlight register`` prints (``rotation``: R_camera←marker, docs/contract.md §13) with
+    ``marker_in_world`` (R_world←marker, the same marker's rotation as the headset's
+    tracker reports it, OpenCV's marker axes): R_sphere←world = R_camera←marker ·
+    R_world←markerᵀ."""
+    if not isinstance(reg, dict):
+        raise InputError(f"{where} must be a JSON object")
+    if "world_to_sphere" in reg:
+        return _rotation_field(reg, "world_to_sphere", where)
+    if "rotation" in reg and "marker_in_world" in reg:
+        r_cm = _rotation_field(reg, "rotation", where)
+        r_wm = _rotation_field(reg, "marker_in_world", where)
+        return r_cm @ r_wm.T
+    raise InputError(f"{where} needs world_to_sphere (9 numbers), or shlight register's "
+                     "rotation with marker_in_world (the marker's rotation in the headset's "
+                     "world, 9 numbers, from its tracker)")
+
+
+def registered(views: list[PassthroughView], r_sphere_world: np.ndarray) -> list:
+    """The views with their poses taken into the sphere's frame."""
+    from dataclasses import replace
+    r = np.asarray(r_sphere_world, np.float64)
+    return [replace(v, rotation=r @ v.rotation, position=r @ v.position) for v in views]
 
 
 def read_view_image(view: PassthroughView, max_pixels: int = 0) -> np.ndarray:
