@@ -61,7 +61,7 @@ def result_from_json(out: dict) -> PassthroughResult:
     return PassthroughResult(
         response=camera, exposure=np.array([v["exposure"] for v in views]),
         wb_gains=np.array([v["wb_gains"] for v in views]),
-        residual_stops=np.array([v["residual_stops"] for v in views]),
+        residual_stops=np.array([v["residual_stops"] or np.nan for v in views]),
         samples=np.array([v["samples"] for v in views]), vignetting=(vig["v1"], vig["v2"]))
 
 
@@ -394,3 +394,40 @@ def test_a_registration_takes_the_headsets_world_into_the_spheres(room, tmp_path
         assert np.array([v["exposure"] for v in runs[name]]) == pytest.approx(base, rel=1e-3)
     resid = lambda k: np.median([v["residual_stops"] or 9 for v in runs[k]])
     assert resid("none") > 3 * resid("sphere"), (resid("none"), resid("sphere"))
+
+
+def test_a_fisheye_sphere_fits_the_views_it_sees(room, headset, fitted, tmp_path):
+    """A 180° fisheye looking up (docs/contract.md §1) as the sphere: the views that see
+    its hemisphere render as their real surfaces do; what it does not see is not compared
+    (a view with nothing to compare says fitted: false)."""
+    from provider.core.geometry.projections import make_projection
+    folder, truth = headset
+    size = 512
+    projection = make_projection("fisheye", size, size)
+    ys, xs = np.mgrid[0:size, 0:size]
+    dirs, seen = projection.pixel_to_direction(xs + 0.5, ys + 0.5)
+    image = np.where(np.asarray(seen)[..., None], sample_equirect(room, dirs), 0.0)
+    sphere = tmp_path / "fisheye.exr"
+    _write_exr(sphere, image.astype(np.float32))
+    proc = run_cli("passthrough", str(folder), "--sphere", str(sphere),
+                   "--sphere-projection", "fisheye", timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    views = json.loads(proc.stdout)["views"]
+    up = np.array([v.rotation[1, 2] < -0.35 for v in truth.views])   # looking 20°+ up
+    ok = np.array([v.get("fitted", True) for v in views])
+    assert up.sum() >= 5 and ok[up].all()
+    # the views it sees render as their real surfaces do, by the issue's score
+    import dataclasses
+    idx = np.flatnonzero(up)
+    seen_truth = dataclasses.replace(
+        truth, views=[truth.views[i] for i in idx], rotations=[truth.rotations[i] for i in idx],
+        exposure=truth.exposure[idx], wb_gains=truth.wb_gains[idx],
+        radiance=[truth.radiance[i] for i in idx], codes=[truth.codes[i] for i in idx])
+    model = result_from_json(json.loads(proc.stdout))
+    got = score(seen_truth, lambda i, L, rho2: model.predict_codes(L, idx[i], rho2))
+    for key, limit in DONE_WHEN.items():
+        assert got[key] <= limit, (key, got)
+    # views toward the floor compare only the part above the fisheye's horizon
+    down = np.array([v.rotation[1, 2] > 0.4 for v in truth.views])     # 24°+ down
+    samples = np.array([v["samples"] for v in views])
+    assert down.sum() >= 3 and np.all(samples[down] < 0.5 * fitted.samples[down])

@@ -21,6 +21,11 @@ def add_arguments(p) -> None:
                         "(.exr, .hdr) in its own units, or an 8/16-bit frame decoded by "
                         "--sphere-camera (sRGB without it), per second of exposure with "
                         "@SECONDS")
+    p.add_argument("--sphere-projection", default="equirect",
+                   choices=["equirect", "fisheye", "dual-fisheye", "cubemap"],
+                   help="the sphere's geometry with its default options (docs/contract.md "
+                        "§1: a fisheye looking up, 180°; a Theta S dual fisheye; a 6:1 cube "
+                        "strip); default equirect. What it does not see is not compared")
     p.add_argument("--sphere-camera", default=None, metavar="CAMERA.json",
                    help="the 360° camera's response (shlight calibrate-response) for an 8/16-"
                         "bit --sphere")
@@ -86,6 +91,23 @@ def read_sphere(args):
     return out / t if t is not None else out
 
 
+def sphere_as_equirect(args, sphere):
+    """The sphere resampled to equirect from ``--sphere-projection`` (one line if its size
+    does not fit that projection)."""
+    if args.sphere_projection == "equirect":
+        return sphere
+    from ..core.errors import InputError
+    from ..core.geometry.checks import ProjectionError
+    from ..core.geometry.projections import make_projection
+    from ..core.passthrough.sphere import to_equirect
+    h, w = sphere.shape[:2]
+    try:
+        projection = make_projection(args.sphere_projection, w, h)
+    except ProjectionError as exc:
+        raise InputError(f"--sphere {args.sphere}: {exc}") from None
+    return to_equirect(sphere, projection).astype("float64")
+
+
 def _read_json(path):
     from ..core.errors import InputError
     try:
@@ -113,7 +135,7 @@ def run(args) -> int:
         from ..core.passthrough.views import registered, registration_rotation
         views = registered(views, registration_rotation(_read_json(args.registration),
                                                         args.registration))
-    sphere = read_sphere(args)
+    sphere = sphere_as_equirect(args, read_sphere(args))
     if not (math.isfinite(args.refine_deg) and 0 <= args.refine_deg <= 10):
         raise InputError(f"--refine-deg must be between 0 and 10 degrees, got "
                          f"{args.refine_deg}")

@@ -7,7 +7,9 @@ directions, tell its response, each view's exposure and its white balance (:mod:
 what a hologram must go through to look like its real replica in passthrough
 (docs/passthrough.md).
 
-It may import errors and radiometry (pyproject.toml's contracts); nothing of the products
+:mod:`.sphere` resamples a sphere in any projection to the equirect the fit samples.
+
+It may import errors, radiometry and geometry (pyproject.toml's contracts); nothing of the products
 (sh9, lights, reflections) and they nothing of it.
 """
 from .fit import PassthroughFit, PassthroughResult, fit_views
