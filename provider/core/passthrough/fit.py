@@ -18,18 +18,18 @@ How it is fitted, robustly (every step a median, an L1 fit):
    of 0.25° steps; a correlation needs neither the curve nor the exposure. Tracking a few
    degrees off would otherwise bias the dark codes (a dark thing is usually small, so a
    wrong direction sees something brighter).
-1. Samples: a grid of a few thousand pixels per view. The view is blurred and the sphere
-   is blurred by the same angle (``sigma_deg``, 1°: the pose error a headset's tracking
-   leaves), and samples where the sphere's radiance changes within a few sigma (edges,
-   where pose error and parallax swap one surface for another) are dropped, as are samples
-   near a clipped or black pixel of the view (in any channel).
+1. Samples: a grid of a few thousand pixels per view. The view (in about-linear light) and
+   the sphere are blurred by the same angle (``sigma_deg``, 1°: the pose error left), and
+   samples where the sphere's radiance changes within a few sigma (edges, where pose error
+   and parallax swap one surface for another) are dropped: per band of codes, the flattest
+   60 % are kept. So are dropped samples near a clipped or black pixel (in any channel).
 2. Alternation from sRGB: given g and V, each view's ``log(exposure · wb_c)`` is the median
    over its samples of ``log g_c(z) − log L_c − log V``; given those, V is an L1 fit of
    the rest against ρ², ρ⁴; and g_c is, for each code, the median of
    ``log(exposure · wb_c · V · L_c)`` over the samples that recorded that code, smoothed
-   (a Whittaker smoother: least squares plus a penalty on second differences, which
-   extends the curve linearly in log where no sample recorded a code), made increasing and
-   anchored at code 118. Binning by code puts the noise where it is (the sphere's radiance
+   (a Whittaker smoother in log(code + 1): least squares plus a penalty on second
+   differences, which extends the curve as a power law where no sample recorded a code),
+   made increasing and anchored at code 118. Binning by code puts the noise where it is (the sphere's radiance
    in a slightly wrong direction), so the curve is not flattened by it.
 3. Exposure metadata (``exposure_s`` and ``gain``/``iso`` in every view) fixes the views'
    exposures up to one constant (the fit's); white balance stays free per view.
@@ -49,6 +49,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..radiometry.photometry import METER_K
 from ..radiometry.response import ANCHOR_CODE_8, ANCHOR_VALUE, CameraResponse, srgb_decode
 from .views import PassthroughView
 
@@ -66,8 +67,6 @@ MIN_SAMPLES = 30
 CODE_AXIS = np.log(np.arange(256) + 1.0)
 #: How far (deg) each view's pose is searched for the turn that fits the sphere best.
 REFINE_DEG = 3.0
-#: Reflected-light meter constant (as :mod:`provider.core.radiometry.photometry`).
-METER_K = 12.5
 
 
 _SRGB_LUT = srgb_decode(np.arange(256) / 255.0).astype(np.float32)
