@@ -431,3 +431,21 @@ def test_a_fisheye_sphere_fits_the_views_it_sees(room, headset, fitted, tmp_path
     down = np.array([v.rotation[1, 2] > 0.4 for v in truth.views])     # 24°+ down
     samples = np.array([v["samples"] for v in views])
     assert down.sum() >= 3 and np.all(samples[down] < 0.5 * fitted.samples[down])
+
+
+def test_a_warm_solve_after_new_views_needs_few_rounds(room, headset, fitted):
+    """The seam for a live fit: views added to a solved fit, re-solved from the last curve
+    in two rounds, score as the full twelve-round fit of all of them does."""
+    folder, truth = headset
+    views = read_transforms(folder)
+    fit = PassthroughFit(room)
+    for v in views[:30]:
+        fit.add_view(v, read_view_image(v))
+    fit.solve()
+    for v in views[30:]:
+        fit.add_view(v, read_view_image(v))
+    warm = score(truth, fitted_model(fit.solve(iterations=2, warm=True)))
+    cold = score(truth, fitted_model(fitted))
+    for key in DONE_WHEN:
+        # two fits of the same samples from nearby starts: within a fiftieth of a stop
+        assert warm[key] == pytest.approx(cold[key], abs=0.02), (key, warm, cold)

@@ -261,6 +261,7 @@ class PassthroughFit:
         self.refine_deg = float(refine_deg)
         self.views: list[PassthroughView] = []
         self._samples: list[_Samples] = []
+        self._last = None       # (log g, vignetting) of the last solve, for a warm start
 
     # -- views -------------------------------------------------------------------------------
     def add_view(self, view: PassthroughView, image: np.ndarray) -> int:
@@ -332,8 +333,11 @@ class PassthroughFit:
         return (dirs @ rotation) @ turn.T @ rotation.T, math.degrees(math.hypot(*best))
 
     # -- the fit -----------------------------------------------------------------------------
-    def solve(self, iterations: int = 12, smoothing: float = 0.03) -> PassthroughResult:
-        """The joint fit over the views held (module doc)."""
+    def solve(self, iterations: int = 12, smoothing: float = 0.03,
+              warm: bool = False) -> PassthroughResult:
+        """The joint fit over the views held (module doc). ``warm``: start from the last
+        solve's curve and vignetting rather than sRGB (a live fit, re-solved as views
+        arrive, then needs a few rounds, not twelve)."""
         n_views = len(self.views)
         if n_views == 0:
             raise InputError("no views to fit")
@@ -353,6 +357,8 @@ class PassthroughFit:
         known = all(m is not None for m in metadata)
         log_meta = np.log(np.array(metadata, np.float64)) if known else None
         vig = np.zeros(2)
+        if warm and self._last is not None:
+            log_g, vig = self._last[0].copy(), self._last[1].copy()
         a = np.zeros((n_views, 3))
         for _ in range(iterations):
             vterm = vig[0] * rho2 + vig[1] * rho2 ** 2
@@ -398,6 +404,7 @@ class PassthroughFit:
             med, _ = _grouped_median(vid, np.abs(r[:, c]), n_views)
             resid = np.maximum(resid, med / math.log(2))
         resid[counts < MIN_SAMPLES] = float("nan")
+        self._last = (log_g, vig)
         response = CameraResponse(np.exp(log_g), method="table", params={
             "source": "shlight passthrough", "views": n_views, "samples": int(len(z)),
             "sigma_deg": self.sigma_deg, "metadata_exposures": known,
