@@ -1,5 +1,5 @@
 """`shlight` command line: compute | export | serve | validate-shaders | bench |
-calibrate-response | environment.
+calibrate-response | environment | passthrough | ...
 
 User errors (bad files, bad options) print one clear line to stderr and exit with status
 2; they never show a traceback. Each command's options live in a module of this package

@@ -9,7 +9,8 @@ def add_arguments(p) -> None:
     p.description = ("Fit a video see-through headset's passthrough camera against the "
                      "360° sphere: its response per channel (camera.json), and each view's "
                      "exposure, white balance and EV100, from the views' nerfstudio "
-                     "transforms.json (poses in the sphere's frame, docs/contract.md §1). "
+                     "transforms.json (poses in the sphere's frame, docs/contract.md §1, or "
+                     "brought there by --registration). "
                      "Prints JSON (docs/contract.md §15).")
     p.add_argument("views", metavar="VIEWS/transforms.json",
                    help="nerfstudio transforms.json (or its folder): camera_model PINHOLE or "
@@ -17,10 +18,10 @@ def add_arguments(p) -> None:
                         "frames[].transform_matrix (camera-to-world, OpenGL axes); optional "
                         "time, exposure_s, gain or iso, cct_k per frame")
     p.add_argument("--sphere", required=True, metavar="PANO[@SECONDS]",
-                   help="the 360° camera's equirect panorama of the same room: an HDR file "
-                        "(.exr, .hdr) in its own units, or an 8/16-bit frame decoded by "
-                        "--sphere-camera (sRGB without it), per second of exposure with "
-                        "@SECONDS")
+                   help="the 360° camera's panorama of the same room (equirect unless "
+                        "--sphere-projection): an HDR file (.exr, .hdr) in its own units, or "
+                        "an 8/16-bit frame decoded by --sphere-camera (sRGB without it), per "
+                        "second of exposure with @SECONDS, as compute reads it")
     p.add_argument("--sphere-projection", default="equirect",
                    choices=["equirect", "fisheye", "dual-fisheye", "cubemap"],
                    help="the sphere's geometry with its default options (docs/contract.md "
