@@ -41,6 +41,9 @@ Sections (all written to ``--out``, default ./bench-results):
 * ``shadows.md`` / ``.png`` (only with ``--sections shadows``, see
   :mod:`provider.bench.shadows`): a floating sphere's floor shadow per real panorama, by
   brute force against the light model (SH9 only, lights as points, lights as discs).
+* ``passthrough.md`` (only with ``--sections passthrough``, see
+  :mod:`provider.bench.headset_sim`): a simulated headset's camera fitted against the sphere
+  on perturbed rooms, ms per view against the error in stops, and the naive way's error.
 
 Before it starts, the run lists the sections with what each costs; each section then says
 when it starts and how long it took.
@@ -110,10 +113,11 @@ SECTION_WHAT = {
     "probes": "mirror balls and angular maps from the real panoramas against their SH9",
     "environment": "the reflection cube: cost against SH9, error against brute force, bytes",
     "shadows": "a floating sphere's floor shadow: brute force against the light model",
+    "passthrough": "a simulated headset's camera fitted against the sphere: ms/view, stops",
 }
 SECTION_COST_S = {"speed": (5, 40), "edge": (25, 40), "fill": (2, 10), "scenes": (20, 50),
                   "server": (20, 70), "radiometry": (20, 40), "probes": (15, 150),
-                  "environment": (60, 400), "shadows": (15, 60)}
+                  "environment": (60, 400), "shadows": (15, 60), "passthrough": (30, 120)}
 INSTRUCTIONS_COST_S = (300, 300)    # valgrind runs Python and numpy under emulation
 
 
@@ -182,6 +186,11 @@ def _shadows(hdri, out, args):
     bench_shadows(hdri, out, args)
 
 
+def _passthrough(hdri, out, args):
+    from .headset_sim import bench_passthrough
+    bench_passthrough(hdri, out, args)
+
+
 _SECTIONS = {"speed": _speed, "edge": _edge, "fill": _fill, "scenes": _scenes, "server": _server,
              "radiometry": _radiometry, "probes": _probes, "environment": _environment,
-             "shadows": _shadows}
+             "shadows": _shadows, "passthrough": _passthrough}

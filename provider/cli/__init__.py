@@ -1,5 +1,5 @@
 """`shlight` command line: compute | export | serve | validate-shaders | bench |
-calibrate-response | environment.
+calibrate-response | environment | passthrough | ...
 
 User errors (bad files, bad options) print one clear line to stderr and exit with status
 2; they never show a traceback. Each command's options live in a module of this package
@@ -38,6 +38,8 @@ COMMANDS = (
      "one image's reflection cube (GGX-prefiltered mips) -> KTX2 (-o cube.ktx2)"),
     ("register", "register", "where a printed marker is in a panorama: the camera's pose (§13)"),
     ("marker", "marker", "write a printable registration marker (PNG at print resolution)"),
+    ("passthrough", "passthrough",
+     "a headset camera's response, exposures and white balance from its views -> JSON"),
 )
 
 
