@@ -62,7 +62,9 @@ Client → server (all optional; a plain client just listens):
   (KTX2; :mod:`provider.live.server.cube_fanout`, docs/contract.md §12).
 
 A client message larger than ``--max-message-bytes`` closes the connection with code
-1009. A client that does not read for ``--send-timeout`` seconds is disconnected. Each
+1009. A client that does not read for ``--send-timeout`` seconds is disconnected (the server
+pings it after its writes, at most every quarter of the timeout, and a ping whose pong has
+not come back within the timeout drops it: clients must answer pings, as RFC 6455 says). Each
 client has a budget (:mod:`provider.live.server.limits`): 20 frames a second after a burst of 50
 (messages, pings and pongs alike; beyond it messages are dropped, and 50 more close the
 connection with code 1008) and 4 × ``--max-message-bytes`` bytes a second (beyond it the
@@ -110,7 +112,7 @@ from .limits import (BudgetedConnection, ConnectRate, HostCheck, LimitCounters, 
 from .replies import _json_error, _response
 from ..wire.message import FRAME, SCHEMA_VERSION
 from ..probe.pipeline import Probe
-from .session import ALL, ClientSession, Counters, text_frame
+from .session import ALL, WRITE_LIMIT, ClientSession, Counters, text_frame
 
 log = logging.getLogger("shlight.server")
 
@@ -199,7 +201,7 @@ class ProviderServer:
                 self._handler, s.host, s.port, process_request=self._process_request,
                 create_connection=BudgetedConnection.factory(s, self.limit_counters,
                                                               self.silent),
-                max_size=s.max_message_bytes, max_queue=4, write_limit=1 << 15,
+                max_size=s.max_message_bytes, max_queue=4, write_limit=WRITE_LIMIT,
                 compression="deflate" if s.deflate else None, close_timeout=2,
                 ping_interval=20, ping_timeout=20, server_header=f"shlight/{__version__}",
                 ssl=s.tls)

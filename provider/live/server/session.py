@@ -4,6 +4,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import logging
+import time
 from dataclasses import dataclass, field
 
 from websockets.asyncio.server import ServerConnection
@@ -27,6 +28,21 @@ ALL = "*"
 RATE_SLACK = 0.5
 RATE_MARGIN = 0.1
 RATE_SPACING = 0.25
+
+#: websockets' write_limit for every connection (service.serve): above it a send waits for
+#: the socket. A payload below it sent into an empty buffer never waits.
+WRITE_LIMIT = 1 << 15
+#: How the server knows a client stopped reading: after a write, at most once every
+#: STALL_PING_SHARE × ``send_timeout``, it pings the client; the pong proves that the client
+#: read everything sent before the ping, and one not back within ``send_timeout`` drops the
+#: client. The kernel's buffers cannot tell: a client that stops reading keeps acknowledging
+#: TCP data into its own receive buffer until that is full, seconds of cubes (issue 41:
+#: dropped after 18-19 s with --send-timeout 10). So a client is dropped at most
+#: ``send_timeout`` × (1 + STALL_PING_SHARE) after it stopped reading; one ping every
+#: 2.5 s per client at the default 10 s.
+STALL_PING_SHARE = 0.25
+#: The server's stall pings: "sl" and a counter (a client's pong echoes it).
+_PING_HEAD = bytes((0x89, 8))
 
 #: The frame being fanned out and the loop time its fan-out began: the rate cap judges a
 #: message by when it was published, not by the client's place in the fan-out (with
@@ -110,6 +126,13 @@ class ClientSession:
         self.environment = False
         self._cubes: dict[str, tuple[bytes, bytes] | None] = {}
         self._pair_in_flight = False
+        # Stall pings (STALL_PING_SHARE): the one not answered yet, when the next may go.
+        self._ping_out: bytes | None = None
+        self._next_ping = 0.0
+        self._pings = 0
+        self._ping_check: asyncio.TimerHandle | None = None
+        self._dropped = False
+        ws.pong_seen = self.pong_seen
 
     def offer(self, probe: str, text: bytes, frame: bytes | None = None) -> None:
         """Make ``text`` the probe's pending message (replacing an unsent older one).
@@ -161,9 +184,39 @@ class ClientSession:
             self.counters.messages_held += 1
             return False
         transport.write(frame)
+        if self._ping_out is None:
+            self._ping_after_write(transport)
         self.sent += 1 + pair
         self.counters.messages_sent += 1 + pair
         return True
+
+    def _ping_after_write(self, transport) -> None:
+        """Ping the client after what was just written (see STALL_PING_SHARE), unless a
+        ping is out or the last went less than a share of ``send_timeout`` ago. Written as
+        a raw frame: no task and no future per client."""
+        now = time.monotonic()
+        if self._ping_out is not None or now < self._next_ping:
+            return
+        self._pings += 1
+        payload = b"sl%06d" % (self._pings % 1000000)
+        transport.write(_PING_HEAD + payload)
+        self._ping_out = payload
+        self._next_ping = now + self.send_timeout * STALL_PING_SHARE
+        if self._ping_check is not None:
+            self._ping_check.cancel()
+        self._ping_check = self.ws.loop.call_later(self.send_timeout, self._ping_unanswered,
+                                                   payload)
+
+    def pong_seen(self, data: bytes) -> None:
+        """A pong arrived (:class:`~provider.live.server.limits.BudgetedConnection`): the
+        client read up to its ping."""
+        if data == self._ping_out:
+            self._ping_out = None
+
+    def _ping_unanswered(self, payload: bytes) -> None:
+        self._ping_check = None
+        if self._ping_out == payload:
+            self._stalled()
 
     def _rate_wait(self, probe: str, now: float, force: bool = False) -> float:
         """0 if a message of ``probe`` may go at ``now`` (loop time; its token is taken),
@@ -250,6 +303,8 @@ class ClientSession:
         finally:
             if self._timer is not None:
                 self._timer.cancel()
+            if self._ping_check is not None:
+                self._ping_check.cancel()
 
     def _wake_in(self, loop, delay: float) -> None:
         """Wake the writer in ``delay`` s, unless a pending wake-up comes sooner (with
@@ -264,8 +319,8 @@ class ClientSession:
 
     async def _send(self, payload: bytes, text: bool = True) -> None:
         transport = self.ws.transport
-        if transport.get_write_buffer_size() == 0:
-            await self.ws.send(payload, text=text)    # cannot block: the buffer is empty
+        if transport.get_write_buffer_size() == 0 and len(payload) < WRITE_LIMIT:
+            await self.ws.send(payload, text=text)    # cannot block: the buffer takes it
         else:
             # A timer, not asyncio.wait_for: before Python 3.12 that can swallow the
             # writer's cancellation. Aborting the transport makes the send raise
@@ -275,11 +330,16 @@ class ClientSession:
                 await self.ws.send(payload, text=text)
             finally:
                 timer.cancel()
+        if self._ping_out is None and self.ws.protocol.state is State.OPEN:
+            self._ping_after_write(transport)
         self.sent += 1
         self.counters.messages_sent += 1
 
     def _stalled(self) -> None:
         """The client has not read for ``send_timeout`` seconds: cut it off."""
+        if self._dropped:       # the send timer and the ping's check may both fire
+            return
+        self._dropped = True
         self.counters.stalled_clients += 1
         log.warning("client %s: not reading for %.0f s; disconnecting", self.label,
                     self.send_timeout)
