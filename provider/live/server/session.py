@@ -32,14 +32,16 @@ RATE_SPACING = 0.25
 #: websockets' write_limit for every connection (service.serve): above it a send waits for
 #: the socket. A payload below it sent into an empty buffer never waits.
 WRITE_LIMIT = 1 << 15
-#: How the server knows a client stopped reading: after a write, at most once every
+#: How the server knows a client stopped reading: with a write, at most once every
 #: STALL_PING_SHARE × ``send_timeout``, it pings the client; the pong proves that the client
-#: read everything sent before the ping, and one not back within ``send_timeout`` drops the
-#: client. The kernel's buffers cannot tell: a client that stops reading keeps acknowledging
-#: TCP data into its own receive buffer until that is full, seconds of cubes (issue 41:
-#: dropped after 18-19 s with --send-timeout 10). So a client is dropped at most
-#: ``send_timeout`` × (1 + STALL_PING_SHARE) after it stopped reading; one ping every
-#: 2.5 s per client at the default 10 s.
+#: read everything sent before the ping, and a later write that finds the ping unanswered
+#: after ``send_timeout`` drops the client. The kernel's buffers cannot tell: a client that
+#: stops reading keeps acknowledging TCP data into its own receive buffer until that is
+#: full, seconds of cubes (issue 41: dropped after 18-19 s with --send-timeout 10). So a
+#: client is dropped at most ``send_timeout`` × (1 + STALL_PING_SHARE) and one message
+#: interval after it stopped reading (a write that waits on a full socket has its own timer).
+#: One ping every 2.5 s per client at the default 10 s, in the same write as a message and
+#: with no timer: at 1,000 clients a ping per write or a timer per ping cost the fan-out.
 STALL_PING_SHARE = 0.25
 #: The server's stall pings: "sl" and a counter (a client's pong echoes it).
 _PING_HEAD = bytes((0x89, 8))
@@ -128,9 +130,9 @@ class ClientSession:
         self._pair_in_flight = False
         # Stall pings (STALL_PING_SHARE): the one not answered yet, when the next may go.
         self._ping_out: bytes | None = None
+        self._ping_sent = 0.0
         self._next_ping = 0.0
         self._pings = 0
-        self._ping_check: asyncio.TimerHandle | None = None
         self._dropped = False
         ws.pong_seen = self.pong_seen
 
@@ -183,40 +185,40 @@ class ClientSession:
                 probe, _published_at(frame, asyncio.get_running_loop())):
             self.counters.messages_held += 1
             return False
-        transport.write(frame)
         if self._ping_out is None:
-            self._ping_after_write(transport)
+            now = time.monotonic()
+            if now >= self._next_ping:
+                frame += self._ping(now)    # one write: the message, then the ping
+        elif time.monotonic() - self._ping_sent > self.send_timeout:
+            self._stalled()
+            return True
+        transport.write(frame)
         self.sent += 1 + pair
         self.counters.messages_sent += 1 + pair
         return True
 
-    def _ping_after_write(self, transport) -> None:
-        """Ping the client after what was just written (see STALL_PING_SHARE), unless a
-        ping is out or the last went less than a share of ``send_timeout`` ago. Written as
-        a raw frame: no task and no future per client."""
-        now = time.monotonic()
-        if self._ping_out is not None or now < self._next_ping:
-            return
+    def _ping(self, now: float) -> bytes:
+        """The next stall ping's frame (see STALL_PING_SHARE), counted as out from ``now``."""
         self._pings += 1
         payload = b"sl%06d" % (self._pings % 1000000)
-        transport.write(_PING_HEAD + payload)
-        self._ping_out = payload
+        self._ping_out, self._ping_sent = payload, now
         self._next_ping = now + self.send_timeout * STALL_PING_SHARE
-        if self._ping_check is not None:
-            self._ping_check.cancel()
-        self._ping_check = self.ws.loop.call_later(self.send_timeout, self._ping_unanswered,
-                                                   payload)
+        return _PING_HEAD + payload
+
+    def _watch(self, transport) -> None:
+        """After the writer's send: ping, or drop the client whose ping is overdue."""
+        now = time.monotonic()
+        if self._ping_out is None:
+            if now >= self._next_ping:
+                transport.write(self._ping(now))
+        elif now - self._ping_sent > self.send_timeout:
+            self._stalled()
 
     def pong_seen(self, data: bytes) -> None:
         """A pong arrived (:class:`~provider.live.server.limits.BudgetedConnection`): the
         client read up to its ping."""
         if data == self._ping_out:
             self._ping_out = None
-
-    def _ping_unanswered(self, payload: bytes) -> None:
-        self._ping_check = None
-        if self._ping_out == payload:
-            self._stalled()
 
     def _rate_wait(self, probe: str, now: float, force: bool = False) -> float:
         """0 if a message of ``probe`` may go at ``now`` (loop time; its token is taken),
@@ -303,8 +305,6 @@ class ClientSession:
         finally:
             if self._timer is not None:
                 self._timer.cancel()
-            if self._ping_check is not None:
-                self._ping_check.cancel()
 
     def _wake_in(self, loop, delay: float) -> None:
         """Wake the writer in ``delay`` s, unless a pending wake-up comes sooner (with
@@ -330,14 +330,14 @@ class ClientSession:
                 await self.ws.send(payload, text=text)
             finally:
                 timer.cancel()
-        if self._ping_out is None and self.ws.protocol.state is State.OPEN:
-            self._ping_after_write(transport)
+        if self.ws.protocol.state is State.OPEN:
+            self._watch(transport)
         self.sent += 1
         self.counters.messages_sent += 1
 
     def _stalled(self) -> None:
         """The client has not read for ``send_timeout`` seconds: cut it off."""
-        if self._dropped:       # the send timer and the ping's check may both fire
+        if self._dropped:       # the send timer and an overdue ping may both find it
             return
         self._dropped = True
         self.counters.stalled_clients += 1
