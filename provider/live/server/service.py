@@ -259,12 +259,19 @@ class ProviderServer:
         """Hand a probe's new message to every client subscribed to it (and to the publishers,
         e.g. MQTT); each format a client asked for is converted and framed once."""
         subscribers = self._subscribers.get(probe, ())
-        framed = {}     # format (None: the sh9 message) -> (text, WebSocket frame), made once
+        native = None   # the sh9 message's frame: most clients', so no lookup for them
+        framed = {}     # other format -> (text, WebSocket frame), made once
         for client in subscribers:
-            if client.to not in framed:
-                converted = text if client.to is None else self._latest(probe, client.to)
-                framed[client.to] = (converted, converted and text_frame(converted))
-            converted, frame = framed[client.to]
+            to = client.to
+            if to is None:
+                if native is None:
+                    native = text_frame(text)
+                client.offer(probe, text, native)
+                continue
+            if to not in framed:
+                converted = self._latest(probe, to)
+                framed[to] = (converted, converted and text_frame(converted))
+            converted, frame = framed[to]
             if converted is not None:
                 client.offer(probe, converted, frame)
         for publisher in self.publishers:
