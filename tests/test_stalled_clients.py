@@ -6,9 +6,12 @@ Each client is websockets' own (it answers pings while it reads) with ``max_queu
 the test stops calling ``recv`` the library takes one more message and then leaves the socket
 unread, as an application that stopped reading does. Before the fix the server learnt of it
 only once the client's kernel receive buffer was full: at the slow rates below (5 sh9 messages
-a second, a cube every 2 s) that took 20 s (sh9) and 10 s (cubes) with ``--send-timeout 2``;
-now the server pings after its writes and drops a client whose pong is not back within the
-timeout: at most 2 × 1.25 = 2.5 s after it stopped reading (session.STALL_PING_SHARE)."""
+a second, a cube every 2 s) that took 20 s (sh9) and 10 s (cubes) with ``--send-timeout 2``
+and a default receive buffer, and more than a minute with the 1 MiB one asked for here (a
+cube client was never dropped: a cube sent into an empty buffer waited untimed); now the
+server pings with its writes and drops a client whose pong is not back within the timeout: at
+most 2 × 1.25 = 2.5 s and a message interval after it stopped reading
+(session.STALL_PING_SHARE)."""
 from __future__ import annotations
 
 import json
@@ -20,10 +23,11 @@ from servertools import ServeProcess, connect, metric, poll
 
 SEND_TIMEOUT = 2.0
 #: The drop's bound: the timeout, a quarter of it until the next ping may go
-#: (STALL_PING_SHARE), a message interval for the library's last read, and 2.5 s for a
-#: loaded machine (the server's timers and the test's /metrics polls run late there). Well
-#: under the 10 s and 20 s the buffers took before.
-DROP_BOUND_S = SEND_TIMEOUT * 1.25 + 0.5 + 2.5
+#: (STALL_PING_SHARE), a message interval for the library's last read and one for the write
+#: that finds the ping overdue, and 4 s for a loaded machine (the server's loop and the
+#: test's /metrics polls run late there): 7.5 s, against more than a minute before the fix
+#: with these buffers (measured 2.3-3.4 s on an idle machine).
+DROP_BOUND_S = SEND_TIMEOUT * 1.25 + 2 * 0.5 + 4.0
 
 
 def _client(proc, rcvbuf: int = 1 << 20):
