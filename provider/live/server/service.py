@@ -63,8 +63,8 @@ Client → server (all optional; a plain client just listens):
 
 A client message larger than ``--max-message-bytes`` closes the connection with code
 1009. A client that does not read for ``--send-timeout`` seconds is disconnected (the server
-pings it after its writes, at most every quarter of the timeout, and a ping whose pong has
-not come back within the timeout drops it: clients must answer pings, as RFC 6455 says). Each
+pings it with its writes, at most every quarter of the timeout, and a write that finds a ping
+unanswered for the timeout drops it: clients must answer pings, as RFC 6455 says). Each
 client has a budget (:mod:`provider.live.server.limits`): 20 frames a second after a burst of 50
 (messages, pings and pongs alike; beyond it messages are dropped, and 50 more close the
 connection with code 1008) and 4 × ``--max-message-bytes`` bytes a second (beyond it the
