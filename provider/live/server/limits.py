@@ -168,6 +168,7 @@ class BudgetedConnection(ServerConnection):
     frame_burst = 50.0
     counters: LimitCounters | None = None
     silent = None                       # admission.SilentConnections: before the request
+    pong_seen = None                    # the session's pong hook (session.STALL_PING_SHARE)
 
     @classmethod
     def factory(cls, settings, counters: LimitCounters, silent=None):
@@ -281,6 +282,8 @@ class BudgetedConnection(ServerConnection):
         if self.request is None and self.silent is not None:   # the request head: it spoke
             self.silent.spoke(self, self.peer_address)
         opcode = getattr(event, "opcode", None)
+        if opcode is Opcode.PONG and self.pong_seen is not None:
+            self.pong_seen(event.data)
         if opcode is Opcode.CLOSE or self.protocol.state is not State.OPEN:
             super().process_event(event)
             return

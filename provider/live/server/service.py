@@ -62,7 +62,9 @@ Client → server (all optional; a plain client just listens):
   (KTX2; :mod:`provider.live.server.cube_fanout`, docs/contract.md §12).
 
 A client message larger than ``--max-message-bytes`` closes the connection with code
-1009. A client that does not read for ``--send-timeout`` seconds is disconnected. Each
+1009. A client that does not read for ``--send-timeout`` seconds is disconnected (the server
+pings it with its writes, at most every quarter of the timeout, and a write that finds a ping
+unanswered for the timeout drops it: clients must answer pings, as RFC 6455 says). Each
 client has a budget (:mod:`provider.live.server.limits`): 20 frames a second after a burst of 50
 (messages, pings and pongs alike; beyond it messages are dropped, and 50 more close the
 connection with code 1008) and 4 × ``--max-message-bytes`` bytes a second (beyond it the
@@ -110,7 +112,7 @@ from .limits import (BudgetedConnection, ConnectRate, HostCheck, LimitCounters, 
 from .replies import _json_error, _response
 from ..wire.message import FRAME, SCHEMA_VERSION
 from ..probe.pipeline import Probe
-from .session import ALL, ClientSession, Counters, text_frame
+from .session import ALL, WRITE_LIMIT, ClientSession, Counters, text_frame
 
 log = logging.getLogger("shlight.server")
 
@@ -199,7 +201,7 @@ class ProviderServer:
                 self._handler, s.host, s.port, process_request=self._process_request,
                 create_connection=BudgetedConnection.factory(s, self.limit_counters,
                                                               self.silent),
-                max_size=s.max_message_bytes, max_queue=4, write_limit=1 << 15,
+                max_size=s.max_message_bytes, max_queue=4, write_limit=WRITE_LIMIT,
                 compression="deflate" if s.deflate else None, close_timeout=2,
                 ping_interval=20, ping_timeout=20, server_header=f"shlight/{__version__}",
                 ssl=s.tls)
@@ -257,12 +259,19 @@ class ProviderServer:
         """Hand a probe's new message to every client subscribed to it (and to the publishers,
         e.g. MQTT); each format a client asked for is converted and framed once."""
         subscribers = self._subscribers.get(probe, ())
-        framed = {}     # format (None: the sh9 message) -> (text, WebSocket frame), made once
+        native = None   # the sh9 message's frame: most clients', so no lookup for them
+        framed = {}     # other format -> (text, WebSocket frame), made once
         for client in subscribers:
-            if client.to not in framed:
-                converted = text if client.to is None else self._latest(probe, client.to)
-                framed[client.to] = (converted, converted and text_frame(converted))
-            converted, frame = framed[client.to]
+            to = client.to
+            if to is None:
+                if native is None:
+                    native = text_frame(text)
+                client.offer(probe, text, native)
+                continue
+            if to not in framed:
+                converted = self._latest(probe, to)
+                framed[to] = (converted, converted and text_frame(converted))
+            converted, frame = framed[to]
             if converted is not None:
                 client.offer(probe, converted, frame)
         for publisher in self.publishers:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import logging
+import time
 from dataclasses import dataclass, field
 
 from websockets.asyncio.server import ServerConnection
@@ -27,6 +28,23 @@ ALL = "*"
 RATE_SLACK = 0.5
 RATE_MARGIN = 0.1
 RATE_SPACING = 0.25
+
+#: websockets' write_limit for every connection (service.serve): above it a send waits for
+#: the socket. A payload below it sent into an empty buffer never waits.
+WRITE_LIMIT = 1 << 15
+#: How the server knows a client stopped reading: with a write, at most once every
+#: STALL_PING_SHARE × ``send_timeout``, it pings the client; the pong proves that the client
+#: read everything sent before the ping, and a later write that finds the ping unanswered
+#: after ``send_timeout`` drops the client. The kernel's buffers cannot tell: a client that
+#: stops reading keeps acknowledging TCP data into its own receive buffer until that is
+#: full, seconds of cubes (issue 41: dropped after 18-19 s with --send-timeout 10). So a
+#: client is dropped at most ``send_timeout`` × (1 + STALL_PING_SHARE) and one message
+#: interval after it stopped reading (a write that waits on a full socket has its own timer).
+#: One ping every 2.5 s per client at the default 10 s, in the same write as a message and
+#: with no timer: at 1,000 clients a ping per write or a timer per ping cost the fan-out.
+STALL_PING_SHARE = 0.25
+#: The server's stall pings: "sl" and a counter (a client's pong echoes it).
+_PING_HEAD = bytes((0x89, 8))
 
 #: The frame being fanned out and the loop time its fan-out began: the rate cap judges a
 #: message by when it was published, not by the client's place in the fan-out (with
@@ -110,6 +128,13 @@ class ClientSession:
         self.environment = False
         self._cubes: dict[str, tuple[bytes, bytes] | None] = {}
         self._pair_in_flight = False
+        # Stall pings (STALL_PING_SHARE): the one not answered yet, when the next may go.
+        self._ping_out: bytes | None = None
+        self._ping_sent = 0.0
+        self._next_ping = 0.0
+        self._pings = 0
+        self._dropped = False
+        ws.pong_seen = self.pong_seen
 
     def offer(self, probe: str, text: bytes, frame: bytes | None = None) -> None:
         """Make ``text`` the probe's pending message (replacing an unsent older one).
@@ -160,10 +185,40 @@ class ClientSession:
                 probe, _published_at(frame, asyncio.get_running_loop())):
             self.counters.messages_held += 1
             return False
+        if self._ping_out is None:
+            now = time.monotonic()
+            if now >= self._next_ping:
+                frame += self._ping(now)    # one write: the message, then the ping
+        elif time.monotonic() - self._ping_sent > self.send_timeout:
+            self._stalled()
+            return True
         transport.write(frame)
         self.sent += 1 + pair
         self.counters.messages_sent += 1 + pair
         return True
+
+    def _ping(self, now: float) -> bytes:
+        """The next stall ping's frame (see STALL_PING_SHARE), counted as out from ``now``."""
+        self._pings += 1
+        payload = b"sl%06d" % (self._pings % 1000000)
+        self._ping_out, self._ping_sent = payload, now
+        self._next_ping = now + self.send_timeout * STALL_PING_SHARE
+        return _PING_HEAD + payload
+
+    def _watch(self, transport) -> None:
+        """After the writer's send: ping, or drop the client whose ping is overdue."""
+        now = time.monotonic()
+        if self._ping_out is None:
+            if now >= self._next_ping:
+                transport.write(self._ping(now))
+        elif now - self._ping_sent > self.send_timeout:
+            self._stalled()
+
+    def pong_seen(self, data: bytes) -> None:
+        """A pong arrived (:class:`~provider.live.server.limits.BudgetedConnection`): the
+        client read up to its ping."""
+        if data == self._ping_out:
+            self._ping_out = None
 
     def _rate_wait(self, probe: str, now: float, force: bool = False) -> float:
         """0 if a message of ``probe`` may go at ``now`` (loop time; its token is taken),
@@ -264,8 +319,8 @@ class ClientSession:
 
     async def _send(self, payload: bytes, text: bool = True) -> None:
         transport = self.ws.transport
-        if transport.get_write_buffer_size() == 0:
-            await self.ws.send(payload, text=text)    # cannot block: the buffer is empty
+        if transport.get_write_buffer_size() == 0 and len(payload) < WRITE_LIMIT:
+            await self.ws.send(payload, text=text)    # cannot block: the buffer takes it
         else:
             # A timer, not asyncio.wait_for: before Python 3.12 that can swallow the
             # writer's cancellation. Aborting the transport makes the send raise
@@ -275,11 +330,16 @@ class ClientSession:
                 await self.ws.send(payload, text=text)
             finally:
                 timer.cancel()
+        if self.ws.protocol.state is State.OPEN:
+            self._watch(transport)
         self.sent += 1
         self.counters.messages_sent += 1
 
     def _stalled(self) -> None:
         """The client has not read for ``send_timeout`` seconds: cut it off."""
+        if self._dropped:       # the send timer and an overdue ping may both find it
+            return
+        self._dropped = True
         self.counters.stalled_clients += 1
         log.warning("client %s: not reading for %.0f s; disconnecting", self.label,
                     self.send_timeout)
