@@ -82,7 +82,7 @@ def test_a_reading_is_bounded_by_what_a_lux_meter_reads():
     meter = LuxMeter("test")
     assert not meter.set(1e30) and meter.lux() is None
     assert meter.errors == 1 and "above 200,000" in meter.health()["last_rejection"]
-    with pytest.raises(InputError, match="at most 200000 lux, got 1e\+39"):
+    with pytest.raises(InputError, match=r"at most 200000 lux, got 1e\+39"):
         FixedLux(1e39)                                  # serve --lux 1e39
 
 
