@@ -1,0 +1,240 @@
+"""``shlight serve --passthrough``: the live route ``/capture`` (issue 42, item 3).
+
+A simulated headset (provider/bench/headset_sim.py: a filmic curve that is not sRGB, a lagging
+auto exposure, a drifting white balance, vignetting, JPEG, 1° pose error) looks around a
+room none of the tests has seen, served as the probe's sphere; its views go over a real
+WebSocket to a real server, each a ``view`` message and its JPEG, and every answer comes back
+on the same socket. The second pass of the same views is scored by the issue's done-when."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from provider.bench.headset_sim import HeadsetSim, perturb_panorama, score
+from provider.core.passthrough.fit import codes_of
+from provider.core.radiometry.response import CameraResponse
+
+from conftest import load_hdri
+from servertools import ServerThread, connect, health, http_get, metric, recv_json, recv_until
+
+#: The issue's done-when (stops): median view bias, 90th-percentile view bias, pixels' p90.
+DONE_WHEN = {"median_view_bias": 0.10, "p90_view_bias": 0.20, "pixel_p90": 0.45}
+ROOM, ROOM_SEED = "apartment", 11
+N_VIEWS = 24
+#: Each view's fit may take seconds on a loaded 2-core machine (a warm solve of all views).
+ANSWER_S = 30.0
+
+
+@pytest.fixture(scope="module")
+def room():
+    """A room none of the shared nine is as it stands: a shared panorama, perturbed."""
+    return perturb_panorama(load_hdri(ROOM), seed=ROOM_SEED)
+
+
+@pytest.fixture(scope="module")
+def sphere(room, tmp_path_factory):
+    """The room as an EXR file: the probe's source."""
+    import OpenEXR
+    path = tmp_path_factory.mktemp("sphere") / "room.exr"
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"RGB": np.ascontiguousarray(room, np.float32)}) as f:
+        f.write(str(path))
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def headset(room, tmp_path_factory):
+    """Small views of the room, no exposure metadata: (messages, JPEGs, truth)."""
+    folder = tmp_path_factory.mktemp("headset")
+    truth = HeadsetSim(n_views=N_VIEWS, width=160, height=120, seed=5).render(room, str(folder))
+    doc = json.loads((folder / "transforms.json").read_text())
+    top = {k: doc[k] for k in ("fl_x", "fl_y", "cx", "cy", "w", "h")}
+    messages, jpegs = [], []
+    for frame in doc["frames"]:
+        matrix = np.asarray(frame["transform_matrix"]).ravel().tolist()   # 16 numbers
+        messages.append(json.dumps({"type": "view", "transform_matrix": matrix,
+                                    "time": frame["time"], **top}))
+        jpegs.append((folder / frame["file_path"]).read_bytes())
+    return messages, jpegs, truth
+
+
+def serve(sphere, *extra):
+    return ServerThread("--source", sphere, "--fps", "5", "--passthrough",
+                        "--passthrough-hz", "0", *extra)
+
+
+def capture_url(srv, **query):
+    q = "&".join(f"{k}={v}" for k, v in query.items())
+    return srv.url.rstrip("/") + "/capture" + (f"?{q}" if q else "")
+
+
+def wait_for_sphere(srv):
+    """The probe has a frame (the sphere the fit compares with)."""
+    from servertools import poll
+    poll(lambda: srv.call(lambda: next(iter(srv.server.probes.values())).image is not None),
+         what="the probe's first frame")
+
+
+def send_view(ws, message, jpeg) -> dict:
+    ws.send(message)
+    ws.send(jpeg)
+    return recv_until(ws, lambda m: m.get("type") in ("passthrough", "error"), ANSWER_S,
+                      "an answer to the view")
+
+
+def test_views_sent_twice_are_answered_and_the_second_pass_meets_the_done_when(
+        sphere, headset):
+    messages, jpegs, truth = headset
+    with serve(sphere) as srv:
+        wait_for_sphere(srv)
+        with connect(srv.url) as lighting, connect(capture_url(srv)) as ws:
+            hello = recv_json(ws)
+            assert hello["type"] == "hello" and hello["route"] == "/capture"
+            camera = None
+            answers = []
+            for _ in range(2):
+                answers = []
+                for message, jpeg in zip(messages, jpegs):
+                    ws.send(message)
+                    ws.send(jpeg)
+                    while True:
+                        msg = recv_until(ws, lambda m: m["type"] in (
+                            "passthrough", "passthrough_camera", "error"), ANSWER_S, "answer")
+                        if msg["type"] == "passthrough_camera":
+                            camera = msg["camera"]
+                            continue
+                        break
+                    assert msg["type"] == "passthrough", msg
+                    assert not msg.get("dropped"), msg      # one view at a time: none dropped
+                    answers.append(msg)
+            # the probe kept serving its lighting clients while the views were fitted
+            sh9 = 0
+            while True:
+                try:
+                    if json.loads(lighting.recv(timeout=0.5)).get("type") == "sh9":
+                        sh9 += 1
+                except TimeoutError:
+                    break
+            assert sh9 >= 2
+            h = health(srv.http)
+    assert camera is not None, "no passthrough_camera message"
+    assert h["passthrough"]["views"] == 2 * N_VIEWS and h["passthrough"]["solves"] >= 2
+    for a in answers:
+        assert a["exposure"] > 0 and len(a["wb_gains"]) == 3 and a["wb_gains"][1] == 1.0
+        assert np.isfinite(a["ev100"]) and a["residual_stops"] < 0.5
+    # the model a consumer renders through: the last curve, each view's answer
+    response = CameraResponse.from_dict(camera)
+    vig = response.params["vignetting"]
+    table = response.table
+
+    def predict(i, radiance, rho2):
+        a = answers[i]
+        x = radiance * a["exposure"] * np.asarray(a["wb_gains"])
+        x = x * np.exp(vig["v1"] * rho2 + vig["v2"] * rho2 ** 2)[..., None]
+        return codes_of(table, x)
+    got = score(truth, predict)
+    print("live second pass:", got)
+    for key, limit in DONE_WHEN.items():
+        assert got[key] <= limit, (key, got)
+
+
+def test_capture_is_refused_without_passthrough(sphere):
+    from websockets.exceptions import InvalidStatus
+    with ServerThread("--source", sphere, "--fps", "5") as srv:
+        with pytest.raises(InvalidStatus) as err:
+            connect(capture_url(srv))
+        assert err.value.response.status_code == 404
+        assert b"--passthrough" in err.value.response.body
+        with connect(srv.url) as ws:                   # the lighting route is unchanged
+            assert recv_json(ws)["type"] == "hello"
+
+
+def test_capture_needs_the_token(sphere, headset):
+    from websockets.exceptions import InvalidStatus
+    messages, jpegs, _ = headset
+    with serve(sphere, "--token", "s3cret") as srv:
+        wait_for_sphere(srv)
+        with pytest.raises(InvalidStatus) as err:
+            connect(capture_url(srv))
+        assert err.value.response.status_code == 401
+        with pytest.raises(InvalidStatus) as err:
+            connect(capture_url(srv, token="wrong"))
+        assert err.value.response.status_code == 401
+        with connect(capture_url(srv, token="s3cret")) as ws:
+            assert recv_json(ws)["route"] == "/capture"
+            assert send_view(ws, messages[0], jpegs[0])["type"] == "passthrough"
+        # a browser page of another origin is refused as on every route
+        with pytest.raises(InvalidStatus) as err:
+            connect(capture_url(srv, token="s3cret"), origin="http://evil.example")
+        assert err.value.response.status_code == 403
+
+
+def test_bad_views_get_one_clear_answer_and_the_connection_lives_on(sphere, headset):
+    messages, jpegs, _ = headset
+    good = json.loads(messages[0])
+    m = np.asarray(good["transform_matrix"]).reshape(4, 4)
+    m[:3, :3] *= 1.5                                        # scaled: not a rotation
+    scaled = dict(good, transform_matrix=m.tolist())
+    outside = dict(good, cx=500.0)
+    with serve(sphere, "--passthrough-max-jpeg-bytes", "20000") as srv:
+        wait_for_sphere(srv)
+        with connect(capture_url(srv)) as ws:
+            recv_json(ws)
+
+            def answer():
+                return recv_until(ws, lambda m: m["type"] in ("passthrough", "error"),
+                                  ANSWER_S, "an answer")
+            ws.send("{not json")
+            e = answer()
+            assert e["error"] == "bad_json", e
+            ws.send(json.dumps(scaled))
+            e = answer()
+            assert e["error"] == "bad_view" and "not a rotation" in e["detail"], e
+            ws.send(json.dumps(outside))
+            e = answer()
+            assert e["error"] == "bad_view" and "principal point" in e["detail"], e
+            ws.send(b"\xff\xd8\xff" + b"\0" * 100)          # a binary without a view
+            e = answer()
+            assert e["error"] == "bad_request" and "follow a view" in e["detail"], e
+            ws.send(messages[0])
+            ws.send(b"PNG? no: just bytes")
+            e = answer()
+            assert e["error"] == "not_jpeg", e
+            ws.send(messages[0])
+            ws.send(b"\xff\xd8\xff" + b"\0" * 30000)        # past the JPEG cap
+            e = answer()
+            assert e["error"] == "too_large" and "20000" in e["detail"], e
+            ws.send(messages[0])
+            ws.send(jpegs[0][:-400])                        # a JPEG cut short
+            e = answer()
+            assert e["error"] == "bad_view", e
+            ws.send(json.dumps({"type": "subscribe"}))
+            e = answer()
+            assert e["error"] == "unknown_type", e
+            # and after all that, a good view is fitted on the same connection
+            ok = send_view(ws, messages[0], jpegs[0])
+            assert ok["type"] == "passthrough" and ok["exposure"] > 0, ok
+        status, _, body = http_get(srv.http + "/healthz")
+        assert status == 200
+        errors = json.loads(body)["passthrough"]["errors"]
+        assert errors["bad_view"] == 3 and errors["not_jpeg"] == 1
+        assert metric(srv.http, "shlight_passthrough_errors_total", error="too_large") == 1
+
+
+def test_views_faster_than_the_rate_are_dropped_with_a_count(sphere, headset):
+    messages, jpegs, _ = headset
+    with ServerThread("--source", sphere, "--fps", "5", "--passthrough",
+                      "--passthrough-hz", "0.01") as srv:
+        wait_for_sphere(srv)
+        with connect(capture_url(srv)) as ws:
+            recv_json(ws)
+            first = send_view(ws, messages[0], jpegs[0])
+            assert not first.get("dropped") and first["exposure"] > 0
+            # the next views come far sooner than 1 / 0.01 s: each is answered "dropped"
+            for i in (1, 2, 3):
+                d = send_view(ws, messages[i], jpegs[i])
+                assert d["dropped"] is True and d["reason"] == "rate", d
+                assert d["dropped_views"] == i
+        assert metric(srv.http, "shlight_passthrough_views_dropped_total", reason="rate") == 3
