@@ -15,6 +15,7 @@ import pytest
 from provider.bench.headset_sim import HeadsetSim, perturb_panorama, score
 from provider.core.passthrough.fit import codes_of
 from provider.core.radiometry.response import CameraResponse
+from provider.live.probe.passthrough import sphere_of
 
 from conftest import load_hdri
 from servertools import ServerThread, connect, health, http_get, metric, recv_json, recv_until
@@ -268,3 +269,33 @@ def test_views_that_come_while_the_fit_is_busy_are_dropped_not_queued(sphere, he
             assert not send_view(ws, messages[n], jpegs[n]).get("dropped")
         h = health(srv.http)["passthrough"]
         assert h["dropped"]["busy"] == len(busy) and h["views"] == n + 1
+
+
+def test_an_8_bit_probe_frame_is_the_sphere_through_its_curve(headset, tmp_path):
+    """A JPEG panorama (8-bit codes, decoded as sRGB without --camera) is a sphere too: the
+    view is fitted against its linear light, not its codes."""
+    import cv2
+    from provider.core.radiometry.response import srgb_decode
+    messages, jpegs, _ = headset
+    pano = np.zeros((128, 256, 3), np.uint8)
+    pano[:] = np.linspace(40, 220, 256, dtype=np.uint8)[None, :, None]   # a ramp of light
+    path = tmp_path / "pano.jpg"
+    cv2.imwrite(str(path), pano)
+    with serve(str(path)) as srv:
+        wait_for_sphere(srv)
+        sphere = srv.call(lambda: sphere_of(next(iter(srv.server.probes.values()))))
+        with connect(capture_url(srv)) as ws:
+            recv_json(ws)
+            a = send_view(ws, messages[0], jpegs[0])
+    assert a["type"] == "passthrough" and not a.get("dropped"), a
+    # the sphere is the frame's linear light: sRGB-decoded codes, not the codes
+    want = srgb_decode(pano[64, ::16, 1] / 255.0)
+    assert np.allclose(sphere[64, ::16, 1], want, rtol=0.02, atol=2e-3)
+
+
+def test_serve_refuses_bad_passthrough_options_in_one_line():
+    from servertools import refused, run_cli
+    res = run_cli("serve", "--passthrough", "--passthrough-max-jpeg-bytes", "10")
+    refused(res, "--passthrough-max-jpeg-bytes")
+    res = run_cli("serve", "--passthrough", "--passthrough-hz", "-1")
+    refused(res, "--passthrough-hz")
