@@ -299,3 +299,22 @@ def test_serve_refuses_bad_passthrough_options_in_one_line():
     refused(res, "--passthrough-max-jpeg-bytes")
     res = run_cli("serve", "--passthrough", "--passthrough-hz", "-1")
     refused(res, "--passthrough-hz")
+
+
+def test_a_views_estimate_between_solves_is_the_solves_own(room, tmp_path):
+    """What the route answers between two solves (``PassthroughFit.estimate``: the view
+    alone under the last curve) agrees with what the joint solve says of that view."""
+    from provider.core.passthrough import PassthroughFit, read_transforms
+    from provider.core.passthrough.views import read_view_image
+    HeadsetSim(n_views=12, width=160, height=120, seed=5).render(room, str(tmp_path))
+    fit = PassthroughFit(room)
+    for view in read_transforms(tmp_path / "transforms.json"):
+        fit.add_view(view, read_view_image(view))
+    result = fit.solve()
+    for i in (0, 5, 11):
+        exposure, wb, resid, samples = fit.estimate(i)
+        # the same medians over nearly the same samples (the flattest of this view, not of
+        # all): 0.004 stop apart here; 0.02 leaves room for another BLAS's rounding
+        assert abs(np.log2(exposure / result.exposure[i])) < 0.02
+        assert np.abs(np.log2(wb / result.wb_gains[i])).max() < 0.02
+        assert samples > 30 and resid < 0.5
