@@ -318,3 +318,23 @@ def test_a_views_estimate_between_solves_is_the_solves_own(room, tmp_path):
         assert abs(np.log2(exposure / result.exposure[i])) < 0.02
         assert np.abs(np.log2(wb / result.wb_gains[i])).max() < 0.02
         assert samples > 30 and resid < 0.5
+
+
+def test_capture_refuses_an_unknown_probe_and_headsets_past_the_cap(sphere):
+    from websockets.exceptions import InvalidStatus
+    with serve(sphere, "--passthrough-headsets", "1") as srv:
+        with pytest.raises(InvalidStatus) as err:
+            connect(capture_url(srv, probe="nope"))
+        assert err.value.response.status_code == 404
+        assert b"no probe 'nope'" in err.value.response.body
+        with connect(capture_url(srv, probe="default")) as ws:
+            assert recv_json(ws)["probe"] == "default"
+            with pytest.raises(InvalidStatus) as err:
+                connect(capture_url(srv))
+            assert err.value.response.status_code == 503
+        # the headset left: its place is free again
+        from servertools import poll
+        poll(lambda: srv.call(lambda: srv.server.passthrough.headsets) == 0,
+             what="the headset's place freed")
+        with connect(capture_url(srv)) as ws:
+            assert recv_json(ws)["route"] == "/capture"
