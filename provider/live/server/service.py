@@ -70,6 +70,13 @@ client has a budget (:mod:`provider.live.server.limits`): 20 frames a second aft
 connection with code 1008) and 4 × ``--max-message-bytes`` bytes a second (beyond it the
 socket is not read until the budget allows).
 
+Headsets (``--passthrough``): ``ws://HOST:8765/capture?probe=NAME``, behind the same token,
+Origin, Host and connection checks, takes per view a ``view`` text message and then the view's
+JPEG, and answers each with ``passthrough`` (exposure, white balance, EV100) and, when the
+headset's fitted curve moves, ``passthrough_camera``; the fitting is the probe layer's
+(:mod:`provider.live.probe.passthrough`, docs/passthrough.md). Without ``--passthrough``:
+HTTP 404.
+
 HTTP (same port; the token is needed as for WebSockets, except for ``/healthz`` and ``/static/``)
 -------------------------------------------------------------------------------------------------
 GET and HEAD only (else 405; a request with a body: 400). A ``Host`` that is not an IP
