@@ -45,6 +45,8 @@ SPHERE_HEIGHT = 512
 FIRST_SOLVE_VIEWS = 4
 #: A curve that moves less than this (max |log ratio| over codes and channels) is not resent.
 CURVE_CHANGE = 0.01
+#: How much nicer than the probes the fitting threads run (Linux ``nice``, per thread).
+WORKER_NICE = 10
 #: JPEG files begin with SOI and another marker.
 JPEG_MAGIC = b"\xff\xd8\xff"
 
@@ -69,7 +71,8 @@ class PassthroughService:
 
     def __init__(self, settings: PassthroughSettings | None = None):
         self.settings = s = settings or PassthroughSettings()
-        self.executor = ThreadPoolExecutor(max(1, s.workers), thread_name_prefix="passthrough")
+        self.executor = ThreadPoolExecutor(max(1, s.workers), thread_name_prefix="passthrough",
+                                           initializer=_lower_priority)
         self.in_flight = 0
         self.headsets = 0
         self.views = 0                  # view images received
@@ -112,6 +115,17 @@ class PassthroughService:
         m.add("shlight_passthrough_errors_total", "counter",
               "/capture messages answered with an error, by code.",
               [({"error": r}, n) for r, n in sorted(self.errors.items())] or 0)
+
+
+def _lower_priority() -> None:
+    """The fitting thread yields the CPU to the probes' threads and the event loop (Linux
+    nices threads one by one): a headset's views must not slow the lighting."""
+    import os
+    import threading
+    try:
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), WORKER_NICE)
+    except (AttributeError, OSError):      # not Linux, or not allowed: the default priority
+        pass
 
 
 def sphere_of(probe) -> np.ndarray:
