@@ -117,6 +117,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--log-level", default="info",
                         choices=["debug", "info", "warning", "error"])
     add_engine_arguments(parser)
+    pt = parser.add_argument_group("passthrough (docs/passthrough.md)")
+    pt.add_argument("--passthrough", action="store_true",
+                    help="open the WebSocket route /capture (same port, token, TLS, origin "
+                         "checks and limits): a headset sends view messages, each followed "
+                         "by its JPEG, and gets its passthrough camera's exposure, white "
+                         "balance and curve fitted against the probe's sphere")
+    pt.add_argument("--passthrough-max-jpeg-bytes", type=int, default=1 << 20, metavar="N",
+                    help="a larger view JPEG is answered with an error (default 1048576)")
+    pt.add_argument("--passthrough-hz", type=float, default=10.0, metavar="HZ",
+                    help="views fitted a second per headset; the others are answered "
+                         "\"dropped\" (default 10; 0: every view the workers keep up with)")
+    pt.add_argument("--passthrough-max-views", type=int, default=48, metavar="N",
+                    help="views each headset's fit keeps, the newest (default 48)")
+    pt.add_argument("--passthrough-headsets", type=int, default=4, metavar="N",
+                    help="headsets on /capture at once (default 4)")
 
 
 def _add_source_arguments(g) -> None:
@@ -368,6 +383,18 @@ def build_server(args):
             or not 0 <= s.max_hz < math.inf):
         raise InputError("--max-clients >= 1, --max-message-bytes >= 256, --send-timeout > 0 "
                          "and --max-hz >= 0 are required (finite numbers)")
+    if args.passthrough:
+        from ..live.probe.passthrough import PassthroughSettings
+        if not (args.passthrough_max_jpeg_bytes >= 1024 and 0 <= args.passthrough_hz < math.inf
+                and args.passthrough_max_views >= 4 and args.passthrough_headsets >= 1):
+            raise InputError("--passthrough-max-jpeg-bytes >= 1024, --passthrough-hz >= 0, "
+                             "--passthrough-max-views >= 4 and --passthrough-headsets >= 1 "
+                             "are required")
+        s.passthrough = PassthroughSettings(
+            max_jpeg_bytes=args.passthrough_max_jpeg_bytes, hz=args.passthrough_hz,
+            max_views=args.passthrough_max_views, max_headsets=args.passthrough_headsets,
+            max_text_bytes=s.max_message_bytes,
+            max_pixels=int(getattr(args, "max_frame_pixels", 0) or 0) or 4096 * 4096)
     probes = []
     for name, text in named:
         ns = overrides.get(name, args)

@@ -332,6 +332,28 @@ class PassthroughFit:
         turn = cv2.Rodrigues(np.array([[best[0]], [best[1]], [0.0]]))[0]
         return (dirs @ rotation) @ turn.T @ rotation.T, math.degrees(math.hypot(*best))
 
+    def estimate(self, index: int = -1):
+        """One view's ``(exposure, wb_gains (3,), residual_stops, samples)`` under the last
+        solve's curve and vignetting (sRGB and none before the first solve): :meth:`solve`'s
+        per-view median alone, cheap, for a live feed between two solves. Exposure metadata
+        is not used here. None when the view has fewer than ``MIN_SAMPLES`` usable samples."""
+        s = self._samples[index]
+        keep = _flattest([s])[0]
+        if int(keep.sum()) < MIN_SAMPLES:
+            return None
+        if self._last is not None:
+            log_g, vig = self._last
+        else:
+            log_g = np.log(np.maximum(srgb_decode(np.arange(256) / 255.0), 1e-6))[:, None] \
+                .repeat(3, 1)
+            vig = np.zeros(2)
+        rho2 = s.rho2[keep]
+        vterm = vig[0] * rho2 + vig[1] * rho2 ** 2
+        r = log_table_at(log_g, s.code[keep]) - np.log(s.radiance[keep]) - vterm[:, None]
+        a = np.median(r, axis=0)
+        resid = float(np.median(np.abs(r - a), axis=0).max() / math.log(2))
+        return math.exp(a[1]), np.exp(a - a[1]), resid, int(keep.sum())
+
     # -- the fit -----------------------------------------------------------------------------
     def solve(self, iterations: int = 12, smoothing: float = 0.03,
               warm: bool = False) -> PassthroughResult:

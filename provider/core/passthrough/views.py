@@ -255,3 +255,30 @@ def read_view_image(view: PassthroughView, max_pixels: int = 0) -> np.ndarray:
         raise InputError(f"{view.path} is {img.shape[1]}×{img.shape[0]} but its record says "
                          f"w {view.w}, h {view.h}")
     return img
+
+
+def view_from_record(rec, where: str = "view", file_path: str = "") -> PassthroughView:
+    """One view from a record in a frame's own words (a live headset's message: the
+    intrinsics, ``transform_matrix`` as a 4×4, 3×4 or 16 numbers row-major, the optional
+    fields of :func:`read_transforms`), checked as :func:`read_transforms` checks a frame;
+    :class:`InputError` (one line) for anything that cannot be used."""
+    if not isinstance(rec, dict):
+        raise InputError(f"{where} is not a JSON object")
+    if "transform_matrix" not in rec:
+        raise InputError(f"{where}: transform_matrix is missing")
+    matrix = rec["transform_matrix"]
+    if isinstance(matrix, list) and len(matrix) == 16 and not any(
+            isinstance(v, list) for v in matrix):
+        matrix = [matrix[i:i + 4] for i in range(0, 16, 4)]
+    rot, pos = _rotation(matrix, where)
+    intr = _intrinsics(rec, {}, where)
+    model, dist = _camera_model(rec, {}, where)
+    gain = _number(rec, "gain", where, positive=True, required=False)
+    iso = _number(rec, "iso", where, positive=True, required=False)
+    if gain is None and iso is not None:
+        gain = iso / 100.0
+    return PassthroughView(
+        file_path=file_path, path="", rotation=rot, position=pos, camera_model=model,
+        distortion=dist, time=_number(rec, "time", where, required=False),
+        exposure_s=_number(rec, "exposure_s", where, positive=True, required=False),
+        gain=gain, cct_k=_number(rec, "cct_k", where, positive=True, required=False), **intr)

@@ -203,6 +203,15 @@ class BudgetedConnection(ServerConnection):
         self.frames_dropped = 0
         self.peer_address = None        # set when accepted
 
+    def rebudget(self, *, byte_rate: float, byte_burst: float, frame_rate: float,
+                 frame_burst: float, max_size: int) -> None:
+        """Another budget for this connection, set in its handshake (a route whose messages
+        are larger or more frequent than the lighting's: ``/capture``'s JPEGs)."""
+        self._bytes = TokenBucket(byte_rate, byte_burst)
+        self._frames = TokenBucket(frame_rate, frame_burst, debt=frame_burst)
+        self.byte_rate, self.byte_burst, self.frame_rate = byte_rate, byte_burst, frame_rate
+        self.protocol.max_message_size = max_size
+
     # -- reading: the byte budget ----------------------------------------------------------
     def connection_made(self, transport) -> None:
         super().connection_made(transport)

@@ -55,6 +55,8 @@ def health(server) -> dict:
             health["status"] = "degraded"
     if server.environment.probes:              # shlight serve --environment
         health["environment"] = server.environment.health()
+    if server.passthrough is not None:          # shlight serve --passthrough
+        health["passthrough"] = server.passthrough.health()
     return health
 
 def limits_health(server) -> dict:
@@ -161,4 +163,6 @@ def metrics(server) -> str:
     for publisher in server.publishers:
         publisher.add_metrics(m)
     server.environment.add_metrics(m)
+    if server.passthrough is not None:
+        server.passthrough.add_metrics(m)
     return m.text()
