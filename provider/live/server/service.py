@@ -119,6 +119,7 @@ from .limits import (BudgetedConnection, ConnectRate, HostCheck, LimitCounters, 
 from .replies import _json_error, _response
 from ..wire.message import FRAME, SCHEMA_VERSION
 from ..probe.passthrough import PassthroughService, PassthroughSettings
+from .capture import CAPTURE_PATH, check_capture, serve_capture
 from ..probe.pipeline import Probe
 from .session import ALL, WRITE_LIMIT, ClientSession, Counters, text_frame
 
@@ -127,11 +128,6 @@ log = logging.getLogger("shlight.server")
 DEFAULT_PORT = 8765
 #: What a probe may be called (letters, digits, '_', '.', '-'; at most 64).
 PROBE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
-#: The headsets' route (serve --passthrough), its frames a second per connection, and how many
-#: times --passthrough-max-jpeg-bytes a message may be before it closes the connection.
-CAPTURE_PATH = "/capture"
-CAPTURE_FRAME_RATE = 120.0
-CAPTURE_SIZE_SLACK = 4
 
 
 @dataclass
@@ -334,7 +330,7 @@ class ProviderServer:
             await ws.close(CloseCode.TRY_AGAIN_LATER, "too many clients")
             return
         if urlsplit(ws.request.path).path == CAPTURE_PATH:
-            return await self._capture(ws)
+            return await serve_capture(self, ws)
         client = ClientSession(ws, self.counters, send_timeout=self.settings.send_timeout)
         client.max_hz = self.settings.max_hz      # --max-hz caps clients that ask nothing too
         query = parse_qs(urlsplit(ws.request.path).query)
@@ -362,36 +358,6 @@ class ProviderServer:
             code = ws.close_code if ws.close_code is not None else 1006
             log.info("client %s left (code %d, %d messages sent; %d connected)", client.label,
                      code, client.sent, len(self.clients))
-
-    async def _capture(self, ws: ServerConnection) -> None:
-        """A headset on ``/capture``: its messages go to its fit in the probe layer
-        (:class:`~provider.live.probe.passthrough.HeadsetFit`), whose answers go back
-        through the client's outbox (send timeout, bounded replies)."""
-        query = parse_qs(urlsplit(ws.request.path).query)
-        probe = self.probes[query.get("probe", [next(iter(self.probes))])[0]]
-        client = ClientSession(ws, self.counters, send_timeout=self.settings.send_timeout)
-        self.clients.add(client)
-        self.counters.connections += 1
-        headset = self.passthrough.headset(probe, client.reply)
-        log.info("headset %s joined /capture (probe %s)", client.label, probe.name)
-        writer = asyncio.create_task(client.write_loop())
-        s = self.passthrough.settings
-        try:
-            client.reply({"type": "hello", "version": SCHEMA_VERSION, "route": CAPTURE_PATH,
-                          "provider": f"shlight {__version__}", "frame": FRAME,
-                          "probe": probe.name, "max_jpeg_bytes": s.max_jpeg_bytes,
-                          "max_message_bytes": self.settings.max_message_bytes,
-                          "hz": s.hz, "max_views": s.max_views, "server_time": time.time()})
-            async for message in ws:
-                headset.on_message(message)
-        except ConnectionClosed:
-            pass
-        finally:
-            headset.close()
-            writer.cancel()
-            self.clients.discard(client)
-            log.info("headset %s left /capture (%d views, %d dropped)", client.label,
-                     headset.received, headset.dropped)
 
     @staticmethod
     def _query_hz(query) -> float | None:
@@ -535,7 +501,7 @@ class ProviderServer:
                         _peer(connection), request.headers.get("Origin"))
             return _response(403, b"Origin not allowed\n", "text/plain; charset=utf-8")
         if path == CAPTURE_PATH:
-            return self._check_capture(connection, query)
+            return check_capture(self, connection, query)
         if path not in ("/", "/ws"):
             return _response(404, b"WebSocket endpoint is /\n", "text/plain; charset=utf-8")
         probe = query.get("probe", [ALL])[0]
@@ -558,32 +524,6 @@ class ProviderServer:
                         len(self.clients))
             return _response(503, b"too many clients\n", "text/plain; charset=utf-8")
         return None                                          # go on with the handshake
-
-    def _check_capture(self, connection, query):
-        """``/capture`` (docs/passthrough.md): refused without --passthrough, for an unknown
-        probe, past --max-clients or past the headsets' cap; else the connection gets the
-        route's budget (JPEGs: larger and more frequent messages than a subscribe)."""
-        service = self.passthrough
-        if service is None:
-            self.counters.rejected["no_capture"] += 1
-            return _response(404, b"no /capture on this server: start shlight serve with "
-                             b"--passthrough\n", "text/plain; charset=utf-8")
-        name = query.get("probe", [next(iter(self.probes))])[0]
-        if name not in self.probes:
-            self.counters.rejected["unknown_probe"] += 1
-            return _response(404, f"no probe {name!r}; probes: {', '.join(self.probes)}\n"
-                             .encode(), "text/plain; charset=utf-8")
-        if len(self.clients) >= self.max_clients or service.full():
-            self.counters.rejected["too_many_clients"] += 1
-            return _response(503, b"too many headsets on /capture (or clients)\n",
-                             "text/plain; charset=utf-8")
-        cap = service.settings.max_jpeg_bytes
-        # Two frames a view at up to 60 views a second; a JPEG up to CAPTURE_SIZE_SLACK × the
-        # cap is read whole and answered with an error (larger: closed with 1009).
-        connection.rebudget(byte_rate=4.0 * cap, byte_burst=2.0 * cap + 64,
-                            frame_rate=CAPTURE_FRAME_RATE, frame_burst=2 * CAPTURE_FRAME_RATE,
-                            max_size=CAPTURE_SIZE_SLACK * cap)
-        return None
 
     async def _route_http(self, path: str, query) -> Response:
         if path in ("/", "/index.html"):
