@@ -109,20 +109,6 @@ def sphere_as_equirect(args, sphere):
     return to_equirect(sphere, projection).astype("float64")
 
 
-def _read_json(path):
-    from ..core.errors import InputError
-    try:
-        with open(path, encoding="utf-8") as f:
-            return json.load(f)
-    except FileNotFoundError:
-        raise InputError(f"no such file: {path}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") \
-            from None
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path} is not JSON ({exc.msg}, line {exc.lineno})") from None
-
-
 def run(args) -> int:
     import math
     from ..core.errors import InputError
@@ -133,8 +119,8 @@ def run(args) -> int:
         raise InputError(f"--sigma-deg must be between 0 and 10 degrees, got {args.sigma_deg}")
     views = read_transforms(args.views)          # every record checked before any work
     if args.registration:
-        from ..core.passthrough.views import registered, registration_rotation
-        views = registered(views, registration_rotation(_read_json(args.registration),
+        from ..core.passthrough.views import read_json, registered, registration_rotation
+        views = registered(views, registration_rotation(read_json(args.registration),
                                                         args.registration))
     sphere = sphere_as_equirect(args, read_sphere(args))
     if not (math.isfinite(args.refine_deg) and 0 <= args.refine_deg <= 10):

@@ -151,15 +151,12 @@ def _camera_model(record: dict, top: dict, where: str) -> tuple[str, tuple]:
     return model, tuple(dist)
 
 
-def read_transforms(path, *, check_files: bool = True) -> list[PassthroughView]:
-    """The views of a ``transforms.json`` (module doc), in order; :class:`InputError` (one
-    line naming the frame) for anything that cannot be used."""
-    path = os.fspath(path)
-    if os.path.isdir(path):
-        path = os.path.join(path, "transforms.json")
+def read_json(path):
+    """The JSON value of the file at ``path`` (a transforms.json, a registration);
+    :class:`InputError` in one line for a missing, unreadable or malformed file."""
     try:
         with open(path, encoding="utf-8") as f:
-            top = json.load(f)
+            return json.load(f)
     except FileNotFoundError:
         raise InputError(f"no such file: {path}") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -167,6 +164,15 @@ def read_transforms(path, *, check_files: bool = True) -> list[PassthroughView]:
             from None
     except json.JSONDecodeError as exc:
         raise InputError(f"{path} is not JSON ({exc.msg}, line {exc.lineno})") from None
+
+
+def read_transforms(path, *, check_files: bool = True) -> list[PassthroughView]:
+    """The views of a ``transforms.json`` (module doc), in order; :class:`InputError` (one
+    line naming the frame) for anything that cannot be used."""
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        path = os.path.join(path, "transforms.json")
+    top = read_json(path)
     if not isinstance(top, dict):
         raise InputError(f"{path}: expected a JSON object with 'frames' (nerfstudio's "
                          "transforms.json)")
