@@ -98,16 +98,19 @@ def page_of(browser, url: str, tolerate: str | None = None, console: list | None
 
 class PageHost:
     """A plain web page on another origin (another port): the cross-origin case of an app
-    hosted elsewhere that imports the provider's modules. ``page``: its HTML."""
+    hosted elsewhere that imports the provider's modules. ``page``: its HTML, which may be
+    replaced later (``host.page = ...``: a page that names a server started after the host)."""
 
     def __init__(self, page: str):
-        body = page.encode()
+        self.page = page
+        host = self
 
         class Handler(BaseHTTPRequestHandler):
             def log_message(self, *a):
                 pass
 
             def do_GET(self):
+                body = host.page.encode()
                 self.send_response(200)
                 self.send_header("Content-Type", "text/html; charset=utf-8")
                 self.send_header("Content-Length", str(len(body)))

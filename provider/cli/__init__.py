@@ -1,12 +1,11 @@
-"""`shlight` command line: compute | export | serve | validate-shaders | bench |
-calibrate-response | environment | passthrough | ...
+"""`shlight COMMAND ...`: the command line. :data:`COMMANDS` lists every command, the module
+of this package that holds its options and its one-line help (`shlight --help` prints them).
 
 User errors (bad files, bad options) print one clear line to stderr and exit with status
-2; they never show a traceback. Each command's options live in a module of this package
-(:mod:`.compute`, :mod:`.export`, :mod:`.serve`, :mod:`.validate`, :mod:`.bench`,
-:mod:`.calibrate`, :mod:`.environment`; the frame@time syntax in :mod:`.frames`; the
-engine options shared by several in :mod:`.options`); what the command does lives in its layer and is imported
-only when the command runs.
+2; they never show a traceback. Each command's options live in its module here (the frame@time
+syntax in :mod:`.frames`; the engine options shared by several in :mod:`.options`; output
+paths in :mod:`.outputs`); what the command does lives in its layer and is imported only when
+the command runs.
 """
 from __future__ import annotations
 
