@@ -60,3 +60,18 @@ def test_without_the_kernel_a_theta_frame_still_makes_few_calls(monkeypatch):
     bands = -(-frame.shape[0] // SH9Projector.BAND_ROWS)
     assert 0 < c_calls["lens_fold.py:x_fold"] <= 3 * 2 * 2 * bands
     assert c_calls["lens_fold.py:add"] <= 3 * bands
+
+
+def test_module_command_line_says_what_it_takes(capsys):
+    """``python -m provider.bench.edge --help`` prints its usage (it raised KeyError), and an
+    unknown workload is one clear line and status 2, not a traceback."""
+    from provider.bench import edge
+    with pytest.raises(SystemExit) as done:
+        edge.main(["--help"])
+    assert done.value.code == 0
+    out = capsys.readouterr().out
+    assert "theta" in out and "--calls" in out
+    with pytest.raises(SystemExit) as done:
+        edge.main(["bogus"])
+    assert done.value.code == 2
+    assert "no workload bogus" in capsys.readouterr().err

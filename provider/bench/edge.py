@@ -194,11 +194,22 @@ def bench_edge(hdri, out: Path, args):
 def main(argv=None) -> int:
     """``python -m provider.bench.edge [--calls] [workload ...]``: print instructions per
     frame, or (``--calls``) the calls one frame makes, by calling function."""
-    names = list(argv if argv is not None else sys.argv[1:])
-    calls = "--calls" in names
-    names = [n for n in names if n != "--calls"] or ["theta", "cube", "pi", "pi-fast"]
-    if calls:
-        workloads = edge_workloads()
+    import argparse
+    workloads = edge_workloads()
+    parser = argparse.ArgumentParser(
+        prog="python -m provider.bench.edge",
+        description="Instructions per frame of the edge workloads (valgrind's callgrind), "
+                    "or with --calls the calls one frame makes, by calling function.")
+    parser.add_argument("workloads", nargs="*", metavar="WORKLOAD",
+                        help="any of: " + ", ".join(workloads) + " (default: all)")
+    parser.add_argument("--calls", action="store_true",
+                        help="count the calls into C and Python a frame makes, not instructions")
+    args = parser.parse_args(argv)
+    unknown = [n for n in args.workloads if n not in workloads]
+    if unknown:
+        parser.error(f"no workload {', '.join(unknown)}: choose from {', '.join(workloads)}")
+    names = args.workloads or list(workloads)
+    if args.calls:
         for name in names:
             what, build, frame = workloads[name]
             c_calls, py_calls = calls_per_frame(build(), frame)
@@ -211,7 +222,6 @@ def main(argv=None) -> int:
     if missing:
         print(missing)
         return 1
-    workloads = edge_workloads()
     for name in names:
         what, build, frame = workloads[name]
         per = instructions_per_frame(build(), frame)
