@@ -132,6 +132,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                     help="views each headset's fit keeps, the newest (default 48)")
     pt.add_argument("--passthrough-headsets", type=int, default=4, metavar="N",
                     help="headsets on /capture at once (default 4)")
+    pt.add_argument("--passthrough-sphere-every", type=float, default=5.0, metavar="SECONDS",
+                    help="a headset's next views are compared with the probe's newest frame "
+                         "once it is at least this old a sphere (default 5; 0: every new "
+                         "frame); views already fitted keep the sphere of their time")
 
 
 def _add_source_arguments(g) -> None:
@@ -386,14 +390,15 @@ def build_server(args):
     if args.passthrough:
         from ..live.probe.passthrough import PassthroughSettings
         if not (args.passthrough_max_jpeg_bytes >= 1024 and 0 <= args.passthrough_hz < math.inf
-                and args.passthrough_max_views >= 4 and args.passthrough_headsets >= 1):
+                and args.passthrough_max_views >= 4 and args.passthrough_headsets >= 1
+                and 0 <= args.passthrough_sphere_every < math.inf):
             raise InputError("--passthrough-max-jpeg-bytes >= 1024, --passthrough-hz >= 0, "
-                             "--passthrough-max-views >= 4 and --passthrough-headsets >= 1 "
-                             "are required")
+                             "--passthrough-max-views >= 4, --passthrough-headsets >= 1 "
+                             "and --passthrough-sphere-every >= 0 are required")
         s.passthrough = PassthroughSettings(
             max_jpeg_bytes=args.passthrough_max_jpeg_bytes, hz=args.passthrough_hz,
             max_views=args.passthrough_max_views, max_headsets=args.passthrough_headsets,
-            max_text_bytes=s.max_message_bytes,
+            sphere_every_s=args.passthrough_sphere_every, max_text_bytes=s.max_message_bytes,
             max_pixels=int(getattr(args, "max_frame_pixels", 0) or 0) or 4096 * 4096)
     probes = []
     for name, text in named:

@@ -249,12 +249,8 @@ class PassthroughFit:
     def __init__(self, sphere, *, sigma_deg: float = SIGMA_DEG, samples_per_view: int = 2500,
                  max_views: int | None = None, fit_vignetting: bool = True,
                  refine_deg: float = REFINE_DEG):
-        self.sphere = check_sphere(sphere)
-        h, w = self.sphere.shape[:2]
-        px_per_deg = w / 360.0
         self.sigma_deg = float(sigma_deg)
-        self._near = _wrap_blur(self.sphere, self.sigma_deg * px_per_deg)
-        self._wide = _wrap_blur(self.sphere, 3 * self.sigma_deg * px_per_deg)
+        self.set_sphere(sphere)
         self.samples_per_view = int(samples_per_view)
         self.max_views = max_views
         self.fit_vignetting = fit_vignetting
@@ -262,6 +258,15 @@ class PassthroughFit:
         self.views: list[PassthroughView] = []
         self._samples: list[_Samples] = []
         self._last = None       # (log g, vignetting) of the last solve, for a warm start
+
+    def set_sphere(self, sphere) -> None:
+        """Compare the views added from now on with ``sphere`` (an H × 2H × 3 linear
+        equirect, in the units of the first): a live room whose light changed. Views already
+        added keep their samples of the sphere of their time, which is what they saw."""
+        self.sphere = check_sphere(sphere)
+        px_per_deg = self.sphere.shape[1] / 360.0
+        self._near = _wrap_blur(self.sphere, self.sigma_deg * px_per_deg)
+        self._wide = _wrap_blur(self.sphere, 3 * self.sigma_deg * px_per_deg)
 
     # -- views -------------------------------------------------------------------------------
     def add_view(self, view: PassthroughView, image: np.ndarray) -> int:

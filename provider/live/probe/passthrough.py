@@ -4,8 +4,11 @@ The server's ``/capture`` route (docs/passthrough.md, docs/contract.md §15) han
 headset's messages to its :class:`HeadsetFit`: a ``view`` text message (pose, intrinsics,
 optional exposure fields) and then one binary message, the view's JPEG. The fit is the
 offline one (:class:`~provider.core.passthrough.fit.PassthroughFit`), fed one view at a
-time against the probe's latest linear frame (the same frame its SH9 comes from, taken when
-the headset's first view arrives):
+time against the probe's latest linear frame (the same frame its SH9 comes from). The sphere
+follows the room: a view that finds the probe with a newer frame than the fit's sphere, one
+at least ``sphere_every_s`` seconds old, brings the fit onto that frame first
+(:meth:`PassthroughFit.set_sphere`); views already sampled keep the sphere of their own time,
+which is what they saw (a lamp switched on changes the room and the headset's frames alike):
 
 * every accepted view is sampled (``add_view``) and answered with its exposure, white
   balance, EV100 and residual under the last curve (``estimate``: a median, milliseconds);
@@ -64,6 +67,7 @@ class PassthroughSettings:
     workers: int = 1                  # threads fitting for all headsets together
     max_headsets: int = 4             # /capture connections at once
     max_text_bytes: int = 4096        # a view message (--max-message-bytes)
+    sphere_every_s: float = 5.0       # the sphere follows the probe's frames at most this often
 
 
 class PassthroughService:
@@ -81,6 +85,7 @@ class PassthroughService:
         self.dropped: collections.Counter = collections.Counter()   # reason -> views
         self.errors: collections.Counter = collections.Counter()    # code -> messages
         self.fit_seconds = 0.0
+        self.sphere_updates = 0         # fits moved onto a newer probe frame
 
     def full(self) -> bool:
         return self.headsets >= self.settings.max_headsets
@@ -97,6 +102,8 @@ class PassthroughService:
         return {"headsets": self.headsets, "views": self.views, "fitted": self.fitted,
                 "solves": self.solves, "dropped": dict(self.dropped),
                 "errors": dict(self.errors), "fit_seconds": round(self.fit_seconds, 3),
+                "sphere_updates": self.sphere_updates,
+                "sphere_every_s": self.settings.sphere_every_s,
                 "max_headsets": self.settings.max_headsets, "hz": self.settings.hz,
                 "max_views": self.settings.max_views,
                 "max_jpeg_bytes": self.settings.max_jpeg_bytes}
@@ -112,6 +119,8 @@ class PassthroughService:
               "Views dropped unfitted, by reason (busy, rate).",
               [({"reason": r}, n) for r, n in sorted(self.dropped.items())] or 0)
         m.add("shlight_passthrough_solves_total", "counter", "Joint solves.", self.solves)
+        m.add("shlight_passthrough_sphere_updates_total", "counter",
+              "Headset fits moved onto a newer probe frame.", self.sphere_updates)
         m.add("shlight_passthrough_errors_total", "counter",
               "/capture messages answered with an error, by code.",
               [({"error": r}, n) for r, n in sorted(self.errors.items())] or 0)
@@ -168,6 +177,8 @@ class HeadsetFit:
         self.service, self.probe, self.reply = service, probe, reply
         self.settings = service.settings
         self.fit = None
+        self._sphere_seq = None         # the probe frame (image_seq) the fit's sphere is
+        self._sphere_at = -math.inf     # and when it was taken (monotonic s)
         self._view = None               # the view message waiting for its JPEG
         self._busy = False
         self._last_accepted = -math.inf
@@ -271,7 +282,6 @@ class HeadsetFit:
 
     # -- the fit (a worker thread) -------------------------------------------------------------
     def _work(self, view, data: bytes, index: int) -> list[dict]:
-        from ...core.passthrough import PassthroughFit
         from ...core.radiometry.images import check_complete, decode_jpeg
         from ...core.radiometry.image_size import check_pixels
         t0 = time.perf_counter()
@@ -281,8 +291,7 @@ class HeadsetFit:
         if image.shape[:2] != (view.h, view.w):
             raise InputError(f"the JPEG is {image.shape[1]}×{image.shape[0]} but the view "
                              f"says w {view.w}, h {view.h}")
-        if self.fit is None:
-            self.fit = PassthroughFit(sphere_of(self.probe), max_views=self.settings.max_views)
+        self._follow_the_room()
         self.fit.add_view(view, image)
         self._since_solve += 1
         s = self.settings
@@ -316,6 +325,20 @@ class HeadsetFit:
         self.service.fit_seconds += time.perf_counter() - t0
         out.insert(0, self._answer(view, index, answer, solved))
         return out
+
+    def _follow_the_room(self) -> None:
+        """The fit on the probe's newest frame: made on the first view, moved when the probe
+        has a newer frame and the sphere is ``sphere_every_s`` old (a worker thread)."""
+        from ...core.passthrough import PassthroughFit
+        seq, now = getattr(self.probe, "image_seq", None), time.monotonic()
+        if self.fit is None:
+            self.fit = PassthroughFit(sphere_of(self.probe), max_views=self.settings.max_views)
+        elif seq != self._sphere_seq and now - self._sphere_at >= self.settings.sphere_every_s:
+            self.fit.set_sphere(sphere_of(self.probe))
+            self.service.sphere_updates += 1
+        else:
+            return
+        self._sphere_seq, self._sphere_at = seq, now
 
     def _answer(self, view, index: int, answer, solved: bool) -> dict:
         from ...core.radiometry.photometry import METER_K
