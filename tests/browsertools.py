@@ -144,11 +144,12 @@ def write_hemisphere(path: Path, side: str) -> None:
     os.replace(tmp, path)
 
 
-def canvas_rgba(page) -> np.ndarray:
-    """The example page's canvas (window.shlight), rendered now, as RGBA."""
-    png = base64.b64decode(page.evaluate("""() => { const s = window.shlight;
+def canvas_rgba(page, holder: str = "shlight") -> np.ndarray:
+    """The page's canvas, rendered now, as RGBA: ``window[holder]`` holds its ``renderer``,
+    ``scene`` and ``camera`` (the example page's is window.shlight)."""
+    png = base64.b64decode(page.evaluate(f"""() => {{ const s = window.{holder};
         s.renderer.render(s.scene, s.camera);
-        return s.renderer.domElement.toDataURL('image/png'); }""").split(",", 1)[1])
+        return s.renderer.domElement.toDataURL('image/png'); }}""").split(",", 1)[1])
     bgra = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)
     return cv2.cvtColor(bgra, cv2.COLOR_BGRA2RGBA)
 

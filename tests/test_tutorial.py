@@ -9,17 +9,15 @@ by the CLI tests and test_unity*.py.
 """
 from __future__ import annotations
 
-import base64
 import json
 import re
 
-import cv2
 import numpy as np
 
 import provider
 from provider.core.geometry import sh
 
-from browsertools import (NEEDS_BROWSER, ROOT, PageHost, browser, page_of,  # noqa: F401
+from browsertools import (NEEDS_BROWSER, ROOT, PageHost, browser, canvas_rgba, page_of,  # noqa: F401
                           srgb8, write_hemisphere)
 from servertools import PATIENCE, ServeProcess, connect, http_get, poll
 
@@ -50,6 +48,13 @@ def test_step_1_every_address_answers_on_the_demo():
         assert np.asarray(latest["matrices"]).size == 48
 
 
+def _needs_browser(test):
+    for mark in NEEDS_BROWSER:      # skipped with the reason where Chromium or three.js is not
+        test = mark(test)
+    return test
+
+
+@_needs_browser
 def test_step_2_the_page_lights_its_sphere_from_the_room(browser, tmp_path):  # noqa: F811
     """The tutorial's page on another origin, the server started with that origin allowed
     (as step 2 says): the LightProbe holds the server's coefficients, and the white matte
@@ -72,7 +77,7 @@ def test_step_2_the_page_lights_its_sphere_from_the_room(browser, tmp_path):  # 
                 np.testing.assert_allclose(held, ours.coefficients.reshape(-1),
                                            rtol=1e-6, atol=1e-7)
                 page.evaluate("window.tutorial.connection.close()")   # hold the light still
-                rgba = _canvas(page)
+                rgba = canvas_rgba(page, holder="tutorial")
             left, right, centre = _sphere_row(rgba)         # normals near −X, +X, +Z
             assert right > 200 and left < 0.4 * right, (left, right)
             e_front = float(sh.irradiance_from_matrices(ours.matrices,
@@ -89,14 +94,6 @@ def test_step_2_the_page_lights_its_sphere_from_the_room(browser, tmp_path):  # 
                 assert "403" in str(exc), exc
     finally:
         host.close()
-
-
-def _canvas(page) -> np.ndarray:
-    png = base64.b64decode(page.evaluate("""() => { const t = window.tutorial;
-        t.renderer.render(t.scene, t.camera);
-        return t.renderer.domElement.toDataURL('image/png'); }""").split(",", 1)[1])
-    bgra = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)
-    return cv2.cvtColor(bgra, cv2.COLOR_BGRA2RGBA)
 
 
 def _sphere_row(rgba: np.ndarray) -> tuple[float, float, float]:
