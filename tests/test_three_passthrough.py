@@ -120,7 +120,10 @@ PATCHES = """async ([camera, gain, colours]) => {
     scene.add(m);
   });
   renderer.render(scene, cam);
-  const out = { png: renderer.domElement.toDataURL("image/png"),
+  const png = renderer.domElement.toDataURL("image/png");
+  renderer.outputColorSpace = THREE.LinearSRGBColorSpace;     // the same codes through a linear output
+  renderer.render(scene, cam);
+  const out = { png, linear: renderer.domElement.toDataURL("image/png"),
                 cpu: colours.map((c) => tm.codes(c)), lut: Array.from(tm.lut.data), range: tm.lut.range,
                 toneMapping: renderer.toneMapping === THREE.CustomToneMapping };
   tm.dispose();
@@ -164,13 +167,13 @@ def test_the_lookup_is_the_fits_inverse_response_and_three_draws_its_codes(
     model = codes_of(table, colours * gain)
     cpu = 255 * np.asarray(got["cpu"])
     assert np.abs(cpu - model).max() < 0.1, np.abs(cpu - model).max()
-    # three's shader: the framebuffer holds the code, rounded (sRGB output decoded and encoded
-    # back in float32: a code within 0.5 + float rounding)
-    rgba = png_of(got["png"])
-    drawn = rgba[2, 2::4, :3].astype(np.float64)
-    assert drawn.shape == model.shape
-    assert np.abs(drawn - model).max() <= 0.6, np.abs(drawn - model).max()
-    assert (drawn[-1] == 0).all()
+    # three's shader: the framebuffer holds the code, rounded (an sRGB output decoded and
+    # encoded back in float32, a linear one as it is: a code within 0.5 + float rounding)
+    for key in ("png", "linear"):
+        drawn = png_of(got[key])[2, 2::4, :3].astype(np.float64)
+        assert drawn.shape == model.shape
+        assert np.abs(drawn - model).max() <= 0.6, (key, np.abs(drawn - model).max())
+        assert (drawn[-1] == 0).all()
 
 
 # ---- (b) the sender: intrinsics, pose, a real /capture --------------------------------------

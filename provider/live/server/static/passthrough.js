@@ -145,11 +145,38 @@ vec3 CustomToneMapping( vec3 color ) {
 `;
 
 const installed = new WeakMap();   // THREE's ShaderChunk → { chunk, proto, users }
+const shared = new WeakMap();      // THREE's ShaderChunk → the uniforms every program holds
+
+// One set of uniforms per copy of three, kept for good: a program three compiled once keeps the
+// uniform objects it was given (WebGLRenderer.js:2247-2258 reuses it without onBeforeCompile),
+// so every controller, now or later, writes into the same ones (one passthrough camera a page).
+function sharedUniforms(THREE) {
+  let u = shared.get(THREE.ShaderChunk);
+  if (!u) {
+    const texture = new THREE.DataTexture(new Float32Array(4 * LUT_SIZE), LUT_SIZE, 1, THREE.RGBAFormat, THREE.FloatType);
+    texture.minFilter = texture.magFilter = THREE.NearestFilter;   // texelFetch: interpolated by hand
+    texture.colorSpace = THREE.NoColorSpace;
+    texture.generateMipmaps = false;
+    const out = { renderer: null };
+    u = { out, uniforms: {
+      shPassthroughLut: { value: texture },
+      shPassthroughGain: { value: new THREE.Vector3(1, 1, 1) },
+      shPassthroughRange: { value: new THREE.Vector2(0, 1) },
+      // read at every upload: the newest controller's renderer's output transfer
+      shPassthroughSRGB: { get value() {
+        const r = out.renderer;
+        return !r || THREE.ColorManagement.getTransfer(r.outputColorSpace) === THREE.SRGBTransfer ? 1 : 0;
+      } },
+    } };
+    shared.set(THREE.ShaderChunk, u);
+  }
+  return u;
+}
 
 /**
- * Tone-map `renderer` (a THREE.WebGLRenderer) as the headset's passthrough camera renders
- * the room (module comment). Options: camera (a camera.json object; default sRGB until one
- * arrives), exposure (default 1), wbGains (default [1, 1, 1]).
+ * Tone-map `renderer` (a THREE.WebGLRenderer, WebGL 2) as the headset's passthrough camera
+ * renders the room (module comment). Options: camera (a camera.json object; default sRGB until
+ * one arrives), exposure (default 1), wbGains (default [1, 1, 1]).
  * Returns a controller:
  *   handle(msg)        feed it /capture's answers (a message object or its JSON text):
  *                      "passthrough" sets exposure and white balance (dropped views and views
@@ -158,22 +185,13 @@ const installed = new WeakMap();   // THREE's ShaderChunk → { chunk, proto, us
  *   camera, exposure, wbGains, lut (passthroughLut), texture (the THREE.DataTexture),
  *   uniforms, views (answers applied), codes(rgb) (lookupCodes under the current gain),
  *   patchMaterial(m) (a material with its own onBeforeCompile), dispose()
+ * The uniforms are one set per copy of three: one passthrough camera per page.
  */
 export function passthroughToneMapping(THREE, renderer, options = {}) {
   if (!THREE || !renderer) throw new TypeError("passthroughToneMapping: THREE and renderer are required");
-  let lut = passthroughLut(options.camera || srgbCamera());
-  const texture = new THREE.DataTexture(new Float32Array(lut.data), LUT_SIZE, 1, THREE.RGBAFormat, THREE.FloatType);
-  texture.minFilter = texture.magFilter = THREE.NearestFilter;   // texelFetch: interpolated by hand
-  texture.colorSpace = THREE.NoColorSpace;
-  texture.generateMipmaps = false;
-  texture.needsUpdate = true;
-  const srgbOut = () => (THREE.ColorManagement.getTransfer(renderer.outputColorSpace) === THREE.SRGBTransfer ? 1 : 0);
-  const uniforms = {
-    shPassthroughLut: { value: texture },
-    shPassthroughGain: { value: new THREE.Vector3(1, 1, 1) },
-    shPassthroughRange: { value: new THREE.Vector2(lut.range[0], lut.range[1]) },
-    shPassthroughSRGB: { get value() { return srgbOut(); } },   // read at every upload
-  };
+  const { uniforms, out } = sharedUniforms(THREE);
+  const texture = uniforms.shPassthroughLut.value;
+  let lut = null;
 
   const chunks = THREE.ShaderChunk;
   let state = installed.get(chunks);
@@ -184,16 +202,16 @@ export function passthroughToneMapping(THREE, renderer, options = {}) {
     state = { chunk: chunks.tonemapping_pars_fragment, proto: THREE.Material.prototype.onBeforeCompile, users: new Set() };
     chunks.tonemapping_pars_fragment = state.chunk.replace(STUB, GLSL);
     const proto = state.proto;
-    // the newest controller's uniforms reach every material that has no onBeforeCompile of its own
+    // the uniforms reach every material that has no onBeforeCompile of its own
     THREE.Material.prototype.onBeforeCompile = function shlightPassthrough(shader, r) {
-      const last = [...state.users].pop();
-      if (last) Object.assign(shader.uniforms, last.uniforms);
+      Object.assign(shader.uniforms, uniforms);
       return proto.call(this, shader, r);
     };
     installed.set(chunks, state);
   }
   const previous = { toneMapping: renderer.toneMapping };
   renderer.toneMapping = THREE.CustomToneMapping;
+  out.renderer = renderer;
 
   const tm = {
     uniforms, texture, views: 0,
@@ -241,12 +259,14 @@ export function passthroughToneMapping(THREE, renderer, options = {}) {
         THREE.Material.prototype.onBeforeCompile = state.proto;
         installed.delete(chunks);
       }
-      texture.dispose();
+      if (out.renderer === renderer) out.renderer = null;
     },
   };
   state.users.add(tm);
-  if (options.camera) tm.camera = options.camera;
-  if (options.exposure || options.wbGains) tm.setView({ exposure: options.exposure ?? 1, wb_gains: options.wbGains || [1, 1, 1] });
+  tm.setCamera(options.camera || srgbCamera());
+  tm.camera = options.camera || null;
+  tm.setView({ exposure: options.exposure ?? 1, wb_gains: options.wbGains || [1, 1, 1] });
+  tm.views = 0;
   return tm;
 }
 
