@@ -326,7 +326,7 @@ POLYFILL = """async ([base, image, w, h, P, M]) => {
   const xr = { requestSession: async (mode, init) => { asked = init; return new Session(init); } };
   const answers = [];
   const handle = poly.installLightEstimationPolyfill({ url: base + "/", yaw: %s, XRSession: Session,
-    XRFrame: Frame, XRWebGLBinding: Binding, xr, passthrough: { THREE, renderer, send: true, hz: 1e6,
+    XRFrame: Frame, XRWebGLBinding: Binding, xr, passthrough: { THREE, renderer, send: true, hz: 1e6, maxWidth: w / 2,
       referenceSpace: {}, XRView: class { get camera() { return null; } },
       onMessage: (m) => { if (m.type === "passthrough") answers.push(m); } } });
   const session = await xr.requestSession("immersive-ar", { requiredFeatures: ["local-floor"] });
@@ -363,7 +363,8 @@ def test_the_polyfill_asks_for_the_camera_sends_its_views_and_tone_maps(
         browser, server, headset):
     """installLightEstimationPolyfill({passthrough: {send: true}}): a session is asked for
     'camera-access' (optional: it still starts without), its camera's views go to /capture
-    with the pose taken back out of the polyfill's yaw, and the answers drive the renderer's
+    with the pose taken back out of the polyfill's yaw, at half the camera image's size
+    (area-averaged, the intrinsics of the image sent), and the answers drive the renderer's
     tone mapping; uninstall() closes the sender and gives three its tone mapping back."""
     doc, truth = headset
     R = yaw_rotation(YAW)
@@ -383,6 +384,10 @@ def test_the_polyfill_asks_for_the_camera_sends_its_views_and_tone_maps(
     assert "camera-access" in got["asked"]["optionalFeatures"]
     assert "camera-access" not in got["asked"].get("requiredFeatures", [])
     np.testing.assert_allclose(np.reshape(got["sent"]["transform_matrix"], (4, 4)), m, atol=2e-5)
+    # sent at half the camera image's size (maxWidth): the intrinsics of the image sent
+    assert (got["sent"]["w"], got["sent"]["h"]) == (W // 2, H // 2)
+    for key, want in (("fl_x", fl / 2), ("fl_y", fl / 2), ("cx", cx / 2), ("cy", cy / 2)):
+        assert got["sent"][key] == pytest.approx(want, abs=1e-3), key
     assert got["answer"]["type"] == "passthrough" and got["answer"]["exposure"] > 0
     assert got["exposure"] == got["answer"]["exposure"] and got["wb"] == got["answer"]["wb_gains"]
     assert got["toneMapping"] and got["restored"]

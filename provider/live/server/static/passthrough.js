@@ -329,7 +329,21 @@ export function cameraAccessMissing(session = null, classes = {}) {
 }
 
 const BLIT_VS = "#version 300 es\nout vec2 uv;\nvoid main() { vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));\n  uv = p; gl_Position = vec4(2.0 * p - 1.0, 0.0, 1.0); }";
-const BLIT_FS = "#version 300 es\nprecision highp float;\nin vec2 uv;\nuniform sampler2D image;\nout vec4 color;\nvoid main() { color = texture(image, uv); }";
+// An area average over the output texel's footprint (taps × taps bilinear reads): the camera
+// image is opaque (no mipmaps of it), and one read per texel would alias a 4:1 reduction.
+const BLIT_FS = `#version 300 es
+precision highp float;
+in vec2 uv;
+uniform sampler2D image;
+uniform vec2 footprint;   // the output texel in uv
+uniform int taps;
+out vec4 color;
+void main() {
+  vec4 sum = vec4(0.0);
+  for (int i = 0; i < taps; i++) for (int j = 0; j < taps; j++)
+    sum += texture(image, uv + footprint * ((vec2(i, j) + 0.5) / float(taps) - 0.5));
+  color = sum / float(taps * taps);
+}`;
 
 function compile(gl, vs, fs) {
   const p = gl.createProgram();
@@ -346,10 +360,11 @@ function compile(gl, vs, fs) {
 
 /**
  * The pixels (RGBA, rows from the top) of a WebGL texture `texture` (the camera image,
- * rows from the bottom as GL keeps them) drawn at width × height (linear filtering) into a
- * framebuffer of the sender's; every GL binding it touches is put back.
+ * rows from the bottom as GL keeps them, `source` [w, h] its size) drawn at width × height
+ * (an area average: taps × taps linear reads a texel) into a framebuffer of the sender's;
+ * every GL binding it touches is put back.
  */
-export function readTexture(gl, texture, width, height, cache = {}) {
+export function readTexture(gl, texture, width, height, cache = {}, source = null) {
   const saved = { fb: gl.getParameter(gl.FRAMEBUFFER_BINDING), prog: gl.getParameter(gl.CURRENT_PROGRAM),
     vao: gl.getParameter(gl.VERTEX_ARRAY_BINDING), unit: gl.getParameter(gl.ACTIVE_TEXTURE),
     viewport: gl.getParameter(gl.VIEWPORT), blend: gl.isEnabled(gl.BLEND), depth: gl.isEnabled(gl.DEPTH_TEST),
@@ -378,6 +393,10 @@ export function readTexture(gl, texture, width, height, cache = {}) {
   gl.bindVertexArray(cache.vao);
   gl.bindTexture(gl.TEXTURE_2D, texture);
   gl.uniform1i(gl.getUniformLocation(cache.program, "image"), 0);
+  // source: [w, h] of the texture; each output texel averages ceil(w / width)² reads (at most 8²)
+  const taps = source ? Math.min(8, Math.max(1, Math.ceil(source[0] / width), Math.ceil(source[1] / height))) : 1;
+  gl.uniform1i(gl.getUniformLocation(cache.program, "taps"), taps);
+  gl.uniform2f(gl.getUniformLocation(cache.program, "footprint"), 1 / width, 1 / height);
   gl.drawArrays(gl.TRIANGLES, 0, 3);
   const bottomUp = new Uint8Array(width * height * 4);
   gl.pixelStorei(gl.PACK_ALIGNMENT, 1);
@@ -487,7 +506,7 @@ export function startCameraSender(url, options = {}) {
     const scale = Math.min(1, opts.maxWidth / view.camera.width);
     const w = opts.width || Math.round(view.camera.width * scale), h = opts.height || Math.round(view.camera.height * scale);
     const message = viewMessage(view, { width: w, height: h, rotation: sender.rotation, time: now / 1000 });
-    const pixels = readTexture(gl, texture, w, h, cache);
+    const pixels = readTexture(gl, texture, w, h, cache, [view.camera.width, view.camera.height]);
     if (opts.renderer) opts.renderer.resetState();     // three's cached GL state: ours was put back, say so
     last = now;
     busy = true;
