@@ -446,8 +446,8 @@ export function captureUrl(url, { probe = null, token = null } = {}) {
  * `height`, default the camera's size scaled to at most 320 wide), sent as the view message
  * (viewMessage: the pose taken back to the provider's frame by `rotation`) and its JPEG.
  * Options: session, gl (or renderer: its context), referenceSpace (an XRReferenceSpace, or a
- * function returning one; default renderer.xr.getReferenceSpace()), probe, token, hz, width,
- * height, quality (JPEG, 0.9), rotation (settable: sender.rotation), onMessage(msg) (every
+ * function returning one; default renderer.xr.getReferenceSpace()), probe, token, hz,
+ * maxWidth (320), width and height (the size sent, instead), quality (JPEG, 0.9), rotation (settable: sender.rotation), onMessage(msg) (every
  * answer, parsed), onState(state, detail), loop (false: no loop of its own, call capture),
  * binding (an XRWebGLBinding), XRWebGLBinding, XRView, WebSocket.
  * Where the browser has no raw camera access it sends nothing and says why once on the console
