@@ -23,10 +23,12 @@ DASHBOARD_CSP = ("default-src 'none'; script-src 'self'; style-src 'self'; img-s
 
 
 #: Public files served at the top level without a token (the browser client, its three.js
-#: adapter, the WebXR lighting-estimation polyfill, the WebXR example page), and the origins
+#: adapter, the WebXR lighting-estimation polyfill, the WebXR example page, the passthrough tone
+#: mapping and camera sender), and the origins
 #: that may import them: any (they hold no secret; ES modules are fetched with CORS).
 PUBLIC_FILES = {"/client.js": "client.js", "/client-three.js": "client-three.js",
-                "/xr-lighting-polyfill.js": "xr-lighting-polyfill.js", "/xr.html": "xr.html"}
+                "/xr-lighting-polyfill.js": "xr-lighting-polyfill.js", "/xr.html": "xr.html",
+                "/passthrough.js": "passthrough.js"}
 PUBLIC_HEADERS = [("Access-Control-Allow-Origin", "*")]
 
 

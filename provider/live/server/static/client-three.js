@@ -53,6 +53,7 @@
 // (diffuse: "environment", the default) or keeps it (diffuse: "both").
 import { bilinear, connect, faceDirection, irradiance, matricesFromCoefficients, registrationRotation,
   rotateCoefficients } from "./client.js";
+import { passthroughToneMapping, startCameraSender } from "./passthrough.js";
 
 /**
  * Set a THREE.LightProbe (anything with .sh.coefficients[9] of Vector3/Color-like .set)
@@ -112,24 +113,50 @@ function followExposure(options, lighting) {
  * occluder }.
  * Without lights in the messages, the light is off and the catcher transparent.
  * A top-level `renderer` (a WebGLRenderer) has its toneMappingExposure follow the room's
- * EV100 when the lighting is in absolute units (physicalExposure; issue 31).
+ * EV100 when the lighting is in absolute units (physicalExposure; issue 31), unless
+ * `passthrough` is given: on a video see-through headset, the renderer is tone-mapped as the
+ * headset's camera renders the room (passthrough.js, docs/passthrough.md); an object
+ *   THREE, renderer   (renderer: default the top-level one)
+ *   session           an XRSession: send its camera views to /capture (startCameraSender,
+ *                     where the browser has WebXR Raw Camera Access; `hz`, `maxWidth`,
+ *                     `referenceSpace` as its options) and render through the answers
+ *   socket            or any WebSocket on /capture whose answers to follow (a sender's)
+ *   camera, exposure, wbGains   a model to start from (default sRGB, 1, [1, 1, 1])
+ * or a controller made by passthroughToneMapping. The connection's `.passthrough` is the
+ * controller (its handle(msg) takes /capture's answers from anywhere else), `.sender` the sender.
  */
 export function connectLightProbe(url, lightProbe, options = {}) {
   const settings = { rotation: options.rotation || null, intensity: options.intensity ?? 1 };
   const shadows = options.shadows ? shadowSetup(options.shadows) : null;
+  const passthrough = options.passthrough ? passthroughSetup(url, options, settings) : null;
   const conn = connect(url, {
     ...options,
     onLighting: (lighting, c) => {
       if (shadows) applyShadows(shadows, lightProbe, lighting, settings);
       else setLightProbe(lightProbe, lighting, settings);
-      followExposure(options, lighting);
+      if (!passthrough) followExposure(options, lighting);
       if (options.onLighting) options.onLighting(lighting, c);
     },
   });
   conn.options = settings;
   conn.lightProbe = lightProbe;
   if (shadows) conn.shadows = shadows.state;
+  if (passthrough) Object.assign(conn, passthrough);
   return conn;
+}
+
+// connectLightProbe's `passthrough`: the tone mapping, and where its answers come from.
+function passthroughSetup(url, options, settings) {
+  const p = options.passthrough;
+  const tm = typeof p.handle === "function" ? p : passthroughToneMapping(p.THREE, p.renderer || options.renderer, p);
+  let sender = null;
+  if (p.session) {
+    sender = startCameraSender(url, { ...p, renderer: p.renderer || options.renderer, probe: options.probe,
+                                      token: options.token, rotation: settings.rotation });
+  }
+  const socket = p.socket || (sender && sender.socket);
+  if (socket) socket.addEventListener("message", (e) => { if (typeof e.data === "string") tm.handle(e.data); });
+  return { passthrough: tm, sender };
 }
 
 function shadowSetup(opts) {

@@ -58,6 +58,7 @@
 // Stale lighting: while the provider's source is lost, or the provider is unreachable, the
 // last lighting stays (estimate.shlight.stale is true); one console warning per outage.
 import { connect, registrationRotation, resampleCube, rotateCoefficients } from "./client.js";
+import { passthroughToneMapping, startCameraSender } from "./passthrough.js";
 
 export const FEATURE = "light-estimation";
 /** The `convention` of the estimates: the webxr export's (three.js's reading). */
@@ -173,10 +174,17 @@ class ShlightLightEstimate {
  *            makes cubes), for getReflectionCubeMap
  *   gl       the WebGL context for the cube maps of bindings made before install (else the
  *            one each XRWebGLBinding was made with)
+ *   passthrough  on a video see-through headset, tone-map the renderer as its camera renders
+ *            the room (passthrough.js, docs/passthrough.md): { THREE, renderer, send, hz,
+ *            maxWidth, camera, exposure, wbGains } (or a passthroughToneMapping controller).
+ *            send: true (off by default) asks each session for 'camera-access' (optional) and,
+ *            where the browser has WebXR Raw Camera Access, sends its camera views to the
+ *            provider's /capture (startCameraSender, poses turned back by yaw/rotation);
+ *            the answers drive the tone mapping. handle.passthrough, handle.sender.
  *   XRSession, XRFrame, XRWebGLBinding, xr, WebSocket: what to patch / use (default: the
  *            browser's; a stand-in where there is no XR device, as the tests do)
  * Returns a handle: installed, state, stale, latest, connection, estimate(), setYaw(degrees),
- * setRotation(R), connect(), uninstall(). The provider is connected at the first probe of
+ * setRotation(R), connect(), sendCamera(session), uninstall(). The provider is connected at the first probe of
  * ours (or at connect()), and stays connected (reconnecting by itself) until uninstall().
  */
 export function installLightEstimationPolyfill(options = {}) {
@@ -202,6 +210,9 @@ export function installLightEstimationPolyfill(options = {}) {
   const sessionOf = new WeakMap();          // probe -> its session
   const watched = new WeakSet();            // sessions whose "end" we listen to
   const restore = [];                       // how to undo each patch
+  const pt = opts.passthrough || null;
+  const passthrough = !pt ? null : typeof pt.handle === "function" ? pt : passthroughToneMapping(pt.THREE, pt.renderer, pt);
+  let sender = null;
 
   const handle = {
     installed: false,
@@ -231,6 +242,7 @@ export function installLightEstimationPolyfill(options = {}) {
     },
     setRotation(R) {
       rotation = checkRotation(R);
+      if (sender) sender.rotation = rotation;
       view = null;
       cubeVersion++;
       tellProbes();
@@ -247,8 +259,24 @@ export function installLightEstimationPolyfill(options = {}) {
     },
     /** connect to the provider now (e.g. to have lighting before the session starts) */
     connect() { return ensureConnected(); },
+    /** the passthrough tone mapping (options.passthrough) or null */
+    passthrough,
+    /** the camera sender of the newest session (options.passthrough.send) or null */
+    get sender() { return sender; },
+    /** send `session`'s camera views to /capture now (what passthrough.send does at each session) */
+    sendCamera(session) {
+      if (!passthrough) throw new TypeError("shlight polyfill: sendCamera needs options.passthrough");
+      if (sender) sender.close();
+      sender = startCameraSender(url, { ...pt, session, renderer: pt.renderer, probe: chosenProbe, token: opts.token,
+        rotation, ...(opts.WebSocket ? { WebSocket: opts.WebSocket } : {}),
+        ...(BindingClass ? { XRWebGLBinding: BindingClass } : {}) });
+      if (sender.socket) sender.socket.addEventListener("message", (e) => { if (typeof e.data === "string") passthrough.handle(e.data); });
+      return sender;
+    },
     uninstall() {
       for (const undo of restore.splice(0).reverse()) undo();
+      if (sender) sender.close();
+      if (passthrough && passthrough !== pt) passthrough.dispose();
       if (conn) conn.close();
       probes.clear();
       handle.installed = false;
@@ -422,8 +450,10 @@ export function installLightEstimationPolyfill(options = {}) {
   if (xr && typeof xr.requestSession === "function") {
     const nativeSession = xr.requestSession;
     const own = Object.prototype.hasOwnProperty.call(xr, "requestSession");
+    const send = Boolean(pt && pt.send);
     xr.requestSession = function (mode, init) {
-      return nativeSession.call(this, mode, relaxFeatures(init, opts.force));
+      const started = nativeSession.call(this, mode, relaxFeatures(init, opts.force, send));
+      return send ? started.then((session) => { handle.sendCamera(session); return session; }) : started;
     };
     restore.push(() => (own ? (xr.requestSession = nativeSession) : delete xr.requestSession));
   }
@@ -499,8 +529,15 @@ function uploadCube(gl, texture, n, faces) {
   return format;
 }
 
-/** A session init where "light-estimation" no longer stops the session from starting. */
-function relaxFeatures(init, force) {
+/** A session init where "light-estimation" no longer stops the session from starting (and,
+ *  with `camera`, that asks for raw camera access where the browser has it). */
+function relaxFeatures(init, force, camera = false) {
+  if (camera) {
+    const listed = [...((init && init.requiredFeatures) || []), ...((init && init.optionalFeatures) || [])];
+    if (!listed.includes("camera-access")) {
+      init = { ...init, optionalFeatures: [...((init && init.optionalFeatures) || []), "camera-access"] };
+    }
+  }
   const required = (init && init.requiredFeatures) || [];
   const optional = (init && init.optionalFeatures) || [];
   const has = (list) => Array.from(list).includes(FEATURE);
