@@ -47,7 +47,7 @@ def lut_display(lo, hi, lut, x) -> np.ndarray:
     return np.stack([np.interp(t[..., c], np.arange(LUT_SIZE), lut[:, c]) for c in range(3)], -1)
 
 
-def sphere_pixels(view, rotation, radius: float = 0.1, step_px: float = 1.0):
+def sphere_pixels(view, rotation, radius: float = 0.1, step_px: float = 2.0):
     """The visible pixels of a sphere centred in ``view`` (its disc's radius ``radius`` of the
     half-diagonal), seen along the camera's true ``rotation`` (camera-to-world, OpenGL axes):
     (normals (n, 3) world frame, rho2 (n,)). A small sphere far off: seen orthographically."""
@@ -65,13 +65,17 @@ def sphere_pixels(view, rotation, radius: float = 0.1, step_px: float = 1.0):
     return normals, rho2
 
 
-def replica_codes(truth, view: int, panorama, normals, rho2, albedo: float,
+def true_irradiance(panorama, normals) -> np.ndarray:
+    """E(n) (n, 3) summed straight from the panorama's pixels (no SH)."""
+    return np.concatenate([brute_irradiance(panorama, normals[i:i + 64])
+                           for i in range(0, len(normals), 64)])
+
+
+def replica_codes(truth, view: int, irradiance, rho2, albedo: float,
                   vignetting: float = 0.35) -> np.ndarray:
     """The 8-bit codes (n, 3) the simulated headset records in view ``view`` for the real
-    grey sphere (module doc)."""
-    e = np.concatenate([brute_irradiance(panorama, normals[i:i + 256])
-                        for i in range(0, len(normals), 256)])
-    radiance = albedo / math.pi * e
+    grey sphere whose pixels see ``irradiance`` (:func:`true_irradiance`) (module doc)."""
+    radiance = albedo / math.pi * np.asarray(irradiance, np.float64)
     x = radiance * truth.exposure[view] * truth.wb_gains[view] * (1 - vignetting * rho2)[:, None]
     return truth.camera.capture(x[None], 1.0)[0].astype(np.float64)
 

@@ -23,7 +23,8 @@ import numpy as np
 import pytest
 
 from conftest import load_hdri
-from replica_unity import display_lut, lut_display, replica_codes, sphere_pixels, stops_apart
+from replica_unity import (display_lut, lut_display, replica_codes, sphere_pixels, stops_apart,
+                           true_irradiance)
 
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "unity_package"
@@ -111,11 +112,14 @@ def _messages(result, view: int):
     return camera, answer
 
 
-def _render(core_exe, result, view, sh9_message, normals):
-    camera, answer = _messages(result, view)
-    scene = {"normals": np.asarray(normals).tolist(), "albedo": ALBEDO}
-    (out,) = _run(core_exe, "render", stdin="\n".join(json.dumps(m) for m in
-                                                     (camera, answer, sh9_message, scene)) + "\n")
+def _render(core_exe, result, sh9_message, scenes):
+    """The C# core's grey surfaces: ``scenes`` is [(view, normals)], one output per scene."""
+    camera, _ = _messages(result, 0)
+    lines = [camera, sh9_message]
+    for view, normals in scenes:
+        lines += [_messages(result, view)[1], {"normals": np.asarray(normals).tolist(), "albedo": ALBEDO}]
+    out = _run(core_exe, "render", stdin="\n".join(json.dumps(m) for m in lines) + "\n")
+    assert len(out) == len(scenes)
     return out
 
 
@@ -187,18 +191,20 @@ def test_a_grey_sphere_renders_within_a_tenth_of_a_stop_of_its_real_replica(core
     from provider.bench.headset_sim import naive_model
     truth, result, _ = headset
     naive = naive_model(truth, room)
-    biases, naive_biases = [], []
+    scenes, reals, naives = [], [], []
     for i in range(len(truth.views)):
         normals, rho2 = sphere_pixels(truth.views[i], truth.rotations[i])
-        real = replica_codes(truth, i, room, normals, rho2, ALBEDO)
+        e = true_irradiance(room, normals)
+        real = replica_codes(truth, i, e, rho2, ALBEDO)
         if not ((real >= 1) & (real <= 254)).all():
             continue
-        out = _render(core_exe, result, i, sh9_message, normals)
+        scenes.append((i, normals))
+        reals.append(real)
+        naives.append(naive(i, ALBEDO / math.pi * e, rho2))
+    biases, naive_biases = [], []
+    for out, real, naive_codes in zip(_render(core_exe, result, sh9_message, scenes), reals, naives):
         hologram = np.asarray(out["display"]) * 255
-        err = stops_apart(truth, hologram, real)
-        biases.append(float(np.abs(np.median(err, axis=0)).max()))
-        e = np.concatenate([brute(room, normals)])
-        naive_codes = naive(i, ALBEDO / math.pi * e, rho2)
+        biases.append(float(np.abs(np.median(stops_apart(truth, hologram, real), axis=0)).max()))
         naive_biases.append(float(np.abs(np.median(stops_apart(truth, naive_codes, real), axis=0)).max()))
     biases = np.array(biases)
     print(f"\ngrey sphere in {len(biases)} views: median {np.median(biases):.3f}, worst {biases.max():.3f} stop "
@@ -208,6 +214,129 @@ def test_a_grey_sphere_renders_within_a_tenth_of_a_stop_of_its_real_replica(core
     assert np.median(naive_biases) > 2 * np.median(biases)
 
 
-def brute(panorama, normals):
-    from reference import brute_irradiance
-    return np.concatenate([brute_irradiance(panorama, normals[i:i + 256]) for i in range(0, len(normals), 256)])
+
+# ---- (b) SH9 Diffuse's SH9_PASSTHROUGH path, compiled and run ---------------------------------------
+
+def _tool(name):
+    path = shutil.which(name)
+    if not path:
+        pytest.skip(f"{name} is not installed (apt-get install glslang-tools spirv-cross)")
+    return path
+
+
+def _gl_context():
+    try:
+        import moderngl
+    except ImportError:
+        pytest.skip("moderngl is not installed (pip install -e .[test])")
+    try:
+        return moderngl.create_context(standalone=True, require=330, backend="egl")
+    except Exception as exc:  # moderngl raises plain Exceptions when no GL library is found
+        pytest.skip(f"no OpenGL 3.3 context ({exc}); on Debian: apt-get install libegl1 libgl1-mesa-dri")
+
+
+def _fragment_glsl(tmp_path, defines) -> tuple[str, dict]:
+    """The colour pass's fragment stage (SH9ForwardFragment) compiled as Unity compiles the URP pass with
+    `defines`, as GLSL 330, and spirv-cross's reflection of it."""
+    src = tmp_path / "pass.hlsl"
+    src.write_text('#include "HLSLSupport.cginc"\n#include "UnityShaderVariables.cginc"\n'
+                   '#define SH9_URP\n#include "SH9DiffusePasses.hlsl"\n')
+    spv = tmp_path / f"pass_{len(defines)}.spv"
+    cmd = [_tool("glslangValidator"), "-D", "-V", "-S", "frag", "-e", "SH9ForwardFragment", "-o", str(spv),
+           *[f"-D{d}" if "=" in d else f"-D{d}=1" for d in defines], f"-I{SHADERS}", f"-I{STUBS}", str(src)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    glsl = subprocess.run([_tool("spirv-cross"), str(spv), "--version", "330", "--no-es", "--no-420pack-extension"],
+                          capture_output=True, text=True, timeout=60)
+    refl = subprocess.run([_tool("spirv-cross"), str(spv), "--reflect"], capture_output=True, text=True, timeout=60)
+    assert glsl.returncode == 0 and refl.returncode == 0, glsl.stderr + refl.stderr
+    return glsl.stdout, json.loads(refl.stdout)
+
+
+def _run_fragment(ctx, glsl, refl, normals, values, lut, colour):
+    """One point per normal through the fragment stage: uniform blocks filled by member name (others 0), a
+    white 1×1 _MainTex, ``colour`` as the vertex stage's _Color, and the lookup as a 256×1 float texture, bilinear, clamped. Returns (N, 4)."""
+    inputs = re.findall(r"^in (\w+) (\w+);", glsl, re.M)
+    vertex = ("#version 330\nin vec3 normal;\nuniform float width;\n" + "".join(f"out {t} {n};\n" for t, n in inputs) +
+              "void main() {\n  gl_Position = vec4((float(gl_VertexID) + 0.5) / width * 2.0 - 1.0, 0.0, 0.0, 1.0);\n"
+              "  gl_PointSize = 1.0;\n  i_uv = vec2(0.5);\n  i_worldNormal = normal;\n"
+              f"  i_color = vec4({colour!r}, {colour!r}, {colour!r}, 1.0);\n}}\n")   # the vertex stage's _Color
+    prog = ctx.program(vertex_shader=vertex, fragment_shader=glsl)
+    n = len(normals)
+    prog["width"].value = float(n)
+    buffers = []
+    for binding, ubo in enumerate(refl["ubos"]):
+        data = np.zeros(ubo["block_size"] // 4, np.float32)
+        for m in refl["types"][ubo["type"]]["members"]:
+            if m["name"] in values:
+                v = np.asarray(values[m["name"]], np.float32).reshape(-1)
+                data[m["offset"] // 4: m["offset"] // 4 + v.size] = v
+        buf = ctx.buffer(data.tobytes())
+        buf.bind_to_uniform_block(binding)
+        prog["_Global" if ubo["name"] == "$Global" else ubo["name"]].binding = binding
+        buffers.append(buf)
+    white = ctx.texture((1, 1), 4, np.ones(4, np.float32).tobytes(), dtype="f4")
+    table = ctx.texture((256, 1), 4, np.asarray(lut, np.float32).tobytes(), dtype="f4")
+    table.repeat_x = table.repeat_y = False
+    import moderngl
+    table.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    samplers = [name for name in prog if "sampler" in name.lower() or "Combined" in name or name.startswith("_")]
+    for name in samplers:
+        if "PassthroughLut" in name:
+            prog[name].value = 1
+        elif "MainTex" in name and not name.endswith("_ST"):
+            prog[name].value = 0
+    white.use(0)
+    table.use(1)
+    fbo = ctx.framebuffer(color_attachments=[ctx.texture((n, 1), 4, dtype="f4")])
+    fbo.use()
+    fbo.clear()
+    vbo = ctx.buffer(np.asarray(normals, np.float32).tobytes())
+    ctx.vertex_array(prog, [(vbo, "3f", "normal")]).render(mode=ctx.POINTS, vertices=n)
+    return np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(n, 4)
+
+
+def _srgb_encode(x):
+    x = np.clip(np.asarray(x, np.float64), 0, 1)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+
+
+@pytest.mark.parametrize("colour_space", ["linear", "gamma"])
+def test_the_shaders_passthrough_path_draws_what_the_core_computes(core_exe, headset, sh9_message, tmp_path,
+                                                                   colour_space):
+    """SH9 Diffuse's colour pass with SH9_PASSTHROUGH (compiled from the package's HLSL, run in software
+    OpenGL) draws the grey sphere of one view as the C# core computes it: the lookup's display value written
+    as is in a gamma project, its sRGB decoding in a linear one (which the sRGB framebuffer encodes back to
+    it), within 0.001 of the display value (a quarter of a code: float32 and the texture unit's filtering).
+    Both colour passes carry the keyword, in the fragment stage only."""
+    shader = (SHADERS / "SH9Diffuse.shader").read_text()
+    passes = re.findall(r'Name "SH9Diffuse".*?ENDCG', shader, re.S)
+    assert len(passes) == 2 and all("#pragma multi_compile_fragment _ SH9_PASSTHROUGH" in p for p in passes)
+    truth, result, _ = headset
+    view = 7
+    normals, _ = sphere_pixels(truth.views[view], truth.rotations[view], step_px=4.0)
+    (core,) = _render(core_exe, result, sh9_message, [(view, normals)])
+    want = np.asarray(core["display"])
+    m = np.asarray(core["matrices"]).reshape(3, 4, 4)
+    defines = ["SHADER_API_D3D11", "SHADER_TARGET=35", "UNITY_VERSION=202230", "SHADER_STAGE_FRAGMENT",
+               "SH9_PASSTHROUGH"]
+    if colour_space == "gamma":
+        defines.append("UNITY_COLORSPACE_GAMMA")
+    glsl, refl = _fragment_glsl(tmp_path, defines)
+    lo, hi = core["log2_lo"], core["log2_hi"]
+    _, _, lut = display_lut(result.response.table)
+    lut4 = np.concatenate([lut, np.ones((256, 1))], -1)
+    values = {"_SHIrradianceR": m[0], "_SHIrradianceG": m[1], "_SHIrradianceB": m[2], "_Exposure": 1.0,
+              "_SHMainLightScale": 0.0,
+              "_SHPassthroughGain": [*core["gain"], 0.0], "_SHPassthroughRange": [lo, 1 / (hi - lo), 0, 0]}
+    unity_normals = np.asarray(normals) * [1, 1, -1]          # the vertex stage's world normals (Unity frame)
+    # a material's colour is sRGB in Unity's colour picker: a gamma project hands the shader the encoded value
+    # (decoded by UnityCG's GammaToLinearSpace, a polynomial within 0.1 % of sRGB), a linear one the linear value
+    colour = ALBEDO if colour_space == "linear" else float(_srgb_encode(ALBEDO))
+    out = _run_fragment(_gl_context(), glsl, refl, unity_normals, values, lut4, colour)
+    assert np.allclose(out[:, 3], 1.0)
+    out = out[:, :3]
+    shown = out if colour_space == "gamma" else _srgb_encode(out)
+    worst = np.abs(shown - want).max()
+    print(f"\n{colour_space}: {len(normals)} pixels, worst {worst * 255:.3f} code from the core's")
+    assert worst < 1e-3

@@ -3,9 +3,9 @@
 //
 //   lut     stdin: a camera.json object. Out: {"log2_lo", "log2_hi", "lut": [256 × 4], "display": [...]} with
 //           "display" the lookup at the sensor exposures of the second stdin line (a JSON array of [r, g, b]).
-//   render  stdin, one JSON per line: a passthrough_camera message, a passthrough message, an sh9 message,
-//           {"normals": [[x, y, z], ...] (wire frame), "albedo": A}. Out: {"display": [[r, g, b], ...], "gain",
-//           "matrices": [48, Unity frame]}: a grey Lambertian surface of albedo A lit by the SH9 as SH9 Diffuse
+//   render  stdin, one JSON per line: a passthrough_camera message, an sh9 message, then per view a passthrough
+//           message and {"normals": [[x, y, z], ...] (wire frame), "albedo": A}. Out, per view: {"display":
+//           [[r, g, b], ...], "gain", "matrices": [48, Unity frame], "log2_lo", "log2_hi"}: a grey Lambertian surface of albedo A lit by the SH9 as SH9 Diffuse
 //           draws it in Passthrough mode (E(n) = ñᵀMñ in Unity's frame, clamped at 0; ρE/π; × exposure · wb;
 //           the display lookup), the maths SH9DiffusePasses.hlsl does, in doubles on the same float lookup.
 //   sender  args: URL TOKEN SECONDS; stdin, one JSON per line: {"position": [3], "rotation": [4] (Unity camera
@@ -77,36 +77,40 @@ static class PassthroughTest
     {
         var state = new Sh9PassthroughState();
         if (state.Handle(Console.In.ReadLine()) != Sh9PassthroughKind.Camera) throw new Exception("line 1: not a camera");
-        if (state.Handle(Console.In.ReadLine()) != Sh9PassthroughKind.Answer) throw new Exception("line 2: not an answer");
         Sh9Parsed sh9 = Sh9Protocol.Parse(Console.In.ReadLine());
-        var scene = MiniJson.ParseObject(Console.In.ReadLine());
-        double albedo = (double)scene["albedo"];
         var snap = new Sh9Snapshot(sh9.Sh9, 0, 1);
         var values = new Sh9LightingValues();
         values.Set(snap, 0, 0, 0, 1, 1.0, false);        // what SH9LightingClient uploads (no rotation, Intensity 1)
         var m = new double[48];
         for (int i = 0; i < 48; i++) m[i] = values.Matrices[i];
-        var gain = new double[3];
-        if (!state.Gain(0, gain)) throw new Exception("no gain");
         Sh9PassthroughCamera camera = state.Camera;
-        var display = new StringBuilder("[");
-        bool first = true;
-        foreach (object o in (List<object>)scene["normals"])
+        string line;
+        while ((line = Console.In.ReadLine()) != null && line.Trim().Length > 0)
         {
-            double[] n = Numbers(o);
-            var rgb = new double[3];
-            for (int c = 0; c < 3; c++)
+            if (state.Handle(line) != Sh9PassthroughKind.Answer) throw new Exception("not an answer: " + line);
+            var scene = MiniJson.ParseObject(Console.In.ReadLine());
+            double albedo = (double)scene["albedo"];
+            var gain = new double[3];
+            if (!state.Gain(0, gain)) throw new Exception("no gain");
+            var display = new StringBuilder("[");
+            bool first = true;
+            foreach (object o in (List<object>)scene["normals"])
             {
-                // Unity's frame: z -> -z (docs/contract.md §1), as the vertex stage's world normal is
-                double e = Math.Max(0, Sh9Math.Irradiance(m, c, n[0], n[1], -n[2]));
-                rgb[c] = camera.Display(c, albedo * e / Math.PI * gain[c]);
+                double[] n = Numbers(o);
+                var rgb = new double[3];
+                for (int c = 0; c < 3; c++)
+                {
+                    // Unity's frame: z -> -z (docs/contract.md §1), as the vertex stage's world normal is
+                    double e = Math.Max(0, Sh9Math.Irradiance(m, c, n[0], n[1], -n[2]));
+                    rgb[c] = camera.Display(c, albedo * e / Math.PI * gain[c]);
+                }
+                display.Append(first ? "" : ",").Append(Array(rgb));
+                first = false;
             }
-            display.Append(first ? "" : ",").Append(Array(rgb));
-            first = false;
+            display.Append(']');
+            Console.WriteLine("{\"display\":" + display + ",\"gain\":" + Array(gain) + ",\"matrices\":" + Array(m) +
+                              ",\"log2_lo\":" + Num(camera.Log2Lo) + ",\"log2_hi\":" + Num(camera.Log2Hi) + "}");
         }
-        display.Append(']');
-        Console.WriteLine("{\"display\":" + display + ",\"gain\":" + Array(gain) + ",\"matrices\":" + Array(m) +
-                          ",\"log2_lo\":" + Num(camera.Log2Lo) + ",\"log2_hi\":" + Num(camera.Log2Hi) + "}");
         return 0;
     }
 
