@@ -340,3 +340,87 @@ def test_the_shaders_passthrough_path_draws_what_the_core_computes(core_exe, hea
     worst = np.abs(shown - want).max()
     print(f"\n{colour_space}: {len(normals)} pixels, worst {worst * 255:.3f} code from the core's")
     assert worst < 1e-3
+
+
+# ---- (d) the sender on Quest, against a real server -------------------------------------------------
+
+S = np.diag([1.0, 1.0, -1.0])
+
+
+def _unity_quaternion(r):
+    from scipy.spatial.transform import Rotation
+    return Rotation.from_matrix(r).as_quat().tolist()      # (x, y, z, w), Unity's order
+
+
+@pytest.fixture(scope="module")
+def sender_exe(tmp_path_factory):
+    return _compile(tmp_path_factory.mktemp("sender") / "PassthroughSender.exe",
+                    [*CORE, *RUNTIME, STUBS / "UnityEngineStandIn.cs", STUBS / "MrukStandIn.cs", DRIVER],
+                    defines=("SHLIGHT_MRUK",))
+
+
+def test_the_runtime_compiles_without_mruk(tmp_path):
+    """Without SHLIGHT_MRUK (a project without Meta's MRUK) the package compiles: the sender is an empty
+    component that says what it needs."""
+    out = tmp_path / "Runtime.dll"
+    mcs, _ = _mono()
+    r = subprocess.run([mcs, "-nologo", "-warnaserror+", "-nowarn:618", "-target:library", f"-out:{out}",
+                        *map(str, [*CORE, *RUNTIME, STUBS / "UnityEngineStandIn.cs"])],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "#if SHLIGHT_MRUK" in (PKG / "Runtime" / "SH9PassthroughSender.cs").read_text()
+
+
+def test_the_sender_sends_quest_views_to_capture_and_the_client_renders_through_the_answers(
+        sender_exe, room, tmp_path):
+    """SH9PassthroughSender (against stand-ins of UnityEngine and MRUK's PassthroughCameraAccess) on a
+    simulated Quest: each camera image (a simulated headset's JPEG), the camera's Unity pose, intrinsics on a
+    square 1280-style sensor of which the image is the centred 4:3 crop, and the lighting client's anchor
+    turned and moved. Against a real `shlight serve --passthrough --token`, every view message carries the
+    view's transforms.json pose in the probe's frame and its intrinsics, every view is answered, the curve
+    arrives, and SH9LightingClient in Exposure Mode Passthrough switches SH9_PASSTHROUGH on with the gain
+    exposure · wb of the last answer."""
+    import OpenEXR
+    from provider.bench.headset_sim import HeadsetSim, look_rotation
+    from servertools import ServerThread, poll
+    exr = tmp_path / "room.exr"
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"RGB": np.ascontiguousarray(room, np.float32)}) as f:
+        f.write(str(exr))
+    folder = tmp_path / "views"
+    HeadsetSim(n_views=8, width=160, height=120, seed=5).render(room, str(folder))
+    doc = json.loads((folder / "transforms.json").read_text())
+    w, h, fl, cx, cy = doc["w"], doc["h"], doc["fl_x"], doc["cx"], doc["cy"]
+    # the anchor: where the 360° camera is in the headset's (Unity) world, and how it is turned
+    anchor_r = S @ look_rotation(35.0, 8.0, 3.0) @ S
+    anchor_p = np.array([0.4, 1.1, -2.5])
+    lines = []
+    for frame in doc["frames"]:
+        m = np.asarray(frame["transform_matrix"], np.float64)
+        local_r, local_p = S @ m[:3, :3] @ S, S @ m[:3, 3]          # the camera relative to the anchor, Unity
+        lines.append(json.dumps({
+            "position": (anchor_p + anchor_r @ local_p).tolist(),
+            "rotation": _unity_quaternion(anchor_r @ local_r),
+            "anchor_position": anchor_p.tolist(), "anchor_rotation": _unity_quaternion(anchor_r),
+            "focal": [fl, fl], "sensor": [w, w],
+            # MRUK's principal point: y up from the bottom of the square sensor, the image its centred crop
+            "principal": [cx, (h - cy) + (w - h) / 2], "size": [w, h], "time": frame["time"],
+            "jpeg": base64.b64encode((folder / frame["file_path"]).read_bytes()).decode()}))
+    token = "quest-token"
+    with ServerThread("--source", str(exr), "--fps", "5", "--passthrough", "--passthrough-hz", "0",
+                      "--token", token) as srv:
+        poll(lambda: srv.call(lambda: next(iter(srv.server.probes.values())).image is not None),
+             what="the probe's first frame")
+        out = _run(sender_exe, "sender", srv.url, token, "240", stdin="\n".join(lines) + "\n", timeout=300)
+    sent, final = [o["sent"] for o in out[:-1]], out[-1]
+    assert len(sent) == len(doc["frames"]) and all(sent), out
+    for message, frame in zip(sent, doc["frames"]):
+        v = json.loads(message)
+        assert v["type"] == "view" and (v["w"], v["h"]) == (w, h)
+        assert np.allclose(np.reshape(v["transform_matrix"], (4, 4)), frame["transform_matrix"], atol=1e-5)
+        assert [v["fl_x"], v["fl_y"], v["cx"], v["cy"]] == pytest.approx([fl, fl, cx, cy], abs=1e-4)
+        assert v["time"] == pytest.approx(frame["time"], abs=1e-6)
+    print(f"\n{final}")
+    assert final["answers"] == len(sent) and final["errors"] == 0 and final["dropped"] == 0, final
+    assert final["camera"] and final["lut_uploaded"] and final["passthrough_active"] and final["keyword"]
+    assert final["gain"][1] == pytest.approx(final["exposure"], rel=1e-6)     # green: wb = 1
