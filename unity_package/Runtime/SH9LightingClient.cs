@@ -99,6 +99,7 @@ namespace Shlight.Lighting
         Texture2D passthroughLut;
         readonly Color[] lutColors = new Color[Sh9PassthroughCamera.LutSize];
         readonly double[] passthroughGain = new double[3];
+        bool keywordOn;
         static readonly int IdLightDirection = Shader.PropertyToID("_SHLightDirection");
         static readonly int IdLightIrradiance = Shader.PropertyToID("_SHLightIrradiance");
         static readonly int IdLightAngularRadius = Shader.PropertyToID("_SHLightAngularRadius");
@@ -245,6 +246,7 @@ namespace Shlight.Lighting
             Shader.SetGlobalFloat(IdMainLightScale, 0f);
             Shader.SetGlobalInt(IdLightCount, 0);
             Shader.DisableKeyword(PassthroughKeyword);
+            keywordOn = false;
             PassthroughActive = false;
         }
 
@@ -426,7 +428,8 @@ namespace Shlight.Lighting
                                 state.Gain(exposureCompensation, passthroughGain);
             if (!PassthroughActive)
             {
-                Shader.DisableKeyword(PassthroughKeyword);
+                if (keywordOn) Shader.DisableKeyword(PassthroughKeyword);
+                keywordOn = false;
                 return;
             }
             if (camera != uploadedCamera)
@@ -450,6 +453,7 @@ namespace Shlight.Lighting
             Shader.SetGlobalVector(IdPassthroughRange, new Vector4((float)camera.Log2Lo,
                                                                     (float)(1.0 / (camera.Log2Hi - camera.Log2Lo)), 0f, 0f));
             Shader.EnableKeyword(PassthroughKeyword);
+            keywordOn = true;
         }
 
         // Exact comparison (Quaternion == tolerates ~0.1°, which would skip slow anchor drift).
