@@ -179,6 +179,8 @@ namespace Shlight.Lighting
 
         public string ServerUrl { get { return serverUrl; } set { serverUrl = value; } }
         public string Token { get { return token; } set { token = value; } }
+        /// <summary>Also send the token as ?token=... (changing it reconnects).</summary>
+        public bool TokenInQuery { get { return tokenInQuery; } set { tokenInQuery = value; } }
         public string Probe { get { return probe; } set { probe = value; } }
         public float Intensity { get { return intensity; } set { intensity = Mathf.Max(0f, value); } }
         public bool DriveAmbientProbe { get { return driveAmbientProbe; } set { driveAmbientProbe = value; } }

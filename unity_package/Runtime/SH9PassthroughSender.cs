@@ -71,7 +71,8 @@ namespace Shlight.Lighting
             }
             try
             {
-                capture = new Sh9CaptureClient(lightingClient.ServerUrl, lightingClient.Token, false, lightingClient.Probe);
+                capture = new Sh9CaptureClient(lightingClient.ServerUrl, lightingClient.Token, lightingClient.TokenInQuery,
+                                              lightingClient.Probe);
             }
             catch (ArgumentException e)
             {
