@@ -210,6 +210,8 @@ def test_a_grey_sphere_renders_within_a_tenth_of_a_stop_of_its_real_replica(core
     print(f"\ngrey sphere in {len(biases)} views: median {np.median(biases):.3f}, worst {biases.max():.3f} stop "
           f"(naive: median {np.median(naive_biases):.3f}, worst {max(naive_biases):.3f})")
     assert len(biases) >= 30
+    # the bar; measured 0.045 median, 0.06 worst: a BLAS's or OpenCV's last digits in the fit
+    # (1e-6 of a stop) cannot decide it
     assert biases.max() <= REPLICA_STOPS, biases
     assert np.median(naive_biases) > 2 * np.median(biases)
 
