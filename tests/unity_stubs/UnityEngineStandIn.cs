@@ -319,6 +319,13 @@ namespace UnityEngine
                 StandInGlobalVectorArrays[nameID] = held = new Vector4[values.Length];
             System.Array.Copy(values, held, values.Length);
         }
+        /// <summary>Stand-in only: what SetGlobalTexture received, and the global keywords on.</summary>
+        public static readonly Dictionary<int, Texture> StandInGlobalTextures = new Dictionary<int, Texture>();
+        static readonly HashSet<string> globalKeywords = new HashSet<string>(StringComparer.Ordinal);
+        public static void SetGlobalTexture(int nameID, Texture value) { StandInGlobalTextures[nameID] = value; }
+        public static void EnableKeyword(string keyword) { globalKeywords.Add(keyword); }
+        public static void DisableKeyword(string keyword) { globalKeywords.Remove(keyword); }
+        public static bool IsKeywordEnabled(string keyword) { return globalKeywords.Contains(keyword); }
     }
 
     public enum LightType { Spot = 0, Directional = 1, Point = 2, Area = 3, Rectangle = 3, Disc = 4 }
@@ -653,6 +660,98 @@ namespace UnityEngine
     public sealed class Time
     {
         public static float unscaledTime { get { return (float)(DateTime.UtcNow - DateTime.Today).TotalSeconds; } }
+        /// <summary>Stand-in only: the harness advances it once per frame it plays.</summary>
+        public static int StandInFrameCount;
+        public static int frameCount { get { return StandInFrameCount; } }
+    }
+
+    // ---- textures the passthrough sender and the display lookup use -------------------------------------------
+    // Stand-in only: a texture's pixels are not modelled; it carries StandInBytes, the bytes of an image already
+    // encoded as JPEG, which Graphics.Blit and ReadPixels pass along and ImageConversion.EncodeToJPG returns.
+
+    public struct Vector2
+    {
+        public float x, y;
+        public Vector2(float x, float y) { this.x = x; this.y = y; }
+    }
+
+    public struct Vector2Int
+    {
+        int vx, vy;
+        public Vector2Int(int x, int y) { vx = x; vy = y; }
+        public int x { get { return vx; } set { vx = value; } }
+        public int y { get { return vy; } set { vy = value; } }
+    }
+
+    public struct Rect
+    {
+        public float x, y, width, height;
+        public Rect(float x, float y, float width, float height) { this.x = x; this.y = y; this.width = width; this.height = height; }
+    }
+
+    public struct Pose
+    {
+        public Vector3 position;
+        public Quaternion rotation;
+        public Pose(Vector3 position, Quaternion rotation) { this.position = position; this.rotation = rotation; }
+    }
+
+    public sealed class Texture2D : Texture
+    {
+        readonly int w, h;
+        public byte[] StandInBytes;
+        public readonly Color[] StandInPixels;
+        public Texture2D(int width, int height, TextureFormat textureFormat, bool mipChain, bool linear)
+        {
+            w = width; h = height;
+            StandInPixels = new Color[width * height];
+        }
+        public Texture2D(int width, int height, TextureFormat textureFormat, bool mipChain) : this(width, height, textureFormat, mipChain, false) { }
+        public override int width { get { return w; } set { throw new NotSupportedException(); } }
+        public int height { get { return h; } }
+        public void SetPixels(Color[] colors)
+        {
+            if (colors.Length != StandInPixels.Length) throw new UnityException("SetPixels: wrong size");
+            Array.Copy(colors, StandInPixels, colors.Length);
+        }
+        public void Apply(bool updateMipmaps) { }
+        public void Apply() { }
+        public void ReadPixels(Rect source, int destX, int destY)
+        {
+            RenderTexture rt = RenderTexture.active;
+            if (rt == null) throw new UnityException("ReadPixels: no active RenderTexture");
+            StandInBytes = rt.StandInBytes;
+        }
+    }
+
+    public enum RenderTextureFormat { ARGB32 = 0, Default = 7 }
+    public enum RenderTextureReadWrite { Default = 0, Linear = 1, sRGB = 2 }
+
+    public sealed class RenderTexture : Texture
+    {
+        readonly int w, h;
+        public byte[] StandInBytes;
+        public RenderTexture(int width, int height, int depth, RenderTextureFormat format, RenderTextureReadWrite readWrite) { w = width; h = height; }
+        public override int width { get { return w; } set { throw new NotSupportedException(); } }
+        public int height { get { return h; } }
+        public bool Create() { return true; }
+        public void Release() { }
+        public static RenderTexture active { get; set; }
+    }
+
+    public sealed class Graphics
+    {
+        public static void Blit(Texture source, RenderTexture dest)
+        {
+            var t2 = source as Texture2D;
+            var rt = source as RenderTexture;
+            dest.StandInBytes = t2 != null ? t2.StandInBytes : rt != null ? rt.StandInBytes : null;
+        }
+    }
+
+    public static class ImageConversion
+    {
+        public static byte[] EncodeToJPG(Texture2D tex, int quality) { return tex.StandInBytes; }
     }
 
     public sealed class Debug

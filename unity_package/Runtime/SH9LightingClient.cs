@@ -65,10 +65,11 @@ namespace Shlight.Lighting
         [Header("Photometry (docs/unity.md: a provider calibrated with a lux meter)")]
         [Tooltip("Relative: as sent × Intensity (default). Camera Image (URP/built-in, passthrough): absolute lighting " +
                  "× 1/(1.2·2^EV100), a surface renders at the brightness of a camera exposed for the room. Physical " +
-                 "Camera (HDRP): SH9 and the Directional Light in lux, the camera takes the EV100. Relative messages " +
-                 "stay as sent in every mode.")]
+                 "Camera (HDRP): SH9 and the Directional Light in lux, the camera takes the EV100. Passthrough (video see-through " +
+                 "with SH9 Passthrough Sender, docs/passthrough.md): SH9 Diffuse shows the code the headset's camera gives " +
+                 "the real replica. Relative messages stay as sent in every mode.")]
         [SerializeField] Sh9ExposureMode exposureMode = Sh9ExposureMode.Relative;
-        [Tooltip("Stops added to the room's exposure (+1: twice as bright); absolute lighting only.")]
+        [Tooltip("Stops added to the room's exposure (+1: twice as bright); absolute lighting, and Passthrough.")]
         [SerializeField] float exposureCompensation = 0f;
         [Tooltip("Physical Camera mode, Unity 2022.2+: this camera's shutterSpeed is set so that its aperture and " +
                  "ISO give the room's EV100 (HDRP Exposure override in Physical Camera mode). Empty: read CameraEv100.")]
@@ -88,6 +89,17 @@ namespace Shlight.Lighting
         // sh9_lights.hlsl's lights (docs/contract.md §10): the drawn light in slot 0, the others after it (the SH9
         // globals hold them too, as their SH9 projections); the shadow catchers read them.
         static readonly int IdLightCount = Shader.PropertyToID("_SHLightCount");
+        // Passthrough mode (SH9DiffusePasses.hlsl, SH9_PASSTHROUGH): the display lookup, the view's gain, its range.
+        const string PassthroughKeyword = "SH9_PASSTHROUGH";
+        static readonly int IdPassthroughLut = Shader.PropertyToID("_SHPassthroughLut");
+        static readonly int IdPassthroughGain = Shader.PropertyToID("_SHPassthroughGain");
+        static readonly int IdPassthroughRange = Shader.PropertyToID("_SHPassthroughRange");
+        Sh9PassthroughState passthrough;
+        Sh9PassthroughCamera uploadedCamera;
+        Texture2D passthroughLut;
+        readonly Color[] lutColors = new Color[Sh9PassthroughCamera.LutSize];
+        readonly double[] passthroughGain = new double[3];
+        bool keywordOn;
         static readonly int IdLightDirection = Shader.PropertyToID("_SHLightDirection");
         static readonly int IdLightIrradiance = Shader.PropertyToID("_SHLightIrradiance");
         static readonly int IdLightAngularRadius = Shader.PropertyToID("_SHLightAngularRadius");
@@ -167,6 +179,8 @@ namespace Shlight.Lighting
 
         public string ServerUrl { get { return serverUrl; } set { serverUrl = value; } }
         public string Token { get { return token; } set { token = value; } }
+        /// <summary>Also send the token as ?token=... (changing it reconnects).</summary>
+        public bool TokenInQuery { get { return tokenInQuery; } set { tokenInQuery = value; } }
         public string Probe { get { return probe; } set { probe = value; } }
         public float Intensity { get { return intensity; } set { intensity = Mathf.Max(0f, value); } }
         public bool DriveAmbientProbe { get { return driveAmbientProbe; } set { driveAmbientProbe = value; } }
@@ -194,6 +208,21 @@ namespace Shlight.Lighting
         public float ExposureCompensation { get { return exposureCompensation; } set { exposureCompensation = value; } }
         public Camera PhysicalCamera { get { return physicalCamera; } set { physicalCamera = value; } }
         public bool UseColorTemperature { get { return useColorTemperature; } set { useColorTemperature = value; } }
+        /// <summary>The headset camera's fit this client renders through in Passthrough mode (SH9PassthroughSender sets
+        /// it; another sender may set its own or feed <see cref="HandlePassthroughMessage"/>).</summary>
+        public Sh9PassthroughState Passthrough
+        {
+            get { if (passthrough == null) passthrough = new Sh9PassthroughState(); return passthrough; }
+            set { passthrough = value; }
+        }
+        /// <summary>True while SH9 Diffuse renders through the headset's camera (Passthrough mode, a camera and an
+        /// answer received).</summary>
+        public bool PassthroughActive { get; private set; }
+        /// <summary>The display lookup uploaded (256 × 1, RGBA float), or null.</summary>
+        public Texture2D PassthroughLut { get { return passthroughLut; } }
+
+        /// <summary>Take one "passthrough" or "passthrough_camera" message (any thread).</summary>
+        public Sh9PassthroughKind HandlePassthroughMessage(string json) { return Passthrough.Handle(json); }
         /// <summary>The exposure applied to the last message (Scale 1, CameraEv100 NaN for relative lighting).</summary>
         public Sh9Exposure AppliedExposure { get { return exposure; } }
         /// <summary>The EV100 a physical camera should use (Physical Camera mode, absolute lighting); NaN otherwise.
@@ -218,6 +247,9 @@ namespace Shlight.Lighting
             RestoreGraphicsSettings();
             Shader.SetGlobalFloat(IdMainLightScale, 0f);
             Shader.SetGlobalInt(IdLightCount, 0);
+            Shader.DisableKeyword(PassthroughKeyword);
+            keywordOn = false;
+            PassthroughActive = false;
         }
 
         // Coming back from suspend (HoloLens: the app was left and resumed; the headset slept): the
@@ -359,6 +391,7 @@ namespace Shlight.Lighting
             Shader.SetGlobalMatrix(IdB, matrixB);
             Shader.SetGlobalFloat(IdMainLightScale, lightDriven ? 1f : 0f);
             SetLightGlobals();
+            ApplyPassthrough();
             if (driveAmbientProbe)
             {
                 if (!savedAmbient)
@@ -385,6 +418,44 @@ namespace Shlight.Lighting
                 Action<Sh9ConnectionState> handler = StateChanged;
                 if (handler != null) handler(now);
             }
+        }
+
+        // Passthrough mode: the display lookup (uploaded when the fitted curve changes), the latest view's
+        // exposure · white balance · 2^compensation, and the keyword; anything else switches the keyword off.
+        void ApplyPassthrough()
+        {
+            Sh9PassthroughState state = passthrough;
+            Sh9PassthroughCamera camera = state == null ? null : state.Camera;
+            PassthroughActive = exposureMode == Sh9ExposureMode.Passthrough && camera != null &&
+                                state.Gain(exposureCompensation, passthroughGain);
+            if (!PassthroughActive)
+            {
+                if (keywordOn) Shader.DisableKeyword(PassthroughKeyword);
+                keywordOn = false;
+                return;
+            }
+            if (camera != uploadedCamera)
+            {
+                if (passthroughLut == null)
+                {
+                    passthroughLut = new Texture2D(Sh9PassthroughCamera.LutSize, 1, TextureFormat.RGBAFloat, false, true);
+                    passthroughLut.filterMode = FilterMode.Bilinear;
+                    passthroughLut.wrapMode = TextureWrapMode.Clamp;
+                }
+                float[] lut = camera.Lut;
+                for (int j = 0; j < lutColors.Length; j++)
+                    lutColors[j] = new Color(lut[4 * j], lut[4 * j + 1], lut[4 * j + 2], 1f);
+                passthroughLut.SetPixels(lutColors);
+                passthroughLut.Apply(false);
+                uploadedCamera = camera;
+            }
+            Shader.SetGlobalTexture(IdPassthroughLut, passthroughLut);
+            Shader.SetGlobalVector(IdPassthroughGain, new Vector4((float)passthroughGain[0], (float)passthroughGain[1],
+                                                                   (float)passthroughGain[2], 0f));
+            Shader.SetGlobalVector(IdPassthroughRange, new Vector4((float)camera.Log2Lo,
+                                                                    (float)(1.0 / (camera.Log2Hi - camera.Log2Lo)), 0f, 0f));
+            Shader.EnableKeyword(PassthroughKeyword);
+            keywordOn = true;
         }
 
         // Exact comparison (Quaternion == tolerates ~0.1°, which would skip slow anchor drift).

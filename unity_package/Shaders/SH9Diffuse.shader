@@ -36,6 +36,7 @@ Shader "Shlight/SH9 Diffuse"
             #pragma fragment SH9ForwardFragment
             #pragma target 3.5
             #pragma multi_compile_instancing
+            #pragma multi_compile_fragment _ SH9_PASSTHROUGH
             #define SH9_URP
             #include "SH9DiffusePasses.hlsl"
             ENDCG
@@ -115,6 +116,7 @@ Shader "Shlight/SH9 Diffuse"
             #pragma fragment SH9ForwardFragment
             #pragma target 3.5
             #pragma multi_compile_instancing
+            #pragma multi_compile_fragment _ SH9_PASSTHROUGH
             #include "SH9DiffusePasses.hlsl"
             ENDCG
         }

@@ -59,6 +59,29 @@ float _SHMainLightScale;
     #define SH9_MAIN_LIGHT_COLOR _LightColor0.rgb
 #endif
 
+// ---- passthrough: the hologram as the headset's camera shows its real replica -------------------
+// SH9_PASSTHROUGH (SH9LightingClient, Exposure Mode Passthrough; docs/contract.md §15, "The display lookup"):
+// the linear colour × the view's exposure · white balance (_SHPassthroughGain) is the camera's sensor exposure
+// X; the 256-entry lookup _SHPassthroughLut, indexed by t = (log2 X − lo) / (hi − lo) (_SHPassthroughRange:
+// lo, 1 / (hi − lo)), gives the code g⁻¹(X) / 255 the passthrough image shows, an sRGB-encoded display value.
+#if defined(SH9_PASSTHROUGH)
+UNITY_DECLARE_TEX2D(_SHPassthroughLut);
+float4 _SHPassthroughGain;
+float4 _SHPassthroughRange;
+
+float3 SH9PassthroughDisplay(float3 linearColour)
+{
+    float3 x = max(linearColour * _SHPassthroughGain.rgb, 1e-30);
+    float3 t = saturate((log2(x) - _SHPassthroughRange.x) * _SHPassthroughRange.y);
+    // texel centres: entry j at u = (j + 0.5) / 256, so t = 0 and 1 hit the first and last entries (no mips:
+    // the client makes the lookup a bilinear, clamped 256 × 1 texture)
+    float3 u = (t * 255.0 + 0.5) / 256.0;
+    return float3(UNITY_SAMPLE_TEX2D(_SHPassthroughLut, float2(u.r, 0.5)).r,
+                  UNITY_SAMPLE_TEX2D(_SHPassthroughLut, float2(u.g, 0.5)).g,
+                  UNITY_SAMPLE_TEX2D(_SHPassthroughLut, float2(u.b, 0.5)).b);
+}
+#endif
+
 // ---- forward: albedo × (E(n)/π + main light × N·L) --------------------------------------------
 
 struct SH9Attributes
@@ -109,7 +132,17 @@ half4 SH9ForwardFragment(SH9Varyings i) : SV_Target
     float3 irradianceOverPi = SHIrradiance(n) / UNITY_PI +
                               _SHMainLightScale * lightColor * max(0.0, dot(n, SH9_MAIN_LIGHT_DIRECTION));
     float3 radiance = albedo.rgb * irradianceOverPi * _Exposure;
-#ifdef UNITY_COLORSPACE_GAMMA
+#if defined(SH9_PASSTHROUGH)
+    // the display value itself: a gamma project writes it as is; a linear one writes its sRGB decoding,
+    // which the sRGB framebuffer encodes back to it
+    float3 display = SH9PassthroughDisplay(radiance);
+    #ifdef UNITY_COLORSPACE_GAMMA
+    radiance = display;
+    #else
+    radiance = float3(GammaToLinearSpaceExact(display.r), GammaToLinearSpaceExact(display.g),
+                      GammaToLinearSpaceExact(display.b));
+    #endif
+#elif defined(UNITY_COLORSPACE_GAMMA)
     radiance = LinearToGammaSpace(radiance);
 #endif
     return half4(radiance, albedo.a);

@@ -21,6 +21,11 @@ namespace Shlight.Lighting
         /// 1/π that Unity's built-in/URP Lambert lacks); the camera takes the EV100 (EV100 − c). Relative
         /// lighting: the SH9 as sent, the light still in HDRP's convention (E, not E/π), no EV100.</summary>
         PhysicalCamera = 2,
+        /// <summary>A video see-through headset whose camera the server has fitted (docs/passthrough.md): the SH9
+        /// and the light as sent (the sphere's units, as Relative), then in SH9 Diffuse the hologram's linear colour
+        /// × the view's exposure · white balance (× 2^c) goes through the headset camera's curve to the code its
+        /// real replica shows in passthrough (Sh9PassthroughCamera's display lookup, SH9_PASSTHROUGH).</summary>
+        Passthrough = 3,
     }
 
     /// <summary>What one message asks of the pipeline for a given <see cref="Sh9ExposureMode"/> (a struct:
@@ -51,7 +56,8 @@ namespace Shlight.Lighting
                 CameraEv100 = double.NaN,
                 LightFactor = mode == Sh9ExposureMode.PhysicalCamera ? 1.0 : 1.0 / Math.PI,
             };
-            if (message == null || !message.IsAbsolute || mode == Sh9ExposureMode.Relative) return e;
+            if (message == null || !message.IsAbsolute || mode == Sh9ExposureMode.Relative ||
+                mode == Sh9ExposureMode.Passthrough) return e;
             if (double.IsNaN(compensationEv) || double.IsInfinity(compensationEv)) compensationEv = 0;
             double ev = message.Ev100 - compensationEv;
             if (mode == Sh9ExposureMode.CameraImage)
