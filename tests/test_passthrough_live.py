@@ -390,3 +390,35 @@ def test_the_sphere_follows_the_room_when_its_light_changes(room, headset, tmp_p
           f"(views {stops.min():+.3f}..{stops.max():+.3f}), {updates} sphere updates")
     assert abs(np.median(stops) + 1.0) < 0.1, stops
     assert updates >= 1
+
+
+def test_a_frames_radiance_scale_is_what_its_coefficients_carry():
+    """``radiance_scale`` (what the live sphere is multiplied by) turns a frame's plain linear
+    light into its coefficients' units: ``--exposure``, 1/(t·gain) and an absolute curve's
+    C·N², exactly as ``project`` applies them."""
+    from provider.core.sh9.engine import SH9Projector
+    response = CameraResponse.srgb(8)
+    response.params["absolute"] = {"cd_m2": 12.5, "f_number": 2.0}
+    rng = np.random.default_rng(4)
+    frame = rng.integers(20, 240, (64, 128, 3), dtype=np.uint8)
+    projector = SH9Projector(128, 64, exposure=1.5, response=response)
+    got = projector.project(frame, exposure_s=1 / 60, gain=2.0, f_number=4.0).coefficients
+    scale = projector.radiance_scale(1 / 60, 2.0, 4.0)
+    assert scale == pytest.approx(1.5 * 60 / 2.0 * 12.5 * 16)
+    lin = response.linearise(frame) * np.float32(scale)
+    want = SH9Projector(128, 64).project(lin).coefficients
+    # float32 sums of the same light in two orders (a table with the scale in it, or the
+    # scale after): 1e-5 of the coefficients holds on any BLAS
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5 * np.abs(want).max())
+
+
+def test_the_live_sphere_is_in_the_units_of_the_probes_coefficients(room, tmp_path):
+    """``--exposure 4`` scales a probe's SH9 by 4: the sphere the headsets are fitted against
+    is scaled alike, so that a hologram lit by that SH9 through the fitted exposure is right
+    (before, the sphere was the file's values: every hologram 2 stops off)."""
+    path = tmp_path / "room.exr"
+    write_exr(path, room)
+    with serve(str(path), "--exposure", "4") as srv:
+        wait_for_sphere(srv)
+        sphere = srv.call(lambda: sphere_of(next(iter(srv.server.probes.values()))))
+    np.testing.assert_allclose(sphere, 4 * np.asarray(room, np.float32), rtol=1e-6)

@@ -57,6 +57,21 @@ class FrameDecoder:
         self.encoding, self.exposure, self.response = encoding, float(exposure), response
         self._luts = {}
 
+    def radiance_scale(self, exposure_s: float | None = None, gain: float = 1.0,
+                       f_number: float | None = None) -> float:
+        """What multiplies a frame's plain linear light (an integer frame through its camera
+        curve at t = 1 or sRGB, a float frame as it is) to give its coefficients' units: the
+        ``exposure``, 1 / (``exposure_s`` · ``gain``) when the frame says its exposure, and the
+        curve's C·N² where it has an absolute scale, as ``project`` applies them."""
+        from .photometry import absolute_factor
+        scale = self.exposure
+        if exposure_s:
+            scale /= exposure_s * (gain or 1.0)
+            factor = absolute_factor(self.response, f_number)
+            if factor is not None:
+                scale *= factor
+        return float(scale)
+
     # -- linearisation -------------------------------------------------------------------
     def _lut(self, dtype) -> np.ndarray:
         if dtype not in self._luts:

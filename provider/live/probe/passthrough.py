@@ -139,12 +139,14 @@ def _lower_priority() -> None:
 
 def sphere_of(probe) -> np.ndarray:
     """The probe's latest frame as linear radiance on an equirect of at most
-    ``SPHERE_HEIGHT`` rows: a float frame as it is (its own units), an integer one through
-    the probe's camera curve (sRGB without ``--camera``), resampled from its projection."""
+    ``SPHERE_HEIGHT`` rows, in the units of the probe's coefficients (what a hologram is lit
+    by): a float frame's values, an integer one's through the probe's camera curve (sRGB
+    without ``--camera``), times the probe's ``image_scale`` (``--exposure``, the frame's
+    1/(t·gain), an absolute curve's C·N²); resampled from its projection."""
     from ...core.geometry.projections import make_projection
     from ...core.passthrough.sphere import to_equirect
     from ...core.radiometry.response import CameraResponse
-    image = probe.image
+    image, scale = probe.image, getattr(probe, "image_scale", 1.0)
     if image is None:
         raise InputError(f"probe {probe.name} has no frame yet: no sphere to fit against")
     img = np.asarray(image)
@@ -161,6 +163,10 @@ def sphere_of(probe) -> np.ndarray:
         if response.bits != bits:
             response = response.to_bits(bits)
         lin = response.linearise(np.ascontiguousarray(img))
+    if scale is None:
+        raise InputError(f"probe {probe.name} merges brackets: its slot frames are not the "
+                         "merged light, no sphere to fit against")
+    lin = lin * np.float32(scale)
     if probe.projection != "equirect":
         lin = to_equirect(lin, make_projection(probe.projection, w, h), SPHERE_HEIGHT)
     if lin.shape[0] > SPHERE_HEIGHT:

@@ -99,6 +99,10 @@ class Probe:
         self.latest_text: bytes | None = None
         self.image: np.ndarray | None = None    # the last projected frame (thumbnail)
         self.image_seq = 0
+        #: what turns ``image``'s plain linear light into its coefficients' units (exposure,
+        #: 1/(t·gain), C·N²: FrameDecoder.radiance_scale); None for a bracket's slot frame
+        self.image_scale: float | None = 1.0
+        self._image_scale: float | None = 1.0     # of the frame being projected
         self.frames_processed = 0
         self.frames_rejected = 0
         self.frames_adjusted = 0        # frames the source corrected (a relay: see _adjusted)
@@ -248,7 +252,8 @@ class Probe:
         self.compute_ms = float(result.stats.get("compute_ms", 0.0))
         self.error = ""
         if frame.image is not None:
-            self.image, self.image_seq = frame.image, self.image_seq + 1
+            self.image, self.image_scale = frame.image, self._image_scale
+            self.image_seq += 1
             if feeds_cube(frame):
                 self._environment_frame = frame
                 self._environment_work, self._work = self._work, None
@@ -296,6 +301,7 @@ class Probe:
         if isinstance(projector, InputError):
             raise _AlreadySaid(str(projector))
         info = frame.info or {}
+        self._image_scale = None        # a bracket's slot frame is not the merged light
         if info.get("slot") is not None and info.get("bracket") and info.get("exposure_s"):
             bkey = (key, tuple(info["bracket"]))
             bracket = self._brackets.get(bkey)
@@ -314,6 +320,8 @@ class Probe:
                                        info.get("f_number"), lux, colour,
                                        stats=result.stats) or result
             return result
+        self._image_scale = projector.radiance_scale(info.get("exposure_s"),
+                                                     info.get("gain", 1.0), info.get("f_number"))
         tracker = None
         if projector.lights != "off":
             if self.capture.reconnects != self._tracked_reconnects:   # a new stream
