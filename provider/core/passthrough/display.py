@@ -16,8 +16,9 @@ consumers' tests compare them to it.
   · X / X_0: the toe, where log2 would run off to −∞); above X_255 the last entry, the top
   code.
 
-For a table of 8-bit codes the entries are about 0.04 stop apart; reading them costs under a
-tenth of a code against the table itself (tests/test_three_passthrough.py).
+For a table of 8-bit codes the entries are about 0.05 stop apart; reading them gives the
+table's own g⁻¹ within a tenth of a code, half a code within one entry of a channel's own clip
+or floor, a kink the shared entries cut (tests/test_display_lookup.py).
 """
 from __future__ import annotations
 
