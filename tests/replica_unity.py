@@ -1,8 +1,6 @@
-"""The passthrough consumers' references, written from docs/contract.md §15 (tests only).
+"""The Unity passthrough tests' real replica, written from docs/contract.md §15 (tests only; the display
+lookup's reference is the library's, provider/core/passthrough/display.py).
 
-* :func:`display_lut`: the 256-entry display lookup a consumer renders a hologram through, from a
-  camera.json table (the contract's definition, written again so that a slip in the C# cannot
-  cancel out).
 * The hologram beside its real replica: a grey Lambertian sphere of known albedo at the centre
   of a simulated headset's view (provider/bench/headset_sim.py). :func:`sphere_pixels` gives its
   visible pixels' normals (world frame) and their distance from the principal point;
@@ -19,32 +17,6 @@ import math
 import numpy as np
 
 from reference import brute_irradiance
-
-LUT_SIZE = 256
-MAX_RANGE_STOPS = 24.0
-
-
-def display_lut(table) -> tuple[float, float, np.ndarray]:
-    """(log2_lo, log2_hi, lut (256, 3)) of an inverse response table g (codes, 3): entry j,
-    channel c is g_c⁻¹(2^(lo + (hi − lo)·j/255)) / (codes − 1), g made non-decreasing;
-    hi = log2 max_c g_c(last), lo = log2 min_c g_c(0), at most 24 stops below hi."""
-    g = np.maximum.accumulate(np.asarray(table, np.float64), axis=0)
-    n = g.shape[0]
-    hi = math.log2(g[-1].max())
-    bottom = g[0].min()
-    lo = max(math.log2(bottom), hi - MAX_RANGE_STOPS) if bottom > 0 else hi - MAX_RANGE_STOPS
-    x = 2.0 ** (lo + (hi - lo) * np.arange(LUT_SIZE) / (LUT_SIZE - 1))
-    codes = np.arange(n, dtype=np.float64)
-    lut = np.stack([np.interp(x, g[:, c], codes) for c in range(3)], -1) / (n - 1)
-    return lo, hi, lut
-
-
-def lut_display(lo, hi, lut, x) -> np.ndarray:
-    """The lookup at sensor exposures x (..., 3): t = clamp((log2 x − lo)/(hi − lo)), entries
-    at t·255 linearly interpolated (what the shaders' bilinear 256-texel texture gives)."""
-    t = np.clip((np.log2(np.maximum(np.asarray(x, np.float64), 1e-30)) - lo) / (hi - lo), 0, 1)
-    t = t * (LUT_SIZE - 1)
-    return np.stack([np.interp(t[..., c], np.arange(LUT_SIZE), lut[:, c]) for c in range(3)], -1)
 
 
 def sphere_pixels(view, rotation, radius: float = 0.1, step_px: float = 2.0):

@@ -22,7 +22,7 @@ import pytest
 
 from provider import compute_sh9
 from provider.bench.headset_sim import HeadsetSim, perturb_panorama, score
-from provider.core.passthrough import fit_views
+from provider.core.passthrough import display_codes, display_lookup, fit_views
 from provider.core.geometry import sh
 from provider.core.passthrough.fit import codes_of
 from provider.core.radiometry.response import CameraResponse
@@ -135,18 +135,22 @@ PATCHES = """async ([camera, gain, colours]) => {
 
 def test_the_lookup_is_the_fits_inverse_response_and_three_draws_its_codes(
         browser, server, fitted):
-    """The page's 256-entry lookup holds g⁻¹ of the fitted camera.json at its log-spaced
-    exposures exactly as Python's codes_of reads the table; three's CustomToneMapping shader
-    (the lookup on the GPU) draws the code the model predicts for a view's exposure and white
-    balance, to the framebuffer's rounding."""
+    """The page's 256-entry lookup is the contract's (the library's display_lookup of the fitted
+    camera.json: g⁻¹ at log-spaced exposures from code 1 to the top); lookupCodes reads it as
+    display_codes does, the linear toe under the first entry included; three's CustomToneMapping
+    shader (the lookup on the GPU) draws the code the model predicts for a view's exposure and
+    white balance, to the framebuffer's rounding, and on the toe the code display_codes gives."""
     camera = fitted.response.to_dict()
     table = fitted.response.table
+    lookup = display_lookup(fitted.response)
     view = len(fitted.exposure) // 2
     gain = fitted.exposure[view] * fitted.wb_gains[view]
     rng = np.random.default_rng(1)
     # linear colours whose codes span the curve: toe, mid-tones, shoulder, clipped, black
     x = np.exp(rng.uniform(np.log(table[2].min()), np.log(table[255].max() * 1.5), (60, 3)))
-    colours = np.vstack([x / gain, [[0, 0, 0]]])
+    # and under the lookup's first entry (a hologram in the dark): its linear toe to code 0
+    toe = 2.0 ** lookup.lo * np.array([[0.05, 0.3, 0.7], [0.7, 0.05, 0.3], [0.3, 0.7, 0.05], [0.9, 0.9, 0.9]])
+    colours = np.vstack([x / gain, toe / gain, [[0, 0, 0]]])
     ctx, page = _page(browser, server)
     try:
         got = page.evaluate(PATCHES, [camera, gain.tolist(), colours.tolist()])
@@ -154,25 +158,28 @@ def test_the_lookup_is_the_fits_inverse_response_and_three_draws_its_codes(
         ctx.__exit__(None, None, None)
     assert got["toneMapping"] and got["restored"]
     lo, hi = got["range"]
-    assert lo == pytest.approx(np.log2(table[1].min()), abs=1e-12)
-    assert hi == pytest.approx(np.log2(table[255].max()), abs=1e-12)
+    assert lo == pytest.approx(lookup.lo, abs=1e-12) and hi == pytest.approx(lookup.hi, abs=1e-12)
     lut = np.asarray(got["lut"]).reshape(256, 4)
-    xs = 2.0 ** (lo + (hi - lo) * np.arange(256) / 255)
-    expected = codes_of(table, np.repeat(xs[:, None], 3, 1)) / 255
     # float32 texels of the same interpolation
-    np.testing.assert_allclose(lut[:, :3], expected, atol=1e-6)
+    np.testing.assert_allclose(lut[:, :3], lookup.table, atol=1e-6)
     assert (lut[:, 3] == 1).all()
-    # the shader's reading on the CPU (lookupCodes) against the table read directly: the
-    # lookup's linear steps of ~0.05 stop cost under a tenth of a code
+    # the shader's reading on the CPU (lookupCodes): the library's reading of the same lookup
+    # (float32 texels: 1e-5 of a code), and against the table read directly from the first
+    # entry up: the lookup's linear steps of ~0.05 stop cost under a tenth of a code
+    reading = 255 * display_codes(lookup, colours * gain)
     model = codes_of(table, colours * gain)
     cpu = 255 * np.asarray(got["cpu"])
-    assert np.abs(cpu - model).max() < 0.1, np.abs(cpu - model).max()
+    assert np.abs(cpu - reading).max() < 1e-3, np.abs(cpu - reading).max()
+    n = len(x)
+    assert np.abs(cpu[:n] - model[:n]).max() < 0.1, np.abs(cpu[:n] - model[:n]).max()
+    assert (reading[n:n + len(toe)] < 255 * lookup.table[0] + 1e-9).all()
     # three's shader: the framebuffer holds the code, rounded (an sRGB output decoded and
     # encoded back in float32, a linear one as it is: a code within 0.5 + float rounding)
     for key in ("png", "linear"):
         drawn = png_of(got[key])[2, 2::4, :3].astype(np.float64)
-        assert drawn.shape == model.shape
-        assert np.abs(drawn - model).max() <= 0.6, (key, np.abs(drawn - model).max())
+        assert drawn.shape == reading.shape
+        assert np.abs(drawn - reading).max() <= 0.6, (key, np.abs(drawn - reading).max())
+        assert np.abs(drawn[:n] - model[:n]).max() <= 0.6, (key, np.abs(drawn[:n] - model[:n]).max())
         assert (drawn[-1] == 0).all()
 
 

@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 
 from conftest import load_hdri
-from replica_unity import (display_lut, lut_display, replica_codes, sphere_pixels, stops_apart,
-                           true_irradiance)
+from provider.core.passthrough import display_codes, display_lookup
+from replica_unity import replica_codes, sphere_pixels, stops_apart, true_irradiance
 
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "unity_package"
@@ -102,22 +102,26 @@ def sh9_message(room):
             "matrices": res.matrices.reshape(-1).tolist()}
 
 
-def _messages(result, view: int):
+def _messages(result, view: int, dim: float = 1.0):
+    """The camera and the view's answer as /capture sends them; ``dim`` scales the exposure (a
+    hologram in the dark)."""
     doc = result.to_json()
     v = doc["views"][view]
     camera = {"type": "passthrough_camera", "camera": doc["camera"]}
-    answer = {"type": "passthrough", "time": float(view), "view": view, "exposure": v["exposure"],
+    answer = {"type": "passthrough", "time": float(view), "view": view, "exposure": v["exposure"] * dim,
               "wb_gains": v["wb_gains"], "ev100": v["ev100"], "residual_stops": v["residual_stops"],
               "samples": v["samples"], "solved": True, "dropped_views": 0}
     return camera, answer
 
 
 def _render(core_exe, result, sh9_message, scenes):
-    """The C# core's grey surfaces: ``scenes`` is [(view, normals)], one output per scene."""
+    """The C# core's grey surfaces: ``scenes`` is [(view, normals)] or [(view, normals, dim)], one output
+    per scene."""
     camera, _ = _messages(result, 0)
     lines = [camera, sh9_message]
-    for view, normals in scenes:
-        lines += [_messages(result, view)[1], {"normals": np.asarray(normals).tolist(), "albedo": ALBEDO}]
+    for view, normals, *dim in scenes:
+        lines += [_messages(result, view, *dim)[1],
+                  {"normals": np.asarray(normals).tolist(), "albedo": ALBEDO}]
     out = _run(core_exe, "render", stdin="\n".join(json.dumps(m) for m in lines) + "\n")
     assert len(out) == len(scenes)
     return out
@@ -126,27 +130,40 @@ def _render(core_exe, result, sh9_message, scenes):
 # ---- (a) the display lookup: the same 256 entries in C# as in Python ---------------------------------
 
 def test_the_lookup_is_the_contracts_and_reproduces_the_fitted_curve(core_exe, headset):
-    """From the fitted camera.json, the C# core builds the contract's 256-entry lookup (the same numbers
-    as tests/replica_unity.py to float precision), and the lookup gives back the curve: a sensor exposure
-    g(z) comes out as code z within 0.02 stop of light over the codes 6..250 the fit uses."""
+    """From the fitted camera.json, the C# core builds the contract's 256-entry lookup (the library's
+    display_lookup, to float precision: its range from code 1 to the top) and reads it as display_codes
+    does, the linear toe under the first entry and the top code over the last included; and the lookup
+    gives back the curve: a sensor exposure g(z) comes out as code z within 0.02 stop of light over the
+    codes 6..250 the fit uses."""
     truth, result, _ = headset
     table = result.response.table
     camera = result.response.to_dict()
-    lo, hi, lut = display_lut(table)
+    lookup = display_lookup(result.response)
     z = np.arange(6, 251, dtype=np.float64)
     x = np.stack([table[z.astype(int), c] for c in range(3)], -1)
-    (out,) = _run(core_exe, "lut", stdin=json.dumps(camera) + "\n" + json.dumps(x.tolist()) + "\n")
-    assert out["log2_lo"] == pytest.approx(lo, abs=1e-12) and out["log2_hi"] == pytest.approx(hi, abs=1e-12)
+    # under the first entry (0 included) and over the last, each the same in r, g, b
+    f = np.array([0.0, 1e-3, 0.3, 0.7, 0.999, 1.0, 1.7, 50.0])
+    edges = np.repeat((np.where(f <= 1, 2.0 ** lookup.lo, 2.0 ** lookup.hi) * f)[:, None], 3, 1)
+    xs = np.vstack([x, edges])
+    (out,) = _run(core_exe, "lut", stdin=json.dumps(camera) + "\n" + json.dumps(xs.tolist()) + "\n")
+    assert out["log2_lo"] == pytest.approx(lookup.lo, abs=1e-12)
+    assert out["log2_hi"] == pytest.approx(lookup.hi, abs=1e-12)
+    assert out["toe_scale"] == pytest.approx(2.0 ** -lookup.lo, rel=1e-12)
     got = np.asarray(out["lut"]).reshape(256, 4)
     assert np.all(got[:, 3] == 1.0)
     # float32 storage: 6e-8 of a value in [0, 1]
-    assert np.abs(got[:, :3] - lut).max() < 1e-6
+    assert np.abs(got[:, :3] - lookup.table).max() < 1e-6
     display = np.asarray(out["display"]).reshape(-1, 3)
-    assert np.abs(display - lut_display(lo, hi, lut, x)).max() < 1e-6
+    assert np.abs(display - display_codes(lookup, xs)).max() < 1e-6
+    toe = display[len(x):len(x) + 5]
+    assert (toe[0] == 0).all() and (np.diff(toe, axis=0) > 0).any()
+    assert (display[-2:] == 1.0).all()
     # and it inverts the curve: both codes turned into light by the fitted curve
+    display = display[:len(x)]
     back = np.stack([np.interp(display[:, c] * 255, np.arange(256), table[:, c]) for c in range(3)], -1)
     worst = np.abs(np.log2(back / x)).max()
-    print(f"\nlookup over {hi - lo:.1f} stops, worst round trip {worst:.4f} stop")
+    print(f"\nlookup over {lookup.hi - lookup.lo:.1f} stops ({(lookup.hi - lookup.lo) / 255:.3f} stop an entry), "
+          f"worst round trip {worst:.4f} stop")
     assert worst < 0.02
 
 
@@ -303,6 +320,11 @@ def _srgb_encode(x):
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
 
 
+#: How much darker the hologram in the dark is drawn: its sensor exposures ~14 stops under the sphere's, far
+#: below the lookup's first entry (code 1), in its linear toe.
+DARK = 2.0 ** -14
+
+
 @pytest.mark.parametrize("colour_space", ["linear", "gamma"])
 def test_the_shaders_passthrough_path_draws_what_the_core_computes(core_exe, headset, sh9_message, tmp_path,
                                                                    colour_space):
@@ -310,38 +332,51 @@ def test_the_shaders_passthrough_path_draws_what_the_core_computes(core_exe, hea
     OpenGL) draws the grey sphere of one view as the C# core computes it: the lookup's display value written
     as is in a gamma project, its sRGB decoding in a linear one (which the sRGB framebuffer encodes back to
     it), within 0.001 of the display value (a quarter of a code: float32 and the texture unit's filtering).
-    Both colour passes carry the keyword, in the fragment stage only."""
+    The same sphere in the dark (the exposure 2^-14 of the view's), under the lookup's first entry, is drawn
+    on its linear toe to code 0 as the core computes it, within 0.3 %. Both colour passes carry the keyword,
+    in the fragment stage only."""
     shader = (SHADERS / "SH9Diffuse.shader").read_text()
     passes = re.findall(r'Name "SH9Diffuse".*?ENDCG', shader, re.S)
     assert len(passes) == 2 and all("#pragma multi_compile_fragment _ SH9_PASSTHROUGH" in p for p in passes)
     truth, result, _ = headset
     view = 7
     normals, _ = sphere_pixels(truth.views[view], truth.rotations[view], step_px=4.0)
-    (core,) = _render(core_exe, result, sh9_message, [(view, normals)])
-    want = np.asarray(core["display"])
+    core, dark = _render(core_exe, result, sh9_message, [(view, normals), (view, normals, DARK)])
     m = np.asarray(core["matrices"]).reshape(3, 4, 4)
     defines = ["SHADER_API_D3D11", "SHADER_TARGET=35", "UNITY_VERSION=202230", "SHADER_STAGE_FRAGMENT",
                "SH9_PASSTHROUGH"]
     if colour_space == "gamma":
         defines.append("UNITY_COLORSPACE_GAMMA")
     glsl, refl = _fragment_glsl(tmp_path, defines)
-    lo, hi = core["log2_lo"], core["log2_hi"]
-    _, _, lut = display_lut(result.response.table)
-    lut4 = np.concatenate([lut, np.ones((256, 1))], -1)
-    values = {"_SHIrradianceR": m[0], "_SHIrradianceG": m[1], "_SHIrradianceB": m[2], "_Exposure": 1.0,
-              "_SHMainLightScale": 0.0,
-              "_SHPassthroughGain": [*core["gain"], 0.0], "_SHPassthroughRange": [lo, 1 / (hi - lo), 0, 0]}
+    lo, hi, toe = core["log2_lo"], core["log2_hi"], core["toe_scale"]
+    lookup = display_lookup(result.response)
+    lut4 = np.concatenate([lookup.table, np.ones((256, 1))], -1)
     unity_normals = np.asarray(normals) * [1, 1, -1]          # the vertex stage's world normals (Unity frame)
     # a material's colour is sRGB in Unity's colour picker: a gamma project hands the shader the encoded value
     # (decoded by UnityCG's GammaToLinearSpace, a polynomial within 0.1 % of sRGB), a linear one the linear value
     colour = ALBEDO if colour_space == "linear" else float(_srgb_encode(ALBEDO))
-    out = _run_fragment(_gl_context(), glsl, refl, unity_normals, values, lut4, colour)
-    assert np.allclose(out[:, 3], 1.0)
-    out = out[:, :3]
-    shown = out if colour_space == "gamma" else _srgb_encode(out)
-    worst = np.abs(shown - want).max()
-    print(f"\n{colour_space}: {len(normals)} pixels, worst {worst * 255:.3f} code from the core's")
+    ctx = _gl_context()
+    shown = {}
+    for name, run in (("lit", core), ("dark", dark)):
+        values = {"_SHIrradianceR": m[0], "_SHIrradianceG": m[1], "_SHIrradianceB": m[2], "_Exposure": 1.0,
+                  "_SHMainLightScale": 0.0, "_SHPassthroughGain": [*run["gain"], 0.0],
+                  "_SHPassthroughRange": [lo, 1 / (hi - lo), toe, 0]}
+        out = _run_fragment(ctx, glsl, refl, unity_normals, values, lut4, colour)
+        assert np.allclose(out[:, 3], 1.0)
+        shown[name] = out[:, :3] if colour_space == "gamma" else _srgb_encode(out[:, :3])
+    want = np.asarray(core["display"])
+    worst = np.abs(shown["lit"] - want).max()
+    # the dark sphere is on the toe: each channel a tenth of its first entry or less, not black
+    want_dark = np.asarray(dark["display"])
+    assert (want_dark <= 0.1 * lookup.table[0]).all() and want_dark.max() > 0
+    on_toe = want_dark > 0
+    dark_worst = np.abs(shown["dark"][on_toe] / want_dark[on_toe] - 1).max()
+    print(f"\n{colour_space}: {len(normals)} pixels, worst {worst * 255:.3f} code from the core's; in the dark "
+          f"(codes up to {want_dark.max() * 255:.4f}) worst {dark_worst:.2e} of the core's")
     assert worst < 1e-3
+    # float32 shading, and in a gamma project the colour's polynomial sRGB decoding (0.1 %)
+    assert dark_worst < 3e-3
+    assert (shown["dark"][~on_toe] == 0).all()
 
 
 # ---- (d) the sender on Quest, against a real server -------------------------------------------------
@@ -426,3 +461,6 @@ def test_the_sender_sends_quest_views_to_capture_and_the_client_renders_through_
     assert final["answers"] == len(sent) and final["errors"] == 0 and final["dropped"] == 0, final
     assert final["camera"] and final["lut_uploaded"] and final["passthrough_active"] and final["keyword"]
     assert final["gain"][1] == pytest.approx(final["exposure"], rel=1e-6)     # green: wb = 1
+    # the lookup's range as SH9DiffusePasses.hlsl reads it: (lo, 1 / (hi − lo), 2^−lo) of the curve received
+    lo, hi = final["log2_lo"], final["log2_hi"]
+    assert final["range"] == pytest.approx([lo, 1 / (hi - lo), 2.0 ** -lo], rel=1e-6)

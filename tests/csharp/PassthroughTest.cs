@@ -1,11 +1,11 @@
 // A Mono program built from the package's core (and, for "sender", SH9LightingClient, SH9PassthroughSender and
 // the UnityEngine and MRUK stand-ins, -define:SHLIGHT_MRUK) -- NOT Unity. tests/test_unity_passthrough.py runs it.
 //
-//   lut     stdin: a camera.json object. Out: {"log2_lo", "log2_hi", "lut": [256 × 4], "display": [...]} with
+//   lut     stdin: a camera.json object. Out: {"log2_lo", "log2_hi", "toe_scale", "lut": [256 × 4], "display": [...]} with
 //           "display" the lookup at the sensor exposures of the second stdin line (a JSON array of [r, g, b]).
 //   render  stdin, one JSON per line: a passthrough_camera message, an sh9 message, then per view a passthrough
 //           message and {"normals": [[x, y, z], ...] (wire frame), "albedo": A}. Out, per view: {"display":
-//           [[r, g, b], ...], "gain", "matrices": [48, Unity frame], "log2_lo", "log2_hi"}: a grey Lambertian surface of albedo A lit by the SH9 as SH9 Diffuse
+//           [[r, g, b], ...], "gain", "matrices": [48, Unity frame], "log2_lo", "log2_hi", "toe_scale"}: a grey Lambertian surface of albedo A lit by the SH9 as SH9 Diffuse
 //           draws it in Passthrough mode (E(n) = ñᵀMñ in Unity's frame, clamped at 0; ρE/π; × exposure · wb;
 //           the display lookup), the maths SH9DiffusePasses.hlsl does, in doubles on the same float lookup.
 //   sender  args: URL TOKEN SECONDS; stdin, one JSON per line: {"position": [3], "rotation": [4] (Unity camera
@@ -13,7 +13,8 @@
 //           "time", "jpeg": base64}. Plays Unity's player loop (Update every 10 ms) with SH9LightingClient
 //           (Exposure Mode Passthrough) and SH9PassthroughSender on the stand-in PassthroughCameraAccess, one
 //           camera image per view, waiting for each view's answer. Out: one {"sent": view message} per view, then
-//           {"answers", "dropped", "errors", "camera", "passthrough_active", "keyword", "gain", "lut_uploaded"}.
+//           {"answers", "dropped", "errors", "camera", "passthrough_active", "keyword", "gain", "range" (the
+//           _SHPassthroughRange uploaded), "log2_lo", "log2_hi" (the camera's), "lut_uploaded"}.
 using System;
 using System.Collections.Generic;
 using System.Globalization;
@@ -68,7 +69,8 @@ static class PassthroughTest
         }
         var lut = new double[camera.Lut.Length];
         for (int i = 0; i < lut.Length; i++) lut[i] = camera.Lut[i];
-        Console.WriteLine("{\"log2_lo\":" + Num(camera.Log2Lo) + ",\"log2_hi\":" + Num(camera.Log2Hi) + ",\"lut\":" +
+        Console.WriteLine("{\"log2_lo\":" + Num(camera.Log2Lo) + ",\"log2_hi\":" + Num(camera.Log2Hi) +
+                          ",\"toe_scale\":" + Num(camera.ToeScale) + ",\"lut\":" +
                           Array(lut) + ",\"display\":" + Array(display) + "}");
         return 0;
     }
@@ -109,7 +111,8 @@ static class PassthroughTest
             }
             display.Append(']');
             Console.WriteLine("{\"display\":" + display + ",\"gain\":" + Array(gain) + ",\"matrices\":" + Array(m) +
-                              ",\"log2_lo\":" + Num(camera.Log2Lo) + ",\"log2_hi\":" + Num(camera.Log2Hi) + "}");
+                              ",\"log2_lo\":" + Num(camera.Log2Lo) + ",\"log2_hi\":" + Num(camera.Log2Hi) +
+                              ",\"toe_scale\":" + Num(camera.ToeScale) + "}");
         }
         return 0;
     }
@@ -197,6 +200,8 @@ static class PassthroughTest
             Sh9PassthroughState st = sender.Capture.State;
             UnityEngine.Vector4 g;
             UnityEngine.Shader.StandInGlobalVectors.TryGetValue(UnityEngine.Shader.PropertyToID("_SHPassthroughGain"), out g);
+            UnityEngine.Vector4 range;
+            UnityEngine.Shader.StandInGlobalVectors.TryGetValue(UnityEngine.Shader.PropertyToID("_SHPassthroughRange"), out range);
             Console.WriteLine("{\"answers\":" + st.Answers + ",\"dropped\":" + st.Dropped + ",\"errors\":" + st.Errors +
                               ",\"last_error\":" + MiniJson.Quote(st.LastError ?? "") +
                               ",\"camera\":" + (st.Camera != null ? "true" : "false") +
@@ -204,6 +209,9 @@ static class PassthroughTest
                               ",\"passthrough_active\":" + (client.PassthroughActive ? "true" : "false") +
                               ",\"keyword\":" + (UnityEngine.Shader.IsKeywordEnabled("SH9_PASSTHROUGH") ? "true" : "false") +
                               ",\"gain\":" + Array(new double[] { g.x, g.y, g.z }) +
+                              ",\"range\":" + Array(new double[] { range.x, range.y, range.z }) +
+                              ",\"log2_lo\":" + Num(st.Camera == null ? double.NaN : st.Camera.Log2Lo) +
+                              ",\"log2_hi\":" + Num(st.Camera == null ? double.NaN : st.Camera.Log2Hi) +
                               ",\"lut_uploaded\":" + (client.PassthroughLut != null ? "true" : "false") + "}");
             Call(sender, "OnDisable");
             Call(client, "OnDisable");

@@ -89,7 +89,8 @@ namespace Shlight.Lighting
         // sh9_lights.hlsl's lights (docs/contract.md §10): the drawn light in slot 0, the others after it (the SH9
         // globals hold them too, as their SH9 projections); the shadow catchers read them.
         static readonly int IdLightCount = Shader.PropertyToID("_SHLightCount");
-        // Passthrough mode (SH9DiffusePasses.hlsl, SH9_PASSTHROUGH): the display lookup, the view's gain, its range.
+        // Passthrough mode (SH9DiffusePasses.hlsl, SH9_PASSTHROUGH): the display lookup, the view's gain, its range
+        // (lo, 1 / (hi − lo), 2^−lo: the toe below the first entry).
         const string PassthroughKeyword = "SH9_PASSTHROUGH";
         static readonly int IdPassthroughLut = Shader.PropertyToID("_SHPassthroughLut");
         static readonly int IdPassthroughGain = Shader.PropertyToID("_SHPassthroughGain");
@@ -453,7 +454,8 @@ namespace Shlight.Lighting
             Shader.SetGlobalVector(IdPassthroughGain, new Vector4((float)passthroughGain[0], (float)passthroughGain[1],
                                                                    (float)passthroughGain[2], 0f));
             Shader.SetGlobalVector(IdPassthroughRange, new Vector4((float)camera.Log2Lo,
-                                                                    (float)(1.0 / (camera.Log2Hi - camera.Log2Lo)), 0f, 0f));
+                                                                    (float)(1.0 / (camera.Log2Hi - camera.Log2Lo)),
+                                                                    (float)camera.ToeScale, 0f));
             Shader.EnableKeyword(PassthroughKeyword);
             keywordOn = true;
         }

@@ -63,7 +63,8 @@ float _SHMainLightScale;
 // SH9_PASSTHROUGH (SH9LightingClient, Exposure Mode Passthrough; docs/contract.md §15, "The display lookup"):
 // the linear colour × the view's exposure · white balance (_SHPassthroughGain) is the camera's sensor exposure
 // X; the 256-entry lookup _SHPassthroughLut, indexed by t = (log2 X − lo) / (hi − lo) (_SHPassthroughRange:
-// lo, 1 / (hi − lo)), gives the code g⁻¹(X) / 255 the passthrough image shows, an sRGB-encoded display value.
+// lo, 1 / (hi − lo), 2^−lo), gives the code g⁻¹(X) / 255 the passthrough image shows, an sRGB-encoded display
+// value; below the first entry (X < 2^lo) linear in X down to code 0.
 #if defined(SH9_PASSTHROUGH)
 UNITY_DECLARE_TEX2D(_SHPassthroughLut);
 float4 _SHPassthroughGain;
@@ -76,9 +77,11 @@ float3 SH9PassthroughDisplay(float3 linearColour)
     // texel centres: entry j at u = (j + 0.5) / 256, so t = 0 and 1 hit the first and last entries (no mips:
     // the client makes the lookup a bilinear, clamped 256 × 1 texture)
     float3 u = (t * 255.0 + 0.5) / 256.0;
-    return float3(UNITY_SAMPLE_TEX2D(_SHPassthroughLut, float2(u.r, 0.5)).r,
-                  UNITY_SAMPLE_TEX2D(_SHPassthroughLut, float2(u.g, 0.5)).g,
-                  UNITY_SAMPLE_TEX2D(_SHPassthroughLut, float2(u.b, 0.5)).b);
+    float3 entry = float3(UNITY_SAMPLE_TEX2D(_SHPassthroughLut, float2(u.r, 0.5)).r,
+                          UNITY_SAMPLE_TEX2D(_SHPassthroughLut, float2(u.g, 0.5)).g,
+                          UNITY_SAMPLE_TEX2D(_SHPassthroughLut, float2(u.b, 0.5)).b);
+    // the toe: below 2^lo, t = 0 reads entry 0, scaled by X / 2^lo (1 from 2^lo up)
+    return entry * min(x * _SHPassthroughRange.z, 1.0);
 }
 #endif
 

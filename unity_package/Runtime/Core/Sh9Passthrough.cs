@@ -45,14 +45,14 @@ namespace Shlight.Lighting
     {
         /// <summary>Entries of the lookup (a 256 × 1 texture in the shaders).</summary>
         public const int LutSize = 256;
-        /// <summary>How far below the brightest code the lookup reaches at most (stops): a floor for a table
-        /// whose code 0 is 0.</summary>
-        public const double MaxRangeStops = 24;
 
         /// <summary>g_c(code) per channel [c][code], made non-decreasing (as the lookup inverts it).</summary>
         public readonly double[][] Table;
-        /// <summary>log2 of the sensor exposure at entries 0 and LutSize − 1.</summary>
+        /// <summary>log2 of the sensor exposure at entries 0 and LutSize − 1: Log2Lo of the smallest positive
+        /// g_c(1), Log2Hi of the largest g_c(top), over the channels.</summary>
         public readonly double Log2Lo, Log2Hi;
+        /// <summary>2^−Log2Lo: below entry 0 the shaders scale it by x · ToeScale (the linear toe to code 0).</summary>
+        public readonly double ToeScale;
         /// <summary>LutSize × 4 floats (RGBA, A = 1): entry j, channel c is g_c⁻¹(2^(Log2Lo + (Log2Hi − Log2Lo)·j/255))
         /// / (codes − 1), the display value (an sRGB-encoded value in [0, 1]).</summary>
         public readonly float[] Lut = new float[4 * LutSize];
@@ -64,18 +64,20 @@ namespace Shlight.Lighting
             Table = table;
             Json = json;
             int n = table[0].Length;
-            double top = 0, bottom = double.PositiveInfinity;
+            double top = 0, first = double.PositiveInfinity;
             for (int c = 0; c < 3; c++)
             {
                 double run = 0;
                 for (int k = 0; k < n; k++) table[c][k] = run = Math.Max(run, table[c][k]);
                 top = Math.Max(top, table[c][n - 1]);
-                bottom = Math.Min(bottom, table[c][0]);
+                if (table[c][1] > 0) first = Math.Min(first, table[c][1]);
             }
-            if (!(top > 0)) throw new FormatException("camera: the table has no positive value");
+            // the entries span the codes' own range, code 1 to the top (docs/contract.md §15, "The display lookup")
+            if (double.IsInfinity(first) || !(top > first))
+                throw new FormatException("camera: the table has no range (g(1) must be positive and below g(top))");
+            Log2Lo = Math.Log(first, 2.0);
             Log2Hi = Math.Log(top, 2.0);
-            Log2Lo = bottom > 0 ? Math.Max(Math.Log(bottom, 2.0), Log2Hi - MaxRangeStops) : Log2Hi - MaxRangeStops;
-            if (!(Log2Hi - Log2Lo > 1e-6)) Log2Lo = Log2Hi - 1e-6;
+            ToeScale = 1.0 / first;
             for (int j = 0; j < LutSize; j++)
             {
                 double x = Math.Pow(2.0, Log2Lo + (Log2Hi - Log2Lo) * j / (LutSize - 1));
@@ -103,15 +105,17 @@ namespace Shlight.Lighting
         }
 
         /// <summary>What the shaders' lookup gives for sensor exposure x in channel c (SH9DiffusePasses.hlsl,
-        /// SH9_PASSTHROUGH): t = saturate((log2 x − Log2Lo) / (Log2Hi − Log2Lo)), then the entries at t·255
-        /// linearly interpolated (a bilinear 256-texel texture sampled at texel centres). A display value in [0, 1].</summary>
+        /// SH9_PASSTHROUGH): t = saturate((log2 x − Log2Lo) / (Log2Hi − Log2Lo)), the entries at t·255 linearly
+        /// interpolated (a bilinear 256-texel texture sampled at texel centres), times min(x · ToeScale, 1) (below
+        /// entry 0, linear in x down to code 0). A display value in [0, 1].</summary>
         public double Display(int channel, double x)
         {
+            x = Math.Max(x, 0);
             double t = (Math.Log(Math.Max(x, 1e-30), 2.0) - Log2Lo) / (Log2Hi - Log2Lo);
             t = Math.Min(1.0, Math.Max(0.0, t)) * (LutSize - 1);
             int j = Math.Min((int)t, LutSize - 2);
             double f = t - j;
-            return Lut[4 * j + channel] * (1 - f) + Lut[4 * (j + 1) + channel] * f;
+            return (Lut[4 * j + channel] * (1 - f) + Lut[4 * (j + 1) + channel] * f) * Math.Min(x * ToeScale, 1.0);
         }
 
         /// <summary>The camera of a camera.json object ("format" "shlight-camera-response", "table" {r, g, b}).</summary>

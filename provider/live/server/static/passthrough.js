@@ -15,10 +15,12 @@
 // linear colour is C (three's working colour, lit by the provider's SH9 at intensity 1) is
 // drawn as code g⁻¹(exposure · wb · C): its real replica's code.
 //
-// Linear ↔ code convention: the lookup (passthroughLut) is g⁻¹ sampled at 256 sensor
-// exposures X_k spaced evenly in log2 X between g(1) and g(top) (the smallest and largest of
-// the three channels), each texel code / top in [0, 1] per channel; between texels it is
-// linear in log2 X, below X_0 linear in X down to code 0, above X_255 the top code (clipped).
+// Linear ↔ code convention: the lookup (passthroughLut) is the contract's display lookup
+// (§15; the same 256 entries as Unity's, provider/core/passthrough/display.py the reference):
+// g⁻¹ sampled at 256 sensor exposures X_k spaced evenly in log2 X between g(1) and g(top) (the
+// smallest and largest of the three channels), each texel code / top in [0, 1] per channel;
+// between texels it is linear in log2 X, below X_0 linear in X down to code 0, above X_255 the
+// top code (clipped).
 // The code is what the passthrough shows: the framebuffer gets code / 255 exactly, so the
 // tone mapping hands three sRGB⁻¹(code / 255) when the output is sRGB (three's default and
 // the XR layer's: three then encodes it back), code / 255 when the output is linear.
