@@ -52,8 +52,10 @@ class ViewCoverage:
     radiance: np.ndarray    # (H, W, 3) the views' weighted mean radiance; 0 where none
     weight: np.ndarray      # (H, W) the summed weight of the unclipped samples there
     seen: np.ndarray        # (H, W) bool: inside some view's frame
-    clipped: np.ndarray     # (H, W) bool: seen, and clipped in every view that saw it
-    floor: np.ndarray       # (H, W, 3) where clipped: the light it had at least
+    clipped: np.ndarray     # (H, W) bool: seen, not measured, clipped in some view
+    floor: np.ndarray       # (H, W, 3) where bounded: the light it had at least
+    bounded: np.ndarray     # (H, W) bool: seen, not measured: clipped, or next to a
+                            # clipped light in every view that saw it
 
     @property
     def measured(self) -> np.ndarray:
@@ -61,8 +63,9 @@ class ViewCoverage:
 
     def lower_bound(self) -> np.ndarray:
         """The radiance where measured, the clip level where clipped in every view (a lower
-        bound of the light there), 0 where no view looked."""
-        return np.where(self.clipped[..., None], self.floor, self.radiance)
+        bound of the light there; beside a clipped light, what the views read, at most the
+        clip level), 0 where no view looked."""
+        return np.where(self.bounded[..., None], self.floor, self.radiance)
 
     def solid_angle(self, mask: np.ndarray) -> float:
         """The solid angle (sr) of the panorama pixels in ``mask``."""
@@ -73,12 +76,15 @@ class ViewCoverage:
         """The solid angle the views saw (sr, of 4π)."""
         return self.solid_angle(self.seen)
 
-    def clipped_light_fraction(self) -> float:
-        """The share of the light seen (every channel, weighted by solid angle) that some
-        view saw only as clipped codes, counted at their clip level: a lower bound."""
+    def clipped_light_fraction(self, channels=(0, 1, 2)) -> float:
+        """The share of the light seen (the ``channels`` summed, weighted by solid angle)
+        that the views saw only as clipped codes, counted at their clip level: a lower
+        bound."""
+        c = list(channels)
         omega = pixel_solid_angles(self.seen.shape[0])[:, None, None]
-        total = float((omega * self.lower_bound()).sum())
-        clipped = float((omega * np.where(self.clipped[..., None], self.floor, 0.0)).sum())
+        total = float((omega * self.lower_bound()[..., c]).sum())
+        clipped = float((omega * np.where(self.clipped[..., None], self.floor, 0.0)[..., c])
+                        .sum())
         return clipped / total if total > 0 else 0.0
 
 
@@ -123,7 +129,9 @@ def _project(view: PassthroughView, dirs: np.ndarray):
     py = np.full(len(cam), -1.0)
     d = np.maximum(depth[front], 1e-6)
     x, y = cam[front, 0] / d, -cam[front, 1] / d              # OpenCV's axes: y down
-    if view.camera_model == "OPENCV" and any(view.distortion):
+    if not front.any():
+        u = v = np.zeros(0)
+    elif view.camera_model == "OPENCV" and any(view.distortion):
         # the distortion polynomial folds back far outside the frame: only rays within the
         # undistorted frame's reach (its corners, with a margin) are projected
         corners = view.directions(np.array([0.0, view.w, 0.0, view.w]),
@@ -198,6 +206,7 @@ def splat_views(views, images, table, exposure, wb_gains, vignetting=(0.0, 0.0),
     den = np.zeros(n)
     seen = np.zeros(n, bool)
     clipped_any = np.zeros(n, bool)
+    bounded_any = np.zeros(n, bool)
     floor = np.zeros((n, 3))
     pano_step = math.pi / height               # radians per panorama pixel
     for i, (view, image) in enumerate(zip(views, images)):
@@ -206,14 +215,18 @@ def splat_views(views, images, table, exposure, wb_gains, vignetting=(0.0, 0.0),
         lin, clip_level, clipped = view_radiance(view, image, table, exposure[i],
                                                  wb_gains[i], vignetting)
         weight = _code_weight(np.asarray(image)) * _border_weight(view.w, view.h)
-        # JPEG rings around a clipped light: its neighbours are not measurements either
-        weight[cv2.dilate(clipped.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0] = 0.0
+        # JPEG rings around a clipped light: its neighbours are no measurement either, but
+        # their light is there at least (what they read, at most the clip level)
+        ring = cv2.dilate(clipped.astype(np.uint8),
+                          cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))) > 0
+        weight[ring] = 0.0
+        bound = np.where(clipped[..., None], clip_level, np.minimum(lin, clip_level))
         px, py, inside = view_pixels(view, dirs)
         idx = np.flatnonzero(inside)
         if len(idx) == 0:
             continue
         layers = np.dstack([lin * weight[..., None], weight]).astype(np.float32)
-        extra = np.dstack([clip_level, clipped]).astype(np.float32)
+        extra = np.dstack([bound, ring, clipped]).astype(np.float32)
         # a view much finer than the panorama: area-averaged first (a bilinear read would
         # alias), its coordinates scaled with it
         shrink = int(pano_step * max(view.fl_x, view.fl_y))     # panorama px / view px
@@ -234,16 +247,17 @@ def splat_views(views, images, table, exposure, wb_gains, vignetting=(0.0, 0.0),
             more = cv2.remap(extra, map_x, map_y, cv2.INTER_LINEAR,
                              borderMode=cv2.BORDER_REPLICATE)[0]
             hit = more[:, 3] >= 0.5
-            clipped_any[idx[hit]] = True
+            bounded_any[idx[hit]] = True
             floor[idx[hit]] = np.maximum(floor[idx[hit]], more[hit, :3])
+            clipped_any[idx[more[:, 4] >= 0.5]] = True
     measured = den > 1e-6
     radiance = np.zeros((n, 3))
     radiance[measured] = num[measured] / den[measured, None]
-    only_clipped = seen & ~measured & clipped_any
+    bounded = seen & ~measured & (bounded_any | clipped_any)
     shape = (height, 2 * height)
     return ViewCoverage(radiance.reshape(*shape, 3), np.where(measured, den, 0.0).reshape(
-        shape), seen.reshape(shape), only_clipped.reshape(shape),
-        np.where(only_clipped[:, None], floor, 0.0).reshape(*shape, 3))
+        shape), seen.reshape(shape), (bounded & clipped_any).reshape(shape),
+        np.where(bounded[:, None], floor, 0.0).reshape(*shape, 3), bounded.reshape(shape))
 
 
 def splat_fit(result, views, images, height: int) -> ViewCoverage:
@@ -256,12 +270,18 @@ def splat_fit(result, views, images, height: int) -> ViewCoverage:
 
 def sphere_holes(sphere: np.ndarray, mask=None, nadir_cap_deg: float = 0.0) -> np.ndarray:
     """(H, W) bool: where the 360° camera sees nothing in an equirect ``sphere``: a
-    non-finite pixel, one that is 0 (or less) in every channel (a projection's unseen
-    region, a masked mount), ``mask`` (H, W, nonzero: unseen), and the cap within
+    non-finite pixel, a region (wider than a pixel or two) that is exactly 0 in every
+    channel (a projection's unseen region, a stitcher's black tripod cap, a masked mount),
+    ``mask`` (H, W, nonzero: unseen), and the cap within
     ``nadir_cap_deg`` of straight down (−Y, where its tripod stands)."""
     s = np.asarray(sphere)
     h, w = s.shape[:2]
-    holes = ~np.isfinite(s).all(-1) | (np.nan_to_num(s, nan=0.0) <= 0).all(-1)
+    # a region of zeros, not a speck: resampling rings to exact 0 (or below) in a few
+    # thin lines around bright edges, which the camera saw
+    zero = (np.nan_to_num(s, nan=1.0) == 0).all(-1).astype(np.uint8)
+    k = 2 * max(1, round(h / 256)) + 1
+    holes = ~np.isfinite(s).all(-1) | (cv2.morphologyEx(zero, cv2.MORPH_OPEN,
+                                                        np.ones((k, k), np.uint8)) > 0)
     if mask is not None:
         m = np.asarray(mask)
         if m.shape[:2] != (h, w):
@@ -295,8 +315,8 @@ def fill_sphere(sphere: np.ndarray, holes: np.ndarray, coverage: ViewCoverage) -
     if coverage.seen.shape != s.shape[:2]:
         raise InputError(f"the views' panorama is {coverage.seen.shape[1]}×"
                          f"{coverage.seen.shape[0]}; the sphere is {s.shape[1]}×{s.shape[0]}")
-    fill = holes & (coverage.measured | coverage.clipped)
-    out = np.where(holes[..., None], 0.0, np.maximum(s, 0.0))
+    fill = holes & (coverage.measured | coverage.bounded)
+    out = np.where(holes[..., None], 0.0, s)
     out[fill] = coverage.lower_bound()[fill]
     return Filled(out.astype(np.float32), coverage.solid_angle(holes),
                   coverage.solid_angle(fill), coverage.solid_angle(holes & coverage.clipped))
