@@ -284,6 +284,40 @@ def test_passthrough_writes_the_extended_sphere(room, headset, tmp_path):
         assert got["gained_sr"] == pytest.approx(ext["gained_sr"], rel=0.02)
 
 
+def test_a_fisheyes_unseen_half_is_filled_by_the_views(room, headset, tmp_path):
+    """A 180° fisheye looking up sees nothing below the horizon; the views looking down
+    (which the fit cannot fit: nothing to compare) are brought to its units by their
+    overlaps with those it fitted, and fill what they saw with the room's light."""
+    from provider.core.geometry.projections import make_projection
+    from provider.core.passthrough.fit import sample_equirect
+    folder, truth = headset[:2]
+    size = 512
+    projection = make_projection("fisheye", size, size)
+    ys, xs = np.mgrid[0:size, 0:size]
+    dirs, seen = projection.pixel_to_direction(xs + 0.5, ys + 0.5)
+    image = np.where(np.asarray(seen)[..., None], sample_equirect(room, dirs), 0.0)
+    sphere = tmp_path / "fisheye.exr"
+    _write_exr(sphere, image.astype(np.float32))
+    out = tmp_path / "extended.exr"
+    proc = run_cli("passthrough", str(folder), "--sphere", str(sphere), "--sphere-projection",
+                   "fisheye", "--extended-out", str(out), timeout=240)
+    assert proc.returncode == 0, proc.stderr
+    ext = json.loads(proc.stdout)["extended"]
+    assert ext["holes_sr"] == pytest.approx(2 * math.pi, rel=0.03)
+    assert ext["views_from_overlaps"] > 0
+    filled = read_image(out)
+    height = filled.shape[0]
+    lower = np.repeat(((np.arange(height) + 0.5) / height > 0.5)[:, None], 2 * height, 1)
+    seen_truth, _ = _truth_coverage(truth, height)
+    band = float(pixel_solid_angles(height) @ (seen_truth & lower).sum(1))
+    assert ext["gained_sr"] == pytest.approx(band, rel=0.05)
+    # the light filled in is the room's, in the sphere's units (no bias; edges apart)
+    truth_pano = sample_equirect(room, equirect_directions(height))
+    filled_here = lower & seen_truth & (filled > 0).all(-1)
+    err = np.log2(filled[filled_here] / np.maximum(truth_pano[filled_here], 1e-12))
+    assert np.abs(np.median(err, axis=0)).max() < 0.1, np.median(err, axis=0)
+
+
 def test_bad_input_is_refused_in_one_line(room, headset, tmp_path):
     folder = headset[0]
     views = str(folder / "transforms.json")

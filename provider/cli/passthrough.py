@@ -219,11 +219,16 @@ def sphere_holes_of(args, sphere, raw_shape):
 
 
 def write_extended(args, out_file, sphere, holes, result, views, images) -> dict:
-    """The sphere filled from the views, written as OpenEXR; what it gained (sr)."""
+    """The sphere filled from the views, written as OpenEXR; what it gained (sr). Views
+    the fit could not fit (they look where the sphere sees nothing), or whose fit their
+    overlaps contradict, are brought to its units by their overlaps with the others."""
     import math
-    from ..core.passthrough.extend import fill_sphere, splat_fit
+    from ..core.passthrough.extend import fill_sphere, splat_views
+    from ..core.passthrough.overlaps import anchored_to_fit
     from .feedback import say
-    coverage = splat_fit(result, views, images, sphere.shape[0])
+    exposure, wb, use, swapped = anchored_to_fit(result, views, images)
+    coverage = splat_views(views, images, result.response.table, exposure, wb,
+                           result.vignetting, height=sphere.shape[0], use=use)
     filled = fill_sphere(sphere, holes, coverage)
     write_exr(out_file, filled.sphere)
     seen = 4 * math.pi - filled.holes_sr
@@ -237,7 +242,8 @@ def write_extended(args, out_file, sphere, holes, result, views, images) -> dict
     return {"file": args.extended_out, "holes_sr": filled.holes_sr,
             "gained_sr": filled.gained_sr, "clipped_sr": filled.clipped_sr,
             "coverage_sr": seen + filled.gained_sr, "sphere_coverage_sr": seen,
-            "views_coverage_sr": coverage.coverage_sr}
+            "views_coverage_sr": coverage.coverage_sr,
+            "views_from_overlaps": int(swapped.sum())}
 
 
 def write_exr(out_file, image) -> None:
@@ -286,7 +292,9 @@ def compute_views(args) -> dict:
     from ..live.wire.message import coefficient_message
     from .feedback import say
     from .options import engine_options
+    from .options import check_meter_arguments
     command = "compute"
+    check_meter_arguments(args)
     if len(args.image) > 1:
         raise InputError("a transforms.json is computed alone: give it as the only input "
                          f"(got {len(args.image)})")

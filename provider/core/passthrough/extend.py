@@ -150,6 +150,21 @@ def _project(view: PassthroughView, dirs: np.ndarray):
     return px, py, inside
 
 
+def remap_points(src: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``src`` (h, w, C) float32 read bilinearly at the continuous pixel coordinates ``x``,
+    ``y`` (n,) (OpenCV's: pixel centres at integers), (n, C): OpenCV's ``remap`` on the
+    points laid out in rows (its maps must be under 32767 wide)."""
+    n = len(x)
+    cols = 1024
+    rows = max(1, -(-n // cols))
+    mx = np.full(rows * cols, -1e4, np.float32)
+    my = np.full(rows * cols, -1e4, np.float32)
+    mx[:n], my[:n] = x, y
+    out = cv2.remap(src, mx.reshape(rows, cols), my.reshape(rows, cols), cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(rows * cols, -1)[:n]
+
+
 def _code_weight(image: np.ndarray) -> np.ndarray:
     """(h, w) how much a pixel's codes say: 0 where any channel clips, rising from
     ``MIN_WEIGHT`` at black to 1 at ``DARK_CODE``, falling toward the clip code."""
@@ -236,16 +251,14 @@ def splat_views(views, images, table, exposure, wb_gains, vignetting=(0.0, 0.0),
             scale = size[0] / view.w
             layers = cv2.resize(layers, size, interpolation=cv2.INTER_AREA)
             extra = cv2.resize(extra, size, interpolation=cv2.INTER_AREA)
-        map_x = (px[idx] * scale - 0.5).astype(np.float32).reshape(1, -1)
-        map_y = (py[idx] * scale - 0.5).astype(np.float32).reshape(1, -1)
-        got = cv2.remap(layers, map_x, map_y, cv2.INTER_LINEAR,
-                        borderMode=cv2.BORDER_REPLICATE)[0]
+        map_x = px[idx] * scale - 0.5
+        map_y = py[idx] * scale - 0.5
+        got = remap_points(layers, map_x, map_y)
         num[idx] += got[:, :3]
         den[idx] += got[:, 3]
         seen[idx] = True
         if clipped.any():
-            more = cv2.remap(extra, map_x, map_y, cv2.INTER_LINEAR,
-                             borderMode=cv2.BORDER_REPLICATE)[0]
+            more = remap_points(extra, map_x, map_y)
             hit = more[:, 3] >= 0.5
             bounded_any[idx[hit]] = True
             floor[idx[hit]] = np.maximum(floor[idx[hit]], more[hit, :3])

@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from .extend import view_pixels, vignetting_map
+from .extend import remap_points, view_pixels, vignetting_map
 from .fit import CODE_HI, CODE_LO
 
 #: Each view is compared at this many pixels across (area-averaged): ~1.1° a pixel for a
@@ -97,14 +97,9 @@ def _pair(vi, si: _Small, vj, sj: _Small):
     u, v, inside = view_pixels(vj, dirs)
     if inside.sum() < MIN_SHARED:
         return None
-    map_x = (u[inside] * sj.scale - 0.5).astype(np.float32).reshape(1, -1)
-    map_y = (v[inside] * sj.scale - 0.5).astype(np.float32).reshape(1, -1)
-    log_j = cv2.remap(sj.log, map_x, map_y, cv2.INTER_LINEAR,
-                      borderMode=cv2.BORDER_REPLICATE)[0]
-    use_j = cv2.remap(sj.usable, map_x, map_y, cv2.INTER_LINEAR,
-                      borderMode=cv2.BORDER_REPLICATE)[0]
-    con_j = cv2.remap(sj.contrast, map_x, map_y, cv2.INTER_LINEAR,
-                      borderMode=cv2.BORDER_REPLICATE)[0]
+    at_j = remap_points(np.dstack([sj.log, sj.usable, sj.contrast]).astype(np.float32),
+                        u[inside] * sj.scale - 0.5, v[inside] * sj.scale - 0.5)
+    log_j, use_j, con_j = at_j[:, :3], at_j[:, 3], at_j[:, 4]
     log_i = si.log.reshape(-1, 3)[keep_i][inside]
     con_i = si.contrast.reshape(-1)[keep_i][inside]
     ok = use_j.reshape(-1) >= 0.999
@@ -196,3 +191,33 @@ def relative_exposures(views, images, table, vignetting=(0.0, 0.0)) -> Overlaps:
     green = np.log(np.array(metadata, np.float64)) if known else log_e[:, 1]
     return Overlaps(exposure=np.exp(green), wb_gains=np.exp(wb), connected=connected,
                     pairs=len(use), residual_stops=resid, metadata=known)
+
+
+def anchored_to_fit(result, views, images, tolerance_stops: float = 0.25):
+    """``(exposure (V,), wb_gains (V, 3), use (V,) bool, from_overlaps (V,) bool)``: the
+    fit's model of each view (:class:`~.fit.PassthroughResult`), except where the views'
+    overlaps (:func:`relative_exposures`, with the fit's curve and vignetting, brought to the
+    sphere's units by the median over the fitted views) say otherwise by more than
+    ``tolerance_stops``, and for the views the fit could not fit (``fitted: false``: they
+    look where the sphere sees nothing). A view at the edge of what the sphere sees is
+    fitted on a few samples whose blurred sphere mixes in the black beyond that edge: its
+    exposure can be most of a stop off, its overlaps are not. ``use``: the views with a
+    model."""
+    fitted = np.asarray(result.fitted, bool)
+    exposure = np.array(result.exposure, np.float64)
+    wb = np.array(result.wb_gains, np.float64)
+    none = np.zeros(len(fitted), bool)
+    if not fitted.any() or len(views) < 2:
+        return exposure, wb, fitted, none
+    rel = relative_exposures(views, images, result.response.table, result.vignetting)
+    log_fit = np.log(exposure)[:, None] + np.log(wb)
+    log_rel = np.log(rel.exposure)[:, None] + np.log(rel.wb_gains)
+    both = fitted & rel.connected
+    if not both.any():
+        return exposure, wb, fitted, none
+    log_rel = log_rel + np.median(log_fit[both] - log_rel[both], axis=0)
+    off = np.abs(log_fit - log_rel).max(-1) > tolerance_stops * math.log(2)
+    swap = rel.connected & (~fitted | off)
+    exposure[swap] = np.exp(log_rel[swap, 1])
+    wb[swap] = np.exp(log_rel[swap] - log_rel[swap, 1:2])
+    return exposure, wb, fitted | swap, swap
