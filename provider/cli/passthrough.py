@@ -270,7 +270,8 @@ HEADSET_CLIPS = ("a headset cannot measure a light it clips in every view (an au
 def is_views_input(texts) -> bool:
     """Whether ``compute``'s inputs name a ``transforms.json`` (or a folder holding one)."""
     import os
-    return any(t.lower().endswith(".json") or os.path.isdir(t) for t in texts)
+    return any(t.lower().endswith(".json") or os.path.isfile(os.path.join(t, "transforms.json"))
+               for t in texts)
 
 
 def compute_views(args) -> dict:

@@ -17,9 +17,9 @@ their frame's border (so that the seams between views fade). What it records
 clipped in every view that saw them, with the light they had at least (the highest clip
 level among those views: a lower bound, never a measurement).
 
-:func:`sphere_holes` says where the 360° camera sees nothing (non-finite or all-zero pixels:
-a projection's unseen region, a masked mount; a user's mask; a cap around the nadir, where
-its tripod stands), and :func:`fill_sphere` fills them from the views.
+:func:`sphere_holes` says where the 360° camera sees nothing (non-finite pixels, regions
+of zeros: a projection's unseen region, a masked mount; a user's mask; a cap around the
+nadir, where its tripod stands), and :func:`fill_sphere` fills them from the views.
 """
 from __future__ import annotations
 
@@ -52,13 +52,15 @@ class ViewCoverage:
     radiance: np.ndarray    # (H, W, 3) the views' weighted mean radiance; 0 where none
     weight: np.ndarray      # (H, W) the summed weight of the unclipped samples there
     seen: np.ndarray        # (H, W) bool: inside some view's frame
-    clipped: np.ndarray     # (H, W) bool: seen, not measured, clipped in some view
+    clipped: np.ndarray     # (H, W) bool: clipped (or beside a clipped light) in every
+                            # view that saw it, clipped in one at least
     floor: np.ndarray       # (H, W, 3) where bounded: the light it had at least
-    bounded: np.ndarray     # (H, W) bool: seen, not measured: clipped, or next to a
-                            # clipped light in every view that saw it
+    bounded: np.ndarray     # (H, W) bool: seen but not measured: ``clipped``, or beside
+                            # a clipped light (JPEG's ring) in every view that saw it
 
     @property
     def measured(self) -> np.ndarray:
+        """(H, W) bool: some view measured the light there (a code not clipped)."""
         return self.weight > 0
 
     def lower_bound(self) -> np.ndarray:
