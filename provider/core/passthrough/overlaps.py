@@ -200,9 +200,8 @@ def anchored_to_fit(result, views, images, tolerance_stops: float = 0.25):
     sphere's units by the median over the fitted views) say otherwise by more than
     ``tolerance_stops``, and for the views the fit could not fit (``fitted: false``: they
     look where the sphere sees nothing). A view at the edge of what the sphere sees is
-    fitted on a few samples whose blurred sphere mixes in the black beyond that edge: its
-    exposure can be most of a stop off, its overlaps are not. ``use``: the views with a
-    model."""
+    fitted on a few samples; its overlaps may know it better. ``use``: the views with a
+    model; ``from_overlaps``: those whose model is their overlaps'."""
     fitted = np.asarray(result.fitted, bool)
     exposure = np.array(result.exposure, np.float64)
     wb = np.array(result.wb_gains, np.float64)
