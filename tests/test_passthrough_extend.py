@@ -318,6 +318,31 @@ def test_a_fisheyes_unseen_half_is_filled_by_the_views(room, headset, tmp_path):
     assert np.abs(np.median(err, axis=0)).max() < 0.1, np.median(err, axis=0)
 
 
+def test_views_at_the_edge_of_what_the_sphere_sees_are_fitted_without_its_black(
+        room, headset):
+    """A fisheye's sphere is black below its horizon; a view that looks across the horizon
+    is fitted on what lies above it, not on a blur that mixes in the black (which made such
+    a view's exposure most of a stop high)."""
+    from provider.core.geometry.projections import make_projection
+    from provider.core.passthrough.fit import MIN_SAMPLES, sample_equirect
+    from provider.core.passthrough.sphere import to_equirect
+    truth, views, images = headset[1:]
+    projection = make_projection("fisheye", 512, 512)
+    ys, xs = np.mgrid[0:512, 0:512]
+    dirs, seen = projection.pixel_to_direction(xs + 0.5, ys + 0.5)
+    image = np.where(np.asarray(seen)[..., None], sample_equirect(room, dirs), 0.0)
+    fit = PassthroughFit(to_equirect(image.astype(np.float32), projection))
+    for view, img in zip(views, images):
+        fit.add_view(view, img)
+    result = fit.solve()
+    ok = result.samples >= MIN_SAMPLES
+    edge = ok & (result.samples < 0.3 * np.median(result.samples[ok]))
+    assert edge.sum() >= 3            # views across the horizon, with few samples
+    stops = np.log2(result.exposure / truth.exposure)
+    stops -= np.median(stops[ok])     # the level of the curve's anchor
+    assert np.abs(stops[edge]).max() < 0.3, stops[edge]
+
+
 def test_bad_input_is_refused_in_one_line(room, headset, tmp_path):
     folder = headset[0]
     views = str(folder / "transforms.json")
