@@ -166,5 +166,9 @@ def print_json(message: dict, pretty: bool) -> None:
 
 
 def run(args) -> int:
+    from .passthrough import compute_views, is_views_input
+    if is_views_input(args.image):     # a headset's views: fused alone (docs/passthrough.md)
+        print_json(compute_views(args), args.pretty)
+        return 0
     print_json(wire_message(args), args.pretty)
     return 0

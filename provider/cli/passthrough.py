@@ -43,6 +43,19 @@ def add_arguments(p) -> None:
     p.add_argument("--refine-deg", type=float, default=3.0, metavar="DEG",
                    help="search each view's pose within this angle for the turn that fits "
                         "the sphere best (default 3; 0: trust the poses)")
+    p.add_argument("--extended-out", default=None, metavar="OUT.exr",
+                   help="also write the sphere extended by the views (an equirect OpenEXR in "
+                        "the sphere's units): where the 360° camera sees nothing (non-finite "
+                        "or black pixels, --sphere-mask, --nadir-cap-deg) the views' light, "
+                        "brought to the sphere's units by the fit; the JSON's 'extended' says "
+                        "the solid angle gained (docs/passthrough.md)")
+    p.add_argument("--sphere-mask", default=None, metavar="MASK",
+                   help="an image of the sphere's size and projection, nonzero where the 360° "
+                        "camera sees nothing (its mount): not compared, and filled by "
+                        "--extended-out")
+    p.add_argument("--nadir-cap-deg", type=float, default=0.0, metavar="DEG",
+                   help="the cap within DEG of straight down (the tripod) is taken as unseen "
+                        "(default 0: none)")
     p.add_argument("--pretty", action="store_true", help="indent the JSON")
 
 
@@ -111,6 +124,7 @@ def sphere_as_equirect(args, sphere):
 
 def run(args) -> int:
     import math
+    import numpy as np
     from ..core.errors import InputError
     from ..core.passthrough import PassthroughFit, read_transforms
     from ..core.passthrough.views import read_view_image
@@ -122,13 +136,27 @@ def run(args) -> int:
         from ..core.passthrough.views import read_json, registered, registration_rotation
         views = registered(views, registration_rotation(read_json(args.registration),
                                                         args.registration))
-    sphere = sphere_as_equirect(args, read_sphere(args))
     if not (math.isfinite(args.refine_deg) and 0 <= args.refine_deg <= 10):
         raise InputError(f"--refine-deg must be between 0 and 10 degrees, got "
                          f"{args.refine_deg}")
-    fit = PassthroughFit(sphere, sigma_deg=args.sigma_deg, refine_deg=args.refine_deg)
+    if not (math.isfinite(args.nadir_cap_deg) and 0 <= args.nadir_cap_deg <= 180):
+        raise InputError(f"--nadir-cap-deg must be between 0 and 180 degrees, got "
+                         f"{args.nadir_cap_deg}")
+    out_file = extended_output(args)             # checked before any work
+    raw = read_sphere(args)
+    sphere = sphere_as_equirect(args, raw)
+    holes = sphere_holes_of(args, sphere, raw.shape)
+    if holes.all():
+        raise InputError(f"--sphere {args.sphere}: the sphere sees nothing (every pixel is "
+                         "masked, non-finite or black)")
+    fitted_sphere = np.where(holes[..., None], 0.0, np.nan_to_num(sphere))
+    fit = PassthroughFit(fitted_sphere, sigma_deg=args.sigma_deg, refine_deg=args.refine_deg)
+    images = []
     for view in views:
-        fit.add_view(view, read_view_image(view))
+        image = read_view_image(view)
+        fit.add_view(view, image)
+        if out_file is not None:      # kept for the extension only
+            images.append(image)
     result = fit.solve()
     told = sum(v.exposure_s is not None for v in views)
     if result.response.params.get("metadata_exposures"):
@@ -142,8 +170,193 @@ def run(args) -> int:
             f"(clipped, black, or where the sphere sees nothing): their exposure is the "
             f"others' median ({', '.join(unfit[:3])}{' ...' if len(unfit) > 3 else ''})")
     out = result.to_json()
+    if out_file is not None:
+        out["extended"] = write_extended(args, out_file, sphere, holes, result, views, images)
     if args.camera_out:
         from ..live.probe.camerafile import save_camera
         save_camera(result.response, args.camera_out)
     write_output(json.dumps(out, indent=2 if args.pretty else None, allow_nan=False))
     return 0
+
+
+def extended_output(args):
+    """``--extended-out``'s :class:`~.outputs.OutputFile`, checked before any work."""
+    if not args.extended_out:
+        return None
+    from .frames import parse_frame
+    from .outputs import output_file
+    inputs = [(parse_frame(args.sphere)[0], "the --sphere panorama"),
+              (args.sphere_mask, "the --sphere-mask image"), (args.views, "the views")]
+    return output_file(args.extended_out, option="--extended-out", inputs=inputs,
+                       product="extended sphere", extension=".exr")
+
+
+def sphere_holes_of(args, sphere, raw_shape):
+    """Where the 360° camera sees nothing (:func:`~provider.core.passthrough.extend.
+    sphere_holes`), with ``--sphere-mask`` read in the sphere's projection and resampled
+    with it."""
+    import numpy as np
+    from ..core.errors import InputError
+    from ..core.passthrough.extend import sphere_holes
+    mask = None
+    if args.sphere_mask:
+        from ..core.radiometry.images import read_image
+        raw = np.asarray(read_image(args.sphere_mask), np.float32)
+        raw = raw.reshape(raw.shape[0], raw.shape[1], -1)
+        if raw.shape[:2] != tuple(raw_shape[:2]):
+            raise InputError(f"--sphere-mask {args.sphere_mask} is {raw.shape[1]}×"
+                             f"{raw.shape[0]}; the sphere is {raw_shape[1]}×{raw_shape[0]} "
+                             "(the mask is in the sphere's own projection)")
+        if args.sphere_projection != "equirect":
+            from ..core.passthrough.sphere import to_equirect
+            from ..core.geometry.projections import make_projection
+            projection = make_projection(args.sphere_projection, raw.shape[1], raw.shape[0])
+            raw = to_equirect(np.repeat((raw != 0).any(-1, keepdims=True), 3, -1)
+                              .astype(np.float32), projection)
+        mask = (raw >= 0.5).any(-1) if args.sphere_projection != "equirect" else \
+            (raw != 0).any(-1)
+    return sphere_holes(sphere, mask, args.nadir_cap_deg)
+
+
+def write_extended(args, out_file, sphere, holes, result, views, images) -> dict:
+    """The sphere filled from the views, written as OpenEXR; what it gained (sr). Views
+    the fit could not fit (they look where the sphere sees nothing), or whose fit their
+    overlaps contradict, are brought to its units by their overlaps with the others."""
+    import math
+    from ..core.passthrough.extend import fill_sphere, splat_views
+    from ..core.passthrough.overlaps import anchored_to_fit
+    from .feedback import say
+    exposure, wb, use, swapped = anchored_to_fit(result, views, images)
+    coverage = splat_views(views, images, result.response.table, exposure, wb,
+                           result.vignetting, height=sphere.shape[0], use=use)
+    filled = fill_sphere(sphere, holes, coverage)
+    write_exr(out_file, filled.sphere)
+    seen = 4 * math.pi - filled.holes_sr
+    if filled.holes_sr and not filled.gained_sr:
+        say("passthrough", "warning", "no view looked where the 360° camera sees nothing: "
+            f"{args.extended_out} is the sphere as it was (holes black)")
+    if filled.clipped_sr:
+        say("passthrough", "warning", f"{filled.clipped_sr:.3g} sr of what the views filled "
+            "was clipped in every view that saw it: filled at the clip level, a lower bound "
+            "(a headset cannot measure a light it clips in every view)")
+    return {"file": args.extended_out, "holes_sr": filled.holes_sr,
+            "gained_sr": filled.gained_sr, "clipped_sr": filled.clipped_sr,
+            "coverage_sr": seen + filled.gained_sr, "sphere_coverage_sr": seen,
+            "views_coverage_sr": coverage.coverage_sr,
+            "views_from_overlaps": int(swapped.sum())}
+
+
+def write_exr(out_file, image) -> None:
+    """``image`` (H, W, 3) float32 as a scan-line OpenEXR (ZIP), written whole then renamed
+    over the target (:meth:`~.outputs.OutputFile.writing`)."""
+    import numpy as np
+    import OpenEXR
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with out_file.writing() as tmp:
+        with OpenEXR.File(header, {"RGB": np.ascontiguousarray(image, np.float32)}) as f:
+            f.write(tmp)
+
+
+# -- shlight compute VIEWS/transforms.json: the views alone ----------------------------------
+
+#: The panorama the views are fused into (rows): 0.7° a pixel, finer than SH9 needs.
+VIEWS_HEIGHT = 256
+HEADSET_CLIPS = ("a headset cannot measure a light it clips in every view (an auto "
+                 "exposure holds the mean at mid-grey: lamps, windows, the sun clip): "
+                 "clipped_light_fraction counts them at the clip level, a lower bound; a "
+                 "360° camera (shlight passthrough --sphere) measures them")
+
+
+def is_views_input(texts) -> bool:
+    """Whether ``compute``'s inputs name a ``transforms.json`` (or a folder holding one)."""
+    import os
+    return any(t.lower().endswith(".json") or os.path.isfile(os.path.join(t, "transforms.json"))
+               for t in texts)
+
+
+def compute_views(args) -> dict:
+    """``shlight compute VIEWS/transforms.json``: the views alone, fused into an equirect
+    panorama (their exposures and white balance from their overlaps,
+    :mod:`~provider.core.passthrough.overlaps`) and projected on SH9 as compute projects a
+    frame; the wire message with ``coverage_sr``, ``clipped_light_fraction`` (a lower
+    bound) and ``warnings``."""
+    import math
+    import os
+    import numpy as np
+    from ..core.errors import InputError
+    from ..core.passthrough import read_transforms
+    from ..core.passthrough.extend import splat_views
+    from ..core.passthrough.overlaps import relative_exposures
+    from ..core.passthrough.views import read_view_image
+    from ..core.radiometry.response import CameraResponse
+    from ..core.sh9.engine import SH9Projector
+    from ..live.wire.message import coefficient_message
+    from .feedback import say
+    from .options import engine_options
+    from .options import check_meter_arguments
+    command = "compute"
+    check_meter_arguments(args)
+    if len(args.image) > 1:
+        raise InputError("a transforms.json is computed alone: give it as the only input "
+                         f"(got {len(args.image)})")
+    if args.projection not in ("equirect", "auto"):
+        raise InputError(f"--projection {args.projection}: a transforms.json's views are "
+                         "fused into an equirect panorama; leave --projection out")
+    if getattr(args, "lux", None) is not None:
+        raise InputError("--lux closes a frame's clipped light with a meter read with it; "
+                         "a transforms.json's views have none: leave --lux out")
+    args.projection = "equirect"
+    options = engine_options(args)
+    response = options.pop("response", None)
+    views = read_transforms(args.image[0])
+    images = [read_view_image(v, args.max_frame_pixels) for v in views]
+    warnings = []
+    if response is None:
+        warnings.append("no --camera: the views are decoded as sRGB, which is not most "
+                        "headsets' curve (shlight passthrough --camera-out writes the "
+                        "headset's)")
+        response = CameraResponse.srgb(8)
+    elif response.bits != 8:
+        response = response.to_bits(8)
+    vig = response.params.get("vignetting") or {}
+    vignetting = (float(vig.get("v1", 0.0)), float(vig.get("v2", 0.0)))
+    overlaps = relative_exposures(views, images, response.table, vignetting)
+    lone = int((~overlaps.connected).sum())
+    if lone and len(views) > 1:
+        warnings.append(f"{lone} of {len(views)} views share no directions with the others: "
+                        "left out")
+    coverage = splat_views(views, images, response.table, overlaps.exposure,
+                           overlaps.wb_gains, vignetting, height=VIEWS_HEIGHT,
+                           use=overlaps.connected if len(views) > 1 else None)
+    pano = coverage.lower_bound().astype(np.float32)
+    if not pano.any():
+        raise InputError(f"{args.image[0]}: the views measured nothing (every pixel black, or "
+                         "no two views overlap)")
+    projector = SH9Projector(pano.shape[1], pano.shape[0], "equirect", error_estimate=True,
+                             **options)
+    result = projector.project(pano)
+    coverage_sr = coverage.coverage_sr
+    clipped = coverage.clipped_light_fraction()
+    result.stats.update(coverage_sr=coverage_sr, clipped_light_fraction=clipped,
+                        clipped_fraction=float(coverage.clipped.mean()),
+                        radiometry="srgb-assumed" if response.method == "srgb" else "calibrated",
+                        response=response.method)
+    if coverage_sr < 4 * math.pi * 0.999:
+        warnings.append(f"the views saw {coverage_sr:.2f} of 4π = 12.57 sr "
+                        f"({coverage_sr / (4 * math.pi):.0%}): what no view saw is black in "
+                        "the SH9 (a lower bound of the light)")
+    if clipped > 0:
+        warnings.append(f"{clipped:.0%} of the light seen was clipped in every view that saw "
+                        "it; " + HEADSET_CLIPS)
+    else:
+        warnings.append(HEADSET_CLIPS)
+    for line in warnings:
+        say(command, "warning", line)
+    units = ("per second of exposure per unit gain (every view's exposure_s)"
+             if overlaps.metadata else "relative: the views' mean exposure renders 0.18 as "
+             "the curve's mid-grey")
+    return coefficient_message(
+        result, probe=args.probe, seq=0, time=os.path.getmtime(args.image[0]),
+        projection="views", views=len(views),
+        views_used=int(overlaps.connected.sum()) if len(views) > 1 else 1,
+        view_pairs=overlaps.pairs, radiance_scale=units, warnings=" | ".join(warnings))

@@ -267,6 +267,13 @@ class PassthroughFit:
         px_per_deg = self.sphere.shape[1] / 360.0
         self._near = _wrap_blur(self.sphere, self.sigma_deg * px_per_deg)
         self._wide = _wrap_blur(self.sphere, 3 * self.sigma_deg * px_per_deg)
+        # Where the sphere sees nothing (0: a projection's unseen part, a masked mount), its
+        # blur near the edge mixes that black in: samples whose blur reaches it are dropped
+        # (a region of zeros: the specks resampling rings to around bright edges are seen)
+        from .extend import sphere_holes
+        holes = sphere_holes(self.sphere)
+        self._seen = None if not holes.any() else _wrap_blur(
+            (~holes).astype(np.float32)[..., None], 3 * self.sigma_deg * px_per_deg)[..., None]
 
     # -- views -------------------------------------------------------------------------------
     def add_view(self, view: PassthroughView, image: np.ndarray) -> int:
@@ -298,6 +305,8 @@ class PassthroughFit:
         contrast = np.abs(np.log((near + tiny) / (wide + tiny))).max(axis=-1)
         ok = (lo[ys, xs] >= CODE_LO).all(-1) & (hi[ys, xs] <= CODE_HI).all(-1) \
             & (near > tiny).all(-1)
+        if self._seen is not None:
+            ok &= sample_equirect(self._seen, dirs)[..., 0] > 0.99
         half_diag2 = 0.25 * (view.w ** 2 + view.h ** 2)
         rho2 = ((xs + 0.5 - view.cx) ** 2 + (ys + 0.5 - view.cy) ** 2) / half_diag2
         self.views.append(view)
