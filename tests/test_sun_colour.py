@@ -116,11 +116,14 @@ def sky(case):
     return hdr, truth, coefficients
 
 
-@pytest.mark.parametrize("case", [HIGH_WARM_SUN, SUNSET], ids=["high-warm-sun", "sunset"])
-def test_a_plain_up_facing_meter_closes_the_sun_in_its_colour(camera, tmp_path, case):
-    """One frame and a plain up-facing lux meter: the closed sun within 15 % RMS irradiance
-    over all normals, coloured (rim or modelled), not neutral; with a chroma meter's CCT and
-    Duv (held toward a low sun, as docs/photometry.md says) within 10 %."""
+@pytest.mark.parametrize("case, within", [(HIGH_WARM_SUN, 0.05), (SUNSET, 0.15)],
+                         ids=["high-warm-sun", "sunset"])
+def test_a_plain_up_facing_meter_closes_the_sun_in_its_colour(camera, tmp_path, case, within):
+    """One frame and a plain up-facing lux meter: the closed sun within 5 % (high) and 15 %
+    (sunset) RMS irradiance over all normals, coloured (rim or modelled), where a neutral
+    closure spread over the clipped region was 13 % and 31 % off; with a chroma meter's CCT
+    and Duv within 10 % (it was 22 % at sunset). The errors are the method's (0.6-8 %), far
+    from float or JPEG-codec differences between machines."""
     hdr, truth, coefficients = sky(case)
     (frame,) = shoot(tmp_path, "sun", hdr, (0,), 8.0, 200)
     lux, _ = reading(hdr, (0.0, 1.0, 0.0))
@@ -129,16 +132,13 @@ def test_a_plain_up_facing_meter_closes_the_sun_in_its_colour(camera, tmp_path, 
     assert plain["meter_colour"] in ("rim", "modelled"), p.stderr
     assert plain["meter_closed_lux"] > 0
     error = relative_rms(plain["coefficients"], coefficients)
-    assert error < 0.15, error
-    # the closed sun is warm, as the truth is: more red than blue in what went in
-    seen = np.reshape(plain["coefficients"], (9, 3))[0]
-    assert seen[0] > seen[2]
-    # a chroma meter: its CCT and Duv (toward the sun when it is low: grazing otherwise)
-    low = case[0] < 15
-    normal = truth["direction"] if low else (0.0, 1.0, 0.0)
-    lux, (cct, duv) = reading(hdr, normal)
-    facing = ["--lux-facing", "sun"] if low else []
-    chroma = message(shlight("compute", frame, "--camera", camera, "--lux", lux, *facing,
+    assert error < within, error
+    assert ("by the sun's partly clipped rim" in p.stderr or "SPECTRL2" in p.stderr)
+    # the sun went where it is (within 3°), not to the middle of the clipped sky around it
+    assert np.dot(plain["meter_direction"], truth["direction"]) > np.cos(np.radians(3))
+    # a chroma meter (up-facing): its CCT and Duv
+    lux, (cct, duv) = reading(hdr, (0.0, 1.0, 0.0))
+    chroma = message(shlight("compute", frame, "--camera", camera, "--lux", lux,
                              "--lux-cct", f"{cct:.0f},{duv:.4f}"))
     assert chroma["meter_colour"] == "measured"
     error = relative_rms(chroma["coefficients"], coefficients)

@@ -106,6 +106,8 @@ METER_CASES = (("up, lux", "up", False), ("up, lux + CCT", "up", True),
                ("sun, lux + CCT", "sun", True), ("AZ,EL, lux", "az,el", False),
                ("AZ,EL, lux + CCT", "az,el", True))
 AIM_ERROR_DEG = 5.0
+#: The up-facing illuminance each panorama of :func:`sun` is scaled to (lux).
+DAYLIGHT_UP_LUX = 20000.0
 
 
 def _meter_reading(hdr, normal):
@@ -120,7 +122,8 @@ def _meter_reading(hdr, normal):
 def sun(names):
     """{scene: (RMS irradiance error of one auto-exposed frame, then with the meter of each
     :data:`METER_CASES`)}. The true sun is the panorama's brightest pixel; the meter's
-    reading is exact (its own tolerance is not simulated)."""
+    reading is exact (its own tolerance is not simulated). Each panorama is scaled to an
+    outdoor day's :data:`DAYLIGHT_UP_LUX` (a sun is told from a lamp by daylight)."""
     cam = CameraSim()
     response = cam.true_response()
     weights = up_weights(Equirect(512, 256))
@@ -128,11 +131,13 @@ def sun(names):
     out = {}
     for name in names:
         hdr = np.maximum(read_image(str(HDRI / f"{name}.exr")), 0).astype(np.float32)
+        hdr *= np.float32(DAYLIGHT_UP_LUX / _truth_lux(hdr))
         truth = sh.sphere_irradiance(projector.project(hdr).coefficients)
         t = auto_exposure(hdr)
         frame = cam.capture(hdr, t)
         radiance = response.linearise(frame, t)
         clipped = (frame == 255).any(axis=2)
+        clip_level = response.linearise(np.full((1, 1, 3), 255, np.uint8), t).reshape(3)
         brightest = np.unravel_index(np.argmax(luminance(hdr)), hdr.shape[:2])
         sun_direction = weights[2][brightest]
         # the direction the user says: the sun's, tilted AIM_ERROR_DEG toward the zenith
@@ -145,7 +150,8 @@ def sun(names):
             lux, cct = _meter_reading(hdr, UP if facing == "up" else sun_direction)
             r, _ = close_clipped(radiance, clipped, weights, lux,
                                  facing={"up": None, "sun": "sun", "az,el": said}[facing],
-                                 colour=cct if chroma else None)
+                                 colour=cct if chroma else None, codes=frame,
+                                 clip_level=clip_level)
             closed.append(r)
         errs = []
         for r in closed:

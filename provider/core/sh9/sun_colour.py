@@ -103,23 +103,30 @@ def solar_spectrum(elevation_deg: float, direct: bool = True, **atmosphere):
     return out["wavelength"], out["dni" if direct else "dhi"][:, 0]
 
 
-@functools.lru_cache(maxsize=512)
-def _beam_rgb(elevation_tenths: int) -> tuple | None:
-    rgb = spectrum_rgb(*solar_spectrum(elevation_tenths / 10.0))
-    return None if rgb is None else tuple(float(v) for v in rgb)
+@functools.lru_cache(maxsize=1024)
+def _beam_rgb(elevation_tenths: int, aerosol: float) -> tuple | None:
+    rgb = spectrum_rgb(*solar_spectrum(elevation_tenths / 10.0,
+                                       aerosol_turbidity_500nm=aerosol))
+    return None if rgb is None or np.any(rgb <= 0) else tuple(float(v) for v in rgb)
 
 
-def modelled_sun_rgb(elevation_deg: float) -> np.ndarray | None:
+def modelled_sun_rgb(elevation_deg: float, aerosol: float | None = None) -> np.ndarray | None:
     """Linear Rec. 709 RGB (unit luminance) of the direct beam at ``elevation_deg`` in
-    :data:`ATMOSPHERE` (cached per 0.1°: a live meter asks every frame), or None below
-    0.5° (SPECTRL2's air mass diverges at the horizon) or without a beam in the visible.
-    ImportError without pvlib."""
+    :data:`ATMOSPHERE` (its aerosol optical depth at 500 nm ``aerosol`` if given; cached per
+    0.1°: a live meter asks every frame), or None below 0.5° (SPECTRL2's air mass diverges
+    at the horizon) or without a beam in the visible. ImportError without pvlib."""
     if not elevation_deg >= 0.5:
         return None
-    hit = _beam_rgb(int(round(min(float(elevation_deg), 90.0) * 10)))
+    tau = ATMOSPHERE["aerosol_turbidity_500nm"] if aerosol is None else float(aerosol)
+    hit = _beam_rgb(int(round(min(float(elevation_deg), 90.0) * 10)), tau)
     return None if hit is None else np.array(hit)
 
 
+#: The clearest and the haziest days a sun's colour is read within (aerosol optical depth
+#: at 500 nm: a very clean sky, a hazy one): the rim picks within the beams they span at
+#: the sun's elevation (at 35°: 5,130-4,230 K; at 4°: 3,060-1,570 K). Outside it, what the
+#: rim reads is the sky, clouds or glare around the sun, not the sun.
+AEROSOL_RANGE = (0.03, 0.6)
 #: The sun-colour line the rim is read along: Planckian colours 1,000-25,000 K, 400 steps
 #: in mired (≈ 2.4 mired apart).
 _LINE_MIRED = np.linspace(1e6 / CCT_RANGE[1], 1e6 / CCT_RANGE[0], 400)
@@ -148,7 +155,8 @@ def _line(duv_e4: int) -> np.ndarray:
 
 
 def rim_colour(measured: np.ndarray, clipped: np.ndarray, clip_level, sky,
-               prior_k: float = D65_K, duv: float = 0.0) -> tuple[np.ndarray, bool]:
+               prior_k: float = D65_K, duv: float = 0.0,
+               allowed_k=CCT_RANGE) -> tuple[np.ndarray, bool]:
     """(linear Rec. 709 RGB of unit luminance, whether the rim decided it) of the light
     whose rim is ``measured`` (N, 3) radiance with ``clipped`` (N, 3) channels at
     ``clip_level`` (3,). A point of the Planckian locus moved ``duv``:
@@ -157,7 +165,8 @@ def rim_colour(measured: np.ndarray, clipped: np.ndarray, clip_level, sky,
       ``sky`` (3,), taken out first: the median log ratio over those pixels) places it;
     * every partly clipped pixel bounds it: a clipped channel over a measured one is at
       least the clip level over the measured value;
-    * within the bounds and without a ratio, ``prior_k`` (the modelled sun, or D65) stands.
+    * within the bounds and without a ratio, ``prior_k`` (the modelled sun, or D65) stands;
+    * it stays within ``allowed_k`` (K, K): the colours a sun can have there.
 
     "Decided": a ratio placed it, or a bound moved it off the prior."""
     measured = np.asarray(measured, np.float64).reshape(-1, 3)
@@ -166,6 +175,8 @@ def rim_colour(measured: np.ndarray, clipped: np.ndarray, clip_level, sky,
     line = _line(int(round(float(duv) * 1e4)))
     logs = np.log(line)
     prior = np.abs(_LINE_MIRED - 1e6 / float(prior_k))
+    lo, hi = sorted(1e6 / np.asarray(allowed_k, np.float64))
+    outside = np.where((_LINE_MIRED >= lo - 1e-9) & (_LINE_MIRED <= hi + 1e-9), 0.0, np.inf)
     partly = clipped.any(axis=1) & ~clipped.all(axis=1)
     if not partly.any():
         return line[int(np.argmin(prior))], False
@@ -193,10 +204,10 @@ def rim_colour(measured: np.ndarray, clipped: np.ndarray, clip_level, sky,
                 ratios += (logs[:, j] - logs[:, i] - ratio) ** 2
                 placed = True
     if placed:
-        best = int(np.argmin(ratios + bounds))
+        best = int(np.argmin(ratios + bounds + outside))
     else:                   # the prior, or the nearest colour the bounds allow
-        best = int(np.argmin(bounds + 1e-9 * prior))
-    return line[best], placed or bounds[int(np.argmin(prior))] > 0
+        best = int(np.argmin(bounds + 1e-9 * prior + outside))
+    return line[best], placed or bounds[int(np.argmin(prior + outside))] > 0
 
 
 @dataclass
@@ -263,9 +274,12 @@ def sun_colour(rays, omega, radiance, channels_clipped, clip_level, sky,
             _angles_deg(rays[core], centre).max() <= SUN_SPREAD_DEG):
         return neutral
     elevation = float(np.degrees(np.arcsin(np.clip(centre[1], -1.0, 1.0))))
-    warning, prior_k, duv = "", D65_K, 0.0
+    warning, prior_k, duv, allowed = "", D65_K, 0.0, CCT_RANGE
     try:
         model = modelled_sun_rgb(elevation)
+        span = [modelled_sun_rgb(elevation, tau) for tau in AEROSOL_RANGE]
+        if all(b is not None and cct_duv(b) for b in span):
+            allowed = tuple(cct_duv(b)[0] for b in span)
     except ImportError:
         model = None
         warning = ("the clipped region is the sun but pvlib is not installed: its colour "
@@ -279,7 +293,7 @@ def sun_colour(rays, omega, radiance, channels_clipped, clip_level, sky,
         near = _angles_deg(rays, centre) <= reach
         rgb, decided = rim_colour(np.asarray(radiance)[near],
                                   np.asarray(channels_clipped)[near], clip_level, sky,
-                                  prior_k, duv)
+                                  prior_k, duv, allowed)
         if decided:
             return SunColour(rgb / float(luminance(rgb)), "rim", core, "")
     if told is not None:
