@@ -1,28 +1,34 @@
 """The colour of a clipped sun when the lux meter reads no colour (no I/O).
 
 A plain lux meter says how much light the camera clipped, not its colour; a chroma meter's
-CCT and Duv say both (:mod:`.meter`). Without one, what is known of the clipped light's
-colour, best first (:func:`sun_colour`; the message's ``meter_colour`` says which):
+CCT and Duv say both (:mod:`.meter`). Without one, a clipped region is the sun when its core
+(the pixels clipped in the most channels) is small (within :data:`SUN_SPREAD_DEG` of its
+centre), above the horizon and the meter reads daylight (:data:`DAYLIGHT_LUX`). Then its
+colour (:func:`sun_colour`; the message's ``meter_colour`` says which):
 
-* ``rim``: the clipped region's partly clipped rim. A warm sun's glare clips red first: at
-  its rim green and blue are still measured and red is at least its clip level. Sun colours
-  lie along one line (the Planckian locus, at the modelled Duv): the measured channels' ratio
-  picks the point on it, and each clipped channel's clip level bounds it (the sun's red over
-  green is at least the clip level over the measured green). The rim's own sky is taken
-  out first (the median of the ring just outside the region).
-* ``modelled``: the region is a sun (small: within :data:`SUN_SPREAD_DEG` of its centre,
-  and above the horizon) but its rim says nothing: the direct beam's spectrum at the sun's
-  elevation from pvlib's SPECTRL2 (Bird & Riordan 1986; the air mass by Kasten 1966, a clear
-  sky of :data:`ATMOSPHERE`), integrated against the CIE 1931 2° colour matching functions
-  (:data:`CMF_10NM`) and taken to linear Rec. 709 without chromatic adaptation: the frame's
-  RGB, as every colour field reads it, a camera's white balance held at daylight. The
-  model's clear sky is a guess at the day's haze: at 30° it moves the beam from 5,060 K
-  (τ₅₀₀ 0.05) to 4,320 K (0.5); at 4°, 2,920 to 1,790 K. Where the rim measures, it wins.
-* ``neutral``: nothing is known (a clipped sky, a lamp, no pvlib): equal R, G, B.
+* ``modelled``: the direct beam's spectrum at the core's elevation from pvlib's SPECTRL2
+  (Bird & Riordan 1986; the air mass by Kasten 1966; a clear sky of :data:`ATMOSPHERE`),
+  integrated against the CIE 1931 2° colour matching functions (:data:`CMF_10NM`) and
+  taken to linear Rec. 709 without chromatic adaptation: the frame's RGB as every colour
+  field (``cct_k``) reads it. The day's haze is unknown: at 35° the beam is 5,190 K under a
+  very clean sky (aerosol optical depth 0.03 at 500 nm), 5,070 K in the model's (0.1) and
+  4,340 K under a hazy one (0.6); at 4°, 3,000, 2,740 and 1,650 K (:data:`AEROSOL_RANGE`).
+* ``rim``: the partly clipped rim says more. A warm sun's glare clips red first: there
+  green and blue are still measured and red is at least its clip level. Sun colours lie
+  along one line (the Planckian locus, at the model's Duv): the measured channels' ratio
+  (the sky around taken out: the median of the ring just outside the region) places the
+  sun on it, each clipped channel's clip level bounds it, and it stays within the beams
+  the haze range gives at that elevation (outside them the rim reads clouds or sky).
+* ``neutral``: not a sun (a clipped sky, a lamp, a region below the horizon), or no pvlib:
+  equal R, G, B.
 
-pvlib (and pandas, scipy) are imported only here and only for a sun (``pip install
-'shlight[sun]'``); a Raspberry Pi's core runs without them, and then a sun is closed
-neutral with a warning.
+The closed light goes into the core, where the sun is, not over the whole region: a low
+sun's region is mostly circumsolar sky clipped in red and green (at 4°, 30° across), and
+there the sun is the peak of the channel still measured.
+
+pvlib (with pandas and scipy) is imported only here and only for a sun (``pip install
+'shlight[sun]'``): a Raspberry Pi's core runs without it, and a sun is then closed neutral
+with a warning.
 """
 from __future__ import annotations
 
@@ -107,14 +113,15 @@ def solar_spectrum(elevation_deg: float, direct: bool = True, **atmosphere):
 def _beam_rgb(elevation_tenths: int, aerosol: float) -> tuple | None:
     rgb = spectrum_rgb(*solar_spectrum(elevation_tenths / 10.0,
                                        aerosol_turbidity_500nm=aerosol))
-    return None if rgb is None or np.any(rgb <= 0) else tuple(float(v) for v in rgb)
+    return None if rgb is None else tuple(float(v) for v in rgb)
 
 
 def modelled_sun_rgb(elevation_deg: float, aerosol: float | None = None) -> np.ndarray | None:
     """Linear Rec. 709 RGB (unit luminance) of the direct beam at ``elevation_deg`` in
     :data:`ATMOSPHERE` (its aerosol optical depth at 500 nm ``aerosol`` if given; cached per
     0.1°: a live meter asks every frame), or None below 0.5° (SPECTRL2's air mass diverges
-    at the horizon) or without a beam in the visible. ImportError without pvlib."""
+    at the horizon) or without a beam in the visible. A red sun low in a hazy sky is
+    beyond Rec. 709's gamut: its blue is then negative. ImportError without pvlib."""
     if not elevation_deg >= 0.5:
         return None
     tau = ATMOSPHERE["aerosol_turbidity_500nm"] if aerosol is None else float(aerosol)
@@ -124,7 +131,7 @@ def modelled_sun_rgb(elevation_deg: float, aerosol: float | None = None) -> np.n
 
 #: The clearest and the haziest days a sun's colour is read within (aerosol optical depth
 #: at 500 nm: a very clean sky, a hazy one): the rim picks within the beams they span at
-#: the sun's elevation (at 35°: 5,130-4,230 K; at 4°: 3,060-1,570 K). Outside it, what the
+#: the sun's elevation (at 35°: 5,190-4,340 K; at 4°: 3,000-1,650 K). Outside it, what the
 #: rim reads is the sky, clouds or glare around the sun, not the sun.
 AEROSOL_RANGE = (0.03, 0.6)
 #: The sun-colour line the rim is read along: Planckian colours 1,000-25,000 K, 400 steps
@@ -296,6 +303,7 @@ def sun_colour(rays, omega, radiance, channels_clipped, clip_level, sky,
                                   prior_k, duv, allowed)
         if decided:
             return SunColour(rgb / float(luminance(rgb)), "rim", core, "")
-    if told is not None:
+    if told is not None:            # (a colour beyond Rec. 709 clamped into it)
+        model = np.maximum(model, 0.0)
         return SunColour(model / float(luminance(model)), "modelled", core, "")
     return SunColour(np.ones(3), "neutral", core, warning)
