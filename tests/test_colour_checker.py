@@ -156,3 +156,24 @@ def test_a_photo_without_a_chart_is_one_line(tmp_path, cameras):
     p = shlight("calibrate-response", *bracket, "--checker", blank, "-o", tmp_path / "c.json")
     assert p.returncode == 2 and "no ColorChecker" in p.stderr
     assert "Traceback" not in p.stderr and not (tmp_path / "c.json").exists()
+
+
+def test_the_reflection_cube_takes_the_matrix_too(cameras, tmp_path):
+    """``shlight environment --camera``: the cube's texels through the same matrix as the
+    SH9 (its mean colour is the coefficients' L00 colour, both corrected)."""
+    (coloured, _), (plain, _) = cameras
+    (frame,) = shoot(tmp_path, "room", tinted_room(6000.0), (0,), seed=2)
+    from provider.core.reflections.environment import EnvironmentProjector
+    from provider.live.probe.camerafile import load_camera
+    from provider.core.radiometry.images import read_image
+    rgb = read_image(str(frame))
+    h, w = rgb.shape[:2]
+    means = {}
+    for name, camera in (("colour", coloured), ("plain", plain)):
+        response = load_camera(camera)
+        cube = EnvironmentProjector(w, h, size=16, response=response).project(rgb)
+        means[name] = cube.mips[0].reshape(-1, 3).astype(np.float64).mean(axis=0)
+    matrix = np.array(json.loads(coloured.read_text())["params"]["colour_matrix"])
+    # the same frame, the same curve up to the matrix: the corrected mean is the matrix's
+    expected = matrix @ means["plain"]
+    np.testing.assert_allclose(means["colour"], expected, rtol=0.02)
