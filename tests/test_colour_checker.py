@@ -177,3 +177,24 @@ def test_the_reflection_cube_takes_the_matrix_too(cameras, tmp_path):
     # the same frame, the same curve up to the matrix: the corrected mean is the matrix's
     expected = matrix @ means["plain"]
     np.testing.assert_allclose(means["colour"], expected, rtol=0.02)
+
+
+def test_a_meter_closes_in_the_cameras_colour(tmp_path):
+    """The meter's luminance and a chroma meter's colour are Rec. 709's, the frame's RGB the
+    camera's: with a colour matrix the closed light, once through the matrix, has the
+    meter's lux and colour."""
+    from provider.core.geometry.projections import Equirect
+    from provider.core.radiometry.colour_temperature import cct_duv
+    from provider.core.sh9.meter import close_clipped, up_weights
+    matrix = np.linalg.inv(SENSOR)                      # this camera's own correction
+    matrix /= float(luminance(matrix @ np.ones(3)))
+    h, w = 32, 64
+    weights = up_weights(Equirect(w, h))
+    rad = np.full((h, w, 3), 1.0, np.float32)
+    clipped = np.zeros((h, w), bool)
+    clipped[6:8, 20:22] = True
+    out, c = close_clipped(rad, clipped, weights, lux=40.0, colour=(3000.0, 0.0),
+                           colour_matrix=matrix)
+    seen = matrix @ np.tensordot(weights[0], out.astype(np.float64), axes=([0, 1], [0, 1]))
+    assert float(luminance(seen)) == pytest.approx(40.0, rel=1e-4)
+    assert cct_duv(seen)[0] == pytest.approx(3000.0, rel=5e-3)

@@ -236,7 +236,8 @@ def _sun(radiance, clipped, blob, pixels, rays, omega, lux, codes, clip_level):
 
 
 def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float,
-                  facing=None, colour=None, in_place=False, codes=None, clip_level=None):
+                  facing=None, colour=None, in_place=False, codes=None, clip_level=None,
+                  colour_matrix=None):
     """(radiance with the meter's missing light in the clipped blob, :class:`MeterClosure`).
 
     ``radiance``: (H, W, 3) float32 in cd/m²; ``clipped``: (H, W) bool, samples clipped in
@@ -246,7 +247,9 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
     (:mod:`.sun_colour` finds it); ``in_place``: add to ``radiance`` itself (no copy);
     ``codes``: (H, W, 3) the 8/16-bit frame whose top code marks a channel clipped in every
     frame (a bracket's minimum) and ``clip_level`` (3,) the radiance of that code: the rim's
-    channels (None: unknown, the sun's colour is modelled only)."""
+    channels (None: unknown, the sun's colour is modelled only); ``colour_matrix``: camera
+    RGB → Rec. 709 (camera.json's, :mod:`~provider.core.radiometry.checker`) or None: the
+    meter's luminance and colours are Rec. 709's, the frame's RGB the camera's."""
     cosw, omega, directions = weights
     omega = np.asarray(omega)
     n, labels = _blobs(clipped)
@@ -279,7 +282,8 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
         seen_rgb = np.tensordot(cosw, np.nan_to_num(radiance, nan=0.0, posinf=0.0,
                                                     neginf=0.0).astype(np.float64),
                                 axes=([0, 1], [0, 1]))
-    camera = float(luminance(seen_rgb))
+    to709 = np.eye(3) if colour_matrix is None else np.asarray(colour_matrix, np.float64)
+    camera = float(luminance(to709 @ seen_rgb))
     closure = MeterClosure(float(lux), camera, facing=tuple(float(v) for v in normal),
                            warning=wide)
     missing = float(lux) - camera
@@ -309,13 +313,16 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
         if seen_core > 0:
             pixels, seen_best = core, seen_core
     if colour is not None:                      # a chroma meter: the rest of its light's colour
-        rest = np.maximum(float(lux) * rgb_of_cct(*colour) - seen_rgb, 0.0)
+        rest = np.maximum(float(lux) * rgb_of_cct(*colour) - to709 @ seen_rgb, 0.0)
         if float(luminance(rest)) > 0:
-            rgb, source = rest / float(luminance(rest)), "measured"
-    else:
+            rgb, source = np.linalg.solve(to709, rest), "measured"
+    else:               # (the rim's colour is of the frame's RGB; the model's, Rec. 709's)
         rgb, source = found.rgb, found.source
+        if source == "modelled":
+            rgb = np.linalg.solve(to709, rgb)
         if found.warning:
             closure.warning = found.warning
+    rgb = rgb / max(float(luminance(to709 @ rgb)), 1e-12)   # unit luminance, as the meter
     out = radiance if in_place and radiance.flags.c_contiguous else radiance.copy()
     added = (np.float32(missing / seen_best) * rgb).astype(np.float32)
     out.reshape(-1, 3)[pixels] += added           # (a view: out is contiguous)
@@ -424,11 +431,15 @@ def project_with_meter(projector, frames, times, gain, f_number, lux: float, *,
                             table.reshape(top + 1, -1)[top], np.float64) * np.ones(3)
     closed, closure = close_clipped(radiance, clipped, _meter_weights(projector, projection),
                                     lux, facing=facing, colour=colour, in_place=True,
-                                    codes=lowest, clip_level=clip_level)
+                                    codes=lowest, clip_level=clip_level,
+                                    colour_matrix=projector.colour_matrix)
     new = projector.project(closed, error_estimate, tracker, units=UNITS_ABSOLUTE)
     if stats is None:        # what the integer pass would have said of the frame(s)
         # the camera's own L00: the closed frame's less what the closure added
-        seen = new.coefficients[0] - _closure_l00(projector, closure) * projector.exposure
+        added = _closure_l00(projector, closure) * projector.exposure
+        if projector.colour_matrix is not None:     # (the result is in Rec. 709)
+            added = projector.colour_matrix @ added
+        seen = new.coefficients[0] - added
         captured_stats(projector, own, seen, lowest, table, response,
                        merged=merged, gain=gain)
     else:
