@@ -161,6 +161,59 @@ def sun(names):
     return out
 
 
+#: The analytic suns of docs/photometry.md (elevation °, aerosol optical depth at 500 nm):
+#: a high warm sun, a sunset, and others (:mod:`provider.bench.sun_sky`).
+SUN_SKIES = ((35.0, 0.5), (4.0, 0.25), (60.0, 0.25), (15.0, 0.5), (8.0, 0.5), (2.0, 0.25))
+
+
+def _jpeg(frame: np.ndarray) -> np.ndarray:
+    """The frame through a JPEG at quality 95 (Pillow, 4:2:0), as a camera's still."""
+    import io
+
+    from PIL import Image
+    data = io.BytesIO()
+    Image.fromarray(frame).save(data, "JPEG", quality=95)
+    return np.asarray(Image.open(io.BytesIO(data.getvalue())).convert("RGB"))
+
+
+def sun_skies(cases=SUN_SKIES):
+    """{(elevation, aerosol): (RMS irradiance error of one JPEG closed by an up-facing
+    plain lux meter, its ``meter_colour``, the same with a chroma meter's CCT and Duv)}:
+    the camera calibrated once on the apartment re-lit (``perturb_panorama``, ±4 EV, f/2,
+    ISO 100), each sky shot at f/8, ISO 200 (the test's rooms: tests/test_sun_colour.py)."""
+    from ..core.sh9.meter import project_with_meter
+    from .headset_sim import perturb_panorama
+    from .sun_sky import HAZY, sunny_sky
+    room = perturb_panorama(_scene("apartment"), seed=7).astype(np.float64)
+    room *= ROOM_CD_M2 / float(luminance(room.reshape(-1, 3)).mean())
+    frames, times = _bracket(room, (-4, -2, 0, 2, 4), 2.0, 100, seed=1)
+    frames = [_jpeg(f) for f in frames]
+    response = calibrate_best(frames, times)
+    projector = SH9Projector(512, 256, "equirect", response=response)
+    merged = merge(frames, times, response, gain=1.0).radiance
+    response.params["absolute"] = calibrate_absolute(projector.up_illuminance(merged),
+                                                     _truth_lux(room), 2.0, 100)
+    projector = SH9Projector(512, 256, "equirect", response=response)
+    out = {}
+    for elevation, tau in cases:
+        hdr, _ = sunny_sky(512, 256, elevation, atmosphere={**HAZY,
+                                                           "aerosol_turbidity_500nm": tau})
+        truth = sh.sphere_irradiance(projector.project(hdr.astype(np.float32),
+                                                       units="cd/m²").coefficients)
+        (frame,), (t,) = _bracket(hdr, (0,), 8.0, 200, seed=1)
+        frame = _jpeg(frame)
+        lux, cct = _meter_reading(hdr, UP)
+        errors, said = [], "neutral"
+        for colour in (None, cct):
+            r, closure = project_with_meter(projector, [frame], [t], 2.0, 8.0, lux,
+                                            colour=colour)
+            e = sh.sphere_irradiance(r.coefficients)
+            errors.append(float(np.sqrt(np.mean((e - truth) ** 2)) / np.sqrt(np.mean(truth ** 2))))
+            said = closure.colour_source if colour is None else said
+        out[(elevation, tau)] = (errors[0], said, errors[1])
+    return out
+
+
 def blackbody_rgb(t_k: float) -> np.ndarray:
     """Linear Rec. 709 RGB of a blackbody (CIE 1931 2°, no adaptation), max 1, from
     colour-science (the test extra: the reference, never the product's code)."""
@@ -213,6 +266,12 @@ def main(argv=None) -> int:
     for name, (trusted, plain) in spans.items():
         print(f"  {name:9s} trusted-range weights {100 * trusted:+5.2f} %   plain hat "
               f"{100 * plain:+5.2f} %")
+    skies = sun_skies()
+    print("analytic clear skies, one JPEG, up-facing meter, RMS irradiance error: plain lux "
+          "(meter_colour); with CCT and Duv:")
+    for (elevation, tau), (plain, said, chroma) in skies.items():
+        print(f"  sun {elevation:4.0f}° aerosol {tau:4.2f}  {100 * plain:5.1f} % ({said})  "
+              f"{100 * chroma:5.1f} %")
     suns = sun(["sky", "dawn", "bridge", "city"])
     print("one auto-exposed frame, RMS irradiance error over all normals: without a meter; "
           "with one " + "; ".join(c[0] for c in METER_CASES) + ":")
