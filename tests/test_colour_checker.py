@@ -9,10 +9,7 @@ colour-science's ColorChecker reference (the test's truth; the product uses Open
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import warnings
-from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -24,29 +21,13 @@ from provider.core.radiometry.photometry import NOMINAL_CD_M2, luminance
 from provider.live.wire.message import validate
 
 from conftest import load_hdri
+from stilltools import jpeg_still, shlight
 
 #: The sensor's RGB of Rec. 709 light: its primaries mix the channels and its white balance
 #: (daylight-ish) leaves red high and blue low.
 SENSOR = np.array([[0.80, 0.25, -0.05], [0.10, 0.85, 0.05], [0.02, 0.20, 0.78]]) \
     * np.array([[1.4], [1.0], [0.6]])
 CAMERA_K = 1.3 / NOMINAL_CD_M2
-
-
-def shlight(*args, timeout=300):
-    return subprocess.run([sys.executable, "-m", "provider.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=timeout)
-
-
-def still(path, rgb, t: float, n: float = 4.0, iso: int = 100) -> None:
-    """An 8-bit JPEG with EXIF ExposureTime, FNumber and ISO, as a camera writes them."""
-    from PIL.TiffImagePlugin import IFDRational
-    exif = Image.Exif()
-    ifd = exif.get_ifd(0x8769)
-    t_, n_ = (Fraction(v).limit_denominator(1_000_000) for v in (t, n))
-    ifd[0x829A] = IFDRational(t_.numerator, t_.denominator)
-    ifd[0x829D] = IFDRational(n_.numerator, n_.denominator)
-    ifd[0x8827] = int(iso)
-    Image.fromarray(np.ascontiguousarray(rgb)).save(path, exif=exif, quality=95)
 
 
 def shoot(folder, name, rec709, evs, n=4.0, iso=100, seed=0):
@@ -58,7 +39,7 @@ def shoot(folder, name, rec709, evs, n=4.0, iso=100, seed=0):
     paths = []
     for ev, f, t in zip(evs, frames, times):
         paths.append(folder / f"{name}_{ev:+g}.jpg")
-        still(paths[-1], f, t, n, iso)
+        jpeg_still(paths[-1], f, t, n, iso)
     return paths
 
 

@@ -10,13 +10,10 @@ real command with a camera.json calibrated once on another room."""
 from __future__ import annotations
 
 import json
-import subprocess
 import sys
-from fractions import Fraction
 
 import numpy as np
 import pytest
-from PIL import Image
 
 from provider.bench.camera_sim import CameraSim
 from provider.core.geometry import sh
@@ -28,6 +25,7 @@ from provider.core.sh9.meter import close_clipped, up_weights
 from provider.live.wire.message import validate
 
 from conftest import load_hdri
+from stilltools import jpeg_still, shlight
 
 pytest.importorskip("pvlib")      # the sun's model (the test extra); its absence: below
 
@@ -40,23 +38,6 @@ HIGH_WARM_SUN = (35.0, 0.5)
 SUNSET = (4.0, 0.25)
 
 
-def shlight(*args, timeout=300):
-    return subprocess.run([sys.executable, "-m", "provider.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=timeout)
-
-
-def still(path, rgb, t: float, n: float, iso: int) -> None:
-    """An 8-bit JPEG with EXIF ExposureTime, FNumber and ISO, as a camera writes them."""
-    from PIL.TiffImagePlugin import IFDRational
-    exif = Image.Exif()
-    ifd = exif.get_ifd(0x8769)
-    t_, n_ = (Fraction(v).limit_denominator(1_000_000) for v in (t, n))
-    ifd[0x829A] = IFDRational(t_.numerator, t_.denominator)
-    ifd[0x829D] = IFDRational(n_.numerator, n_.denominator)
-    ifd[0x8827] = int(iso)
-    Image.fromarray(np.ascontiguousarray(rgb)).save(path, exif=exif, quality=95)
-
-
 def shoot(folder, name, hdr, evs, n, iso):
     """Stills of a bracket metered at the mean luminance (K = 12.5) at f/n, ISO iso."""
     cam = CameraSim(gain=CAMERA_K * (iso / 100.0) / n ** 2, seed=1, **NOISY)
@@ -65,7 +46,7 @@ def shoot(folder, name, hdr, evs, n, iso):
     paths = []
     for ev, f, t in zip(evs, frames, times):
         paths.append(folder / f"{name}_{ev:+g}.jpg")
-        still(paths[-1], f, t, n, iso)
+        jpeg_still(paths[-1], f, t, n, iso)
     return paths
 
 
