@@ -474,11 +474,12 @@ def test_what_the_upstream_meter_closed_is_relayed(relay):
     describe its frame, not anything rebuilt here); a malformed one is refused."""
     fields = dict(meter_lux=98000.0, meter_camera_lux=31000.0, meter_closed_lux=67000.0,
                   meter_direction=[0.6, 0.8, 0.0], meter_facing=[0.0, 1.0, 0.0],
-                  meter_solid_angle_sr=0.002)
+                  meter_solid_angle_sr=0.002, meter_colour="modelled")
     up = message(coefficient_units="cd/m²", illuminance_lux=98000.0, **fields)
     got, _ = relay.case(up, "frames")
     [relayed] = [m for m in got if sh9(m) and m["coefficients"] == up["coefficients"]]
     assert {k: relayed.get(k) for k in fields} == fields
     for bad in (dict(meter_closed_lux=-1.0), dict(meter_facing=[0.0, 2.0, 0.0]),
-                dict(meter_direction=[0.0, "up", 0.0]), dict(meter_lux=True)):
+                dict(meter_direction=[0.0, "up", 0.0]), dict(meter_lux=True),
+                dict(meter_colour="guessed")):
         relay.case(message(**bad), "frames_rejected")

@@ -106,6 +106,8 @@ METER_CASES = (("up, lux", "up", False), ("up, lux + CCT", "up", True),
                ("sun, lux + CCT", "sun", True), ("AZ,EL, lux", "az,el", False),
                ("AZ,EL, lux + CCT", "az,el", True))
 AIM_ERROR_DEG = 5.0
+#: The up-facing illuminance each panorama of :func:`sun` is scaled to (lux).
+DAYLIGHT_UP_LUX = 20000.0
 
 
 def _meter_reading(hdr, normal):
@@ -120,7 +122,8 @@ def _meter_reading(hdr, normal):
 def sun(names):
     """{scene: (RMS irradiance error of one auto-exposed frame, then with the meter of each
     :data:`METER_CASES`)}. The true sun is the panorama's brightest pixel; the meter's
-    reading is exact (its own tolerance is not simulated)."""
+    reading is exact (its own tolerance is not simulated). Each panorama is scaled to an
+    outdoor day's :data:`DAYLIGHT_UP_LUX` (a sun is told from a lamp by daylight)."""
     cam = CameraSim()
     response = cam.true_response()
     weights = up_weights(Equirect(512, 256))
@@ -128,11 +131,13 @@ def sun(names):
     out = {}
     for name in names:
         hdr = np.maximum(read_image(str(HDRI / f"{name}.exr")), 0).astype(np.float32)
+        hdr *= np.float32(DAYLIGHT_UP_LUX / _truth_lux(hdr))
         truth = sh.sphere_irradiance(projector.project(hdr).coefficients)
         t = auto_exposure(hdr)
         frame = cam.capture(hdr, t)
         radiance = response.linearise(frame, t)
         clipped = (frame == 255).any(axis=2)
+        clip_level = response.linearise(np.full((1, 1, 3), 255, np.uint8), t).reshape(3)
         brightest = np.unravel_index(np.argmax(luminance(hdr)), hdr.shape[:2])
         sun_direction = weights[2][brightest]
         # the direction the user says: the sun's, tilted AIM_ERROR_DEG toward the zenith
@@ -145,13 +150,67 @@ def sun(names):
             lux, cct = _meter_reading(hdr, UP if facing == "up" else sun_direction)
             r, _ = close_clipped(radiance, clipped, weights, lux,
                                  facing={"up": None, "sun": "sun", "az,el": said}[facing],
-                                 colour=cct if chroma else None)
+                                 colour=cct if chroma else None, codes=frame,
+                                 clip_level=clip_level)
             closed.append(r)
         errs = []
         for r in closed:
             e = sh.sphere_irradiance(projector.project(r).coefficients)
             errs.append(float(np.sqrt(np.mean((e - truth) ** 2)) / np.sqrt(np.mean(truth ** 2))))
         out[name] = tuple(errs)
+    return out
+
+
+#: The analytic suns of docs/photometry.md (elevation °, aerosol optical depth at 500 nm):
+#: a high warm sun, a sunset, and others (:mod:`provider.bench.sun_sky`).
+SUN_SKIES = ((35.0, 0.5), (4.0, 0.25), (60.0, 0.25), (15.0, 0.5), (8.0, 0.5), (2.0, 0.25))
+
+
+def _jpeg(frame: np.ndarray) -> np.ndarray:
+    """The frame through a JPEG at quality 95 (Pillow, 4:2:0), as a camera's still."""
+    import io
+
+    from PIL import Image
+    data = io.BytesIO()
+    Image.fromarray(frame).save(data, "JPEG", quality=95)
+    return np.asarray(Image.open(io.BytesIO(data.getvalue())).convert("RGB"))
+
+
+def sun_skies(cases=SUN_SKIES):
+    """{(elevation, aerosol): (RMS irradiance error of one JPEG closed by an up-facing
+    plain lux meter, its ``meter_colour``, the same with a chroma meter's CCT and Duv)}:
+    the camera calibrated once on the apartment re-lit (``perturb_panorama``, ±4 EV, f/2,
+    ISO 100), each sky shot at f/8, ISO 200 (the test's rooms: tests/test_sun_colour.py)."""
+    from ..core.sh9.meter import project_with_meter
+    from .headset_sim import perturb_panorama
+    from .sun_sky import HAZY, sunny_sky
+    room = perturb_panorama(_scene("apartment"), seed=7).astype(np.float64)
+    room *= ROOM_CD_M2 / float(luminance(room.reshape(-1, 3)).mean())
+    frames, times = _bracket(room, (-4, -2, 0, 2, 4), 2.0, 100, seed=1)
+    frames = [_jpeg(f) for f in frames]
+    response = calibrate_best(frames, times)
+    projector = SH9Projector(512, 256, "equirect", response=response)
+    merged = merge(frames, times, response, gain=1.0).radiance
+    response.params["absolute"] = calibrate_absolute(projector.up_illuminance(merged),
+                                                     _truth_lux(room), 2.0, 100)
+    projector = SH9Projector(512, 256, "equirect", response=response)
+    out = {}
+    for elevation, tau in cases:
+        hdr, _ = sunny_sky(512, 256, elevation, atmosphere={**HAZY,
+                                                           "aerosol_turbidity_500nm": tau})
+        truth = sh.sphere_irradiance(projector.project(hdr.astype(np.float32),
+                                                       units="cd/m²").coefficients)
+        (frame,), (t,) = _bracket(hdr, (0,), 8.0, 200, seed=1)
+        frame = _jpeg(frame)
+        lux, cct = _meter_reading(hdr, UP)
+        errors, said = [], "neutral"
+        for colour in (None, cct):
+            r, closure = project_with_meter(projector, [frame], [t], 2.0, 8.0, lux,
+                                            colour=colour)
+            e = sh.sphere_irradiance(r.coefficients)
+            errors.append(float(np.sqrt(np.mean((e - truth) ** 2)) / np.sqrt(np.mean(truth ** 2))))
+            said = closure.colour_source if colour is None else said
+        out[(elevation, tau)] = (errors[0], said, errors[1])
     return out
 
 
@@ -207,6 +266,12 @@ def main(argv=None) -> int:
     for name, (trusted, plain) in spans.items():
         print(f"  {name:9s} trusted-range weights {100 * trusted:+5.2f} %   plain hat "
               f"{100 * plain:+5.2f} %")
+    skies = sun_skies()
+    print("analytic clear skies, one JPEG, up-facing meter, RMS irradiance error: plain lux "
+          "(meter_colour); with CCT and Duv:")
+    for (elevation, tau), (plain, said, chroma) in skies.items():
+        print(f"  sun {elevation:4.0f}° aerosol {tau:4.2f}  {100 * plain:5.1f} % ({said})  "
+              f"{100 * chroma:5.1f} %")
     suns = sun(["sky", "dawn", "bridge", "city"])
     print("one auto-exposed frame, RMS irradiance error over all normals: without a meter; "
           "with one " + "; ".join(c[0] for c in METER_CASES) + ":")

@@ -22,6 +22,11 @@ def add_arguments(p) -> None:
                         "while the bracket was taken; camera.json then turns every later "
                         "frame's own exposure (time, f-number, ISO) into cd/m² "
                         "(docs/photometry.md)")
+    p.add_argument("--checker", default=None, metavar="PHOTO",
+                   help="an 8-bit photo by this camera of an X-Rite ColorChecker (24 "
+                        "patches) under the light to measure: camera.json then holds the "
+                        "camera's white balance and 3×3 colour matrix, applied by every "
+                        "command that takes --camera (docs/photometry.md)")
     p.add_argument("--f-number", type=float, default=None, metavar="N",
                    help="with --lux: the aperture, where the frames' EXIF does not say it")
     p.add_argument("--iso", type=float, default=None, metavar="S",
@@ -76,13 +81,17 @@ def run(args) -> int:
     if args.lux is not None:
         response.params["absolute"] = absolute_scale(response, images, times, args.lux,
                                                      f_number, iso, args.projection)
+    if args.checker is not None:            # the camera's colour (provider/cli/checker.py)
+        from .checker import checker_params
+        response.params.update(checker_params(response, args.checker))
     with camera.writing() as tmp:
         save_camera(response, tmp)
     with picture.writing() as tmp:
         plot_response(response, tmp)
     png = picture.path
+    from .checker import checker_lines
     print("\n".join(summary_lines(response) + quality_lines(response)
-                    + absolute_lines(response)))
+                    + absolute_lines(response) + checker_lines(response)))
     print(f"wrote {args.output} and {png}")
     return 0
 
@@ -129,6 +138,8 @@ def check_arguments(args):
             raise InputError(f"{name} is for --lux (the absolute scale)")
         if v is not None:
             check_physical(name, v, bounds)
+    if args.checker is not None and not os.path.isfile(args.checker):
+        raise InputError(f"--checker {args.checker}: no such photo")
     if len(args.frames) < 3:
         raise InputError(f"calibration needs at least 3 frames of one static view, got "
                          f"{len(args.frames)}")

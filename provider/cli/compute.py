@@ -123,8 +123,19 @@ def meter_closed(projector, images, times, gain, f_number, lux, command, facing,
         say(command, "note", f"the meter (facing ({f})) closed {closure.closed_lux:.4g} of its "
                              f"{lux:.4g} lux ({closure.closed_lux / lux:.0%}) in the clipped "
                              f"region toward ({d}), {closure.solid_angle_sr:.3g} sr, "
-                             + (f"coloured R:G:B {rgb} by its CCT" if colour else "neutral"))
+                             + _colour_words(closure, rgb))
     return new
+
+
+def _colour_words(closure, rgb: str) -> str:
+    """How the closed light was coloured, for the note (docs/photometry.md)."""
+    from ..core.radiometry.colour_temperature import cct_duv
+    told = cct_duv(closure.colour)
+    kelvin = f", {told[0]:,.0f} K" if told and closure.colour_source != "neutral" else ""
+    return {"measured": f"coloured R:G:B {rgb} by its CCT",
+            "rim": f"coloured R:G:B {rgb}{kelvin} by the sun's partly clipped rim",
+            "modelled": f"coloured R:G:B {rgb}{kelvin} as the sun's beam at its elevation "
+                        "(SPECTRL2)"}.get(closure.colour_source, "neutral")
 
 
 def exposure_of(exposures):

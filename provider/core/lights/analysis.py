@@ -155,15 +155,19 @@ class LightsResult:
         ``ñᵀAñ + Σ_k I_k max(0, n·d_k)`` (not clamped)."""
         return model_irradiance(self.ambient, self.lights, normals)
 
-    def transformed(self, scale: float = 1.0, rotation=None, sh_rotation=None) -> "LightsResult":
+    def transformed(self, scale: float = 1.0, rotation=None, sh_rotation=None,
+                    colour=None) -> "LightsResult":
         """The same lights in other units and another frame, as the engine treats its
         coefficients: radiance × ``scale`` (exposure), then the sensor ``rotation`` (3×3,
-        camera → world) with ``sh_rotation`` its 9×9 SH matrix (:func:`sh.sh_rotation`)."""
+        camera → world) with ``sh_rotation`` its 9×9 SH matrix (:func:`sh.sh_rotation`);
+        ``colour``: a 3×3 colour matrix (camera RGB → Rec. 709) applied to every RGB."""
         R = None if rotation is None else np.asarray(rotation, np.float64)
-        lights = [replace(light, irradiance=light.irradiance * scale, flux=light.flux * scale,
+        M = np.eye(3) if colour is None else np.asarray(colour, np.float64)
+        lights = [replace(light, irradiance=M @ light.irradiance * scale,
+                          flux=M @ light.flux * scale,
                           direction=light.direction if R is None else R @ light.direction)
                   for light in self.lights]
-        ambient = self.ambient * scale
+        ambient = self.ambient @ M.T * scale
         if sh_rotation is not None:
             ambient = sh_rotation @ ambient
         return replace(self, lights=lights, ambient=ambient)

@@ -11,7 +11,9 @@
 * :mod:`.bracket`: brackets of one view merged into scene-referred light;
 * :mod:`.exif`: a still's own exposure (ExposureTime, FNumber, ISO) from its EXIF;
 * :mod:`.photometry`: absolute units (cd/m², lux, EV100) from a frame's exposure;
-* :mod:`.colour_temperature`: CCT and Duv of linear Rec. 709 light.
+* :mod:`.colour_temperature`: CCT and Duv of linear Rec. 709 light;
+* :mod:`.checker`: a camera's white balance and 3×3 colour matrix from a ColorChecker
+  (OpenCV's mcc and ccm).
 
 May import: numpy, OpenCV, OpenEXR, simplejpeg, :mod:`provider.core.errors`. Nothing of geometry or the
 products.

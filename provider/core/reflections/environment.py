@@ -44,6 +44,7 @@ from .work_image import WorkImage
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from ..geometry import projections_exr  # registers exr-latlong, exr-cube; the cube's rules
 from ..radiometry import blocks
+from ..radiometry.checker import colour_matrix
 from ..radiometry.decode import FrameDecoder, image_array
 from ..options import check_options, exposure_scale, freeze_options
 from ..blas import one_blas_thread
@@ -136,6 +137,7 @@ class EnvironmentProjector(FrameDecoder):
             raise InputError(str(exc)) from None
         check_options(encoding=encoding, exposure=exposure, rotation=rotation)
         self._init_decoder(width, height, encoding, exposure, response)
+        self.colour_matrix = colour_matrix(response)     # camera RGB → Rec. 709, or None
         try:
             full = (projection if isinstance(projection, Projection)
                     else make_projection(projection, width, height, **options))
@@ -432,6 +434,8 @@ class EnvironmentProjector(FrameDecoder):
                 raise InputError(
                     f"the lighting overflows at exposure {scale:g}: the cube's float32 texels "
                     f"hold at most {np.finfo(np.float32).max:.3g} (lower --exposure)")
+        if self.colour_matrix is not None:     # (calibrate-response --checker)
+            px = px @ self.colour_matrix.T.astype(np.float32)
         base = self._overlap_op.apply(px)
         if self._fill_weights is not None:
             fill = self._fill_weights @ px                     # (3,)

@@ -44,6 +44,7 @@ from ..radiometry.photometry import (UNITS_ABSOLUTE, UNITS_RELATIVE, absolute_ca
                                      absolute_factor, luminance)
 from ..options import check_lighting, check_options, exposure_scale, freeze_options
 from ..radiometry import blocks
+from ..radiometry.checker import colour_matrix
 from ..radiometry.blocks import shrink
 from ..radiometry.float_clean import FloatCleaner
 from ..radiometry.decode import FrameDecoder, image_array, srgb_to_linear  # noqa: F401
@@ -160,6 +161,9 @@ class SH9Projector(FrameDecoder):
         # its cosine weights are one more column of the projection's weights (a 10th weight),
         # summed in the same pass as the SH9, never a second decode (issue 34).
         self._up_in_pass = downsample == 1 and has_absolute_scale(response)
+        # camera.json's colour matrix (calibrate-response --checker): camera RGB → Rec. 709,
+        # applied to what each frame gives (linear: the same as to every pixel)
+        self.colour_matrix = colour_matrix(response)
         up = self.up_cosine_weights.reshape(p.shape) if self._up_in_pass else None  # (H, W) sr
         if isinstance(p, Equirect):
             rows, cols = p.row_integrals(), p.col_integrals()
@@ -409,6 +413,8 @@ class SH9Projector(FrameDecoder):
         coeffs, small, light_input, clipped, up = self._project_frame(frame, stats, work=work)
         if absolute and up is not None:     # the 10th weight's sum, from the same pass
             scale = 1.0 if k is None else float(k)     # None: no exposure known
+            if self.colour_matrix is not None:
+                up = self.colour_matrix @ np.asarray(up, np.float64)
             stats["illuminance_lux"] = max(float(luminance(up)) * scale, 0.0)
         if k is not None:
             coeffs, clipped = coeffs * k, clipped * k
@@ -467,6 +473,8 @@ class SH9Projector(FrameDecoder):
         (``exposure``, or ``exposure_s`` — named in the message — too extreme for the frame)
         raise :class:`InputError` (:func:`~provider.core.options.check_lighting`)."""
         check_lighting(coefficients, self.exposure, exposure_s)
+        if self.colour_matrix is not None:
+            coefficients = coefficients @ self.colour_matrix.T
         if self._sh_rotation is not None:
             coefficients = self._sh_rotation @ coefficients
         return self._finish(coefficients, stats)
@@ -527,7 +535,7 @@ class SH9Projector(FrameDecoder):
         found = self._extractor.extract(
             light_input, exact / scale, tracker=tracker, full=full,
             process=lambda ambient: self._same_processing(ambient, order))
-        found = found.transformed(scale, self.rotation, self._sh_rotation)
+        found = found.transformed(scale, self.rotation, self._sh_rotation, self.colour_matrix)
         result.lights, result.ambient_coefficients = found.lights, found.ambient
         result.stats.update(light_error=found.light_error, sh9_error=found.sh9_error,
                             light_candidates=len(found.candidates))

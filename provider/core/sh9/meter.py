@@ -32,6 +32,13 @@ light it sees: then the meter's light is E · RGB(CCT, Duv) (unit luminance,
 Σ L · max(d·n, 0) · dω of it per channel, and the rest, clamped at 0 per channel, is the
 closed light's colour. A low sun is far from neutral (dawn: R:G:B ≈ 2.1 : 0.7 : 0.4), and
 its colour is most of what a neutral closure misses.
+
+Without a chroma meter, a clipped region that is the sun (:mod:`.sun_colour`: a small core
+clipped in every channel, above the horizon, in daylight) takes the colour its partly
+clipped rim measures or bounds, else the modelled beam's at its elevation; and the closed
+light goes into that core, where the sun is (the rim's pixels are measured in some
+channels: the glare around the sun, not the sun). ``meter_colour`` says which colour:
+measured (a chroma meter), rim, modelled or neutral.
 """
 from __future__ import annotations
 
@@ -47,12 +54,16 @@ from ..geometry.projections import Equirect
 from ..radiometry.colour_temperature import rgb_of_cct
 from ..radiometry.photometry import absolute_calibration, luminance
 from ..radiometry.response import apply_lut
+from .sun_colour import sun_colour
 
 UP = np.array([0.0, 1.0, 0.0])
 #: An up-facing meter sees a blob lower than this (degrees) at grazing incidence: warned.
 LOW_SUN_DEG = 15.0
 #: A blob wider than this (degrees from its mean direction) is no sun: "sun" facing warns.
 WIDE_BLOB_DEG = 30.0
+#: The rim's channels within this many 8-bit codes of the top count as clipped (JPEG's
+#: quantisation moves a clipped 255 to 250-254 next to a measured channel).
+RIM_MARGIN = 6
 
 
 @dataclass
@@ -66,7 +77,8 @@ class MeterClosure:
     (a low blob seen by an up-facing meter, a wide blob taken as the sun), or '';
     ``pixels``: the closed pixels (flat pixel numbers of the (H, W) frame, row-major; None
     when nothing) and ``added``: the linear RGB radiance each of them got (cd/m²), not on
-    the wire."""
+    the wire; ``colour_source``: where ``colour`` came from (measured: a chroma meter; rim,
+    modelled: :mod:`.sun_colour`; neutral)."""
 
     lux: float
     camera_lux: float
@@ -79,6 +91,7 @@ class MeterClosure:
     warning: str = ""
     pixels: np.ndarray | None = None
     added: tuple = (0.0, 0.0, 0.0)
+    colour_source: str = "neutral"
 
 
 def parse_facing(text) -> np.ndarray | str:
@@ -197,15 +210,46 @@ def _angle_deg(a, b) -> float:
     return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1.0, 1.0))))
 
 
+def _sun(radiance, clipped, blob, pixels, rays, omega, lux, codes, clip_level):
+    """:func:`~.sun_colour.sun_colour` of the blob (its pixels' rays, solid angles,
+    radiance, clipped channels from ``codes`` (:data:`RIM_MARGIN`), and the sky: the
+    median radiance of the unclipped pixels within 3 pixels of it)."""
+    channels = at_top = None
+    if codes is not None and clip_level is not None:
+        top = 255 if codes.dtype == np.uint8 else 65535
+        blob_codes = codes.reshape(-1, 3)[pixels]
+        # a JPEG's blocks put a clipped channel a few codes under the top: near it is clipped
+        channels = blob_codes >= top - RIM_MARGIN * (top // 255)
+        at_top = blob_codes == top          # the core: at the top code itself
+    sky = np.zeros(3)
+    if channels is not None:
+        rows, cols = np.flatnonzero(blob.any(axis=1)), np.flatnonzero(blob.any(axis=0))
+        box = (slice(max(rows[0] - 3, 0), rows[-1] + 4), slice(max(cols[0] - 3, 0),
+                                                                cols[-1] + 4))
+        near = cv2.dilate(blob[box].astype(np.uint8), np.ones((7, 7), np.uint8)) > 0
+        ring = near & ~clipped[box]
+        if ring.any():
+            sky = np.median(radiance[box][ring].astype(np.float64), axis=0)
+    return sun_colour(rays[pixels], _at(omega, pixels),
+                      radiance.reshape(-1, 3)[pixels].astype(np.float64), channels,
+                      clip_level, sky, lux, at_top=at_top)
+
+
 def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float,
-                  facing=None, colour=None, in_place=False):
+                  facing=None, colour=None, in_place=False, codes=None, clip_level=None,
+                  colour_matrix=None):
     """(radiance with the meter's missing light in the clipped blob, :class:`MeterClosure`).
 
     ``radiance``: (H, W, 3) float32 in cd/m²; ``clipped``: (H, W) bool, samples clipped in
     every frame; ``weights``: :func:`up_weights` of the frame's projection; ``lux``: the
     meter's reading; ``facing``: where it faces (:func:`parse_facing`: None or +Y for up, a
     unit vector, or "sun"); ``colour``: (CCT K, Duv) of a chroma meter's reading, or None
-    (the closed light is neutral); ``in_place``: add to ``radiance`` itself (no copy)."""
+    (:mod:`.sun_colour` finds it); ``in_place``: add to ``radiance`` itself (no copy);
+    ``codes``: (H, W, 3) the 8/16-bit frame whose top code marks a channel clipped in every
+    frame (a bracket's minimum) and ``clip_level`` (3,) the radiance of that code: the rim's
+    channels (None: unknown, the sun's colour is modelled only); ``colour_matrix``: camera
+    RGB → Rec. 709 (camera.json's, :mod:`~provider.core.radiometry.checker`) or None: the
+    meter's luminance and colours are Rec. 709's, the frame's RGB the camera's."""
     cosw, omega, directions = weights
     omega = np.asarray(omega)
     n, labels = _blobs(clipped)
@@ -238,7 +282,8 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
         seen_rgb = np.tensordot(cosw, np.nan_to_num(radiance, nan=0.0, posinf=0.0,
                                                     neginf=0.0).astype(np.float64),
                                 axes=([0, 1], [0, 1]))
-    camera = float(luminance(seen_rgb))
+    to709 = np.eye(3) if colour_matrix is None else np.asarray(colour_matrix, np.float64)
+    camera = float(luminance(to709 @ seen_rgb))
     closure = MeterClosure(float(lux), camera, facing=tuple(float(v) for v in normal),
                            warning=wide)
     missing = float(lux) - camera
@@ -259,14 +304,27 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
         closure.note = "the clipped light is below the meter's horizon: it cannot close it"
         return radiance, closure
     blob = labels == best
-    rgb = np.ones(3)
-    if colour is not None:                      # a chroma meter: the rest of its light's colour
-        rest = np.maximum(float(lux) * rgb_of_cct(*colour) - seen_rgb, 0.0)
-        if float(luminance(rest)) > 0:
-            rgb = rest / float(luminance(rest))
-    out = radiance if in_place and radiance.flags.c_contiguous else radiance.copy()
-    added = (np.float32(missing / seen[best - 1]) * rgb).astype(np.float32)
     pixels = np.flatnonzero(blob)
+    rgb, source, seen_best = np.ones(3), "neutral", seen[best - 1]
+    found = _sun(radiance, clipped, blob, pixels, rays, omega, lux, codes, clip_level)
+    if found.core is not None:                  # the sun: the light goes where it is
+        core = pixels[found.core]
+        seen_core = float(_at(np.asarray(cosw), core).sum())
+        if seen_core > 0:
+            pixels, seen_best = core, seen_core
+    if colour is not None:                      # a chroma meter: the rest of its light's colour
+        rest = np.maximum(float(lux) * rgb_of_cct(*colour) - to709 @ seen_rgb, 0.0)
+        if float(luminance(rest)) > 0:
+            rgb, source = np.linalg.solve(to709, rest), "measured"
+    else:               # (the rim's colour is of the frame's RGB; the model's, Rec. 709's)
+        rgb, source = found.rgb, found.source
+        if source == "modelled":
+            rgb = np.linalg.solve(to709, rgb)
+        if found.warning:
+            closure.warning = found.warning
+    rgb = rgb / max(float(luminance(to709 @ rgb)), 1e-12)   # unit luminance, as the meter
+    out = radiance if in_place and radiance.flags.c_contiguous else radiance.copy()
+    added = (np.float32(missing / seen_best) * rgb).astype(np.float32)
     out.reshape(-1, 3)[pixels] += added           # (a view: out is contiguous)
     closure.pixels, closure.added = pixels, tuple(float(v) for v in added)
     w = _at(omega, pixels)
@@ -275,8 +333,9 @@ def close_clipped(radiance: np.ndarray, clipped: np.ndarray, weights, lux: float
     closure.direction = tuple(float(v) for v in mean / max(np.linalg.norm(mean), 1e-12))
     closure.solid_angle_sr = float(w.sum())
     closure.colour = tuple(float(v) for v in rgb)
+    closure.colour_source = source
     elevation = float(np.degrees(np.arcsin(np.clip(closure.direction[1], -1, 1))))
-    if np.array_equal(normal, UP) and elevation < LOW_SUN_DEG:
+    if np.array_equal(normal, UP) and elevation < LOW_SUN_DEG and not closure.warning:
         closure.warning = (f"the clipped region is {elevation:.0f}° above the horizon: an "
                            "up-facing meter sees it at grazing incidence, so a few degrees "
                            "of error in its direction scale the closed light; hold the meter "
@@ -367,12 +426,20 @@ def project_with_meter(projector, frames, times, gain, f_number, lux: float, *,
         lowest = cv2.min(lowest, frame)
     planes = cv2.split(lowest)     # (numpy's any() over 3 samples: ~50 ms at 1920×960)
     clipped = cv2.max(cv2.max(planes[0], planes[1]), planes[2]) == (1 << bits) - 1
+    top = (1 << bits) - 1                # the radiance of the top code: the clip level
+    clip_level = np.asarray(table[top] if table.ndim == 1 else
+                            table.reshape(top + 1, -1)[top], np.float64) * np.ones(3)
     closed, closure = close_clipped(radiance, clipped, _meter_weights(projector, projection),
-                                    lux, facing=facing, colour=colour, in_place=True)
+                                    lux, facing=facing, colour=colour, in_place=True,
+                                    codes=lowest, clip_level=clip_level,
+                                    colour_matrix=projector.colour_matrix)
     new = projector.project(closed, error_estimate, tracker, units=UNITS_ABSOLUTE)
     if stats is None:        # what the integer pass would have said of the frame(s)
         # the camera's own L00: the closed frame's less what the closure added
-        seen = new.coefficients[0] - _closure_l00(projector, closure) * projector.exposure
+        added = _closure_l00(projector, closure) * projector.exposure
+        if projector.colour_matrix is not None:     # (the result is in Rec. 709)
+            added = projector.colour_matrix @ added
+        seen = new.coefficients[0] - added
         captured_stats(projector, own, seen, lowest, table, response,
                        merged=merged, gain=gain)
     else:
@@ -398,8 +465,10 @@ def _closure_l00(projector, closure: MeterClosure) -> np.ndarray:
 def closure_fields(closure: MeterClosure) -> dict:
     """The message's meter fields (flat numbers): ``meter_lux``, ``meter_camera_lux``,
     ``meter_closed_lux``, ``meter_direction`` (3), ``meter_solid_angle_sr``,
-    ``meter_facing`` (3: the meter's normal)."""
+    ``meter_facing`` (3: the meter's normal), ``meter_colour`` (where the closed light's
+    colour came from: measured, rim, modelled or neutral)."""
     return {"meter_lux": closure.lux, "meter_camera_lux": closure.camera_lux,
+            "meter_colour": closure.colour_source,
             "meter_closed_lux": closure.closed_lux,
             "meter_direction": [float(v) for v in closure.direction],
             "meter_facing": [float(v) for v in closure.facing],

@@ -80,7 +80,10 @@ _INT_RANGES = {"negative_pixels": (0, 1 << 53), "nonfinite_pixels": (0, 1 << 53)
 _RADIOMETRY = ("srgb-assumed", "calibrated", "merged", "linear")
 #: The optional fields an upstream message may carry that this provider passes on.
 _RELAY_STATS = (*_NUMBER_RANGES, *_INT_RANGES, "radiometry", "response", "ringing",
-                "min_irradiance", "exposures_s", "coefficient_units", *_METER_VECTORS)
+                "min_irradiance", "exposures_s", "coefficient_units", *_METER_VECTORS,
+                "meter_colour")
+#: Where the upstream meter's closed light got its colour (contract §14).
+_METER_COLOURS = ("measured", "rim", "modelled", "neutral")
 _COEFFICIENT_UNITS = ("cd/m²", "relative")
 
 
@@ -134,6 +137,8 @@ def _stat_ok(key: str, v) -> bool:
         return isinstance(v, bool)
     if key == "coefficient_units":
         return v in _COEFFICIENT_UNITS
+    if key == "meter_colour":
+        return v in _METER_COLOURS
     if key in _METER_VECTORS:
         return (isinstance(v, list) and len(v) == 3 and all(_is_number(x) for x in v)
                 and math.hypot(*v) <= 1.0 + 1e-6)

@@ -47,8 +47,9 @@ _STAT_NUMBERS = ("compute_ms", "clipped_fraction", "order_error", "error_estimat
                  "meter_lux", "meter_camera_lux", "meter_closed_lux", "meter_solid_angle_sr")
 _STAT_INTS = ("negative_pixels", "nonfinite_pixels", "order", "light_candidates")
 #: What the numbers are (docs/contract.md §9): "srgb-assumed", "calibrated", "merged" or "linear";
-#: the camera curve's method; the exposure times of a merged set.
-_STAT_STRINGS = ("radiometry", "response")
+#: the camera curve's method; where a lux meter's closed light got its colour (§14); the
+#: exposure times of a merged set.
+_STAT_STRINGS = ("radiometry", "response", "meter_colour")
 _STAT_LISTS = ("exposures_s", "meter_direction", "meter_facing")
 
 
