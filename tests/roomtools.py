@@ -64,7 +64,8 @@ def radiance(p, axis, side):
     for x0, x1, z0, z1 in PANELS:
         lit |= ceiling & (x >= x0) & (x <= x1) & (z >= z0) & (z <= z1)
     wall = axis == 0
-    out[wall & (side == 0)] = np.array([0.30, 0.28, 0.25]) * (0.6 + 0.3 * y[wall & (side == 0), None])
+    west = wall & (side == 0)
+    out[west] = np.array([0.30, 0.28, 0.25]) * (0.6 + 0.3 * y[west, None])
     w0, w1, wy0, wy1 = WINDOW_AT
     window = wall & (side == 0) & (z >= w0) & (z <= w1) & (y >= wy0) & (y <= wy1)
     east = wall & (side == 1)

@@ -112,7 +112,7 @@ class Tetrahedra:
             tri = self.positions[self.hull]
             near, bary = closest_on_triangles(x, tri[:, 0], tri[:, 1], tri[:, 2])
             f = int(np.argmin(np.linalg.norm(near - x, axis=1)))
-            np.add.at(w, self.hull[f], bary[f])
+            np.add.at(w, self.hull[f], np.clip(bary[f], 0, None))
             return w / w.sum(), False
         return inverse_distance(self.positions, x), False
 
