@@ -395,6 +395,8 @@ def build_server(args):
             max_views=args.passthrough_max_views, max_headsets=args.passthrough_headsets,
             max_text_bytes=s.max_message_bytes,
             max_pixels=int(getattr(args, "max_frame_pixels", 0) or 0) or 4096 * 4096)
+    from .register import probe_positions
+    positions = probe_positions(args.probe_position, names)
     probes = []
     for name, text in named:
         ns = overrides.get(name, args)
@@ -437,6 +439,7 @@ def build_server(args):
                             meter=meter))
         from .register import registrar_for
         probes[-1].registrar = registrar_for(ns, name)
+        probes[-1].position = positions.get(name)
     publishers = []
     if args.mqtt is not None:       # '' too: refused by the parser, never "no MQTT"
         from ..live.mqtt import MqttPublisher, parse_mqtt_url
