@@ -91,12 +91,14 @@ def _direction_to_pixel(directions, width: int, height: int):
     return (u * width - 0.5).astype(np.float32), (v * height - 0.5).astype(np.float32)
 
 
-def _sample(image, directions):
-    """Bilinear samples (N, 3) of an equirect at unit directions; its seam wraps."""
+def _sample(image, directions, shape):
+    """Bilinear samples (N, 3) of an equirect at unit directions (N = the product of
+    ``shape``, the grid cv2.remap is given: fewer than 32767 rows and columns); its seam
+    wraps."""
     h, w = image.shape[:2]
     wrapped = np.concatenate([image[:, -1:], image, image[:, :1]], axis=1)
     mx, my = _direction_to_pixel(directions, w, h)
-    out = cv2.remap(wrapped, (mx + 1).reshape(-1, 1), my.reshape(-1, 1), cv2.INTER_LINEAR,
+    out = cv2.remap(wrapped, (mx + 1).reshape(shape), my.reshape(shape), cv2.INTER_LINEAR,
                     borderMode=cv2.BORDER_REPLICATE)
     return out.reshape(-1, 3)
 
@@ -135,6 +137,6 @@ def reproject(point, positions, images, box: Box, height: int = DEFAULT_HEIGHT) 
         head_on = np.clip(-(toward * normals).sum(1), 1e-3, None)
         alike = (0.5 * (1 + (toward * rays).sum(1))) ** 2
         w = head_on / np.maximum(dist, 1e-3) ** 2 * alike + 1e-12
-        total += w[:, None] * _sample(img, toward)
+        total += w[:, None] * _sample(img, toward, (height, 2 * height))
         weight += w
     return (total / weight[:, None]).reshape(height, 2 * height, 3).astype(np.float32)
