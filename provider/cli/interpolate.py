@@ -105,20 +105,15 @@ def read_probes(path: str) -> list[dict]:
     return out
 
 
-def linear_panorama(path: str, name: str):
+def probe_panorama(path: str, name: str):
     """The probe's panorama as linear float32 radiance (8/16-bit: sRGB decoded)."""
-    import numpy as np
-    from ..core.radiometry.decode import srgb_to_linear
     from ..core.radiometry.images import read_image
+    from ..live.probe.points import linear_panorama
     img = read_image(path)
     if img.ndim != 3 or img.shape[1] != 2 * img.shape[0]:
         raise InputError(f"probe {name}: {path} is {img.shape[1]}×{img.shape[0]}; an "
                          "equirect panorama (2:1) is needed")
-    if np.issubdtype(img.dtype, np.integer):
-        img = srgb_to_linear(img / float(np.iinfo(img.dtype).max))
-    img = np.nan_to_num(np.asarray(img[..., :3], np.float32), nan=0.0, posinf=0.0,
-                        neginf=0.0)
-    return np.maximum(img, 0.0)
+    return linear_panorama(img)
 
 
 def check_arguments(args) -> None:
@@ -138,7 +133,7 @@ def run(args) -> int:
     from ..live.probe.points import Interpolator
     check_arguments(args)
     probes = read_probes(args.probes)
-    images = [linear_panorama(p["image"], p["name"]) for p in probes]
+    images = [probe_panorama(p["image"], p["name"]) for p in probes]
     interpolator = Interpolator([p["name"] for p in probes], [p["position"] for p in probes],
                                 images, room=args.room, lights=args.lights, rows=args.rows)
     out = {"room": interpolator.room_text, "points": [interpolator.at(x) for x in args.at]}

@@ -447,7 +447,11 @@ def build_server(args):
                                         backoff_max=args.reconnect_max))
     elif args.mqtt_ca:
         raise InputError("--mqtt-ca needs --mqtt mqtts://...")
-    return ProviderServer(probes, s, publishers)
+    server = ProviderServer(probes, s, publishers)
+    if positions or args.room is not None:      # the light at points (docs/probes.md)
+        from ..live.probe.points import RoomLight
+        server.points = RoomLight(probes, args.room, args.lights)
+    return server
 
 
 def _given(words) -> set:

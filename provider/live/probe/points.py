@@ -25,11 +25,11 @@ class Interpolator:
     ``images`` (equirects of linear radiance, the world frame's axes). ``room``: None or
     ``box:X0,Y0,Z0,X1,Y1,Z1``; ``rows``: the panorama re-projected at a point."""
 
-    def __init__(self, names, positions, images, *, room: str | None = None,
-                 lights: str = "off", rows: int | None = None):
+    def __init__(self, names, positions, images=None, *, room: str | None = None,
+                 lights: str = "off", rows: int | None = None, coefficients=None):
         self.names = list(names)
         self.positions = np.asarray(positions, np.float64).reshape(-1, 3)
-        self.images = [np.ascontiguousarray(i, np.float32) for i in images]
+        self.images = [np.ascontiguousarray(i, np.float32) for i in images or ()]
         self.room = None if room is None else parse_room(room)
         self.rows = DEFAULT_HEIGHT if rows is None else int(rows)
         if self.room is None:
@@ -37,28 +37,41 @@ class Interpolator:
                 raise InputError("lights need the room (--room): without it a light has no "
                                  "place to be seen from a point")
             self.tetrahedra = Tetrahedra(self.positions)
-            self.coefficients = np.array([_sh9(img) for img in self.images])
+            self.coefficients = (np.asarray(coefficients, np.float64).reshape(-1, 9, 3)
+                                 if coefficients is not None
+                                 else np.array([_sh9(img) for img in self.images]))
         else:
             check_probes(self.positions, self.images, self.room, self.names)
-            if not 8 <= self.rows <= 512:
-                raise InputError(f"--rows {self.rows}: 8 to 512 rows")
-            self._projector = SH9Projector(2 * self.rows, self.rows, "equirect",
-                                           lights=lights, error_estimate=False)
+            self._check_rows(self.rows)
+        self.lights = lights
+        self._projectors: dict = {}
+
+    @staticmethod
+    def _check_rows(rows: int) -> None:
+        if not 8 <= rows <= 512:
+            raise InputError(f"--rows {rows}: 8 to 512 rows")
 
     @property
     def room_text(self) -> str | None:
         return None if self.room is None else str(self.room)
 
-    def at(self, point) -> dict:
+    def at(self, point, rows: int | None = None) -> dict:
         """The lighting fields at ``point``: position, method, coefficients, matrices and
-        the lights' fields; without the room also each probe's weight."""
+        the lights' fields; without the room also each probe's weight. ``rows``: of the
+        panorama re-projected there (default: the interpolator's)."""
         x = np.asarray(point, np.float64).reshape(3)
         if not np.all(np.isfinite(x)):
             raise InputError("a point's coordinates must be finite numbers")
         out = {"position": [float(v) for v in x]}
         if self.room is not None:
-            pano = reproject(x, self.positions, self.images, self.room, self.rows)
-            result = self._projector.project(pano)
+            rows = self.rows if rows is None else int(rows)
+            self._check_rows(rows)
+            projector = self._projectors.get(rows)
+            if projector is None:
+                projector = self._projectors[rows] = SH9Projector(
+                    2 * rows, rows, "equirect", lights=self.lights, error_estimate=False)
+            result = projector.project(reproject(x, self.positions, self.images, self.room,
+                                                 rows))
             out["method"] = "parallax"
         else:
             w, inside = self.tetrahedra.weights(x)
@@ -78,3 +91,123 @@ def _sh9(image: np.ndarray) -> np.ndarray:
     if w != 2 * h:
         raise InputError(f"a probe's panorama is {w}×{h}; an equirect (2:1) is needed")
     return SH9Projector(w, h, "equirect", error_estimate=False).project(image).coefficients
+
+
+#: The live points' panoramas: each probe's newest frame shrunk to this many rows at most.
+LIVE_PROBE_ROWS = 128
+#: Rows of the panorama re-projected at a point of /probe-grid.json (a grid costs its points
+#: times this squared; 32 rows: 1.3 % median in docs/probes.md's room).
+GRID_ROWS = 32
+#: Most points one /probe-grid.json computes.
+MAX_GRID_POINTS = 512
+#: Points whose light is kept (the newest), per set of probe frames.
+CACHED_POINTS = 256
+
+
+class RoomLight:
+    """The light at points of the room from the live probes that have a position
+    (``serve --probe-position``; ``room``: ``serve --room``): rebuilt from their newest
+    frames (with the room) or messages (without) when one of them changed, once per
+    change; thread-safe (the server calls it off its event loop)."""
+
+    def __init__(self, probes, room: str | None = None, lights: str = "off"):
+        import asyncio
+        import threading
+        self.probes = [p for p in probes if getattr(p, "position", None) is not None]
+        self.room, self.lights = room, lights
+        if room is not None:
+            parse_room(room)                 # refused at start, in one line
+            if not self.probes:
+                raise InputError("--room needs the probes' positions: give "
+                                 "--probe-position NAME=X,Y,Z for each probe in the room")
+            for p in self.probes:
+                if p.projection != "equirect":
+                    raise InputError(f"probe {p.name}: --room re-projects equirect panoramas; "
+                                     f"this probe's frames are {p.projection}")
+        self._lock = threading.Lock()
+        #: Held by the server while it computes a point or a grid (one at a time).
+        self.busy = asyncio.Lock()
+        self._key = None
+        self._interpolator: Interpolator | None = None
+        self._cache: dict = {}
+
+    def _current(self) -> Interpolator | None:
+        """The interpolator of the probes' newest frames or messages; None until each
+        placed probe has one."""
+        if self.room is None:
+            key = tuple(p.seq if p.latest_message else None for p in self.probes)
+        else:
+            key = tuple(p.image_seq if p.image is not None else None for p in self.probes)
+        if None in key:
+            return None
+        if key != self._key:
+            names = [p.name for p in self.probes]
+            positions = [p.position for p in self.probes]
+            if self.room is None:
+                coefficients = [p.latest_message["coefficients"] for p in self.probes]
+                self._interpolator = Interpolator(names, positions, coefficients=coefficients)
+            else:
+                images = [shrunk(linear_panorama(p.image)) for p in self.probes]
+                self._interpolator = Interpolator(names, positions, images, room=self.room,
+                                                  lights=self.lights)
+            self._key, self._cache = key, {}
+        return self._interpolator
+
+    def at(self, point, rows: int | None = None) -> dict | None:
+        """The lighting fields at ``point`` (:meth:`Interpolator.at`) with the probes'
+        frame numbers, or None while a placed probe has no lighting yet."""
+        with self._lock:
+            interpolator = self._current()
+            if interpolator is None:
+                return None
+            key = (tuple(round(float(v), 4) for v in point), rows)
+            found = self._cache.get(key)
+            if found is None:
+                found = interpolator.at(point, rows if self.room is not None else None)
+                if len(self._cache) >= CACHED_POINTS:
+                    self._cache.pop(next(iter(self._cache)))
+                self._cache[key] = found
+            return found
+
+    def grid(self, lo, hi, step: float) -> dict | None:
+        """SH9 on a grid from ``lo`` to ``hi`` (metres) every ``step``: positions (3N) and
+        coefficients (27N), x fastest, then y, then z (a 3D texture's order)."""
+        lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+        if not (step > 0 and np.all(hi >= lo)):
+            raise InputError("a grid needs min <= max in x, y and z and a step > 0")
+        counts = np.floor((hi - lo) / step + 1e-9).astype(int) + 1
+        if int(np.prod(counts)) > MAX_GRID_POINTS:
+            raise InputError(f"{int(np.prod(counts))} grid points: at most "
+                             f"{MAX_GRID_POINTS} a request (a larger step)")
+        zs, ys, xs = np.meshgrid(*(lo[i] + step * np.arange(counts[i]) for i in (2, 1, 0)),
+                                 indexing="ij")
+        points = np.stack([xs.ravel(), ys.ravel(), zs.ravel()], axis=1)
+        rows = GRID_ROWS if self.room is not None else None
+        found = [self.at(x, rows) for x in points]
+        if any(f is None for f in found):
+            return None
+        return {"type": "probe-grid", "min": lo.tolist(), "max": hi.tolist(),
+                "step": float(step), "counts": counts.tolist(),
+                "method": "parallax" if self.room is not None else "tetrahedra",
+                "positions": [float(v) for v in points.ravel()],
+                "coefficients": [v for f in found for v in f["coefficients"]]}
+
+
+def linear_panorama(image) -> np.ndarray:
+    """A probe's panorama as linear float32 radiance (8/16-bit: decoded as sRGB; NaN and
+    negative samples: 0)."""
+    from ...core.radiometry.decode import srgb_to_linear
+    img = np.asarray(image)
+    if np.issubdtype(img.dtype, np.integer):
+        img = srgb_to_linear(img / float(np.iinfo(img.dtype).max))
+    img = np.nan_to_num(np.asarray(img[..., :3], np.float32), nan=0.0, posinf=0.0,
+                        neginf=0.0)
+    return np.maximum(img, 0.0)
+
+
+def shrunk(image: np.ndarray, rows: int = LIVE_PROBE_ROWS) -> np.ndarray:
+    """An equirect area-averaged to at most ``rows`` rows."""
+    import cv2
+    if image.shape[0] <= rows:
+        return image
+    return cv2.resize(image, (2 * rows, rows), interpolation=cv2.INTER_AREA)

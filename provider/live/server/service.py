@@ -120,6 +120,7 @@ from .replies import _json_error, _response
 from ..wire.message import FRAME, SCHEMA_VERSION
 from ..probe.passthrough import PassthroughService, PassthroughSettings
 from .capture import CAPTURE_PATH, check_capture, serve_capture
+from .points import point_reply, wants_point
 from ..probe.pipeline import Probe
 from .session import ALL, WRITE_LIMIT, ClientSession, Counters, text_frame
 
@@ -176,6 +177,7 @@ class ProviderServer:
         self.settings = settings or ServeSettings()
         self.probes = {p.name: p for p in probes}
         self.environment = EnvironmentFanout(self)     # reflection cubes (--environment)
+        self.points = None      # RoomLight: the light at points (--probe-position; points.py)
         for p in probes:
             p.publish = self.publish
             p.publish_environment = self.environment.publish
@@ -539,6 +541,8 @@ class ProviderServer:
         if path == "/environment.ktx2":
             code, body, ctype, headers, error = self.environment.http(query)
             return _json_error(code, *error) if error else _response(code, body, ctype, headers)
+        if wants_point(path, query):   # /latest.json?at=, /probe-grid.json
+            return await point_reply(self, path, query)
         if path in ("/latest.json", "/thumbnail.jpg"):
             name = query.get("probe", [next(iter(self.probes))])[0]
             probe = self.probes.get(name)
