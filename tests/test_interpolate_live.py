@@ -13,7 +13,8 @@ import pytest
 
 import roomtools as room
 from provider.core.geometry import sh
-from servertools import ServerThread, http_get, poll
+from provider.live.wire.message import validate
+from servertools import ServerThread, connect, http_get, poll, recv_until
 
 TOKEN = "s3cret"
 
@@ -53,6 +54,7 @@ def test_a_point_and_a_grid_through_the_room(probes_file):
             what="the light at the point")
         _, _, point = found
         assert point["type"] == "point" and point["method"] == "parallax"
+        validate(point)
         # the command's numbers, from the same files (float PFM, read alike)
         cli = _interpolate(probes_file, "--at", ",".join(map(str, at)),
                            "--room", room.room_box())[0]
@@ -87,6 +89,33 @@ def test_without_the_room_a_point_blends_the_probes_messages(probes_file):
         assert point["weights"] == cli["weights"]
         # the live probes' SH9 (the engine's) equal the command's own projection of the files
         assert np.allclose(point["coefficients"], cli["coefficients"], rtol=1e-4, atol=1e-5)
+
+
+def test_a_websocket_client_follows_a_point(probes_file):
+    at, elsewhere = [2.2, 1.1, 3.4], [4.5, 0.6, 1.2]
+    with ServerThread(*_serve_args(probes_file, "--room", room.room_box())) as srv:
+        _, _, expected = poll(lambda: (lambda r: r if r[0] == 200 else None)(
+            _get(srv, "/latest.json?at=" + ",".join(map(str, at)))), timeout=60,
+            what="the light at the point")
+        with connect(srv.url + f"?token={TOKEN}") as ws:
+            ws.send(json.dumps({"type": "subscribe", "at": at}))
+            msg = recv_until(ws, lambda m: m.get("type") == "point", timeout=60,
+                             what="the point's light")
+            validate(msg)
+            assert msg["position"] == at and msg["coefficients"] == expected["coefficients"]
+            # another point: its own light; a bad one: an error, the connection stays
+            ws.send(json.dumps({"type": "subscribe", "at": elsewhere}))
+            msg = recv_until(ws, lambda m: m.get("type") == "point"
+                             and m["position"] == elsewhere, timeout=60, what="the new point")
+            assert sh.irradiance_error(np.reshape(msg["coefficients"], (9, 3)),
+                                       room.exact_sh9(elsewhere)) < 0.03
+            ws.send(json.dumps({"type": "subscribe", "at": [1, "x", 2]}))
+            err = recv_until(ws, lambda m: m.get("type") == "error", what="an error")
+            assert err["error"] == "bad_request" and "at" in err["detail"]
+            ws.send(json.dumps({"type": "subscribe", "at": [9, 1, 1]}))   # outside the room
+            err = recv_until(ws, lambda m: m.get("type") == "error", timeout=60,
+                             what="an error")
+            assert "not inside the room" in err["detail"]
 
 
 @pytest.mark.parametrize("path,code,says", [

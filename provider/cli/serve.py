@@ -450,7 +450,7 @@ def build_server(args):
     server = ProviderServer(probes, s, publishers)
     if positions or args.room is not None:      # the light at points (docs/probes.md)
         from ..live.probe.points import RoomLight
-        server.points = RoomLight(probes, args.room, args.lights)
+        server.points.room = RoomLight(probes, args.room, args.lights)
     return server
 
 

@@ -111,7 +111,6 @@ class RoomLight:
     change; thread-safe (the server calls it off its event loop)."""
 
     def __init__(self, probes, room: str | None = None, lights: str = "off"):
-        import asyncio
         import threading
         self.probes = [p for p in probes if getattr(p, "position", None) is not None]
         self.room, self.lights = room, lights
@@ -125,19 +124,21 @@ class RoomLight:
                     raise InputError(f"probe {p.name}: --room re-projects equirect panoramas; "
                                      f"this probe's frames are {p.projection}")
         self._lock = threading.Lock()
-        #: Held by the server while it computes a point or a grid (one at a time).
-        self.busy = asyncio.Lock()
         self._key = None
         self._interpolator: Interpolator | None = None
         self._cache: dict = {}
 
+    def key(self) -> tuple:
+        """What the light at points is made of: the placed probes' newest message (without
+        the room) or frame (with it) numbers; None for a probe that has none yet."""
+        if self.room is None:
+            return tuple(p.seq if p.latest_message else None for p in self.probes)
+        return tuple(p.image_seq if p.image is not None else None for p in self.probes)
+
     def _current(self) -> Interpolator | None:
         """The interpolator of the probes' newest frames or messages; None until each
         placed probe has one."""
-        if self.room is None:
-            key = tuple(p.seq if p.latest_message else None for p in self.probes)
-        else:
-            key = tuple(p.image_seq if p.image is not None else None for p in self.probes)
+        key = self.key()
         if None in key:
             return None
         if key != self._key:
