@@ -1,6 +1,6 @@
 """The light at any point of the room from eight positioned probes (``shlight interpolate``,
-provider/core/probes): measured in the analytic room of tests/roomtools.py against the exact
-light at 40 random points, with the room's box (parallax) and without (tetrahedra as Unity
+provider/core/probes): measured in the analytic room of provider/bench/room.py against the
+exact light at 40 random points, with the room's box (parallax) and without (tetrahedra as Unity
 blends its probes), and the command's answers and refusals."""
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-import roomtools as room
+from provider.bench import room
 from provider.core.errors import InputError
 from provider.core.geometry import sh
 from provider.core.geometry.projections import Equirect
@@ -228,3 +228,20 @@ def test_parse_room_reads_either_corner_first():
     assert np.allclose(box.lo, 0) and np.allclose(box.hi, [6, 3, 5])
     with pytest.raises(InputError):
         parse_room("box:0,0,0,1,1,inf")
+
+
+def test_the_bench_reports_each_methods_error_and_cost(tmp_path):
+    r = shlight("bench", "--quick", "--sections", "points", "--out", tmp_path, timeout=600)
+    assert r.returncode == 0, r.stderr
+    rows = {}
+    for line in (tmp_path / "points.md").read_text().splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if len(cells) == 6 and cells[1].endswith("%"):
+            rows[cells[0]] = (float(cells[1][:-1]), float(cells[4]))
+    assert len(rows) == 9, rows
+    parallax = rows["parallax through the box, 64 rows"]
+    tetrahedra = rows["tetrahedra (Unity's; no room)"]
+    # the order the docs' table says, on 10 points of 64-row probes (--quick)
+    assert parallax[0] < 3 < tetrahedra[0] < rows["one probe in the middle"][0]
+    assert rows["parallax, 64 rows, the box 30 cm too large on every side"][0] > parallax[0]
+    assert all(ms >= 0 for _, ms in rows.values())

@@ -1,5 +1,5 @@
 """The light at points of the room, served live (docs/probes.md, "Light between probes"):
-``shlight serve`` with eight positioned probes of the analytic room (tests/roomtools.py) and
+``shlight serve`` with eight positioned probes of the analytic room (provider/bench/room.py) and
 ``--room`` answers ``/latest.json?at=X,Y,Z`` with ``shlight interpolate``'s numbers and
 ``/probe-grid.json`` with a grid of SH9, behind the same token; bad requests are 400s."""
 from __future__ import annotations
@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-import roomtools as room
+from provider.bench import room
 from provider.core.geometry import sh
 from provider.live.wire.message import validate
 from servertools import ServerThread, connect, http_get, poll, recv_until

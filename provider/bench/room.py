@@ -1,6 +1,7 @@
-"""An analytic room for the light-between-probes tests (tests/test_interpolate.py): a box lit
-by two ceiling panels and a window, its walls' radiance known at every point, so the light
-at any point of the room is exact up to the integration's resolution.
+"""An analytic room for the light between probes (``shlight bench --sections points``,
+tests/test_interpolate.py): a box lit by two ceiling panels and a window, its walls'
+radiance known at every point, so the light at any point of the room is exact up to the
+integration's resolution.
 
 Every surface point emits the same radiance in every direction (a Lambertian emitter or
 reflector), so what a probe sees of a wall point is what any other point sees of it. The
@@ -11,7 +12,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from provider.core.geometry import sh
@@ -120,6 +120,7 @@ def random_points(n: int = 40, seed: int = 7) -> np.ndarray:
 def write_probes(folder: Path, positions=PROBES, height: int = 128) -> Path:
     """Each probe's panorama as a float .pfm (lossless), and PROBES.json naming them."""
     import json
+    import cv2
     folder.mkdir(parents=True, exist_ok=True)
     probes = []
     for i, p in enumerate(positions):
