@@ -14,7 +14,7 @@ import pytest
 from provider.bench import room
 from provider.core.geometry import sh
 from provider.live.wire.message import validate
-from servertools import ServerThread, connect, http_get, poll, recv_until
+from servertools import ServerThread, connect, http_get, poll, recv_until, refused, run_cli
 
 TOKEN = "s3cret"
 
@@ -113,9 +113,12 @@ def test_a_websocket_client_follows_a_point(probes_file):
             err = recv_until(ws, lambda m: m.get("type") == "error", what="an error")
             assert err["error"] == "bad_request" and "at" in err["detail"]
             ws.send(json.dumps({"type": "subscribe", "at": [9, 1, 1]}))   # outside the room
-            err = recv_until(ws, lambda m: m.get("type") == "error", timeout=60,
-                             what="an error")
-            assert "not inside the room" in err["detail"]
+            err = recv_until(ws, lambda m: m.get("type") == "error", what="an error")
+            assert err["error"] == "bad_request" and "not inside the room" in err["detail"]
+            # the point followed before is still followed: its light comes again as the
+            # probes' frames change (a file source re-sends its frame: same numbers)
+            ws.send(json.dumps({"type": "ping", "id": 1}))
+            recv_until(ws, lambda m: m.get("type") == "pong", what="the pong")
 
 
 @pytest.mark.parametrize("path,code,says", [
@@ -132,6 +135,20 @@ def test_bad_point_requests_are_400s(probes_file, path, code, says):
             status, _, body = poll(lambda: (lambda r: r if r[0] != 503 else None)(
                 _get(srv, path)), timeout=60, what="an answer")
         assert status == code and says in body["detail"], body
+
+
+@pytest.mark.parametrize("extra,says", [
+    (["--room", "box:0,0,0,6,3"], "six finite numbers"),
+    (["--room", "box:0,0,0,3,3,3"], "not inside the room"),
+])
+def test_a_room_the_probes_are_not_in_is_refused_at_start(probes_file, extra, says):
+    refused(run_cli("serve", "--port", "0", *_serve_args(probes_file, *extra)), says)
+
+
+def test_a_room_without_positions_or_with_fisheyes_is_refused_at_start(tmp_path):
+    refused(run_cli("serve", "--port", "0", "--room", "box:0,0,0,6,3,5"), "--probe-position")
+    refused(run_cli("serve", "--port", "0", "--projection", "fisheye", "--probe-position",
+                    "default=1,1,1", "--room", "box:0,0,0,6,3,5"), "equirect")
 
 
 def test_a_server_without_positions_has_no_points():

@@ -114,12 +114,15 @@ class RoomLight:
         import threading
         self.probes = [p for p in probes if getattr(p, "position", None) is not None]
         self.room, self.lights = room, lights
+        self.box = None if room is None else parse_room(room)   # refused at start, one line
         if room is not None:
-            parse_room(room)                 # refused at start, in one line
             if not self.probes:
                 raise InputError("--room needs the probes' positions: give "
                                  "--probe-position NAME=X,Y,Z for each probe in the room")
             for p in self.probes:
+                if not self.box.contains(p.position):
+                    raise InputError(f"probe {p.name} at {tuple(p.position)} is not inside "
+                                     f"the room {self.box}")
                 if p.projection != "equirect":
                     raise InputError(f"probe {p.name}: --room re-projects equirect panoramas; "
                                      f"this probe's frames are {p.projection}")
@@ -127,6 +130,12 @@ class RoomLight:
         self._key = None
         self._interpolator: Interpolator | None = None
         self._cache: dict = {}
+
+    def check_point(self, point) -> None:
+        """InputError unless the light at ``point`` can be had (inside the room's box)."""
+        if self.box is not None and not self.box.contains(point):
+            raise InputError(f"the point {tuple(float(v) for v in point)} is not inside the "
+                             f"room {self.box}")
 
     def key(self) -> tuple:
         """What the light at points is made of: the placed probes' newest message (without

@@ -117,6 +117,10 @@ class PointFanout:
                         and math.isfinite(v) for v in at)):
             return {"error": "bad_request", "detail": "at: expected [x, y, z] (metres)"}
         point = tuple(float(v) for v in at)
+        try:
+            self.room.check_point(point)
+        except InputError as exc:
+            return {"error": "bad_request", "detail": str(exc)}
         if point not in set(self.followers.values()) and \
                 len(set(self.followers.values()) - {self.followers.get(client)}) >= MAX_POINTS:
             return {"error": "busy", "detail": f"{MAX_POINTS} points are followed already; "
