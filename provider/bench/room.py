@@ -80,21 +80,60 @@ def radiance(p, axis, side):
     return out
 
 
-def panorama(at, height: int = 128, supersample: int = 3) -> np.ndarray:
+#: A cabinet in the middle of the room (corners, metres) and its radiance: what a box room
+#: does not know (``blocked=True``), so that a mesh of it is measured against the truth.
+CABINET = (np.array([2.5, 0.0, 2.1]), np.array([3.5, 1.8, 2.9]))
+CABINET_RADIANCE = np.array([0.9, 0.55, 0.3])
+
+
+def _cabinet_distance(origin, d):
+    """Distance along each ray to the cabinet (inf: missed); the origin is outside it."""
+    lo, hi = CABINET
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (lo - origin) / d, (hi - origin) / d
+    near = np.nanmax(np.minimum(t1, t2), axis=1)
+    far = np.nanmin(np.maximum(t1, t2), axis=1)
+    return np.where((near <= far) & (near > 0), near, np.inf)
+
+
+def in_cabinet(point, margin: float = 0.0) -> bool:
+    lo, hi = CABINET
+    return bool(np.all(np.asarray(point) > lo - margin) and np.all(np.asarray(point) < hi + margin))
+
+
+def panorama(at, height: int = 128, supersample: int = 3, blocked: bool = False) -> np.ndarray:
     """The room seen from ``at``: an equirect (height, 2·height, 3) float32, each pixel the
-    mean of supersample² rays (the panels' edges anti-aliased)."""
+    mean of supersample² rays (the panels' edges anti-aliased); with the cabinet if
+    ``blocked``."""
     h, w, k = height, 2 * height, supersample
     sub = (np.arange(k) + 0.5) / k
     py = (np.arange(h)[:, None] + sub[None]).reshape(-1)
     px = (np.arange(w)[:, None] + sub[None]).reshape(-1)
     d, _ = Equirect(w, h).pixel_to_direction(*np.meshgrid(px, py))
-    rad = radiance(*hits(at, d.reshape(-1, 3))).reshape(h, k, w, k, 3)
+    d = d.reshape(-1, 3)
+    rad = radiance(*hits(at, d))
+    if blocked:
+        o = np.asarray(at, np.float64)
+        t_wall = np.linalg.norm(hits(at, d)[0] - o, axis=1)
+        rad[_cabinet_distance(o, d) < t_wall] = CABINET_RADIANCE
+    rad = rad.reshape(h, k, w, k, 3)
     return rad.mean(axis=(1, 3)).astype(np.float32)
 
 
-def exact_sh9(at, height: int = 256) -> np.ndarray:
+def cabinet_mesh():
+    """The room with the cabinet as one triangle mesh (trimesh), for ``--room room.obj``."""
+    import trimesh
+    walls = trimesh.creation.box(extents=HI - LO)
+    walls.apply_translation((HI + LO) / 2)
+    lo, hi = CABINET
+    cabinet = trimesh.creation.box(extents=hi - lo)
+    cabinet.apply_translation((hi + lo) / 2)
+    return trimesh.util.concatenate([walls, cabinet])
+
+
+def exact_sh9(at, height: int = 256, blocked: bool = False) -> np.ndarray:
     """The light at ``at``: SH9 (9, 3) of the supersampled panorama there."""
-    img = panorama(at, height, supersample=4).astype(np.float64)
+    img = panorama(at, height, supersample=4, blocked=blocked).astype(np.float64)
     return Equirect(2 * height, height).sh_weights.T @ img.reshape(-1, 3)
 
 

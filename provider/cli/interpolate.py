@@ -20,6 +20,8 @@ point the wire message's lighting fields (docs/contract.md §3, §10).
 
   --room box:X0,Y0,Z0,X1,Y1,Z1  each probe's panorama re-projected through the room's box to
                                 the point (parallax); lights found at the point (--lights auto)
+  --room ROOM.obj|.ply|.glb     the same through a mesh of the room (trimesh), walls and
+                                furniture hiding what a probe does not see
   without --room                the probes' SH9 blended as Unity blends its light probes
                                 (tetrahedra; outside their hull, its nearest face)
 
@@ -51,8 +53,9 @@ def add_arguments(p) -> None:
     p.add_argument("probes", metavar="PROBES.json", help="the probes: name, image, position")
     p.add_argument("--at", action="append", type=point, required=True, metavar="X,Y,Z",
                    help="a point (metres, the probes' world frame); repeatable")
-    p.add_argument("--room", default=None, metavar="box:X0,Y0,Z0,X1,Y1,Z1",
-                   help="the room's box (two opposite corners, metres): parallax through it")
+    p.add_argument("--room", default=None, metavar="box:X0,Y0,Z0,X1,Y1,Z1|MESH",
+                   help="the room's box (two opposite corners, metres) or a mesh file (OBJ, "
+                        "PLY, glTF, STL, OFF): parallax through it")
     p.add_argument("--lights", default="off", choices=["off", "auto"],
                    help="with --room: directional lights found in the light at each point "
                         "(docs/contract.md §10); default off")

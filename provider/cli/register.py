@@ -154,8 +154,9 @@ def add_serve_arguments(parser) -> None:
                         "§1's axes), sent as 'position' in its messages; or the output of "
                         "shlight register (its camera_position: the marker's frame). "
                         "Repeatable; the probe named 'default' is 'default'")
-    g.add_argument("--room", default=None, metavar="box:X0,Y0,Z0,X1,Y1,Z1",
-                   help="the room's box (metres, the positions' frame): /latest.json?at=X,Y,Z "
+    g.add_argument("--room", default=None, metavar="box:X0,Y0,Z0,X1,Y1,Z1|MESH",
+                   help="the room's box (metres, the positions' frame) or a mesh file of it "
+                        "(OBJ, PLY, glTF): /latest.json?at=X,Y,Z "
                         "and /probe-grid.json re-project the placed probes' panoramas through "
                         "it (docs/probes.md); without it they blend the probes' SH9")
 

@@ -63,12 +63,17 @@ class Box:
         return "box:" + ",".join(f"{v:g}" for v in (*self.lo, *self.hi))
 
 
-def parse_room(text: str) -> Box:
-    """``box:X0,Y0,Z0,X1,Y1,Z1`` (two opposite corners, metres)."""
+def parse_room(text: str):
+    """``box:X0,Y0,Z0,X1,Y1,Z1`` (two opposite corners, metres): a :class:`Box`; or a mesh
+    file (:data:`~.mesh.MESH_EXTENSIONS`): a :class:`~.mesh.MeshRoom`."""
+    from .mesh import MESH_EXTENSIONS, read_mesh
+    if text.strip().lower().endswith(MESH_EXTENSIONS):
+        return read_mesh(text.strip())
     kind, sep, rest = text.strip().partition(":")
     if kind.lower() != "box" or not sep:
         raise InputError(f"--room {text!r}: expected box:X0,Y0,Z0,X1,Y1,Z1 (two opposite "
-                         "corners of the room, metres)")
+                         "corners of the room, metres) or a mesh file "
+                         f"({', '.join(MESH_EXTENSIONS)})")
     try:
         values = [float(v) for v in re.split(r"[,;\s]+", rest.strip())]
     except ValueError:
@@ -103,7 +108,7 @@ def _sample(image, directions, shape):
     return out.reshape(-1, 3)
 
 
-def check_probes(positions, images, box: Box, names=None) -> None:
+def check_probes(positions, images, box, names=None) -> None:
     """Every probe inside the room, and an equirect (2:1, RGB) of linear radiance."""
     names = names or [str(i) for i in range(len(positions))]
     for name, p, img in zip(names, positions, images):
@@ -115,10 +120,12 @@ def check_probes(positions, images, box: Box, names=None) -> None:
                              f"re-project through the room, got {img.shape[1]}×{img.shape[0]}")
 
 
-def reproject(point, positions, images, box: Box, height: int = DEFAULT_HEIGHT) -> np.ndarray:
+def reproject(point, positions, images, box, height: int = DEFAULT_HEIGHT) -> np.ndarray:
     """The panorama at ``point`` (height × 2·height × 3, float32, linear) from the probes'
     panoramas ``images`` (equirects of linear radiance, float32, the world frame's axes)
-    taken at ``positions`` (n, 3) inside ``box``."""
+    taken at ``positions`` (n, 3) inside the room ``box`` (a :class:`Box`, or a
+    :class:`~.mesh.MeshRoom`, whose walls also hide wall points from probes: a wall point
+    no probe sees takes what they all see in its direction)."""
     if not box.contains(point):
         raise InputError(f"the point {tuple(float(v) for v in point)} is not inside the "
                          f"room {box}")
@@ -126,8 +133,9 @@ def reproject(point, positions, images, box: Box, height: int = DEFAULT_HEIGHT) 
         raise InputError(f"the panorama's height {height}: 2 to {MAX_HEIGHT} rows")
     rays = Equirect(2 * height, height).directions().reshape(-1, 3)
     walls, normals = box.exits(point, rays)
-    total = np.zeros((len(rays), 3))
-    weight = np.zeros(len(rays))
+    total, weight = np.zeros((len(rays), 3)), np.zeros(len(rays))
+    hidden, hidden_weight = np.zeros((len(rays), 3)), np.zeros(len(rays))
+    occludes = hasattr(box, "visible")
     for p, img in zip(np.asarray(positions, np.float64), images):
         seen = walls - p
         dist = np.linalg.norm(seen, axis=1)
@@ -137,6 +145,14 @@ def reproject(point, positions, images, box: Box, height: int = DEFAULT_HEIGHT) 
         head_on = np.clip(-(toward * normals).sum(1), 1e-3, None)
         alike = (0.5 * (1 + (toward * rays).sum(1))) ** 2
         w = head_on / np.maximum(dist, 1e-3) ** 2 * alike + 1e-12
-        total += w[:, None] * _sample(img, toward, (height, 2 * height))
+        sample = _sample(img, toward, (height, 2 * height))
+        if occludes:
+            seen = box.visible(p, walls)
+            hidden += (~seen * w)[:, None] * sample
+            hidden_weight += ~seen * w
+            w = w * seen
+        total += w[:, None] * sample
         weight += w
+    unseen = weight <= 0
+    total[unseen], weight[unseen] = hidden[unseen], hidden_weight[unseen]
     return (total / weight[:, None]).reshape(height, 2 * height, 3).astype(np.float32)
