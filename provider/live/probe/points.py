@@ -26,7 +26,8 @@ class Interpolator:
     ``box:X0,Y0,Z0,X1,Y1,Z1``; ``rows``: the panorama re-projected at a point."""
 
     def __init__(self, names, positions, images=None, *, room: str | None = None,
-                 lights: str = "off", rows: int | None = None, coefficients=None):
+                 lights: str = "off", rows: int | None = None, coefficients=None,
+                 tetrahedra: Tetrahedra | None = None):
         self.names = list(names)
         self.positions = np.asarray(positions, np.float64).reshape(-1, 3)
         self.images = [np.ascontiguousarray(i, np.float32) for i in images or ()]
@@ -36,7 +37,7 @@ class Interpolator:
             if lights != "off":
                 raise InputError("lights need the room (--room): without it a light has no "
                                  "place to be seen from a point")
-            self.tetrahedra = Tetrahedra(self.positions)
+            self.tetrahedra = tetrahedra or Tetrahedra(self.positions)
             self.coefficients = (np.asarray(coefficients, np.float64).reshape(-1, 9, 3)
                                  if coefficients is not None
                                  else np.array([_sh9(img) for img in self.images]))
@@ -127,6 +128,9 @@ class RoomLight:
                     raise InputError(f"probe {p.name}: --room re-projects equirect panoramas; "
                                      f"this probe's frames are {p.projection}")
         self._lock = threading.Lock()
+        # the positions do not move: their tetrahedra once (64 probes: seconds)
+        self._tetrahedra = (Tetrahedra([p.position for p in self.probes])
+                            if room is None and self.probes else None)
         self._key = None
         self._interpolator: Interpolator | None = None
         self._cache: dict = {}
@@ -155,7 +159,8 @@ class RoomLight:
             positions = [p.position for p in self.probes]
             if self.room is None:
                 coefficients = [p.latest_message["coefficients"] for p in self.probes]
-                self._interpolator = Interpolator(names, positions, coefficients=coefficients)
+                self._interpolator = Interpolator(names, positions, coefficients=coefficients,
+                                                  tetrahedra=self._tetrahedra)
             else:
                 images = [shrunk(linear_panorama(p.image)) for p in self.probes]
                 self._interpolator = Interpolator(names, positions, images, room=self.room,
