@@ -15,6 +15,7 @@ from provider.bench import room
 from provider.core.geometry import sh
 from provider.core.geometry.projections import Equirect
 from provider.core.probes import Box, parse_room, reproject
+from servertools import ServerThread, http_get, poll
 
 pytest.importorskip("trimesh")
 ROWS = 32
@@ -87,3 +88,23 @@ def test_a_bad_mesh_is_one_line(tmp_path, content, says):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and says in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+
+
+def test_serve_answers_points_through_a_mesh_room_within_its_bounds(tmp_path):
+    probes = room.write_probes(tmp_path / "probes", height=64, blocked=True)
+    args = ["--fps", "2", "--room", _cabinet_file(tmp_path)]
+    for p in json.loads(probes.read_text())["probes"]:
+        args += ["--probe", f"{p['name']}={probes.parent / p['image']}",
+                 "--probe-position", f"{p['name']}={','.join(map(str, p['position']))}"]
+    with ServerThread(*args) as srv:
+        status, _, body = poll(lambda: (lambda r: r if r[0] != 503 else None)(
+            http_get(f"{srv.http}/latest.json?at=2,1,3.5")), timeout=60, what="the point")
+        point = json.loads(body)
+        assert status == 200 and point["method"] == "parallax"
+        assert sh.irradiance_error(np.reshape(point["coefficients"], (9, 3)),
+                                   room.exact_sh9((2, 1, 3.5), 128, blocked=True)) < 0.03
+        # a mesh's rays cost more: its grids are kept small (27 points)
+        status, _, body = http_get(f"{srv.http}/probe-grid.json?min=1,0.5,1&max=5,1.5,4&step=1")
+        assert status == 400 and b"at most 27" in body
+        status, _, body = http_get(f"{srv.http}/probe-grid.json?min=1,0.5,1&max=3,1.5,3&step=1")
+        assert status == 200 and json.loads(body)["counts"] == [3, 2, 3]

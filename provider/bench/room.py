@@ -156,15 +156,18 @@ def random_points(n: int = 40, seed: int = 7) -> np.ndarray:
     return lo + rng.random((n, 3)) * (hi - lo)
 
 
-def write_probes(folder: Path, positions=PROBES, height: int = 128) -> Path:
-    """Each probe's panorama as a float .pfm (lossless), and PROBES.json naming them."""
+def write_probes(folder: Path, positions=PROBES, height: int = 128,
+                 blocked: bool = False) -> Path:
+    """Each probe's panorama as a float .pfm (lossless), and PROBES.json naming them (with
+    the cabinet in the room if ``blocked``)."""
     import json
     import cv2
     folder.mkdir(parents=True, exist_ok=True)
     probes = []
     for i, p in enumerate(positions):
         name = f"probe{i}.pfm"
-        assert cv2.imwrite(str(folder / name), panorama(p, height)[..., ::-1])   # BGR on disk
+        image = panorama(p, height, blocked=blocked)
+        assert cv2.imwrite(str(folder / name), image[..., ::-1])   # BGR on disk
         probes.append({"name": f"p{i}", "image": name, "position": [float(v) for v in p]})
     path = folder / "probes.json"
     path.write_text(json.dumps({"probes": probes}))
