@@ -41,6 +41,9 @@ Sections (all written to ``--out``, default ./bench-results):
 * ``shadows.md`` / ``.png`` (only with ``--sections shadows``, see
   :mod:`provider.bench.shadows`): a floating sphere's floor shadow per real panorama, by
   brute force against the light model (SH9 only, lights as points, lights as discs).
+* ``points.md`` (only with ``--sections points``, see :mod:`provider.bench.points`): the
+  light at 40 points of an analytic room from 8 probes, each method's error against its
+  cost (the nearest probe, inverse distance, Unity's tetrahedra, parallax through the box).
 * ``passthrough.md`` (only with ``--sections passthrough``, see
   :mod:`provider.bench.headset_sim`): a simulated headset's camera fitted against the sphere
   on perturbed rooms, ms per view against the error in stops, and the naive way's error.
@@ -114,10 +117,12 @@ SECTION_WHAT = {
     "environment": "the reflection cube: cost against SH9, error against brute force, bytes",
     "shadows": "a floating sphere's floor shadow: brute force against the light model",
     "passthrough": "a simulated headset's camera fitted against the sphere: ms/view, stops",
+    "points": "the light at 40 points of a room from 8 probes: each method's error and cost",
 }
 SECTION_COST_S = {"speed": (5, 40), "edge": (25, 40), "fill": (2, 10), "scenes": (20, 50),
                   "server": (20, 70), "radiometry": (20, 40), "probes": (15, 150),
-                  "environment": (60, 400), "shadows": (15, 60), "passthrough": (30, 120)}
+                  "environment": (60, 400), "shadows": (15, 60), "passthrough": (30, 120),
+                  "points": (15, 90)}
 INSTRUCTIONS_COST_S = (300, 300)    # valgrind runs Python and numpy under emulation
 
 
@@ -186,6 +191,11 @@ def _shadows(hdri, out, args):
     bench_shadows(hdri, out, args)
 
 
+def _points(hdri, out, args):
+    from .points import bench_points
+    bench_points(hdri, out, args)
+
+
 def _passthrough(hdri, out, args):
     from .headset_sim import bench_passthrough
     bench_passthrough(hdri, out, args)
@@ -193,4 +203,4 @@ def _passthrough(hdri, out, args):
 
 _SECTIONS = {"speed": _speed, "edge": _edge, "fill": _fill, "scenes": _scenes, "server": _server,
              "radiometry": _radiometry, "probes": _probes, "environment": _environment,
-             "shadows": _shadows, "passthrough": _passthrough}
+             "shadows": _shadows, "passthrough": _passthrough, "points": _points}

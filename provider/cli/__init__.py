@@ -35,6 +35,8 @@ COMMANDS = (
     ("locate-ball", "locate", "find a mirror ball in a frame: its circle as JSON (for --ball)"),
     ("environment", "environment",
      "one image's reflection cube (GGX-prefiltered mips) -> KTX2 (-o cube.ktx2)"),
+    ("interpolate", "interpolate",
+     "the light at points of the room from several probes at known positions"),
     ("register", "register", "where a printed marker is in a panorama: the camera's pose (§13)"),
     ("marker", "marker", "write a printable registration marker (PNG at print resolution)"),
     ("passthrough", "passthrough",

@@ -24,7 +24,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "section (slow: about 2 min; default: on, off with --quick)")
     p.add_argument("--sections", default="speed,edge,fill,scenes",
                    help="comma list of: speed, edge, fill, scenes, server, radiometry, probes, "
-                        "environment, shadows, passthrough (each "
+                        "environment, shadows, passthrough, points (each "
                         "says what it costs before it starts)")
 
 

@@ -11,7 +11,9 @@ prints JSON: rotation (9 numbers, row-major: R_camera<-marker, its columns the m
 axes as OpenCV's ArUco defines them, in the camera frame of docs/contract.md §1), position
 (the marker's centre, metres), error_deg / error_px (RMS corner reprojection error), apparent
 size in panorama pixels, and whether the frame was levelled by gravity (a still's XMP
-GPano:PosePitchDegrees / PoseRollDegrees). Several IMAGEs of one static scene: the pose is
+GPano:PosePitchDegrees / PoseRollDegrees), and camera_position: the camera's centre in the
+marker's frame (metres; x printed right, y printed up, z out of the print: -R^T position),
+which serve --probe-position NAME=THIS.json reads. Several IMAGEs of one static scene: the pose is
 averaged over those that show the marker. theta://HOST: a full-resolution still is taken
 through OSC camera.takePicture. The headset composes R_world<-camera = R_world<-marker ·
 R_camera<-marker^T.
@@ -146,6 +148,65 @@ def add_serve_arguments(parser) -> None:
                    help="its printed side (needed with --marker)")
     g.add_argument("--register-every", type=finite_float, default=5.0, metavar="SECONDS",
                    help="seconds between detections, off the frame path (default 5)")
+    g.add_argument("--probe-position", action="append", default=[],
+                   metavar="NAME=X,Y,Z|NAME=REGISTER.json",
+                   help="where the probe's camera is in the world (metres, docs/contract.md "
+                        "§1's axes), sent as 'position' in its messages; or the output of "
+                        "shlight register (its camera_position: the marker's frame). "
+                        "Repeatable; the probe named 'default' is 'default'")
+    g.add_argument("--room", default=None, metavar="box:X0,Y0,Z0,X1,Y1,Z1|MESH",
+                   help="the room's box (metres, the positions' frame) or a mesh file of it "
+                        "(OBJ, PLY, glTF): /latest.json?at=X,Y,Z "
+                        "and /probe-grid.json re-project the placed probes' panoramas through "
+                        "it (docs/probes.md); without it they blend the probes' SH9")
+
+
+def probe_positions(texts, names) -> dict:
+    """``--probe-position`` values: probe name -> (x, y, z) metres."""
+    import math
+    import os
+    out = {}
+    for text in texts:
+        name, sep, value = text.partition("=")
+        name, value = name.strip(), value.strip()
+        if not sep or not name or not value:
+            raise InputError(f"--probe-position: expected NAME=X,Y,Z or NAME=REGISTER.json, "
+                             f"got {text!r}")
+        if name not in names:
+            raise InputError(f"--probe-position: no probe named {name!r} (probes: "
+                             f"{', '.join(names)})")
+        if name in out:
+            raise InputError(f"--probe-position: probe {name!r} is placed twice")
+        if value.lower().endswith(".json") or os.path.isfile(value):
+            position = _registered_position(value)
+        else:
+            try:
+                position = [float(v) for v in value.replace(";", ",").split(",")]
+            except ValueError:
+                position = []
+        if len(position) != 3 or not all(math.isfinite(v) for v in position):
+            raise InputError(f"--probe-position {text!r}: expected X,Y,Z (three finite "
+                             "numbers, metres) or a file shlight register wrote")
+        out[name] = tuple(float(v) for v in position)
+    return out
+
+
+def _registered_position(path: str) -> list:
+    from ..core.json_text import parse_json
+    try:
+        with open(path, encoding="utf-8") as f:
+            found = parse_json(f.read(), path, 4)
+    except FileNotFoundError:
+        raise InputError(f"--probe-position: no such file: {path}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"--probe-position: cannot read {path}: "
+                         f"{getattr(exc, 'strerror', None) or exc}") from None
+    position = found.get("camera_position") if isinstance(found, dict) else None
+    if not (isinstance(position, list) and all(isinstance(v, (int, float))
+                                               and not isinstance(v, bool) for v in position)):
+        raise InputError(f"--probe-position: {path} has no camera_position (write it with "
+                         "shlight register)")
+    return [float(v) for v in position]
 
 
 def registrar_for(ns, name: str):
@@ -167,6 +228,9 @@ def registrar_for(ns, name: str):
 
 def run(args) -> int:
     pose = measure(args)
-    out = {**pose.to_json(), "marker_size": args.marker_size, "projection": args.projection}
+    import numpy as np
+    camera = -np.asarray(pose.rotation).T @ np.asarray(pose.position)
+    out = {**pose.to_json(), "marker_size": args.marker_size, "projection": args.projection,
+           "camera_position": [round(float(v), 5) for v in camera]}
     print(json.dumps(out, indent=2 if args.pretty else None, allow_nan=False))
     return 0

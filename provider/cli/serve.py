@@ -400,6 +400,8 @@ def build_server(args):
             max_views=args.passthrough_max_views, max_headsets=args.passthrough_headsets,
             sphere_every_s=args.passthrough_sphere_every, max_text_bytes=s.max_message_bytes,
             max_pixels=int(getattr(args, "max_frame_pixels", 0) or 0) or 4096 * 4096)
+    from .register import probe_positions
+    positions = probe_positions(args.probe_position, names)
     probes = []
     for name, text in named:
         ns = overrides.get(name, args)
@@ -442,6 +444,7 @@ def build_server(args):
                             meter=meter))
         from .register import registrar_for
         probes[-1].registrar = registrar_for(ns, name)
+        probes[-1].position = positions.get(name)
     publishers = []
     if args.mqtt is not None:       # '' too: refused by the parser, never "no MQTT"
         from ..live.mqtt import MqttPublisher, parse_mqtt_url
@@ -449,7 +452,11 @@ def build_server(args):
                                         backoff_max=args.reconnect_max))
     elif args.mqtt_ca:
         raise InputError("--mqtt-ca needs --mqtt mqtts://...")
-    return ProviderServer(probes, s, publishers)
+    server = ProviderServer(probes, s, publishers)
+    if positions or args.room is not None:      # the light at points (docs/probes.md)
+        from ..live.probe.points import RoomLight
+        server.points.room = RoomLight(probes, args.room, args.lights)
+    return server
 
 
 def _given(words) -> set:

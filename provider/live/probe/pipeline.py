@@ -145,6 +145,8 @@ class Probe:
         self._work = None               # the work image of the frame being projected
         #: A :class:`~provider.live.probe.registration.Registrar` (``--marker``), or None.
         self.registrar = None
+        #: Where the camera is in the world, (x, y, z) metres (``--probe-position``), or None.
+        self.position = None
 
     # -- the task ----------------------------------------------------------------------------
     async def run(self) -> None:
@@ -496,6 +498,8 @@ class Probe:
         registration = self.registrar.fields(now) if self.registrar is not None else None
         if registration is not None:
             msg["registration"] = registration
+        if self.position is not None:
+            msg["position"] = [float(v) for v in self.position]
         text = dumps(msg).encode()
         if changed and not stale and self._environment_frame is not None \
                 and self.environment is not None:
@@ -534,6 +538,8 @@ class Probe:
             health["ball"] = self.ball
         if self.registrar is not None:  # --marker: found or not, tries and misses
             health["registration"] = self.registrar.health(now)
+        if self.position is not None:   # --probe-position
+            health["position"] = [float(v) for v in self.position]
         if self.meter is not None:      # --lux: its last reading, refusals, broker
             health["meter"] = self.meter.health()
         camera = self.capture.source_health()

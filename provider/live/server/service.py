@@ -120,6 +120,7 @@ from .replies import _json_error, _response
 from ..wire.message import FRAME, SCHEMA_VERSION
 from ..probe.passthrough import PassthroughService, PassthroughSettings
 from .capture import CAPTURE_PATH, check_capture, serve_capture
+from .points import PointFanout, wants_point
 from ..probe.pipeline import Probe
 from .session import ALL, WRITE_LIMIT, ClientSession, Counters, text_frame
 
@@ -176,6 +177,7 @@ class ProviderServer:
         self.settings = settings or ServeSettings()
         self.probes = {p.name: p for p in probes}
         self.environment = EnvironmentFanout(self)     # reflection cubes (--environment)
+        self.points = PointFanout(self)     # the light at points (--probe-position, --room)
         for p in probes:
             p.publish = self.publish
             p.publish_environment = self.environment.publish
@@ -404,7 +406,8 @@ class ProviderServer:
             except InputError as exc:
                 return self._client_error(client, "unknown_format", str(exc))
             self._subscribe(client, probe, None if max_hz is None else float(max_hz), to)
-            problem = self.environment.subscribe(client, msg)    # reflection cubes
+            problem = (self.environment.subscribe(client, msg)   # reflection cubes
+                       or self.points.subscribe(client, msg))    # a point's light
             reply = {"type": "subscribed", "probe": client.subscription,
                      "max_hz": float(client.max_hz)}
             if "to" in msg or client.to:
@@ -539,6 +542,8 @@ class ProviderServer:
         if path == "/environment.ktx2":
             code, body, ctype, headers, error = self.environment.http(query)
             return _json_error(code, *error) if error else _response(code, body, ctype, headers)
+        if wants_point(path, query):   # /latest.json?at=, /probe-grid.json
+            return await self.points.http(path, query)
         if path in ("/latest.json", "/thumbnail.jpg"):
             name = query.get("probe", [next(iter(self.probes))])[0]
             probe = self.probes.get(name)
