@@ -422,3 +422,23 @@ def test_the_live_sphere_is_in_the_units_of_the_probes_coefficients(room, tmp_pa
         wait_for_sphere(srv)
         sphere = srv.call(lambda: sphere_of(next(iter(srv.server.probes.values()))))
     np.testing.assert_allclose(sphere, 4 * np.asarray(room, np.float32), rtol=1e-6)
+
+
+def test_the_live_sphere_is_in_the_frame_and_units_of_the_coefficients(room, tmp_path):
+    """``--rotate`` turns a probe's coefficients into the world's frame; the sphere the
+    headsets and the light at points are compared with is turned alike, and scaled alike:
+    its own SH9 is the probe's (up to resampling the panorama once)."""
+    from provider import compute_sh9
+    path = tmp_path / "room.exr"
+    write_exr(path, room)
+    with serve(str(path), "--rotate", "90,20,0", "--exposure", "2") as srv:
+        wait_for_sphere(srv)
+        probe = next(iter(srv.server.probes.values()))
+        sphere = srv.call(lambda: sphere_of(probe))
+        latest = json.loads(http_get(srv.http + "/latest.json")[2])
+    ours = compute_sh9(sphere.astype(np.float32)).coefficients.reshape(-1)
+    theirs = np.asarray(latest["coefficients"])
+    # one bilinear resampling of a 256-row panorama at 512 rows: 0.5 % of the ambient term
+    np.testing.assert_allclose(ours, theirs, atol=5e-3 * np.abs(theirs[:3]).max())
+    unturned = compute_sh9(2 * np.asarray(room, np.float32)).coefficients.reshape(-1)
+    assert np.abs(unturned - theirs).max() > 0.1 * np.abs(theirs[:3]).max()   # it did turn

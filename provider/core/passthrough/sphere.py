@@ -18,15 +18,20 @@ from ..geometry.sphere_views import direction_to_pixel
 HEIGHT = 512
 
 
-def to_equirect(image: np.ndarray, projection: Projection, height: int = HEIGHT) -> np.ndarray:
+def to_equirect(image: np.ndarray, projection: Projection, height: int = HEIGHT,
+                rotation=None) -> np.ndarray:
     """``image`` (H, W, 3) seen through ``projection``, resampled bilinearly to a 2:1
-    equirect of ``height`` rows (float32); 0 where the projection sees nothing."""
-    if isinstance(projection, Equirect):
+    equirect of ``height`` rows (float32); 0 where the projection sees nothing.
+    ``rotation`` (3 × 3, camera → world, as :class:`~provider.core.sh9.engine.SH9Projector`
+    takes it): the equirect is in the world's frame, as the coefficients are."""
+    if isinstance(projection, Equirect) and rotation is None:
         return np.asarray(image, np.float32)
     height = int(min(height, max(image.shape[0], 64)))
     target = Equirect(2 * height, height)
     ys, xs = np.mgrid[0:height, 0:2 * height]
     dirs, _ = target.pixel_to_direction(xs + 0.5, ys + 0.5)
+    if rotation is not None:        # world d seen by the camera along Rᵀd (row vectors: d R)
+        dirs = np.asarray(dirs, np.float64) @ np.asarray(rotation, np.float64)
     px, py, seen = direction_to_pixel(projection, dirs)
     pad = 2
     src = cv2.copyMakeBorder(np.asarray(image, np.float32), pad, pad, pad, pad,

@@ -124,6 +124,8 @@ class SH9Projector(FrameDecoder):
                 downsample = 1
             self.projection = full if downsample == 1 else full.scaled(downsample)
             self._full = full
+            #: The projection at the frame's own size (``projection`` is the downsampled one).
+            self.full_projection = full
             self._up = None             # exact up-facing cosine weights (up_illuminance)
         except ProjectionError as exc:
             raise InputError(str(exc)) from None

@@ -38,12 +38,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.errors import InputError
+from .sphere import sphere_of
 
 log = logging.getLogger("shlight.passthrough")
 
-#: The sphere the fit samples is at most this many rows (0.35° a pixel, finer than its 1° blur;
-#: three float64 copies of it are ~38 MB a headset).
-SPHERE_HEIGHT = 512
 #: Views the fit needs before its first solve (answers before it use sRGB as the curve).
 FIRST_SOLVE_VIEWS = 4
 #: A curve that moves less than this (max |log ratio| over codes and channels) is not resent.
@@ -135,44 +133,6 @@ def _lower_priority() -> None:
         os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), WORKER_NICE)
     except (AttributeError, OSError):      # not Linux, or not allowed: the default priority
         pass
-
-
-def sphere_of(probe) -> np.ndarray:
-    """The probe's latest frame as linear radiance on an equirect of at most
-    ``SPHERE_HEIGHT`` rows, in the units of the probe's coefficients (what a hologram is lit
-    by): a float frame's values, an integer one's through the probe's camera curve (sRGB
-    without ``--camera``), times the probe's ``image_scale`` (``--exposure``, the frame's
-    1/(t·gain), an absolute curve's C·N²); resampled from its projection."""
-    from ...core.geometry.projections import make_projection
-    from ...core.passthrough.sphere import to_equirect
-    from ...core.radiometry.response import CameraResponse
-    image, scale = probe.image, getattr(probe, "image_scale", 1.0)
-    if image is None:
-        raise InputError(f"probe {probe.name} has no frame yet: no sphere to fit against")
-    img = np.asarray(image)
-    if img.ndim != 3 or img.shape[2] < 3:
-        raise InputError(f"probe {probe.name}'s frame is not RGB: no sphere to fit against")
-    img = img[..., :3]
-    h, w = img.shape[:2]
-    if img.dtype.kind == "f":
-        lin = img.astype(np.float32)
-    else:
-        bits = 8 if img.dtype == np.uint8 else 16
-        projector = probe._projectors.get((w, h))
-        response = getattr(projector, "response", None) or CameraResponse.srgb(bits)
-        if response.bits != bits:
-            response = response.to_bits(bits)
-        lin = response.linearise(np.ascontiguousarray(img))
-    if scale is None:
-        raise InputError(f"probe {probe.name} merges brackets: its slot frames are not the "
-                         "merged light, no sphere to fit against")
-    lin = lin * np.float32(scale)
-    if probe.projection != "equirect":
-        lin = to_equirect(lin, make_projection(probe.projection, w, h), SPHERE_HEIGHT)
-    if lin.shape[0] > SPHERE_HEIGHT:
-        import cv2
-        lin = cv2.resize(lin, (2 * SPHERE_HEIGHT, SPHERE_HEIGHT), interpolation=cv2.INTER_AREA)
-    return np.asarray(lin, np.float64)
 
 
 class HeadsetFit:

@@ -18,6 +18,7 @@ from ...core.probes.parallax import DEFAULT_HEIGHT, check_probes
 from ...core.sh9.engine import SH9Projector
 from ...core.sh9.result import SH9Result
 from ..wire.message import light_fields
+from .sphere import sphere_of
 
 
 class Interpolator:
@@ -166,7 +167,8 @@ class RoomLight:
                 self._interpolator = Interpolator(names, positions, coefficients=coefficients,
                                                   tetrahedra=self._tetrahedra)
             else:
-                images = [shrunk(linear_panorama(p.image)) for p in self.probes]
+                # each frame as the probe's SH9 sees it: its curve, exposure, lens, rotation
+                images = [sphere_of(p, LIVE_PROBE_ROWS) for p in self.probes]
                 self._interpolator = Interpolator(names, positions, images, room=self.box,
                                                   lights=self.lights)
             self._key, self._cache = key, {}
@@ -227,11 +229,3 @@ def linear_panorama(image) -> np.ndarray:
     img = np.nan_to_num(np.asarray(img[..., :3], np.float32), nan=0.0, posinf=0.0,
                         neginf=0.0)
     return np.maximum(img, 0.0)
-
-
-def shrunk(image: np.ndarray, rows: int = LIVE_PROBE_ROWS) -> np.ndarray:
-    """An equirect area-averaged to at most ``rows`` rows."""
-    import cv2
-    if image.shape[0] <= rows:
-        return image
-    return cv2.resize(image, (2 * rows, rows), interpolation=cv2.INTER_AREA)
