@@ -113,7 +113,7 @@ def children(texels: np.ndarray, n: int) -> np.ndarray:
 
 
 def build_operator(outputs: np.ndarray, alpha: float, geom: PyramidGeometry,
-                   tolerance: float = TOLERANCE, chunk: int = 32):
+                   tolerance: float = TOLERANCE, chunk: int = 8):
     """Sparse prefilter of one mip: ``(rows, cols, vals, norm)`` with ``PF[rows] += vals ·
     pyramid[cols]``, rows normalised to sum to 1 (a constant map stays constant); ``norm``
     (T,) is each row's ``∫ D(h) ⟨r·l⟩ dl`` before normalising.
@@ -374,10 +374,13 @@ def _fold(rows, cols, vals, n_rows: int, geom: PyramidGeometry, level: int) -> n
             desc = children(desc.reshape(-1), n).reshape(texel.size, -1)
             n *= 2
         share = geom.omega[level][desc] / geom.omega[k][texel][:, None]
-        dense += np.bincount((rows[sel][:, None] * width + desc).reshape(-1),
-                             weights=(vals[sel][:, None] * share).reshape(-1),
-                             minlength=dense.size)
-    return dense.reshape(n_rows, width).astype(np.float32)
+        # in place: a bincount the size of the matrix would double the build's peak memory
+        np.add.at(dense, (rows[sel][:, None] * width + desc).reshape(-1),
+                  (vals[sel][:, None] * share).reshape(-1))
+        del desc, share
+    out = np.empty((n_rows, width), np.float32)
+    out.reshape(-1)[:] = dense          # the float32 copy without a second float64 temporary
+    return out
 
 
 class MipChain:

@@ -43,6 +43,10 @@ from .ktx2 import encode_cube
 from ..wire.message import FRAME, SCHEMA_VERSION, UNITS, dumps
 
 log = logging.getLogger("shlight.environment")
+#: One projector build at a time in a process: SH9's and the cube's, made by two threads at
+#: a probe's first frame, would otherwise peak together (about 130 MB each for a Theta S
+#: frame), more than a 512 MB board can spare (docs: the README's edge section).
+TABLE_BUILDS = threading.Lock()
 
 #: Edge sizes a cube may have (powers of two, as the core requires).
 SIZES = tuple(1 << k for k in range(3, 9))       # 8 .. 256
@@ -466,8 +470,12 @@ class EnvironmentWorker:
     def _build(self, width: int, height: int):
         from ...core.reflections.environment import EnvironmentProjector
         try:
-            return EnvironmentProjector(width, height, self.projection, size=self.size,
-                                        **self.options)
+            with TABLE_BUILDS:
+                projector = EnvironmentProjector(width, height, self.projection,
+                                                 size=self.size, **self.options)
+            for note in projector.table_notes:       # a damaged table file, rebuilt
+                log.warning("probe %s: reflection cube: %s", self.probe, note)
+            return projector
         except Exception as exc:  # noqa: BLE001 - a bug must not become a rebuild per frame
             reason = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
             log.error("probe %s: no reflection cube for %d×%d frames: %s", self.probe, width,
