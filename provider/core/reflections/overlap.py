@@ -18,7 +18,7 @@ from ..geometry.projections import Equirect, Projection
 
 #: Sub-pixels per chunk of the overlap's build: bounds its memory (~100 bytes each), not
 #: its result.
-OVERLAP_CHUNK = 1 << 18
+OVERLAP_CHUNK = 1 << 16
 
 
 def subpixel_samples(p: Projection, q: int, r0: int, r1: int):
