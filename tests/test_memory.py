@@ -102,10 +102,10 @@ def test_a_theta_s_probe_with_lights_and_a_cube_fits_an_edge_board(tables, tmp_p
     """A Pi Zero 2 W has 512 MB in all (issue 44): the process that builds and serves a
     Theta S frame's SH9 + lights and its 32² cube peaks under 256 MB resident, whether it
     builds the tables (the first start) or reads them (later starts). Peak resident memory
-    is a count, not a timing: it does not depend on the machine's load. Measured 225 MB
+    is a count, not a timing: it does not depend on the machine's load. Measured 214 MB
     built (the cube's prefilter build on top of SH9's held tables; ~52 MB of it is Python,
-    numpy and OpenCV themselves, more or less by a few MB with other builds of them) and
-    176 MB read; before issue 44, 580-700 MB."""
+    numpy and OpenCV themselves, more or less by a few MB with other builds of them: the
+    40 MB of headroom) and 177 MB read; before issue 44, 660 MB."""
     env = {**os.environ, "SHLIGHT_CACHE_DIR": str(tmp_path), "SHLIGHT_TABLE_CACHE": "0"}
     if tables != "built":
         env["SHLIGHT_TABLE_CACHE"] = "1"

@@ -16,7 +16,8 @@ everything after the header) then a pickle (protocol 5) whose arrays lie out of 
 64-byte aligned. A load maps the file and the arrays are read-only views of the mapping:
 no copy, pages shared between processes and paged in on use. A file that fails any check
 (another format, another key, a bad checksum, a short file, an unpickling error) is
-rebuilt and replaced, and the caller gets one line saying so. Writes go to a temporary
+rebuilt and replaced, and the caller gets one line saying so; files of other versions of the
+code are removed when a new one is written. Writes go to a temporary
 file in the same folder, then ``os.replace``: a reader never sees half a file, and two
 processes writing the same key each leave a whole one.
 
@@ -99,7 +100,8 @@ def cached(kind: str, key: str | None, build, notes: list | None = None):
     replaced, with one line appended to ``notes``; so is a cache that cannot be written."""
     if key is None or not enabled():
         return _built(build)
-    path = cache_dir() / f"{kind}-{key[:32]}.tables"
+    version = code_hash()[:12]
+    path = cache_dir() / f"{kind}-{version}-{key[:32]}.tables"
     if path.exists():
         try:
             return _load(path, kind, key)
@@ -110,6 +112,7 @@ def cached(kind: str, key: str | None, build, notes: list | None = None):
     value = _built(build)
     try:
         _save(path, kind, key, value)
+        _prune(path.parent, kind, version)
     except OSError as exc:
         if notes is not None:
             notes.append(f"the table cache cannot be written ({exc}); the tables are "
@@ -156,6 +159,17 @@ def _save(path: Path, kind: str, key: str, value) -> None:
         except OSError:
             pass
         raise
+
+
+def _prune(folder: Path, kind: str, version: str) -> None:
+    """Removes ``kind``'s files written by other versions of the code: never read again, and
+    an edge board's card should not fill up with them, one set an upgrade."""
+    for old in folder.glob(f"{kind}-*.tables"):
+        if old.name.split("-")[1] != version:
+            try:
+                old.unlink()
+            except OSError:
+                pass
 
 
 def _load(path: Path, kind: str, key: str):
