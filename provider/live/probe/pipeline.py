@@ -412,6 +412,8 @@ class Probe:
             return InputError(reason)
         for warning in projector.warnings:
             log.warning("probe %s: %s", self.name, warning)
+        if self.environment is not None:     # its cube's tables too, before any frame
+            self.environment.prepare(width, height)
         return projector
 
     def _too_large(self, width: int, height: int, *, path: str | None = None,

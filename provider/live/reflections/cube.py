@@ -467,10 +467,20 @@ class EnvironmentWorker:
             twin = self._twins[key] = projector.at_roughness(babylon_roughness(self.size))
         return twin
 
+    def prepare(self, width: int, height: int) -> None:
+        """Build the cube's projector for frames of this size now (the probe's thread, right
+        after SH9's, before its first frame): the cube's build then never peaks on top of
+        frames in flight (a 512 MB board; a restart reads both from the table cache)."""
+        if (width, height) not in self._projectors:
+            self._projectors[(width, height)] = self._build(width, height)
+
     def _build(self, width: int, height: int):
         from ...core.reflections.environment import EnvironmentProjector
         try:
             with TABLE_BUILDS:
+                ready = self._projectors.get((width, height))
+                if ready is not None:           # prepared by the probe's thread meanwhile
+                    return ready
                 projector = EnvironmentProjector(width, height, self.projection,
                                                  size=self.size, **self.options)
             for note in projector.table_notes:       # a damaged table file, rebuilt
