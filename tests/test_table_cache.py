@@ -136,6 +136,13 @@ def test_a_file_that_unpickles_code_is_refused(cache):
     rebuilt = sh9()
     assert len([w for w in rebuilt.warnings if "builtins.print" in w]) == 1
 
+    class Command:      # this package's own functions are not run either
+        def __reduce__(self):
+            return (shlight, (["compute", "--help"],))
+    table_cache._save(path, "sh9", header["key"], Command())
+    rebuilt = sh9()
+    assert len([w for w in rebuilt.warnings if "provider.cli.main" in w]) == 1
+
 
 def test_the_cache_can_be_turned_off(cache, monkeypatch, tmp_path, capsys):
     monkeypatch.setenv("SHLIGHT_TABLE_CACHE", "0")

@@ -46,8 +46,10 @@ MAGIC = b"SHLIGHT-TABLES\n"
 ALIGN = 64
 #: Environment switches: the folder, and "0" to turn the cache off.
 DIR_ENV, SWITCH_ENV = "SHLIGHT_CACHE_DIR", "SHLIGHT_TABLE_CACHE"
+#: numpy's functions that pickles of arrays and scalars call.
+_NUMPY_MAKERS = {"_frombuffer", "_reconstruct", "scalar"}
 _SAFE_BUILTINS = {"list", "dict", "tuple", "set", "frozenset", "slice", "complex", "bytearray",
-                  "range", "int", "float", "bool", "str", "bytes", "object"}
+                  "range", "int", "float", "bool", "str", "bytes"}
 
 
 def enabled() -> bool:
@@ -205,13 +207,16 @@ def _load(path: Path, kind: str, key: str):
 
 
 class _Unpickler(pickle.Unpickler):
-    """Unpickles numpy arrays, this package's classes and plain containers, nothing else."""
+    """Unpickles numpy arrays, this package's classes and plain containers, nothing else: no
+    function is called but numpy's array and scalar constructors."""
 
     def find_class(self, module, name):
         if module == "builtins" and name in _SAFE_BUILTINS:
             return getattr(builtins, name)
-        if module.split(".")[0] in ("numpy", "provider", "collections", "copyreg"):
-            return super().find_class(module, name)
+        if module.split(".")[0] in ("numpy", "provider", "collections"):
+            found = super().find_class(module, name)
+            if isinstance(found, type) or (module.startswith("numpy") and name in _NUMPY_MAKERS):
+                return found
         raise pickle.UnpicklingError(f"{module}.{name} is not a table")
 
 
