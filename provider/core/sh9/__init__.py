@@ -8,7 +8,7 @@
 * :mod:`.meter`: a lux meter's reading closes what the camera clipped.
 
 May import: geometry, radiometry, :mod:`provider.core.options`, :mod:`provider.core.table_cache`
-and the public classes of
-:mod:`provider.core.lights` (the engine hands its decoded frame to the lights extractor, so
-that a frame is decoded once for both). Not :mod:`provider.core.reflections`.
+and the public classes of :mod:`provider.core.lights` (the engine hands its decoded frame to
+the lights extractor, so that a frame is decoded once for both). Not
+:mod:`provider.core.reflections`.
 """
