@@ -46,3 +46,15 @@ def ctx():
         if os.environ.get("SHLIGHT_REQUIRE_GL"):
             raise
         pytest.skip(str(exc))
+
+
+@pytest.fixture(scope="session", autouse=True)
+def table_cache_off(tmp_path_factory):
+    """The projectors' table cache (provider.core.table_cache) off, and pointed away from the
+    user's own: a test builds its tables as before, whatever an earlier test (or a test
+    that changed a module's constant) left on disk. tests/test_table_cache.py turns it on
+    in a folder of its own."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("SHLIGHT_CACHE_DIR", str(tmp_path_factory.mktemp("shlight-cache")))
+        mp.setenv("SHLIGHT_TABLE_CACHE", "0")
+        yield

@@ -16,6 +16,12 @@ slower). Projectors are built once outside valgrind and pickled into the counted
 the count costs seconds, not the minutes the precomputation would take under emulation.
 Without valgrind the section says so and reports times only. ``python -m
 provider.bench.edge --calls theta`` lists the calls one frame makes instead (no valgrind).
+
+The section also measures what the edge board's 512 MB must hold: a process that builds the
+Theta S SH9 + lights and 32² cube projectors and projects frames, its peak and steady
+resident memory and the CPU seconds of its build, with the table cache
+(:mod:`provider.core.table_cache`) off, then on (a first start writes, a later one reads);
+``python -m provider.bench.edge --memory`` prints just that.
 """
 from __future__ import annotations
 
@@ -85,6 +91,45 @@ def edge_workloads() -> dict:
         "pi-fast": ("Pi camera 640×480 fisheye, SH9 --downsample 2",
                     lambda: SH9Projector(640, 480, "fisheye", downsample=2), pi),
     }
+
+
+_MEMORY_SNIPPET = r"""
+import json, time
+from provider.bench.edge import edge_workloads
+workloads = edge_workloads()
+t0 = time.process_time()
+sh9, cube = (workloads[name][1]() for name in ("theta", "cube"))
+build = time.process_time() - t0
+frame = workloads["theta"][2]
+for _ in range(3):                   # as serve --environment: one decode for both
+    work = cube.new_work(sh9)
+    sh9.project(frame, work=work)
+    cube.project(frame, work=work)
+status = dict(line.split(":", 1) for line in open("/proc/self/status"))
+print(json.dumps({"build_cpu_s": build, "peak_mb": int(status["VmHWM"].split()[0]) / 1024,
+                  "steady_mb": int(status["VmRSS"].split()[0]) / 1024}))
+"""
+#: The memory runs: (what, SHLIGHT_TABLE_CACHE); the cache's runs share one fresh folder.
+MEMORY_RUNS = (("tables built (`--no-table-cache`)", "0"),
+               ("first start: tables built and written to the cache", "1"),
+               ("later start: tables read from the cache", "1"))
+
+
+def memory_and_startup() -> list:
+    """[(what, build CPU s, peak MB, steady MB)] of a process that builds the Theta S SH9 +
+    lights and 32² cube projectors and projects three frames, as ``serve`` does: with the
+    table cache off, then twice with it on (the second start reads the tables)."""
+    import json
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for what, switch in MEMORY_RUNS:
+            env = {**os.environ, **SINGLE_CORE_ENV, "PYTHONPATH": str(PACKAGE_ROOT),
+                   "SHLIGHT_CACHE_DIR": tmp, "SHLIGHT_TABLE_CACHE": switch}
+            out = subprocess.run([sys.executable, "-c", _MEMORY_SNIPPET], env=env, check=True,
+                                 capture_output=True, text=True).stdout
+            got = json.loads(out.strip().splitlines()[-1])
+            rows.append((what, got["build_cpu_s"], got["peak_mb"], got["steady_mb"]))
+    return rows
 
 
 #: OpenBLAS's kernels that need AVX-512 (OPENBLAS_CORETYPE names, lower case).
@@ -187,13 +232,23 @@ def bench_edge(hdri, out: Path, args):
               "`cv2.sumElems` of the same frame (reading it once), measured in the same run."]
     if missing:
         lines += ["", missing + "."]
+    if {"theta", "cube"} <= set(workloads) and sys.platform.startswith("linux"):
+        _progress("bench edge: memory and start-up (three processes)")
+        lines += ["", "## Memory and start-up: Theta S SH9 + lights and its 32² cube", "",
+                  "One process builds both projectors and projects three frames, as `shlight "
+                  "serve --environment --lights auto` does; peak and steady resident memory "
+                  "(VmHWM, VmRSS) and the CPU seconds of the build (this machine).", "",
+                  "| start | build CPU s | peak RSS MB | steady RSS MB |", "|---|---:|---:|---:|"]
+        for what, cpu, peak, steady in memory_and_startup():
+            lines.append(f"| {what} | {cpu:.2f} | {peak:.0f} | {steady:.0f} |")
     (out / "fisheye_edge.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
 
 def main(argv=None) -> int:
     """``python -m provider.bench.edge [--calls] [workload ...]``: print instructions per
-    frame, or (``--calls``) the calls one frame makes, by calling function."""
+    frame, or (``--calls``) the calls one frame makes, by calling function; ``--memory``:
+    the memory and start-up runs."""
     import argparse
     workloads = edge_workloads()
     parser = argparse.ArgumentParser(
@@ -204,7 +259,13 @@ def main(argv=None) -> int:
                         help="any of: " + ", ".join(workloads) + " (default: all)")
     parser.add_argument("--calls", action="store_true",
                         help="count the calls into C and Python a frame makes, not instructions")
+    parser.add_argument("--memory", action="store_true",
+                        help="build CPU, peak and steady RSS: cache off, first start, later start")
     args = parser.parse_args(argv)
+    if args.memory:
+        for what, cpu, peak, steady in memory_and_startup():
+            print(f"{what}: build {cpu:.2f} s CPU, peak {peak:.0f} MB, steady {steady:.0f} MB")
+        return 0
     unknown = [n for n in args.workloads if n not in workloads]
     if unknown:
         parser.error(f"no workload {', '.join(unknown)}: choose from {', '.join(workloads)}")

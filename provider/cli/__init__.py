@@ -79,6 +79,9 @@ def main(argv=None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    if getattr(args, "no_table_cache", False):     # read where the projectors are built
+        import os
+        os.environ["SHLIGHT_TABLE_CACHE"] = "0"
     try:
         if getattr(args, "projection", None) is not None:
             from .options import resolve_projection

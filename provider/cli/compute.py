@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 import os
 
-from .options import add_budget_argument, add_engine_arguments
+from .options import add_budget_argument, add_engine_arguments, add_table_cache_argument
 
 
 def add_input_arguments(p) -> None:
@@ -19,6 +19,7 @@ def add_input_arguments(p) -> None:
     p.add_argument("--pretty", action="store_true", help="indent the JSON")
     add_budget_argument(p, 0, "the command fails with one line (exit 2)")
     add_engine_arguments(p)
+    add_table_cache_argument(p)
 
 
 def add_arguments(p) -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import sys
 
-from .options import add_budget_argument, add_engine_arguments
+from .options import add_budget_argument, add_engine_arguments, add_table_cache_argument
 
 
 def add_arguments(p) -> None:
@@ -23,6 +23,7 @@ def add_arguments(p) -> None:
     p.add_argument("--probe", default="default", help="probe name in the file's key/value data")
     add_budget_argument(p, 0, "the command fails with one line (exit 2)")
     add_engine_arguments(p)
+    add_table_cache_argument(p)
 
 
 def check_output(output: str, image: str, args=None):

@@ -327,6 +327,15 @@ def add_engine_arguments(p: argparse.ArgumentParser) -> None:
     add_probe_arguments(g)
 
 
+def add_table_cache_argument(p) -> None:
+    """``--no-table-cache``: build the projectors' tables at every start
+    (:mod:`provider.core.table_cache`)."""
+    p.add_argument("--no-table-cache", action="store_true",
+                   help="do not read or write built tables in the user's cache folder "
+                        "(SHLIGHT_CACHE_DIR, else ~/.cache/shlight): rebuild them at every "
+                        "start (also SHLIGHT_TABLE_CACHE=0)")
+
+
 def add_lens_arguments(g) -> None:
     """``--lens`` and ``--front`` (compute, environment, export, serve, register)."""
     from ..core.geometry.lens_profiles import PROFILES

@@ -13,7 +13,7 @@ import shlex
 from ..core.errors import InputError
 from ..core.radiometry.image_size import DEFAULT_MAX_PIXELS
 from .options import (MAX_FPS, Parser, add_budget_argument, add_engine_arguments,
-                      check_meter_arguments, engine_options)
+                      add_table_cache_argument, check_meter_arguments, engine_options)
 
 EPILOG = """\
 sources (--source SPEC, or --probe NAME=SPEC, repeatable):
@@ -117,6 +117,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--log-level", default="info",
                         choices=["debug", "info", "warning", "error"])
     add_engine_arguments(parser)
+    add_table_cache_argument(parser)
     pt = parser.add_argument_group("passthrough (docs/passthrough.md)")
     pt.add_argument("--passthrough", action="store_true",
                     help="open the WebSocket route /capture (same port, token, TLS, origin "

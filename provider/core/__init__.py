@@ -5,7 +5,8 @@ in pyproject.toml, checked by the test command. From the bottom up:
 
 * :mod:`.errors`: :class:`~provider.core.errors.InputError`, the one error every layer
   shares; :mod:`.options`: the options every product takes, checked before any frame;
-  :mod:`.blas`: BLAS on one thread inside the products' per-frame calls;
+  :mod:`.blas`: BLAS on one thread inside the products' per-frame calls; :mod:`.table_cache`:
+  the products' built tables kept on disk (the user's cache folder), read on the next start;
 * :mod:`.geometry`: the SH basis and its maths, projections (per-pixel directions and exact
   solid angles), probe projections, cube-map geometry, pinhole views of a sphere;
 * :mod:`.radiometry`: from code values to light: image reading, the decode (transfer function

@@ -37,9 +37,11 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from .. import table_cache
 from ..geometry import cubemap
 from . import prefilter
 from .bright import bright_split
+from .overlap import overlap_sums
 from .work_image import WorkImage
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from ..geometry import projections_exr  # registers exr-latlong, exr-cube; the cube's rules
@@ -163,13 +165,27 @@ class EnvironmentProjector(FrameDecoder):
         #: (1 without a crop), else None: an 8-bit frame is then decoded and averaged in one
         #: pass (:func:`~provider.core.radiometry.blocks.decode_blocks`).
         self._block_factor = self._whole_blocks()
+        #: Lines about the table cache (a damaged file rebuilt), also in ``warnings``.
+        self.table_notes = []
+        key = table_cache.key_of("cube", table_cache.state_of(full), width, height, self.size,
+                                 self.rotation, self.roughness)
+        vars(self).update(table_cache.cached("cube", key, self._build_tables, self.table_notes))
+        self.warnings += self.table_notes
+
+    # -- pixel-independent precomputation --------------------------------------------------
+    #: What :meth:`_build_tables` makes: all a frame reads, kept on disk
+    #: (:mod:`provider.core.table_cache`), so a restart reads it instead of building it.
+    TABLES = ("coverage", "_pix", "_tex", "_val", "_overlap_op", "_fill_share",
+              "_fill_weights", "_pix_omega", "_pix_dir", "_source_first", "_outputs",
+              "_norms", "_prefilter")
+
+    def _build_tables(self) -> dict:
         self._build_overlap(self._work)
         if not self.coverage > 0:
             raise InputError("no pixel of the frame sees anything with this geometry "
                              "(check --center, --radius, --fov)")
         self._build_prefilter()
-
-    # -- pixel-independent precomputation --------------------------------------------------
+        return {name: getattr(self, name) for name in self.TABLES}
     def _work_geometry(self, full: Projection):
         """The projection of the work image and the crop of a full frame it covers."""
         # Equirect width: 4 px per base texel (the work image's pixels, split into sub-pixels,
@@ -198,64 +214,22 @@ class EnvironmentProjector(FrameDecoder):
         f = ch // w.height
         return f if (cw, ch) == (f * w.width, f * w.height) else None
 
-    def _subpixel_samples(self, p: Projection, q: int = SUBPIXELS):
-        """Directions (P, 3), solid angles (P,) and pixel index (P,) of q×q sub-pixels."""
-        if isinstance(p, Equirect):   # exact: φ uniform, ∫ sin θ dθ per sub-row
-            cols = (np.arange(p.width * q) + 0.5) / (p.width * q)
-            edges = np.linspace(0, math.pi, p.height * q + 1)
-            band = np.cos(edges[:-1]) - np.cos(edges[1:])
-            rows = (np.arange(p.height * q) + 0.5) / (p.height * q)
-            theta = rows * math.pi
-            phi = 2 * math.pi * (cols - 0.5)
-            st = np.sin(theta)[:, None]
-            d = np.stack(np.broadcast_arrays(st * np.sin(phi), np.cos(theta)[:, None],
-                                             -st * np.cos(phi)), axis=-1)
-            w = np.broadcast_to(band[:, None] * (2 * math.pi / (p.width * q)), d.shape[:2])
-            pix = (np.arange(p.height * q)[:, None] // q) * p.width + \
-                np.arange(p.width * q)[None, :] // q
-            return d.reshape(-1, 3), np.asarray(w).reshape(-1), pix.reshape(-1)
-        sub = (np.arange(q) + 0.5) / q
-        py, px = np.mgrid[0:p.height, 0:p.width].astype(np.float64)
-        px = px[:, :, None, None] + sub[None, None, None, :]
-        py = py[:, :, None, None] + sub[None, None, :, None]
-        px, py = np.broadcast_arrays(px, py)
-        d, valid = p.pixel_to_direction(px, py)
-        jac = p.jacobian(px, py)
-        if jac is None:
-            h = 1e-3
-            dxp, _ = p.pixel_to_direction(px + h, py)
-            dxm, _ = p.pixel_to_direction(px - h, py)
-            dyp, _ = p.pixel_to_direction(px, py + h)
-            dym, _ = p.pixel_to_direction(px, py - h)
-            jac = np.linalg.norm(np.cross((dxp - dxm) / (2 * h), (dyp - dym) / (2 * h)), axis=-1)
-        d = np.where(valid[..., None], d, 0.0)
-        w = np.where(valid & np.isfinite(jac), jac, 0.0) * p.node_factor(px, py, d) / (q * q)
-        w = np.broadcast_to(w, valid.shape)
-        pix = np.broadcast_to(np.arange(p.height * p.width).reshape(p.height, p.width, 1, 1),
-                              valid.shape)
-        keep = w.reshape(-1) > 0
-        return d.reshape(-1, 3)[keep], w.reshape(-1)[keep], pix.reshape(-1)[keep]
-
     def _build_overlap(self, p: Projection) -> None:
         n = self.base
         ntex = 6 * n * n
         q = SUBPIXELS
         while True:     # a frame coarser than the base cube: finer sub-pixels reach every texel
-            d, w, pix = self._subpixel_samples(p, q)
-            if self.rotation is not None:
-                d = d @ self.rotation.T
-            face, i, j, _, _ = cubemap.direction_to_texel(d, n)
-            texel = cubemap.flat_index(face, i, j, n)
-            seen = np.bincount(texel, minlength=ntex) > 0
-            if seen.all() or q >= 4 * SUBPIXELS or w.sum() < 4 * math.pi * 0.999:
+            sums = overlap_sums(p, n, self.rotation, q)
+            if (sums["seen"] > 0).all() or q >= 4 * SUBPIXELS or \
+                    sums["coverage"] < 4 * math.pi * 0.999:
                 break
             q *= 2
-        key = pix.astype(np.int64) * ntex + texel
-        uniq, inv = np.unique(key, return_inverse=True)
-        weight = np.bincount(inv, weights=w)
-        covered = np.bincount(texel, weights=w, minlength=ntex)
+        # chunks of whole pixel rows: the keys (pixel-major) come sorted and distinct
+        uniq = np.concatenate(sums.pop("keys"))
+        weight = np.concatenate(sums.pop("weights"))
+        covered = sums["covered"]
         omega = self._omega[0].reshape(-1)
-        self.coverage = float(w.sum())
+        self.coverage = sums["coverage"]
         # A texel seen over (nearly) all of its footprint is the mean of what is seen; one
         # partly seen is completed by the fill (the quantisation of sub-pixels is ~1/q²).
         frac = np.clip(covered / omega, 0.0, 1.0)
@@ -265,6 +239,7 @@ class EnvironmentProjector(FrameDecoder):
         self._pix = (uniq // ntex).astype(np.int32)
         self._tex = tex_u.astype(np.int64)
         self._val = (weight / np.maximum(covered[tex_u], 1e-300) * frac[tex_u]).astype(np.float32)
+        del uniq, weight, tex_u
         # The same map as an operator (texels that see nothing get one zero weight).
         empty = np.flatnonzero(np.bincount(self._tex, minlength=ntex) == 0)
         self._overlap_op = prefilter.SparseOperator(
@@ -272,30 +247,23 @@ class EnvironmentProjector(FrameDecoder):
             np.concatenate([self._val, np.zeros(empty.size, np.float32)]),
             (ntex, p.width * p.height))
         self._fill_share = (1.0 - frac).astype(np.float32)          # (6n²,)
-        self._fill_weights = self._fill_model(p, d, w, pix)
+        self._fill_weights = self._fill_model(p, sums["axis"])
         # Each work pixel's solid angle and mean direction (world frame): where the light
         # of its brightest pixels is sent exactly (see :func:`.bright.bright_split`).
-        npx = p.width * p.height
-        self._pix_omega = np.bincount(pix, weights=w, minlength=npx)
-        dsum = np.stack([np.bincount(pix, weights=w * d[:, c], minlength=npx)
-                         for c in range(3)], axis=1)
+        self._pix_omega = sums["omega"]
+        dsum = sums["dsum"].T
         self._pix_dir = dsum / np.maximum(np.linalg.norm(dsum, axis=1, keepdims=True), 1e-300)
 
-    def _fill_model(self, p, d, w, pix):
+    def _fill_model(self, p, g):
         """Per work pixel (H·W,) weights giving the fill radiance of unseen directions
         (``ground``/``mirror``: albedo·E_axis/π, E_axis the irradiance on a surface facing
-        the lens axis), or None (``zero``, or nothing unseen)."""
+        the lens axis: ``g``, each pixel's Σ max(d·axis, 0)·ω), or None (``zero``, or
+        nothing unseen)."""
         if not np.any(self._fill_share > 0):
             return None
         fill, albedo = getattr(p, "fill", "zero"), float(getattr(p, "albedo", 0.0))
-        lens = getattr(p, "lens", None)
-        if fill == "zero" or albedo == 0 or lens is None:
+        if fill == "zero" or albedo == 0 or getattr(p, "lens", None) is None:
             return None
-        axis = np.asarray(lens.frame[0], np.float64)
-        if self.rotation is not None:
-            axis = self.rotation @ axis
-        g = np.bincount(pix, weights=np.maximum(d @ axis, 0.0) * w,
-                        minlength=p.width * p.height)
         return (g * albedo / math.pi).astype(np.float32)
 
     def _build_prefilter(self) -> None:

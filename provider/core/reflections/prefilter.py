@@ -113,7 +113,7 @@ def children(texels: np.ndarray, n: int) -> np.ndarray:
 
 
 def build_operator(outputs: np.ndarray, alpha: float, geom: PyramidGeometry,
-                   tolerance: float = TOLERANCE, chunk: int = 32):
+                   tolerance: float = TOLERANCE, chunk: int = 8):
     """Sparse prefilter of one mip: ``(rows, cols, vals, norm)`` with ``PF[rows] += vals ·
     pyramid[cols]``, rows normalised to sum to 1 (a constant map stays constant); ``norm``
     (T,) is each row's ``∫ D(h) ⟨r·l⟩ dl`` before normalising.
@@ -159,8 +159,9 @@ def build_operator(outputs: np.ndarray, alpha: float, geom: PyramidGeometry,
         vals = np.concatenate(acc_vals)
         norm = np.bincount(rows, weights=vals, minlength=len(r))
         norms.append(norm)
-        rows_all.append(rows + t0)
-        cols_all.append(np.concatenate(acc_cols))
+        # int32: ~1 M entries a mip, copied several times while the operator is made
+        rows_all.append((rows + t0).astype(np.int32))
+        cols_all.append(np.concatenate(acc_cols).astype(np.int32))
         vals_all.append(vals / norm[rows])
     return (np.concatenate(rows_all), np.concatenate(cols_all),
             np.concatenate(vals_all), np.concatenate(norms))
@@ -194,16 +195,18 @@ class SparseOperator:
             slot = np.arange(hi)[:, None]                              # (L, 1)
             real = slot < counts[members][None, :]                     # (L, n)
             at = np.where(real, starts[members][None, :] + slot, 0)
-            cols_g.append(np.where(real, cols[at], 0).reshape(-1))
-            vals_g.append(np.where(real, vals[at], 0).reshape(-1))
+            # each group in its final types at once: one copy fewer of ~1 M entries a mip
+            cols_g.append(np.where(real, cols[at], 0).reshape(-1).astype(np.intp))
+            vals_g.append(np.where(real, vals[at], 0).reshape(-1).astype(np.float32))
             plan.append((offset, hi, members.size, done))
             self._row_of[members] = done + np.arange(members.size)
             offset += hi * members.size
             done += members.size
         # intp: numpy's gather casts other index types on every call; the columns are in
         # range by construction, so ``take`` needs no per-element bounds check (mode="clip").
-        self.cols = np.concatenate(cols_g).astype(np.intp)
-        self.vals = np.concatenate(vals_g).astype(np.float32)
+        self.cols = np.concatenate(cols_g)
+        self.vals = np.concatenate(vals_g)
+        del cols_g, vals_g
         self._vals4 = np.repeat(self.vals, 4)     # one weight for each of four lanes
         #: (first stored entry, entries a row L, rows n, first row of the group's sums)
         self._plan = tuple(plan)
@@ -357,27 +360,35 @@ def fold_cheapest(rows, cols, vals, n_rows: int, geom: PyramidGeometry) -> MipOp
     return MipOperator(rows, cols, vals, n_rows, geom, best_level)
 
 
+#: Descendants spread per step of :func:`_fold` (its temporaries: ~30 bytes each).
+FOLD_CHUNK = 1 << 18
+
+
 def _fold(rows, cols, vals, n_rows: int, geom: PyramidGeometry, level: int) -> np.ndarray:
     """(n_rows, 6·n²) float32 over pyramid level ``level`` (faces n²) of entries that read
     that level or coarser ones: an entry on a coarser texel spreads over its descendants at
     ``level`` in proportion to their solid angles."""
     n_level = geom.sizes[level]
     width = 6 * n_level * n_level
-    dense = np.zeros(n_rows * width)
+    # float32 and in place: an output's texels are a quadtree cut (disjoint), so each element
+    # takes one entry's share, rounded once as the float64 sum was; a float64 matrix and a
+    # bincount the size of the matrix tripled the build's peak memory
+    dense = np.zeros(n_rows * width, np.float32)
     for k in range(level, len(geom.sizes)):
-        sel = (cols >= geom.offsets[k]) & (cols < geom.offsets[k + 1])
-        texel = cols[sel] - geom.offsets[k]
-        if texel.size == 0:
-            continue
-        desc, n = texel[:, None], geom.sizes[k]
-        while n < n_level:
-            desc = children(desc.reshape(-1), n).reshape(texel.size, -1)
-            n *= 2
-        share = geom.omega[level][desc] / geom.omega[k][texel][:, None]
-        dense += np.bincount((rows[sel][:, None] * width + desc).reshape(-1),
-                             weights=(vals[sel][:, None] * share).reshape(-1),
-                             minlength=dense.size)
-    return dense.reshape(n_rows, width).astype(np.float32)
+        entries = np.flatnonzero((cols >= geom.offsets[k]) & (cols < geom.offsets[k + 1]))
+        # a few entries at a time: each spreads over up to (n_level / n_k)² descendants
+        step = max(1, FOLD_CHUNK * geom.sizes[k] ** 2 // n_level ** 2)
+        for e0 in range(0, entries.size, step):
+            sel = entries[e0:e0 + step]
+            texel = cols[sel] - geom.offsets[k]
+            desc, n = texel[:, None], geom.sizes[k]
+            while n < n_level:
+                desc = children(desc.reshape(-1), n).reshape(texel.size, -1)
+                n *= 2
+            share = geom.omega[level][desc] / geom.omega[k][texel][:, None]
+            np.add.at(dense, (rows[sel][:, None] * width + desc).reshape(-1),
+                      (vals[sel][:, None] * share).reshape(-1).astype(np.float32))
+    return dense.reshape(n_rows, width)
 
 
 class MipChain:

@@ -30,7 +30,8 @@ from ..geometry import sh
 from .clipping import ClippedLight
 from .error_estimate import ErrorEstimator
 from . import lens_fold as _lens_fold
-from .lens_fold import centred_on_grid, lens_fold
+from .lens_fold import centred_on_grid
+from .tables import pixel_tables
 from .result import SH9Result
 from .meter import has_absolute_scale, pixels_up_illuminance, up_weights
 from .support import DecodeSpans, DownsampledSpans
@@ -178,20 +179,11 @@ class SH9Projector(FrameDecoder):
             elif up is not None:     # a turned cosine is not separable: per pixel, same pass
                 self._up_dense = self._up.reshape(p.height, p.width, 1)
         else:
-            p.progress = progress
-            try:
-                dense = p.sh_weights                          # (H·W, 9) float64
-            finally:
-                p.progress = None
-            extra = None if up is None else up.reshape(-1, 1)
-            # Lenses symmetric about their centres: quarter tables instead of the dense one.
-            self._fold = lens_fold(p, dense, extra)
-            if self._fold is not None:
-                self._weights = np.zeros((0, 9), np.float32)
-            else:
-                self._weights = (dense if extra is None else np.hstack([dense, extra])
-                                 ).astype(np.float32)
-            seen = np.any(dense != 0, axis=1).reshape(p.height, p.width)
+            # Lenses symmetric about their centres: quarter tables instead of the dense one;
+            # built once per geometry and kept on disk (.tables, provider.core.table_cache).
+            tables = pixel_tables(p, None if up is None else up.reshape(-1), progress,
+                                  self.warnings)
+            self._fold, self._weights, seen = tables.fold, tables.weights, tables.seen
             #: The fast path's blocks with a weight, per row (decode_blocks reads only them).
             self._block_spans = (blocks.block_spans(seen)
                                  if downsample > 1 and self._extractor is None else None)
@@ -201,10 +193,10 @@ class SH9Projector(FrameDecoder):
             elif self._extractor is None:   # nothing else reads the whole linear frame
                 self._spans = DownsampledSpans.of(seen, downsample, self.BAND_ROWS)
             #: L00 weight of each pixel (H·W,): what the clipped samples carry.
-            self._l00_weights = dense[:, 0].astype(np.float32)
+            self._l00_weights = tables.l00
         self._clipped = ClippedLight(self)
         self._estimator = None
-        self._coverage = 4 * math.pi if isinstance(p, Equirect) else p.coverage
+        self._coverage = 4 * math.pi if isinstance(p, Equirect) else tables.coverage
         if not self._coverage > 0:
             raise InputError(f"no pixel of the {p.width}×{p.height} frame sees anything with "
                              "this geometry (check --center, --radius, --fov)")

@@ -388,7 +388,7 @@ def _fold_lens(lens, region, weights, height, extra=None):
                 (-1, -1): arr[yt - ny:yt, cl - nx:cl][::-1, ::-1]}
     quads = quadrants(local)
     q = quads[(1, 1)]
-    scale = np.abs(local).max(axis=(0, 1))
+    scale = np.maximum(local.max(axis=(0, 1)), -local.min(axis=(0, 1)))   # no |local| copy
     groups = {}
     for k in range(9):
         tol = SYMMETRY_TOLERANCE * max(scale[k], 1e-300)

@@ -42,7 +42,7 @@ from ...core.errors import InputError
 from ...core.radiometry.image_size import FrameTooLarge, megapixels
 from ...core.lights.tracking import LightTracker
 from .capture import Capture
-from ..reflections.cube import EnvironmentSettings, EnvironmentWorker, feeds_cube
+from ..reflections.cube import TABLE_BUILDS, EnvironmentSettings, EnvironmentWorker, feeds_cube
 from ..wire.message import coefficient_message, dumps
 from ..sources import Frame, SourceSpec
 from .temporal import ChangeGate, LightingFilter, light_model
@@ -411,8 +411,9 @@ class Probe:
         if options.get("ball") == "auto":
             options = self._ball_options
         try:
-            projector = SH9Projector(width, height, self.projection, progress=progress,
-                                     **options)
+            with TABLE_BUILDS:
+                projector = SH9Projector(width, height, self.projection, progress=progress,
+                                         **options)
         except Exception as exc:  # noqa: BLE001 - a bug must not become a rebuild per frame
             reason = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
             log.error("probe %s: cannot project %d×%d frames with these options: %s "
@@ -421,6 +422,8 @@ class Probe:
             return InputError(reason)
         for warning in projector.warnings:
             log.warning("probe %s: %s", self.name, warning)
+        if self.environment is not None:     # its cube's tables too, before any frame
+            self.environment.prepare(width, height)
         return projector
 
     def _too_large(self, width: int, height: int, *, path: str | None = None,

@@ -43,6 +43,10 @@ from .ktx2 import encode_cube
 from ..wire.message import FRAME, SCHEMA_VERSION, UNITS, dumps
 
 log = logging.getLogger("shlight.environment")
+#: One projector build at a time in a process: SH9's and the cube's, made by two threads at
+#: a probe's first frame, would otherwise peak together (about 130 MB each for a Theta S
+#: frame), more than a 512 MB board can spare (docs: the README's edge section).
+TABLE_BUILDS = threading.Lock()
 
 #: Edge sizes a cube may have (powers of two, as the core requires).
 SIZES = tuple(1 << k for k in range(3, 9))       # 8 .. 256
@@ -463,11 +467,25 @@ class EnvironmentWorker:
             twin = self._twins[key] = projector.at_roughness(babylon_roughness(self.size))
         return twin
 
+    def prepare(self, width: int, height: int) -> None:
+        """Build the cube's projector for frames of this size now (the probe's thread, right
+        after SH9's, before its first frame): the cube's build then never peaks on top of
+        frames in flight (a 512 MB board; a restart reads both from the table cache)."""
+        if (width, height) not in self._projectors:
+            self._projectors[(width, height)] = self._build(width, height)
+
     def _build(self, width: int, height: int):
         from ...core.reflections.environment import EnvironmentProjector
         try:
-            return EnvironmentProjector(width, height, self.projection, size=self.size,
-                                        **self.options)
+            with TABLE_BUILDS:
+                ready = self._projectors.get((width, height))
+                if ready is not None:           # prepared by the probe's thread meanwhile
+                    return ready
+                projector = EnvironmentProjector(width, height, self.projection,
+                                                 size=self.size, **self.options)
+            for note in projector.table_notes:       # a damaged table file, rebuilt
+                log.warning("probe %s: reflection cube: %s", self.probe, note)
+            return projector
         except Exception as exc:  # noqa: BLE001 - a bug must not become a rebuild per frame
             reason = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
             log.error("probe %s: no reflection cube for %d×%d frames: %s", self.probe, width,
