@@ -3,7 +3,9 @@
 * :mod:`.engine`: :class:`~provider.core.sh9.engine.SH9Projector` (precompute once, project
   each frame) and :func:`~provider.core.sh9.engine.compute_sh9`;
 * :mod:`.clipping`: samples clipped at the top code and the light they carry;
-* :mod:`.meter`: a lux meter's reading closes what the camera clipped.
+* :mod:`.meter`: a lux meter's reading closes what the camera clipped;
+* :mod:`.bracket_projection`: a bracket projected (``shlight compute FRAME@T ...``) and the
+  live merge of a source that cycles its exposure (the merge's maths is radiometry's).
 
 May import: geometry, radiometry, :mod:`provider.core.options` and the public classes of
 :mod:`provider.core.lights` (the engine hands its decoded frame to the lights extractor, so
