@@ -3,6 +3,8 @@
 * :mod:`.engine`: :class:`~provider.core.sh9.engine.SH9Projector` (precompute once, project
   each frame) and :func:`~provider.core.sh9.engine.compute_sh9`;
 * :mod:`.clipping`: samples clipped at the top code and the light they carry;
+* :mod:`.lens_fold`: fisheye lenses projected through mirror-folded quarter tables (the C
+  kernel ``_fold.c``, or its Python twin :mod:`.fold_twin`);
 * :mod:`.meter`: a lux meter's reading closes what the camera clipped;
 * :mod:`.bracket_projection`: a bracket projected (``shlight compute FRAME@T ...``) and the
   live merge of a source that cycles its exposure (the merge's maths is radiometry's).
