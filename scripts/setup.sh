@@ -31,7 +31,8 @@ stamp=.venv/.shlight-install
 # The stamp covers what the install builds: pyproject.toml, setup.py and the C kernels.
 want="$(.venv/bin/python -c 'import glob, hashlib
 h = hashlib.sha256()
-for name in ["pyproject.toml", "setup.py"] + sorted(glob.glob("provider/**/*.[ch]", recursive=True)):
+kernels = glob.glob("provider/**/*.[ch]", recursive=True)   # the sources and their header
+for name in ["pyproject.toml", "setup.py"] + sorted(kernels):
     h.update(open(name, "rb").read())
 print(h.hexdigest())') ${extras}"
 have=$(cat "$stamp" 2>/dev/null || true)

@@ -222,3 +222,39 @@ def test_downsample_2_is_withdrawn_where_the_half_size_lens_is_off_the_grid():
                                   SH9Projector(1280, 720, "dual-fisheye").project(frame).coefficients)
     assert SH9Projector(1280, 720, "dual-fisheye", downsample=4).downsample == 4
     assert SH9Projector(640, 480, "fisheye", downsample=2).downsample == 2   # on the grid
+
+
+def test_without_the_c_kernels_the_twins_are_chosen_at_import():
+    """An install where no compiler built them (``SHLIGHT_BUILD_KERNELS=no``): each module
+    takes its Python twin at import, says so in ``KERNEL``, and a frame projects to the
+    same coefficients. (A fresh interpreter: the choice is made once, at import.)"""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from provider.core.sh9.engine import SH9Projector
+    script = """if True:
+        import json, sys
+        import numpy as np
+        sys.modules["provider.core.radiometry._blocks"] = None   # as if never built
+        sys.modules["provider.core.sh9._fold"] = None
+        from provider.core.radiometry import blocks
+        from provider.core.sh9 import fold_twin, lens_fold
+        from provider.core.sh9.engine import SH9Projector
+        assert not blocks.KERNEL and blocks._decode_blocks is blocks._decode_blocks_py
+        assert not lens_fold.KERNEL and lens_fold._fold_kernel is fold_twin.fold_lens
+        frame = np.frombuffer(sys.stdin.buffer.read(), np.uint8).reshape(120, 160, 3)
+        print(json.dumps(SH9Projector(160, 120, "fisheye").project(frame).coefficients.tolist()))
+    """
+    frame = _lamp_frame(160, 120, 11)
+    repo = Path(__file__).resolve().parent.parent
+    done = subprocess.run([sys.executable, "-c", script], input=frame.tobytes(),
+                          capture_output=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": str(repo)})
+    assert done.returncode == 0, done.stderr.decode()[-2000:]
+    got = np.array(json.loads(done.stdout))
+    want = SH9Projector(160, 120, "fisheye").project(frame).coefficients
+    # the band by band float32 path against the C fold's: float32 sums in other orders
+    np.testing.assert_allclose(got, want, atol=2e-6 * np.abs(want).max())
