@@ -53,19 +53,6 @@ get_view(PyObject *obj, Py_buffer *view, int writable, const char *fmt, int ndim
     return 0;
 }
 
-/* C-contiguous, dimensions of length 0 or 1 aside. */
-static inline int
-contiguous(const Py_buffer *v)
-{
-    Py_ssize_t step = v->itemsize;
-    for (int d = v->ndim - 1; d >= 0; d--) {
-        if (v->shape[d] > 1 && v->strides[d] != step)
-            return 0;
-        step *= v->shape[d];
-    }
-    return 1;
-}
-
 /* The kernels keep no state and touch no Python object while their loops run (the GIL is
  * released there): safe without the GIL (free-threaded CPython 3.13+) and in every
  * sub-interpreter. The caller owns the arrays, as with any numpy function. */

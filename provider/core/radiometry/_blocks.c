@@ -55,6 +55,12 @@ decode_blocks(PyObject *self, PyObject *args)
     }
     if (get_view(frame_obj, &fr, 0, "B", 3, "frame") < 0)
         return NULL;
+    if (fr.shape[0] < f || fr.shape[1] < f) {     /* no block to average: not an empty out */
+        PyErr_SetString(PyExc_ValueError,
+                        "factor: larger than the frame (H // factor or W // factor is 0)");
+        PyBuffer_Release(&fr);
+        return NULL;
+    }
     if (get_view(table_obj, &tb, 0, "f", 1, "table") < 0) {
         PyBuffer_Release(&fr);
         return NULL;
@@ -74,8 +80,6 @@ decode_blocks(PyObject *self, PyObject *args)
     const char *err = NULL;
     if (C < 1 || C > 4 || fr.strides[2] != 1 || fr.strides[1] != C)
         err = "frame: pixels must be contiguous, 1 to 4 channels";
-    else if (h < 1 || w < 1)      /* not an empty answer: no block to average */
-        err = "factor: larger than the frame (H // factor or W // factor is 0)";
     else if (tb.strides[0] != 4 || (n != 256 && n != 256 * C))
         err = "table: 256 contiguous entries, or 256 per channel";
     else if (out.shape[0] != h || out.shape[1] != w || out.shape[2] != C

@@ -64,6 +64,8 @@ def _decode_blocks_py(frame, table, factor, out, spans=None) -> None:
     if f < 1:
         raise ValueError("factor must be at least 1")
     fr = buffer_view(frame, False, "B", 3, "frame")
+    if fr.shape[0] < f or fr.shape[1] < f:
+        raise ValueError("factor: larger than the frame (H // factor or W // factor is 0)")
     tb = buffer_view(table, False, "f", 1, "table")
     ov = buffer_view(out, True, "f", 3, "out")
     sp = None if spans is None else buffer_view(spans, False, "i", 2, "spans")
@@ -72,8 +74,6 @@ def _decode_blocks_py(frame, table, factor, out, spans=None) -> None:
     err = None
     if C < 1 or C > 4 or fr.strides[2] != 1 or fr.strides[1] != C:
         err = "frame: pixels must be contiguous, 1 to 4 channels"
-    elif h < 1 or w < 1:
-        err = "factor: larger than the frame (H // factor or W // factor is 0)"
     elif tb.strides[0] != 4 or n not in (256, 256 * C):
         err = "table: 256 contiguous entries, or 256 per channel"
     elif ov.shape != (h, w, C) or ov.strides[2] != 4 or ov.strides[1] != 4 * C:

@@ -63,6 +63,19 @@ store4(float *p, v4 v)
 }
 #endif
 
+/* C-contiguous, dimensions of length 0 or 1 aside. */
+static int
+contiguous(const Py_buffer *v)
+{
+    Py_ssize_t step = v->itemsize;
+    for (int d = v->ndim - 1; d >= 0; d--) {
+        if (v->shape[d] > 1 && v->strides[d] != step)
+            return 0;
+        step *= v->shape[d];
+    }
+    return 1;
+}
+
 /* A half row of n pixels decoded into three planar rows; step = +3 (rightwards from p) or
  * -3 (leftwards: p is the pixel next to the centre). */
 static inline void
@@ -217,13 +230,12 @@ KERNEL_INLINE void
 dots(const float *const *w, int m, const float *restrict x0, const float *restrict x1,
      const float *restrict x2, Py_ssize_t n, double *const *out)
 {
-    float s[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
-    Py_ssize_t j = 0;
 #if KERNEL_VECTOR
     v4 acc[3][3];
     for (int r = 0; r < m; r++)
         for (int c = 0; c < 3; c++)
             acc[r][c] = (v4){0, 0, 0, 0};
+    Py_ssize_t j = 0;
     for (; j + 4 <= n; j += 4) {
         const v4 a = load4(x0 + j), b = load4(x1 + j), c = load4(x2 + j);
         for (int r = 0; r < m; r++) {
@@ -233,18 +245,24 @@ dots(const float *const *w, int m, const float *restrict x0, const float *restri
             acc[r][2] += wv * c;
         }
     }
-    for (int r = 0; r < m; r++)
-        for (int c = 0; c < 3; c++)
-            s[r][c] = (acc[r][c][0] + acc[r][c][1]) + (acc[r][c][2] + acc[r][c][3]);
+#else
+    const Py_ssize_t j = 0;
 #endif
     for (int r = 0; r < m; r++) {
+        float s[3];
+        for (int c = 0; c < 3; c++)
+#if KERNEL_VECTOR
+            s[c] = (acc[r][c][0] + acc[r][c][1]) + (acc[r][c][2] + acc[r][c][3]);
+#else
+            s[c] = 0.0f;
+#endif
         for (Py_ssize_t l = j; l < n; l++) {
-            s[r][0] += w[r][l] * x0[l];
-            s[r][1] += w[r][l] * x1[l];
-            s[r][2] += w[r][l] * x2[l];
+            s[0] += w[r][l] * x0[l];
+            s[1] += w[r][l] * x1[l];
+            s[2] += w[r][l] * x2[l];
         }
         for (int c = 0; c < 3; c++)
-            out[r][c] += s[r][c];
+            out[r][c] += s[c];
     }
 }
 
