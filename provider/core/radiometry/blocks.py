@@ -9,7 +9,7 @@ OpenCV calls, issue 34), or where it was not built (no C compiler at install tim
 Python twin :func:`_decode_blocks_py`: the same signature, the same numbers to float
 rounding, the same errors (``tests/test_kernel_twins.py`` holds them to it).
 :data:`KERNEL` says whether the C kernel is built: the products take the one-pass paths
-only then (the twin's whole-frame copy is slower than their band by band passes).
+only then (without it their band by band passes keep each band's float copy in cache).
 """
 from __future__ import annotations
 
