@@ -31,7 +31,8 @@ stamp=.venv/.shlight-install
 # The stamp covers what the install builds: pyproject.toml, setup.py and the C kernels.
 want="$(.venv/bin/python -c 'import glob, hashlib
 h = hashlib.sha256()
-for name in ["pyproject.toml", "setup.py"] + sorted(glob.glob("provider/**/*.c", recursive=True)):
+kernels = glob.glob("provider/**/*.[ch]", recursive=True)   # the sources and their header
+for name in ["pyproject.toml", "setup.py"] + sorted(kernels):
     h.update(open(name, "rb").read())
 print(h.hexdigest())') ${extras}"
 have=$(cat "$stamp" 2>/dev/null || true)
@@ -42,6 +43,8 @@ have=$(cat "$stamp" 2>/dev/null || true)
 toolchain="cc:$(command -v cc >/dev/null && echo yes || echo no)"
 toolchain="$toolchain,headers:$(.venv/bin/python -c 'import os, sysconfig
 print("yes" if os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")) else "no")')"
+# SHLIGHT_BUILD_KERNELS (yes: required, no: skipped; setup.py) changes what is built.
+toolchain="$toolchain,kernels:${SHLIGHT_BUILD_KERNELS:-optional}"
 want="${want%% *} $toolchain ${extras}"
 if [ -x .venv/bin/shlight ] && { [ "$have" = "$want" ] || [ "${have% *} " = "$want" ]; } &&
         .venv/bin/python -c 'import provider' 2>/dev/null; then

@@ -58,3 +58,23 @@ def table_cache_off(tmp_path_factory):
         mp.setenv("SHLIGHT_CACHE_DIR", str(tmp_path_factory.mktemp("shlight-cache")))
         mp.setenv("SHLIGHT_TABLE_CACHE", "0")
         yield
+
+
+@pytest.fixture(params=["c", "python"])
+def kernels(request, monkeypatch):
+    """The test runs twice, as markupsafe runs its suite over its speedups: "c" on the C
+    kernels (skipped where they were not built: tests/test_kernels.py fails there), "python"
+    on their Python twins, put where :mod:`provider.core.radiometry.blocks` and
+    :mod:`provider.core.sh9.lens_fold` chose the kernel at import; ``KERNEL`` then says
+    built, so the products take the same one-pass paths, through the twins."""
+    from provider.core.radiometry import blocks
+    from provider.core.sh9 import lens_fold
+    if request.param == "c":
+        if not (blocks.KERNEL and lens_fold.KERNEL):
+            pytest.skip("the C kernels were not built (tests/test_kernels.py says how)")
+    else:
+        monkeypatch.setattr(blocks, "_decode_blocks", blocks._decode_blocks_py)
+        monkeypatch.setattr(blocks, "KERNEL", True)
+        monkeypatch.setattr(lens_fold, "_fold_kernel", lens_fold._fold_twin)
+        monkeypatch.setattr(lens_fold, "KERNEL", True)
+    return request.param

@@ -77,9 +77,10 @@ def test_the_wheel_holds_the_shaders_and_the_panoramas(installed):
     assert not missing, missing
     assert sum(n.startswith("provider/data/hdri/") and n.endswith(".exr") for n in names) == 9
     assert any(n.endswith("licenses/LICENSE") for n in names)
-    # The C kernels (setup.py) are compiled into it.
+    # The C kernels (setup.py) are compiled into it, with their type stubs.
     for kernel in ("provider/core/radiometry/_blocks", "provider/core/sh9/_fold"):
         assert any(n.startswith(kernel) and n.endswith((".so", ".pyd")) for n in names), kernel
+        assert kernel + ".pyi" in names
 
 
 def test_compute_from_the_wheel(installed):

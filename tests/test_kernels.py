@@ -1,7 +1,10 @@
-"""The C kernels (setup.py) are built, and compute what the numpy/OpenCV paths compute.
+"""The C kernels (setup.py) are built, and they and their Python twins compute what the
+products' numpy/OpenCV paths compute (the ``kernels`` fixture, tests/conftest.py, runs each
+test over both).
 
-The test command installs a C compiler where one is missing (scripts/test.sh), so a kernel
-that did not build is a failure here, not a silent fall back to the slower path."""
+The test command builds the kernels as required (``SHLIGHT_BUILD_KERNELS=yes``,
+scripts/test.sh), so a kernel that did not build is a failure here, not a silent fall back
+to the slower path."""
 from __future__ import annotations
 
 import numpy as np
@@ -27,35 +30,39 @@ def _tables():
 
 @pytest.mark.parametrize("table", ["shared", "per_channel"])
 @pytest.mark.parametrize("factor", [1, 2, 3, 4, 8])
-def test_decode_blocks_equals_lut_and_area_resize(table, factor):
+def test_decode_blocks_equals_lut_and_area_resize(table, factor, kernels):
+    import cv2
     rng = np.random.default_rng(factor)
     frame = rng.integers(0, 256, (67, 93, 3), dtype=np.uint8)
     frame[5:9, 10:20] = 255                                   # a clipped lamp
     t = _tables()[table]
     got = blocks.decode_blocks(frame, t, factor)
-    ref = blocks.decode_blocks(frame, t, factor, kernel=False)
-    assert got.shape == (67 // factor, 93 // factor, 3) and got.dtype == np.float32
+    h, w = 67 // factor, 93 // factor
+    lut = cv2.LUT(frame[:h * factor, :w * factor], t)        # OpenCV's two calls
+    ref = cv2.resize(lut, (w, h), interpolation=cv2.INTER_AREA) if factor > 1 else lut
+    assert got.shape == (h, w, 3) and got.dtype == np.float32
+    # float32 block sums of at most 64 samples in two orders: ~1e-7 relative
     np.testing.assert_allclose(got, ref, rtol=3e-7, atol=1e-9)
     # The blocks' means, from first principles (float64).
     lin = t.reshape(256, -1)[frame.astype(np.intp), np.arange(3) if t.size > 256 else 0]
-    h, w = 67 // factor, 93 // factor
     means = lin[:h * factor, :w * factor].reshape(h, factor, w, factor, 3).mean(axis=(1, 3))
     np.testing.assert_allclose(got, means, rtol=1e-6)
 
 
-def test_decode_blocks_reads_a_window_and_writes_into_out():
+def test_decode_blocks_reads_a_window_and_writes_into_out(kernels):
     rng = np.random.default_rng(7)
     frame = rng.integers(0, 256, (40, 64, 3), dtype=np.uint8)
     view = frame[4:36, 8:56]                                  # strided rows
     out = np.full((16, 24, 3), -1.0, np.float32)
     t = _tables()["shared"]
     assert blocks.decode_blocks(view, t, 2, out) is out
-    np.testing.assert_allclose(out, blocks.decode_blocks(view.copy(), t, 2, kernel=False),
-                               rtol=3e-7)
+    means = t[view.astype(np.intp)].reshape(16, 2, 24, 2, 3).mean(axis=(1, 3))
+    np.testing.assert_allclose(out, means, rtol=3e-7)
 
 
-@pytest.mark.parametrize("bad", ["float frame", "factor 0", "short table", "wrong out"])
-def test_decode_blocks_refuses_bad_arrays_with_a_message(bad):
+@pytest.mark.parametrize("bad", ["float frame", "factor 0", "short table", "wrong out",
+                                 "factor larger than the frame"])
+def test_decode_blocks_refuses_bad_arrays_with_a_message(bad, kernels):
     frame = np.zeros((8, 8, 3), np.uint8)
     t, factor, out = _tables()["shared"], 2, None
     if bad == "float frame":
@@ -64,9 +71,12 @@ def test_decode_blocks_refuses_bad_arrays_with_a_message(bad):
         factor = 0
     elif bad == "short table":
         t = t[:100]
-    else:
+    elif bad == "wrong out":
         out = np.zeros((3, 4, 3), np.float32)
-    with pytest.raises(ValueError):
+    else:       # no whole block: an empty answer would pass for a black frame
+        frame, factor = np.zeros((37, 53, 3), np.uint8), 100
+    with pytest.raises(ValueError, match="factor: larger than the frame" if factor == 100
+                       else None):
         blocks.decode_blocks(frame, t, factor, out)
 
 
@@ -102,10 +112,9 @@ def _both_paths(monkeypatch, build, frame):
 
 
 @pytest.mark.parametrize("case", FOLD_CASES, ids=list(FOLD_CASES))
-def test_fold_kernel_gives_the_numpy_fold_coefficients(case, monkeypatch):
+def test_fold_kernel_gives_the_numpy_fold_coefficients(case, monkeypatch, kernels):
     from provider.core.sh9 import lens_fold
     from provider.core.sh9.engine import SH9Projector
-    assert lens_fold.KERNEL, BUILD_HINT
     w, h, name, options = FOLD_CASES[case]
     frame = _lamp_frame(w, h, 5)
     calls = []
@@ -118,7 +127,7 @@ def test_fold_kernel_gives_the_numpy_fold_coefficients(case, monkeypatch):
     assert got.stats["clipped_fraction"] == want.stats["clipped_fraction"]
 
 
-def test_fold_kernel_reads_a_camera_table_and_a_window_of_the_frame(monkeypatch):
+def test_fold_kernel_reads_a_camera_table_and_a_window_of_the_frame(monkeypatch, kernels):
     """A per-channel table (a calibrated camera's three curves) and a frame given as a view
     with strided rows (a crop of a larger capture)."""
     from provider.core.radiometry.response import CameraResponse
@@ -135,7 +144,8 @@ def test_fold_kernel_reads_a_camera_table_and_a_window_of_the_frame(monkeypatch)
     np.testing.assert_allclose(got.coefficients, want.coefficients, atol=2e-6 * scale)
 
 
-def test_fold_kernel_gives_the_lights_the_block_means_of_what_they_see(monkeypatch):
+def test_fold_kernel_gives_the_lights_the_block_means_of_what_they_see(monkeypatch,
+                                                                     kernels):
     """The lights' detection copy made inside the kernel: the f × f block means of the
     decoded frame (pixels without a weight count as black), and the same lights."""
     from provider.core.sh9.engine import SH9Projector
@@ -160,7 +170,7 @@ def test_fold_kernel_gives_the_lights_the_block_means_of_what_they_see(monkeypat
     assert got.stats["light_error"] == pytest.approx(want.stats["light_error"], rel=1e-4)
 
 
-def test_fold_kernel_frames_in_a_row_leave_nothing_behind():
+def test_fold_kernel_frames_in_a_row_leave_nothing_behind(kernels):
     """Its buffers are per call: a frame after another gives what a fresh projector gives."""
     from provider.core.sh9.engine import SH9Projector
     p = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
@@ -174,7 +184,7 @@ def test_fold_kernel_frames_in_a_row_leave_nothing_behind():
 @pytest.mark.parametrize("bad", ["float frame with a table", "square off the frame",
                                  "right half left of the frame", "top half below the frame",
                                  "short extents", "parity 7"])
-def test_fold_kernel_refuses_bad_arrays_with_a_message(bad):
+def test_fold_kernel_refuses_bad_arrays_with_a_message(bad, kernels):
     from provider.core.sh9 import lens_fold
     frame = np.zeros((8, 8, 3), np.uint8)
     table = np.zeros(256, np.float32)
@@ -212,3 +222,39 @@ def test_downsample_2_is_withdrawn_where_the_half_size_lens_is_off_the_grid():
                                   SH9Projector(1280, 720, "dual-fisheye").project(frame).coefficients)
     assert SH9Projector(1280, 720, "dual-fisheye", downsample=4).downsample == 4
     assert SH9Projector(640, 480, "fisheye", downsample=2).downsample == 2   # on the grid
+
+
+def test_without_the_c_kernels_the_twins_are_chosen_at_import():
+    """An install where no compiler built them (``SHLIGHT_BUILD_KERNELS=no``): each module
+    takes its Python twin at import, says so in ``KERNEL``, and a frame projects to the
+    same coefficients. (A fresh interpreter: the choice is made once, at import.)"""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from provider.core.sh9.engine import SH9Projector
+    script = """if True:
+        import json, sys
+        import numpy as np
+        sys.modules["provider.core.radiometry._blocks"] = None   # as if never built
+        sys.modules["provider.core.sh9._fold"] = None
+        from provider.core.radiometry import blocks
+        from provider.core.sh9 import fold_twin, lens_fold
+        from provider.core.sh9.engine import SH9Projector
+        assert not blocks.KERNEL and blocks._decode_blocks is blocks._decode_blocks_py
+        assert not lens_fold.KERNEL and lens_fold._fold_kernel is fold_twin.fold_lens
+        frame = np.frombuffer(sys.stdin.buffer.read(), np.uint8).reshape(120, 160, 3)
+        print(json.dumps(SH9Projector(160, 120, "fisheye").project(frame).coefficients.tolist()))
+    """
+    frame = _lamp_frame(160, 120, 11)
+    repo = Path(__file__).resolve().parent.parent
+    done = subprocess.run([sys.executable, "-c", script], input=frame.tobytes(),
+                          capture_output=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": str(repo)})
+    assert done.returncode == 0, done.stderr.decode()[-2000:]
+    got = np.array(json.loads(done.stdout))
+    want = SH9Projector(160, 120, "fisheye").project(frame).coefficients
+    # the band by band float32 path against the C fold's: float32 sums in other orders
+    np.testing.assert_allclose(got, want, atol=2e-6 * np.abs(want).max())

@@ -15,7 +15,7 @@ import pytest
 from provider.bench.probes import ball_in_room, render_probe, srgb8
 from provider.core.geometry import sh
 from provider.core.registration.ball import locate_ball
-from provider.core.radiometry.bracket import BracketProjector, project_bracket
+from provider.core.sh9.bracket_projection import BracketProjector, project_bracket
 from provider.core.sh9.engine import SH9Projector
 from provider.core.geometry.projections_probe import AngularMap, CubeCross, MirrorBall
 from provider.core.radiometry.response import CameraResponse

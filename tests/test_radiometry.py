@@ -12,6 +12,7 @@ from provider import InputError
 from provider.bench.camera_sim import CameraSim, auto_exposure
 from provider.core.radiometry import bracket as B
 from provider.core.geometry import sh
+from provider.core.sh9.bracket_projection import BracketProjector
 from provider.core.sh9.engine import SH9Projector, compute_sh9
 from provider.core.geometry.projections import Fisheye
 from provider.core.radiometry.response import CameraResponse
@@ -140,7 +141,7 @@ def _bracket(name, evs, cam=None, width=512, seed=3):
 def test_bracket_projector_updates_every_frame_and_equals_the_whole_bracket_merge():
     hdr, cam, frames, times = _bracket("lab", B.DEFAULT_OFFSETS)
     resp = cam.true_response()
-    bp = B.BracketProjector(SH9Projector(512, 256, response=resp), times)
+    bp = BracketProjector(SH9Projector(512, 256, response=resp), times)
     kinds = []
     for cycle in range(2):
         for i, (f, t) in enumerate(zip(frames, times)):
@@ -164,7 +165,7 @@ def test_bracket_merged_live_accuracy_default_offsets():
     cam = CameraSim(clip_stops=(2.5, 2.45, 2.55), **NOISY)
     for name in ("bridge", "lab", "apartment"):
         hdr, cam, frames, times = _bracket(name, B.DEFAULT_OFFSETS, cam)
-        bp = B.BracketProjector(SH9Projector(512, 256, response=cam.true_response()), times)
+        bp = BracketProjector(SH9Projector(512, 256, response=cam.true_response()), times)
         for i, (f, t) in enumerate(zip(frames, times)):
             r = bp.push(i, f, t)
         truth = SH9Projector(512, 256).project(hdr).coefficients
@@ -174,14 +175,14 @@ def test_bracket_merged_live_accuracy_default_offsets():
 def test_sun_clipped_in_every_exposure_is_reported():
     """The sun clips at −8 EV too: a tiny clipped_fraction, a large share of the light."""
     hdr, cam, frames, times = _bracket("sky", B.DEFAULT_OFFSETS)
-    bp = B.BracketProjector(SH9Projector(512, 256, response=cam.true_response()), times)
+    bp = BracketProjector(SH9Projector(512, 256, response=cam.true_response()), times)
     for i, (f, t) in enumerate(zip(frames, times)):
         r = bp.push(i, f, t)
     assert r.stats["radiometry"] == "merged"
     assert 0 < r.stats["clipped_fraction"] < 1e-3
     assert r.stats["clipped_light_fraction"] > 0.02
     _, cam, frames, times = _bracket("apartment", B.DEFAULT_OFFSETS)
-    bp = B.BracketProjector(SH9Projector(512, 256, response=cam.true_response()), times)
+    bp = BracketProjector(SH9Projector(512, 256, response=cam.true_response()), times)
     for i, (f, t) in enumerate(zip(frames, times)):
         r = bp.push(i, f, t)
     assert r.stats["clipped_fraction"] == 0 and r.stats["clipped_light_fraction"] == 0
@@ -189,7 +190,7 @@ def test_sun_clipped_in_every_exposure_is_reported():
 
 def test_bracket_restarts_when_the_light_jumps():
     hdr, cam, frames, times = _bracket("apartment", (-4, 0, 4), width=128)
-    bp = B.BracketProjector(SH9Projector(128, 64, response=cam.true_response()), times)
+    bp = BracketProjector(SH9Projector(128, 64, response=cam.true_response()), times)
     for i, (f, t) in enumerate(zip(frames, times)):
         r = bp.push(i, f, t)
     assert r.stats["radiometry"] == "merged" and bp.restarts == 0
@@ -199,7 +200,7 @@ def test_bracket_restarts_when_the_light_jumps():
     for i in (1, 2):
         r = bp.push(i, brighter[i], times[i])
     assert r.stats["radiometry"] == "merged"
-    full = B.BracketProjector(SH9Projector(128, 64, response=cam.true_response()), times)
+    full = BracketProjector(SH9Projector(128, 64, response=cam.true_response()), times)
     for i in range(3):
         ref = full.push(i, brighter[i], times[i])
     np.testing.assert_allclose(r.coefficients, ref.coefficients, rtol=1e-9)
@@ -216,4 +217,4 @@ def test_offsets_and_slots():
     assert B.match_slot(slots, 0.0011) == 0
     assert B.match_slot(slots, 0.002) is None       # between two slots: not confirmed
     with pytest.raises(InputError):
-        B.BracketProjector(SH9Projector(64, 32), [0.01])
+        BracketProjector(SH9Projector(64, 32), [0.01])

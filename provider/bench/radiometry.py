@@ -9,7 +9,7 @@ irradiance of the HDR panorama itself (relative RMS over the sphere of normals):
   curve ``calibrate()`` recovers from a 5-shot bracket of the same view;
 * brackets of 3, 5 and 7 shots 2 EV apart, merged with the calibrated curve (the exact hat
   merge of ``shlight compute FRAME@T ...``); 7 shots through the live path
-  (:class:`~provider.core.radiometry.bracket.BracketProjector`); the live default
+  (:class:`~provider.core.sh9.bracket_projection.BracketProjector`); the live default
   (:data:`~provider.core.radiometry.bracket.DEFAULT_OFFSETS`), and, to choose that default, candidate
   brackets through the live path.
 
@@ -67,7 +67,7 @@ def _errors(coeffs, truth):
 
 
 def _live(projector, frames, times):
-    from ..core.radiometry.bracket import BracketProjector
+    from ..core.sh9.bracket_projection import BracketProjector
     bp = BracketProjector(projector, times)
     for i, (f, t) in enumerate(zip(frames, times)):
         result = bp.push(i, f, t)
@@ -77,7 +77,8 @@ def _live(projector, frames, times):
 def accuracy(name, hdr, cam):
     """One row: errors of every method, clipping, the calibration's curve error."""
     import numpy as np
-    from ..core.radiometry.bracket import DEFAULT_OFFSETS, project_bracket
+    from ..core.radiometry.bracket import DEFAULT_OFFSETS
+    from ..core.sh9.bracket_projection import project_bracket
     from ..core.sh9.engine import SH9Projector
     from ..core.radiometry.response import calibrate
     from .camera_sim import auto_exposure
@@ -126,7 +127,7 @@ def speed(panoramas, cam, sizes, cycles):
     """Per size: ms and median per-frame ratio to the single-frame sRGB path."""
     import cv2
     import numpy as np
-    from ..core.radiometry.bracket import BracketProjector, project_bracket
+    from ..core.sh9.bracket_projection import BracketProjector, project_bracket
     from ..core.sh9.engine import SH9Projector
     from ..core.radiometry.response import calibrate
     from .camera_sim import auto_exposure

@@ -49,7 +49,7 @@ def add_meter_arguments(p) -> None:
 def wire_message(args, command: str = "compute") -> dict:
     """The wire message of the command line's input: one image (with its exposure time, if
     given) or a bracket merged first; notes and progress on stderr."""
-    from ..core.radiometry.bracket import project_bracket
+    from ..core.sh9.bracket_projection import project_bracket
     from ..core.sh9.engine import SH9Projector
     from ..core.options import precompute_note
     from ..live.wire.message import coefficient_message

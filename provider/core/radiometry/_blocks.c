@@ -3,8 +3,8 @@
  * decode_blocks(frame, table, factor, out[, spans])
  *   frame  uint8 (H, W, C) with contiguous pixels (rows may be strided), C <= 4
  *   table  float32, 256 entries (one curve) or 256*C (per channel, entry v*C + c)
- *   factor int f >= 1: out pixel (y, x) is the mean of table[frame] over rows
- *          [y*f, y*f + f) and columns [x*f, x*f + f) (f = 1: the decode alone)
+ *   factor int f >= 1, at most H and W: out pixel (y, x) is the mean of table[frame] over
+ *          rows [y*f, y*f + f) and columns [x*f, x*f + f) (f = 1: the decode alone)
  *   out    float32 (H/f, W/f, C), written; frame rows and columns past H/f*f, W/f*f unread
  *   spans  None, or int32 (H/f, 2): out row y's blocks [spans[y][0], spans[y][1]) only are
  *          read (the blocks a projection gives a weight), the rest of the row written 0
@@ -13,36 +13,19 @@
  * block's f*f samples are summed in float32, in row order. Why C: cv2.LUT costs about six
  * instructions a sample and writes a float copy of the frame that the resize reads again;
  * here a sample costs a byte load and an add from the table (issue 34). No Python object is
- * touched inside the loops, so the GIL is released there. */
+ * touched inside the loops, so the GIL is released there. Its Python twin, the same
+ * signature, numbers and errors: provider/core/radiometry/blocks.py's _decode_blocks_py. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <stdlib.h>
 #include <string.h>
 
-static int
-get_view(PyObject *obj, Py_buffer *view, int writable, const char *fmt, int ndim,
-         const char *name)
-{
-    int flags = PyBUF_RECORDS_RO | (writable ? PyBUF_WRITABLE : 0);
-    if (PyObject_GetBuffer(obj, view, flags) < 0)
-        return -1;
-    /* int32 arrays: numpy says "i", or "l" where a long is 4 bytes (Windows) */
-    const int int32 = strcmp(fmt, "i") == 0 && view->format != NULL && view->itemsize == 4
-                      && (strcmp(view->format, "i") == 0 || strcmp(view->format, "l") == 0);
-    if (view->ndim != ndim || view->format == NULL
-            || (!int32 && strcmp(view->format, fmt) != 0)) {
-        PyErr_Format(PyExc_ValueError, "%s: expected a %d-d array of format '%s'", name, ndim,
-                     fmt);
-        PyBuffer_Release(view);
-        return -1;
-    }
-    return 0;
-}
+#include "buffer_check.h"
 
 /* One frame row's sums over groups of f pixels into acc (w pixels of C channels): stored
  * (first row of a block) or added. Inlined with f and C constant in the common cases, so
  * that the compiler unrolls the group: a sample costs a byte load and an add. */
-static inline __attribute__((always_inline)) void
+KERNEL_INLINE void
 row_sums(const unsigned char *row, const float *t, int shared, Py_ssize_t w, int f, int C,
          int first, float *acc)
 {
@@ -72,6 +55,12 @@ decode_blocks(PyObject *self, PyObject *args)
     }
     if (get_view(frame_obj, &fr, 0, "B", 3, "frame") < 0)
         return NULL;
+    if (fr.shape[0] < f || fr.shape[1] < f) {     /* no block to average: not an empty out */
+        PyErr_SetString(PyExc_ValueError,
+                        "factor: larger than the frame (H // factor or W // factor is 0)");
+        PyBuffer_Release(&fr);
+        return NULL;
+    }
     if (get_view(table_obj, &tb, 0, "f", 1, "table") < 0) {
         PyBuffer_Release(&fr);
         return NULL;
@@ -166,11 +155,12 @@ static PyMethodDef methods[] = {
 
 static struct PyModuleDef module = {
     PyModuleDef_HEAD_INIT, "_blocks",
-    "An 8-bit frame decoded through its table and block-averaged in one pass.", -1, methods
+    "An 8-bit frame decoded through its table and block-averaged in one pass.", 0, methods,
+    kernel_slots
 };
 
 PyMODINIT_FUNC
 PyInit__blocks(void)
 {
-    return PyModule_Create(&module);
+    return PyModuleDef_Init(&module);
 }

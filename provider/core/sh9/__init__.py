@@ -5,9 +5,13 @@
 * :mod:`.clipping`: samples clipped at the top code and the light they carry;
 * :mod:`.tables`: the per-pixel tables of a non-separable projection, made compactly and
   kept on disk (:mod:`provider.core.table_cache`);
+* :mod:`.lens_fold`: fisheye lenses projected through mirror-folded quarter tables (the C
+  kernel ``_fold.c``, or its Python twin :mod:`.fold_twin`);
 * :mod:`.meter`: a lux meter's reading closes what the camera clipped;
 * :mod:`.sun_colour`: a clipped sun's colour without a chroma meter (its rim, or pvlib's
-  SPECTRL2 beam at its elevation, imported only then).
+  SPECTRL2 beam at its elevation, imported only then);
+* :mod:`.bracket_projection`: a bracket projected (``shlight compute FRAME@T ...``) and the
+  live merge of a source that cycles its exposure (the merge's maths is radiometry's).
 
 May import: geometry, radiometry, :mod:`provider.core.options`, :mod:`provider.core.table_cache`
 and the public classes of :mod:`provider.core.lights` (the engine hands its decoded frame to

@@ -12,6 +12,7 @@
  *   parity 2 (x even, y odd):  (a + b) - (c + d)    parity 3 (x odd, y odd):  (a - b) - (c - d)
  *
  * fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, factor, clear)
+ * (its Python twin, the same signature, numbers and errors: fold_twin.py)
  *   frame     uint8 (H, W, 3), pixels contiguous (rows may be strided); or, without a
  *             table, linear float32 (H, W, 3) (the fast path's block means, a float frame)
  *   table     float32, 256 entries (one curve) or 768 (per channel, entry v*3 + c); or None
@@ -30,7 +31,8 @@
  *
  * Per row pair: the four half rows decoded into planar float rows (a byte load and a table
  * load a sample: the only scalar loop), then plain loops over j that the compiler
- * runs four floats at a time (GCC's vector extension: SSE, NEON): the four folds with each
+ * runs four floats at a time (GCC's vector extension: SSE, NEON; elsewhere scalar loops,
+ * buffer_check.h's KERNEL_VECTOR): the four folds with each
  * half row added to its column sums over the rows of its block row (spilled into mid by
  * blocks when the block row changes), and the dot products of up to three weights with
  * their fold's three channels, added to float64 sums once a row. */
@@ -39,7 +41,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Four floats: GCC's and Clang's vector extension, SSE on x86-64 and NEON on 64-bit ARM. */
+#include "buffer_check.h"
+
+#if KERNEL_VECTOR
+/* Four floats: GCC's and Clang's vector extension, SSE on x86-64 and NEON on 64-bit ARM.
+ * Without it (MSVC) every loop below runs its scalar tail over the whole row. */
 typedef float v4 __attribute__((vector_size(16)));
 
 static inline v4
@@ -55,27 +61,9 @@ store4(float *p, v4 v)
 {
     memcpy(p, &v, sizeof v);
 }
+#endif
 
-static int
-get_view(PyObject *obj, Py_buffer *view, int writable, const char *fmt, int ndim,
-         const char *name)
-{
-    int flags = PyBUF_RECORDS_RO | (writable ? PyBUF_WRITABLE : 0);
-    if (PyObject_GetBuffer(obj, view, flags) < 0)
-        return -1;
-    /* int32 arrays: numpy says "i", or "l" where a long is 4 bytes (Windows) */
-    const int int32 = strcmp(fmt, "i") == 0 && view->format != NULL && view->itemsize == 4
-                      && (strcmp(view->format, "i") == 0 || strcmp(view->format, "l") == 0);
-    if (view->ndim != ndim || view->format == NULL
-            || (!int32 && strcmp(view->format, fmt) != 0)) {
-        PyErr_Format(PyExc_ValueError, "%s: expected a %d-d array of format '%s'", name, ndim,
-                     fmt);
-        PyBuffer_Release(view);
-        return -1;
-    }
-    return 0;
-}
-
+/* C-contiguous, dimensions of length 0 or 1 aside. */
 static int
 contiguous(const Py_buffer *v)
 {
@@ -137,10 +125,12 @@ __attribute__((optimize("no-tree-loop-distribute-patterns")))   /* not back into
 static void
 zero(float *p, Py_ssize_t n)
 {
-    const v4 z = {0, 0, 0, 0};
     Py_ssize_t j = 0;
+#if KERNEL_VECTOR
+    const v4 z = {0, 0, 0, 0};
     for (; j + 4 <= n; j += 4)
         store4(p + j, z);
+#endif
     for (; j < n; j++)
         p[j] = 0.0f;
 }
@@ -182,6 +172,7 @@ fold_row(const float *restrict a, const float *restrict b, const float *restrict
          float *restrict oo, Py_ssize_t n)
 {
     Py_ssize_t j = 0;
+#if KERNEL_VECTOR
     for (; j + 4 <= n; j += 4) {
         const v4 va = load4(a + j), vb = load4(b + j), vc = load4(c + j), vd = load4(d + j);
         const v4 s1 = va + vb, d1 = va - vb, s2 = vc + vd, d2 = vc - vd;
@@ -190,6 +181,7 @@ fold_row(const float *restrict a, const float *restrict b, const float *restrict
         store4(eo + j, s1 - s2);
         store4(oo + j, d1 - d2);
     }
+#endif
     for (; j < n; j++) {
         const float s1 = a[j] + b[j], d1 = a[j] - b[j];
         const float s2 = c[j] + d[j], d2 = c[j] - d[j];
@@ -208,6 +200,7 @@ fold_row_sums(const float *restrict a, const float *restrict b, const float *res
               float *restrict cc, float *restrict cd, Py_ssize_t n)
 {
     Py_ssize_t j = 0;
+#if KERNEL_VECTOR
     for (; j + 4 <= n; j += 4) {
         const v4 va = load4(a + j), vb = load4(b + j), vc = load4(c + j), vd = load4(d + j);
         const v4 s1 = va + vb, d1 = va - vb, s2 = vc + vd, d2 = vc - vd;
@@ -220,6 +213,7 @@ fold_row_sums(const float *restrict a, const float *restrict b, const float *res
         store4(cc + j, load4(cc + j) + vc);
         store4(cd + j, load4(cd + j) + vd);
     }
+#endif
     fold_row(a + j, b + j, c + j, d + j, ee + j, oe + j, eo + j, oo + j, n - j);
     for (; j < n; j++) {
         ca[j] += a[j];
@@ -232,10 +226,11 @@ fold_row_sums(const float *restrict a, const float *restrict b, const float *res
 /* For m (1 to 3) weight rows w[0..m) that meet the same fold (x0, x1, x2: its three
  * channels): out[r][c] += sum_j w[r][j] * x_c[j], in four float lanes per sum. Inlined with
  * m constant: the fold is loaded once for the m rows, the 3m sums stay in registers. */
-static inline __attribute__((always_inline)) void
+KERNEL_INLINE void
 dots(const float *const *w, int m, const float *restrict x0, const float *restrict x1,
      const float *restrict x2, Py_ssize_t n, double *const *out)
 {
+#if KERNEL_VECTOR
     v4 acc[3][3];
     for (int r = 0; r < m; r++)
         for (int c = 0; c < 3; c++)
@@ -250,10 +245,17 @@ dots(const float *const *w, int m, const float *restrict x0, const float *restri
             acc[r][2] += wv * c;
         }
     }
+#else
+    const Py_ssize_t j = 0;
+#endif
     for (int r = 0; r < m; r++) {
         float s[3];
         for (int c = 0; c < 3; c++)
+#if KERNEL_VECTOR
             s[c] = (acc[r][c][0] + acc[r][c][1]) + (acc[r][c][2] + acc[r][c][3]);
+#else
+            s[c] = 0.0f;
+#endif
         for (Py_ssize_t l = j; l < n; l++) {
             s[0] += w[r][l] * x0[l];
             s[1] += w[r][l] * x1[l];
@@ -446,12 +448,12 @@ static PyMethodDef methods[] = {
 
 static struct PyModuleDef module = {
     PyModuleDef_HEAD_INIT, "_fold",
-    "One lens's folded SH projection of an 8-bit frame, decoded in the same pass.", -1,
-    methods
+    "One lens's folded SH projection of an 8-bit frame, decoded in the same pass.", 0,
+    methods, kernel_slots
 };
 
 PyMODINIT_FUNC
 PyInit__fold(void)
 {
-    return PyModule_Create(&module);
+    return PyModuleDef_Init(&module);
 }

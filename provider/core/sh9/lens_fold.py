@@ -36,14 +36,17 @@ import cv2
 import numpy as np
 
 from ..geometry import sh
+from .fold_twin import fold_lens as _fold_twin
 
 try:
     from ._fold import fold_lens as _fold_kernel
-except ImportError:          # built without a C compiler: the numpy/OpenCV fold below
-    _fold_kernel = None
+except ImportError:          # built without a C compiler: its Python twin (same signature)
+    _fold_kernel = _fold_twin
 
-#: True when the C kernel that decodes an 8-bit frame inside the fold is built (setup.py).
-KERNEL = _fold_kernel is not None
+#: True when the C kernel that decodes an 8-bit frame inside the fold is built (setup.py):
+#: the projectors then take :meth:`LensFold.decode_project`; without it the band by band
+#: fold below is faster than the twin.
+KERNEL = _fold_kernel is not _fold_twin
 #: The kernel's code of each (x parity, y parity) fold (see ``_fold.c``).
 _PARITY_CODE = {("E", "E"): 0, ("O", "E"): 1, ("E", "O"): 2, ("O", "O"): 3}
 

@@ -51,10 +51,12 @@ import numpy as np
 from ..errors import InputError
 from ..geometry import sh
 from ..geometry.projections import Equirect
+from ..radiometry.bracket import merge
 from ..radiometry.colour_temperature import rgb_of_cct
 from ..radiometry.photometry import absolute_calibration, luminance
 from ..radiometry.response import apply_lut
 from .sun_colour import sun_colour
+from .bracket_projection import captured_stats
 
 UP = np.array([0.0, 1.0, 0.0])
 #: An up-facing meter sees a blob lower than this (degrees) at grazing incidence: warned.
@@ -382,7 +384,6 @@ def project_with_meter(projector, frames, times, gain, f_number, lux: float, *,
     the projection cannot say its pixels' directions."""
     import math
 
-    from ..radiometry.bracket import captured_stats, merge
     from ..radiometry.photometry import UNITS_ABSOLUTE
     from ..options import exposure_scale
     if not (isinstance(lux, (int, float)) and math.isfinite(lux) and lux > 0):

@@ -16,8 +16,8 @@ frames: no flicker, no jumping between two lamps), reset when the source reconne
 
 Radiometry (docs/contract.md §9): a frame whose source reports its exposure (``Frame.info``
 ``exposure_s``, ``gain``) is divided by it; a frame of a bracket (``slot``, ``bracket``) goes
-to the probe's :class:`~provider.core.radiometry.bracket.BracketProjector`, which keeps one (9, 3) part
-per slot and returns merged lighting for every frame.
+to the probe's :class:`~provider.core.sh9.bracket_projection.BracketProjector`, which keeps
+one (9, 3) part per slot and returns merged lighting for every frame.
 
 Reflections (``environment``, docs/contract.md §12): the frame of every sh9 message that
 carries changed lighting is offered to the probe's
@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...core.radiometry.bracket import BracketProjector
+from ...core.sh9.bracket_projection import BracketProjector
 from ...core.sh9.engine import SH9Projector, SH9Result
 from ...core.options import precompute_note
 from ...core.errors import InputError

@@ -7,7 +7,7 @@ unknown), and the probe divides the coefficients by their product, so that auto 
 no longer makes the lighting jump. A source cycling a bracket (``--bracket``) also sets
 ``slot`` (which exposure of the bracket this frame is, *confirmed* by the camera where it
 can say so) and ``bracket`` (the nominal exposures t·gain of all slots); the probe merges
-the newest frame of every slot (:class:`~provider.core.radiometry.bracket.BracketProjector`).
+the newest frame of every slot (:class:`~provider.core.sh9.bracket_projection.BracketProjector`).
 
 Who can do what:
 
