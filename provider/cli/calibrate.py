@@ -53,7 +53,8 @@ def run(args) -> int:
     from .frames import read_exposed_frames
     camera, picture = check_arguments(args)
     print(f"reading {len(args.frames)} frames ...", file=sys.stderr, flush=True)
-    images, exposures, paths = read_exposed_frames(args.frames, need_times=True)
+    images, exposures, paths = read_exposed_frames(args.frames, need_times=True,
+                                                   command="calibrate-response")
     times, gain, f_number = exposure_of(exposures)
     f_number, iso = args.f_number or f_number, args.iso or exposures[0].iso
     check_frames(images, times, args.samples)
