@@ -216,8 +216,12 @@ def quality_lines(response) -> list[str]:
                      f"  {name}")
     trusted = response.params.get("trusted_codes")
     if trusted:
-        lines.append(f"trusted codes {trusted[0]}-{trusted[1]} (enough pixel pairs in every "
-                     "channel); beyond them the curve is extrapolated, monotone")
+        own = response.params.get("trusted_codes_rgb")
+        each = (" (r " + ", g ".join(f"{a}-{b}" for a, b in own[:2]) + f", b {own[2][0]}-"
+                f"{own[2][1]} alone)") if own else ""
+        lines.append(f"trusted codes {trusted[0]}-{trusted[1]} in every channel{each}: enough "
+                     "pixel pairs, well explained; beyond them the curve is extrapolated, "
+                     "monotone, and a bracket's merge weighs those codes 1000× less")
     fit = response.params.get("fit")
     if fit:
         lines.append("chosen: " + fit["method"] + (f" lambda {fit['lambda']:g}"

@@ -48,20 +48,38 @@ def hat_weights(bits: int = 8, trusted=None) -> np.ndarray:
     """Debevec's hat ``w(z) = min(z, top − z)`` (0 at black and at clipping), float64.
 
     ``trusted``: the (lo, hi) 8-bit codes where the curve was calibrated (camera.json's
-    ``params.trusted_codes``); codes outside weigh :data:`UNTRUSTED_WEIGHT` × the hat. Why:
-    a bracket wider than the calibration's puts the extra frames' samples in the toe and
-    the shoulder, where the curve is extrapolated; with the plain hat their weight (code 30
-    weighs 30) moved a room's level by up to 5.5 % between a ±4 and a ±6 EV bracket of one
-    simulated camera (docs/photometry.md)."""
+    ``params.trusted_codes``), or one (lo, hi) per channel (``params.trusted_codes_rgb``:
+    then the weights are (2**bits, 3)); codes outside weigh :data:`UNTRUSTED_WEIGHT` × the
+    hat. Why: a bracket wider than the calibration's puts the extra frames' samples in the
+    toe and the shoulder, where the curve is extrapolated; with the plain hat their weight
+    (code 30 weighs 30) moved a room's level by up to 5.5 % between a ±4 and a ±6 EV
+    bracket of one simulated camera (docs/photometry.md). Per channel, because a tinted
+    room puts one channel's samples low in the codes where another channel's curve is not
+    trusted: one range for all made the weakest channel's toe every channel's."""
     top = _top(bits)
     z = np.arange(top + 1, dtype=np.float64)
     w = np.minimum(z, top - z)
-    if trusted is not None:
-        lo, hi = (int(v) for v in trusted)
-        if bits == 16:
-            lo, hi = lo * 257, hi * 257
-        w[(z < lo) | (z > hi)] *= UNTRUSTED_WEIGHT
+    if trusted is None:
+        return w
+    ranges = np.asarray(trusted, np.int64) * (257 if bits == 16 else 1)
+    if ranges.ndim == 1:
+        w[(z < ranges[0]) | (z > ranges[1])] *= UNTRUSTED_WEIGHT
+        return w
+    w = np.repeat(w[:, None], 3, axis=1)
+    for c, (lo, hi) in enumerate(ranges):
+        w[(z < lo) | (z > hi), c] *= UNTRUSTED_WEIGHT
     return w
+
+
+def trusted_ranges(response: CameraResponse):
+    """The codes where ``response`` was calibrated: camera.json's per-channel
+    ``trusted_codes_rgb`` where it has them, else ``trusted_codes`` (one range), else
+    None (every code trusted: sRGB, a gamma, a table without a record)."""
+    p = response.params
+    own = p.get("trusted_codes_rgb")
+    if isinstance(own, (list, tuple)) and len(own) == 3:
+        return own
+    return p.get("trusted_codes")
 
 
 @dataclass
@@ -82,7 +100,7 @@ class Merged:
 
 def _slot_tables(response: CameraResponse, times: np.ndarray, gain: float):
     """Per frame: (numerator table w·g/(t·gain), weight table w) for the hat merge."""
-    w0 = hat_weights(response.bits, response.params.get("trusted_codes"))
+    w0 = hat_weights(response.bits, trusted_ranges(response))
     top = _top(response.bits)
     short, long_ = int(np.argmin(times)), int(np.argmax(times))
     out = []
@@ -92,9 +110,9 @@ def _slot_tables(response: CameraResponse, times: np.ndarray, gain: float):
             w[top] = END_WEIGHT
         if i == long_:
             w[0] = END_WEIGHT
-        num = w[:, None] * response.table / (t * gain)
-        out.append((_as_lut(num, response.bits, response.channels_identical),
-                    _as_lut(w, response.bits, True)))
+        num = (w if w.ndim == 2 else w[:, None]) * response.table / (t * gain)
+        out.append((_as_lut(num, response.bits, response.channels_identical and w.ndim == 1),
+                    _as_lut(w, response.bits, w.ndim == 1)))
     return out
 
 

@@ -133,11 +133,14 @@ def extrapolate(table: np.ndarray, lo: int, hi: int, span: int = 12,
                 shape: str = "log-linear") -> np.ndarray:
     """Codes below ``lo`` and above ``hi`` continued from the trusted edge, monotone:
     ``shape`` "log-linear" (the slope of ln g over the ``span`` edge codes, never flatter
-    than 0.1 % per code) or "srgb" (sRGB's shape, scaled to meet the edge)."""
+    than 0.1 % per code) or "srgb" (sRGB's shape, scaled to meet the edge). ``lo`` and
+    ``hi`` are codes, or one code per channel (each channel's own toe and shoulder)."""
     out = np.array(table, np.float64)
     logg = np.log(np.maximum(out, 1e-300))
     log_srgb = np.log(np.maximum(_SRGB, 1e-7))
+    los, his = np.broadcast_to(lo, 3), np.broadcast_to(hi, 3)
     for c in range(3):
+        lo, hi = int(los[c]), int(his[c])
         if lo > 0:
             if shape == "srgb":
                 logg[:lo, c] = logg[lo, c] + log_srgb[:lo] - log_srgb[lo]
@@ -267,11 +270,12 @@ def _smooth_pixels(frames, times) -> np.ndarray:
     return g <= np.percentile(g, 60)
 
 
-def per_code(table: np.ndarray, pairs: list) -> np.ndarray:
+def per_code(table: np.ndarray, pairs: list, per_channel: bool = False) -> np.ndarray:
     """(256,) the worst channel's median disagreement of the pixel pairs with each code
-    (NaN where fewer than :data:`TRUST_SUPPORT` pairs); ``pairs``: :func:`pair_histograms`."""
+    (NaN where fewer than :data:`TRUST_SUPPORT` pairs in any channel), or with
+    ``per_channel`` (256, 3) each channel's own; ``pairs``: :func:`pair_histograms`."""
     logg = np.log(np.maximum(np.asarray(table, np.float64), 1e-300))
-    worst = np.zeros(256)
+    out = np.full((256, 3), np.nan)
     for c in range(3):
         za, zb, dl, n = pairs[c]
         d = np.expm1(np.abs(logg[za, c] - logg[zb, c] - dl))
@@ -282,21 +286,23 @@ def per_code(table: np.ndarray, pairs: list) -> np.ndarray:
         edges = np.searchsorted(z, np.arange(257))
         for code in range(256):
             a, b = edges[code], edges[code + 1]
-            if n[a:b].sum() < TRUST_SUPPORT:
-                worst[code] = np.nan
-            elif not np.isnan(worst[code]):
+            if n[a:b].sum() >= TRUST_SUPPORT:
                 cw = np.cumsum(n[a:b])
-                worst[code] = max(worst[code], d[a + np.searchsorted(cw, cw[-1] / 2)])
-    return worst
+                out[code, c] = d[a + np.searchsorted(cw, cw[-1] / 2)]
+    return out if per_channel else out.max(axis=1)      # NaN in any channel: NaN
 
 
-def trusted_codes(table: np.ndarray, pairs: list) -> tuple[int, int]:
+def trusted_codes(table: np.ndarray, pairs: list, channel: int | None = None) -> tuple[int, int]:
     """The widest run of codes around mid-grey (118) where the curve explains the frames:
-    enough pixel pairs, and a median disagreement within 3× the mid-tones' (at least 10 %).
-    Film's fog and a sensor's noise floor end it in the toe, clipping in the shoulder."""
-    d = per_code(table, pairs)
-    mid = np.nanmedian(d[64:192]) if np.any(np.isfinite(d[64:192])) else 0.1
+    enough pixel pairs, and a median disagreement within 3× the mid-tones' (at least 10 %;
+    the mid-tones of the worst channel), in every channel, or in ``channel`` (0, 1, 2)
+    alone (so each channel's run holds the common one). Film's fog and a sensor's noise
+    floor end it in the toe, clipping in the shoulder."""
+    d = per_code(table, pairs, True)
+    worst = d.max(axis=1)
+    mid = np.nanmedian(worst[64:192]) if np.any(np.isfinite(worst[64:192])) else 0.1
     bound = max(3 * mid, 0.10)
+    d = worst if channel is None else d[:, channel]
     ok = np.isfinite(d) & (d <= bound)
     lo = hi = 118
     while lo > 1 and ok[lo - 1]:
@@ -311,7 +317,8 @@ def fit_response(frames, times, samples: int = 1000, lambdas=LAMBDAS,
                  pairs: list | None = None):
     """The (256, 3) inverse response that explains ``frames`` best (any scale), with what
     was tried: ``(table, info)``; ``info``: ``method``, ``lambda`` (Debevec's or the robust
-    fit's, or None), ``samples``, ``trusted`` (lo, hi), ``extrapolated``, ``candidates``
+    fit's, or None), ``samples``, ``trusted`` (lo, hi) in every channel, ``trusted_rgb``
+    ((lo, hi) of each channel), ``extrapolated``, ``candidates``
     {name: score}, ``beats_srgb`` (whether the curve is at least as good as sRGB in every
     code range with data). ``others``: more candidate tables by name (OpenCV's Debevec);
     ``beside``: tables scored and reported but never chosen (OpenCV's Robertson: on a
@@ -344,9 +351,12 @@ def fit_response(frames, times, samples: int = 1000, lambdas=LAMBDAS,
     floor = score(reports[ranked[0]]) * (1 + SCORE_SLACK)
     smoothest = min((k for k in ranked if score(reports[k]) <= floor),
                     key=lambda k: roughness(candidates[k]))
+    per_channel = {}
     for base in dict.fromkeys(ranked[:3] + [smoothest]):
         lo, hi = trusted[base] = trusted_codes(candidates[base], pairs)
-        cuts = [("toe", lo, 255), ("shoulder", 0, hi), ("toe and shoulder", lo, hi)]
+        own = per_channel[base] = [trusted_codes(candidates[base], pairs, c) for c in range(3)]
+        cuts = [("toe", lo, 255), ("shoulder", 0, hi), ("toe and shoulder", lo, hi),
+                ("each channel's toe and shoulder", [a for a, _ in own], [b for _, b in own])]
         cuts += [(f"toe from {cut}", cut, 255) for cut in TOE_CUTS if cut < lo]
         for shape in ("log-linear", "srgb"):
             for name, a, b in cuts:
@@ -372,6 +382,8 @@ def fit_response(frames, times, samples: int = 1000, lambdas=LAMBDAS,
             _monotone(table), codes, times, pairs)), 5)
     info = {"method": best[0], "lambda": best[1], "samples": int(samples),
             "trusted": [int(v) for v in trusted.get(best[:2], next(iter(trusted.values())))],
+            "trusted_rgb": [[int(a), int(b)] for a, b in per_channel.get(
+                best[:2], next(iter(per_channel.values())))],
             "extrapolated": best[2] if len(best) > 2 else None, "candidates": reported,
             "beats_srgb": best in good}
     return candidates[best], info
@@ -413,7 +425,8 @@ def calibrate_best(frames, times, *, samples: int = 1000, lambdas=LAMBDAS):
     """A :class:`~provider.core.radiometry.response.CameraResponse` from the curve that explains the
     bracket best (:func:`fit_response`, OpenCV's Debevec and Robertson beside it), with
     ``params["quality"]``: the disagreement of this curve and of sRGB per code range, and
-    ``params["trusted_codes"]``. Bad input raises :class:`.response.ResponseError`."""
+    ``params["trusted_codes"]`` (the codes every channel explains) and
+    ``params["trusted_codes_rgb"]`` (each channel's own). Bad input raises :class:`.response.ResponseError`."""
     from .response import ANCHOR_VALUE, ANCHOR_WINDOW_8, CameraResponse, ResponseError, calibrate
     opencv = {}
     for method in ("debevec", "robertson"):
@@ -438,6 +451,7 @@ def calibrate_best(frames, times, *, samples: int = 1000, lambdas=LAMBDAS):
                             "frames all black, all white, or not one view?")
     method = "debevec"
     params = {"fit": info, "trusted_codes": info["trusted"],
+              "trusted_codes_rgb": info["trusted_rgb"],
               "quality": {"curve": mine, "srgb": srgb}, "samples": info["samples"],
               "lambda": info["lambda"]}
     return CameraResponse(table, method=method, exposure_times=list(map(float, times)),
