@@ -1,7 +1,7 @@
 """A still's exposure from EXIF numbers of every numeric TIFF type (docs/photometry.md):
 cameras write RATIONAL, but Pillow writes a float as DOUBLE and other tools FLOAT, SHORT or
 LONG; a number no camera records is not used, and the command says why in one line. The
-TIFF structures are built byte by byte here, as the TIFF 6.0 specification lays them out."""
+TIFF structures are built byte by byte (tests/exiftools.py)."""
 from __future__ import annotations
 
 import json
@@ -9,55 +9,12 @@ import struct
 import subprocess
 import sys
 
-import cv2
-import numpy as np
 import pytest
 
 from provider.core.radiometry.exif import (EXPOSURE_BIAS, EXPOSURE_TIME, F_NUMBER, ISO,
                                            exposure_from_tiff, read_still_exposure)
 
-#: TIFF 6.0 field types: name -> (type code, struct code of one value).
-TYPES = {"BYTE": (1, "B"), "SHORT": (3, "H"), "LONG": (4, "I"), "RATIONAL": (5, "II"),
-         "SBYTE": (6, "b"), "SSHORT": (8, "h"), "SLONG": (9, "i"), "SRATIONAL": (10, "ii"),
-         "FLOAT": (11, "f"), "DOUBLE": (12, "d")}
-
-
-def encode(kind: str, value: float, e: str) -> bytes:
-    code = TYPES[kind][1]
-    if len(code) == 2:                          # a rational: numerator / 10⁶
-        return struct.pack(e + code, round(value * 1_000_000), 1_000_000)
-    return struct.pack(e + code, value if code in "fd" else round(value))
-
-
-def tiff(entries, order: str = "II", exif_ifd: bool = True) -> bytes:
-    """A TIFF structure whose IFD0 points to an Exif IFD holding ``entries`` [(tag, type
-    name, value)] (or holds them itself); values of more than 4 bytes after the IFDs."""
-    e = "<" if order == "II" else ">"
-    head = order.encode() + struct.pack(e + "HI", 42, 8)
-    ifd0 = struct.pack(e + "H", 1) + struct.pack(e + "HHII", 0x8769, 4, 1, 26) \
-        + struct.pack(e + "I", 0) if exif_ifd else b""
-    at = 8 + len(ifd0)
-    data_at = at + 2 + 12 * len(entries) + 4
-    body, extra = struct.pack(e + "H", len(entries)), b""
-    for tag, kind, value in entries:
-        raw = encode(kind, value, e)
-        if len(raw) <= 4:
-            body += struct.pack(e + "HHI", tag, TYPES[kind][0], 1) + raw.ljust(4, b"\0")
-        else:
-            body += struct.pack(e + "HHII", tag, TYPES[kind][0], 1, data_at + len(extra))
-            extra += raw
-    return head + ifd0 + body + struct.pack(e + "I", 0) + extra
-
-
-def jpeg_with_exif(path, payload: bytes, level: int = 120) -> None:
-    """A real JPEG (OpenCV's encoder) with ``payload`` as its EXIF APP1 segment."""
-    ok, jpg = cv2.imencode(".jpg", np.full((16, 32, 3), level, np.uint8))
-    assert ok
-    segment = b"Exif\0\0" + payload
-    jpg = jpg.tobytes()
-    path.write_bytes(jpg[:2] + b"\xff\xe1" + struct.pack(">H", len(segment) + 2) + segment
-                     + jpg[2:])
-
+from exiftools import jpeg_with_exif, tiff
 
 def shlight(*args):
     return subprocess.run([sys.executable, "-m", "provider.cli", *map(str, args)],
@@ -112,7 +69,7 @@ def test_a_number_no_camera_records_is_not_used(tag, kind, value, words):
 
 def test_a_rational_zero_over_zero_is_unknown_not_refused():
     e = exposure_from_tiff(tiff([(EXPOSURE_TIME, "RATIONAL", 0.01), (F_NUMBER, "RATIONAL", 2)])
-                           .replace(struct.pack("<II", 2_000_000, 1_000_000), b"\0" * 8))
+                           .replace(struct.pack("<II", 2, 1), b"\0" * 8))
     assert e.exposure_s == pytest.approx(0.01) and e.f_number is None and e.refused == ()
 
 

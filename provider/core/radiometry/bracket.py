@@ -131,11 +131,13 @@ def merge(frames, times, response: CameraResponse, *, gain: float = 1.0) -> Merg
     """Hat-weighted merge of a bracket into radiance per second of exposure.
 
     ``R = Σ_i w(z_i) g(z_i)/(t_i·gain) / Σ_i w(z_i)`` per channel sample, ``w`` the hat
-    (:func:`hat_weights`, near 0 outside a calibrated curve's trusted codes, so a bracket's
-    span does not move the scale): a sample clipped or black in one frame gets weight 0 there and
-    is taken from the others; a sample clipped in every frame gets the shortest frame's
-    clip level (``END_WEIGHT``), a lower bound. 8-bit frames go through cv2.LUT, 16-bit
-    through numpy gathers.
+    (:func:`hat_weights`, near 0 outside a calibrated curve's trusted codes, each channel's
+    own, so a bracket's span does not move the scale): a sample clipped or black in one
+    frame gets weight 0 there and is taken from the others; a sample clipped in every frame
+    gets the shortest frame's clip level (``END_WEIGHT``), a lower bound. A sample that a
+    shorter frame shows brighter than this frame can measure (above its curve's last trusted
+    code) is clipped whatever its code says (:func:`_saturated`). 8-bit frames go through
+    cv2.LUT, 16-bit through numpy gathers.
     """
     frames, times, bits = check_bracket(frames, times)
     gain = check_time(gain, "gain")
@@ -144,12 +146,64 @@ def merge(frames, times, response: CameraResponse, *, gain: float = 1.0) -> Merg
                             f"(use response.to_bits({bits}))")
     num = np.zeros(frames[0].shape, np.float32)
     den = np.zeros(frames[0].shape, np.float32)
-    for f, (nt, wt) in zip(frames, _slot_tables(response, times, gain)):
+    tables = _slot_tables(response, times, gain)
+    evidence, ceiling = _evidence(response)
+    top = _top(bits)
+    shorter = None
+    for i in np.argsort(times, kind="stable"):
+        f, (nt, wt) = frames[i], tables[i]
+        if shorter is not None:
+            # the codes of the next shorter frame that prove more light than this frame
+            # measures (g(z)/t_j ≥ g(hi)/t_i); a clipped one does (g(hi)/t_j > g(hi)/t_i),
+            # so the next shorter frame speaks for all the shorter ones
+            ratio = times[shorter] / times[i]
+            proof = [int(np.searchsorted(evidence[:, c], ceiling[c] * ratio)) for c in range(3)]
+            f = _as_clipped(f, frames[shorter], proof, top)
         num += apply_lut(f, nt)
         den += apply_lut(f, wt)
+        shorter = i
     rad = np.divide(num, den, out=np.zeros_like(num), where=den > 0)
     clipped, black = _extreme_fractions(frames, bits)
     return Merged(rad, clipped, black, times.tolist())
+
+
+def _evidence(response: CameraResponse) -> tuple[np.ndarray, np.ndarray]:
+    """What a sample proves of its light, for :func:`merge`: a table (2**bits, 3) of the
+    exposure it shows at least (0 below the curve's trusted codes, where the curve is
+    extrapolated and noise rules; g(hi) above them, a clipped sample included), and (3,)
+    the most a frame measures on its trusted codes, g(hi) (lo, hi: each channel's trusted
+    codes, else 1 and the code below the top).
+
+    Why :func:`merge` takes a sample that a shorter frame shows above that as clipped: a
+    JPEG rings at the edge of a clipped lamp, and the codes it decodes there (245-254 where
+    the sensor clipped) read as light just below the clip; the five longer frames of a
+    ±6 EV bracket each outvoted the short frame that measured the lamp, and a room lit by
+    bright tubes read 2-3 % low. The shorter frame's light proves them clipped."""
+    top = _top(response.bits)
+    ranges = trusted_ranges(response)
+    scale = 257 if response.bits == 16 else 1
+    if ranges is None:
+        ranges = [(1, top - 1)] * 3
+    elif np.ndim(ranges) == 1:
+        ranges = [ranges] * 3
+    table = response.table.copy()
+    ceiling = np.empty(3)
+    for c, (lo, hi) in enumerate(ranges):
+        lo, hi = int(lo) * scale, min(int(hi) * scale, top - 1)
+        table[:lo, c] = 0.0
+        table[hi + 1:, c] = ceiling[c] = table[hi, c]
+    return table, ceiling
+
+
+def _as_clipped(frame: np.ndarray, shorter: np.ndarray, proof, top: int) -> np.ndarray:
+    """``frame`` with the top code wherever ``shorter`` has a code at or above ``proof``
+    (one per channel): those samples weigh 0 in the merge, as clipped ones do. uint8 frames
+    through OpenCV (a lookup and a max: no float work)."""
+    if frame.dtype == np.uint8:
+        codes = np.arange(256)[:, None]
+        lut = np.where(codes >= np.asarray(proof)[None, :], 255, 0).astype(np.uint8)
+        return cv2.max(frame, cv2.LUT(shorter, lut.reshape(256, 1, 3)))
+    return np.where(shorter >= np.asarray(proof, np.int64), frame.dtype.type(top), frame)
 
 
 def merge_opencv(frames, times, response: CameraResponse) -> np.ndarray:
