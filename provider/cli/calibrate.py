@@ -47,7 +47,8 @@ def run(args) -> int:
     from ..bench.response_plot import plot_response
     from ..core.errors import InputError
     from ..core.radiometry.response import DEBEVEC_LAMBDA, DEBEVEC_SAMPLES, calibrate
-    from ..core.radiometry.response_fit import calibrate_best, disagreement
+    from ..core.radiometry.response_fit import (calibrate_best, disagreement,
+                                                frame_disagreement)
     from ..live.probe.camerafile import save_camera
     from .compute import exposure_of
     from .frames import read_exposed_frames
@@ -74,6 +75,7 @@ def run(args) -> int:
         raise InputError("the calibration gave a broken curve (not positive and finite): "
                          "are the frames one static view with these exposure times?")
     response.params["frames"] = [os.path.basename(p) for p in paths]
+    response.params["frame_disagreement_stops"] = frame_disagreement(images, times, response)
     if args.lux is not None:
         response.params["absolute"] = absolute_scale(response, images, times, args.lux,
                                                      f_number, iso, args.projection)
@@ -83,9 +85,40 @@ def run(args) -> int:
         plot_response(response, tmp)
     png = picture.path
     print("\n".join(summary_lines(response) + quality_lines(response)
-                    + absolute_lines(response)))
+                    + agreement_lines(response) + absolute_lines(response)))
     print(f"wrote {args.output} and {png}")
+    warn_disagreement(response)
     return 0
+
+
+def agreement_lines(response) -> list[str]:
+    """Each frame's light against the others' merge, in stops (camera.json
+    ``params.frame_disagreement_stops``)."""
+    stops = response.params.get("frame_disagreement_stops") or []
+    names = response.params.get("frames") or [f"frame {i}" for i in range(len(stops))]
+    known = [v for v in stops if v is not None]
+    if not known:
+        return []
+    return ["each frame's light against the other frames' merge (stops; its exposure "
+            "time, f-number and ISO as given): "
+            + ", ".join(f"{n} {'?' if v is None else f'{v:+.3f}'}"
+                        for n, v in zip(names, stops))
+            + f"; they agree within {max(abs(v) for v in known):.3f} stops"]
+
+
+def warn_disagreement(response) -> None:
+    """One warning per frame further than FRAME_DISAGREEMENT_WARN_STOPS from the others."""
+    from ..core.radiometry.response_fit import FRAME_DISAGREEMENT_WARN_STOPS as LIMIT
+    from .feedback import say
+    stops = response.params.get("frame_disagreement_stops") or []
+    for name, v in zip(response.params.get("frames") or [], stops):
+        if v is not None and abs(v) > LIMIT:
+            say("calibrate-response", "warning",
+                f"{name} is {v:+.2f} stops ({2 ** v - 1:+.0%}) from the other frames' light: "
+                "its exposure time, f-number or ISO is not what the camera did (a rounded "
+                "or wrong EXIF, a frame of another bracket?); the curve"
+                + (" and the absolute scale carry" if response.params.get("absolute")
+                   else " carries") + " it")
 
 
 def absolute_scale(response, images, times, lux, f_number, iso, projection) -> dict:

@@ -421,6 +421,44 @@ def _monotone(table: np.ndarray) -> np.ndarray:
     return t
 
 
+#: A frame whose light differs from its bracket's by more than this (stops) is said
+#: (``shlight calibrate-response`` warns): 0.1 stop is 7 %, beyond a rounded marked shutter
+#: speed (1/60 s for 1/64 s is 0.09 stop), and it moves the absolute scale.
+FRAME_DISAGREEMENT_WARN_STOPS = 0.1
+
+
+def frame_disagreement(frames, times, response) -> list:
+    """Per frame, in stops: how far its light, ``g(z)/t``, lies from what the *other*
+    frames merge to (:func:`~.bracket.merge`), the median over the samples it has on the
+    curve's trusted codes and the others measured (None for a frame with fewer than 100).
+    A frame whose exposure time, f-number or ISO is not what the camera did (a rounded or
+    wrong EXIF, a frame of another bracket) stands out; the absolute scale carries it."""
+    from .bracket import merge, trusted_ranges
+    times = np.asarray(times, np.float64)
+    h, w = frames[0].shape[:2]
+    step = max(1, int(math.sqrt(h * w / _MAX_PIXELS)))
+    small = [np.ascontiguousarray(f[::step, ::step]) for f in frames]
+    ranges = trusted_ranges(response) or (16, 250)
+    ranges = [ranges] * 3 if np.ndim(ranges) == 1 else ranges
+    lo = np.array([r[0] for r in ranges])
+    hi = np.array([r[1] for r in ranges])
+    out = []
+    for i, frame in enumerate(small):
+        others = [f for j, f in enumerate(small) if j != i]
+        if not others:
+            out.append(None)
+            continue
+        merged = merge(others, np.delete(times, i), response).radiance
+        own = response.linearise(frame, float(times[i]))
+        ok = ((frame >= lo) & (frame <= hi) & (merged > 0) & (own > 0)
+              & (np.minimum.reduce(others) < 255) & (np.maximum.reduce(others) > 0))
+        if np.count_nonzero(ok) < 100:
+            out.append(None)
+            continue
+        out.append(float(np.median(np.log2(own[ok] / merged[ok]))))
+    return out
+
+
 def calibrate_best(frames, times, *, samples: int = 1000, lambdas=LAMBDAS):
     """A :class:`~provider.core.radiometry.response.CameraResponse` from the curve that explains the
     bracket best (:func:`fit_response`, OpenCV's Debevec and Robertson beside it), with
