@@ -3,12 +3,12 @@
 calibrate-response BRACKET --lux E`` on one room, then ``shlight compute`` of other rooms'
 stills whose exposure comes from their EXIF alone, at other ISOs and f-numbers.
 
-The camera is provider/bench/camera_sim.py's filmic curve with a shoulder that clips 2.5 EV
-above mid-grey, shot and read noise, and channels of their own contrast and toe; its stills
-are JPEGs without chroma subsampling (4:4:4; what 4:2:0 costs is measured in the docs) with
-EXIF written byte by byte (tests/exiftools.py). The rooms are none of the nine shared
-panoramas: each is one re-lit, turned, tinted (provider.bench.headset_sim.perturb_panorama),
-or an analytic room. The truth is the float panorama's own light (the float path is exact)."""
+The camera, the rooms and the truth are provider/bench/photometry_8bit.py's (which measures
+the same cases): CameraSim's filmic curve with a shoulder that clips 2.5 EV above
+mid-grey, shot and read noise, channels of their own contrast and toe; rooms none of the
+nine shared panoramas is (each re-lit, turned and tinted, or analytic); the truth is the
+float panorama's own light. Its stills are JPEGs without chroma subsampling (4:4:4; what
+4:2:0 costs is measured in the docs) with EXIF written byte by byte (tests/exiftools.py)."""
 from __future__ import annotations
 
 import json
@@ -20,22 +20,15 @@ import numpy as np
 import pytest
 
 from provider.bench.camera_sim import CameraSim
-from provider.bench.headset_sim import perturb_panorama
+from provider.bench.photometry_8bit import (CAMERA, CAMERA_K, analytic_room,
+                                            exact_illuminance_up, room, true_cct)
 from provider.core.radiometry.bracket import hat_weights, merge
-from provider.core.radiometry.colour_temperature import cct_duv, rgb_of_cct
-from provider.core.radiometry.photometry import NOMINAL_CD_M2, luminance
+from provider.core.radiometry.photometry import luminance
 from provider.core.radiometry.response import CameraResponse
 from provider.core.radiometry.response_fit import calibrate_best
-from provider.core.sh9.engine import SH9Projector
 
-from conftest import load_hdri
 from exiftools import exposure_exif, jpeg_with_exif
 
-#: The simulated camera: 1.3× as sensitive as ISO 12232's nominal one, a shoulder that
-#: clips 2.5 EV above mid-grey (sRGB's is 2.47; CameraSim's default 3.5), and noise.
-CAMERA = dict(clip_stops=(2.5, 2.45, 2.55), shot=2e-4, read=2e-3)
-CAMERA_K = 1.3 / NOMINAL_CD_M2
-ROOM_CD_M2 = 60.0
 FULL_CHROMA = cv2.IMWRITE_JPEG_SAMPLING_FACTOR_444
 
 
@@ -47,50 +40,6 @@ def shlight(*args):
 def message(p) -> dict:
     assert p.returncode == 0, p.stderr
     return json.loads(p.stdout)
-
-
-def room(name: str, seed: int, kelvin: float | None = None) -> np.ndarray:
-    """A room none of the shared panoramas is: ``name`` re-lit, turned and tinted by
-    ``seed``, optionally tinted again to a blackbody's colour, at 60 cd/m² mean."""
-    hdr = perturb_panorama(load_hdri(name), seed).astype(np.float64)
-    if kelvin is not None:
-        hdr = hdr / sphere_mean(hdr) * rgb_of_cct(kelvin)
-    return hdr * (ROOM_CD_M2 / float(luminance(hdr.reshape(-1, 3)).mean()))
-
-
-def analytic_room(h: int = 256, w: int = 512) -> np.ndarray:
-    """A room that one frame holds whole (4 stops from its darkest to its brightest): a
-    bright ceiling, a warm window toward +X, a darker floor."""
-    theta = np.pi * (np.arange(h) + 0.5) / h
-    phi = 2 * np.pi * ((np.arange(w) + 0.5) / w - 0.5)
-    y = np.cos(theta)[:, None] * np.ones(w)
-    x = np.sin(theta)[:, None] * np.sin(phi)[None, :]
-    lum = 1.0 + 3.0 * np.maximum(y, 0) + 2.0 * np.maximum(x, 0) ** 4
-    hdr = lum[..., None] * np.array([1.0, 0.9, 0.8])
-    hdr[..., 0] += 1.5 * np.maximum(x, 0) ** 4                      # the window is warm
-    return hdr * (ROOM_CD_M2 / float(luminance(hdr.reshape(-1, 3)).mean()))
-
-
-def sphere_mean(hdr: np.ndarray) -> np.ndarray:
-    edges = np.linspace(0, np.pi, hdr.shape[0] + 1)
-    row = np.cos(edges[:-1]) - np.cos(edges[1:])
-    return (hdr.mean(axis=1) * row[:, None]).sum(axis=0) / row.sum()
-
-
-def exact_illuminance_up(hdr: np.ndarray) -> float:
-    """What an up-facing lux meter reads: Σ Y(L) max(cos θ, 0) dω, exact per row."""
-    h, w = hdr.shape[:2]
-    edges = np.linspace(0, np.pi, h + 1)
-    s2 = np.sin(np.minimum(edges, np.pi / 2)) ** 2
-    row = 0.5 * (s2[1:] - s2[:-1]) * (2 * np.pi / w)
-    return float(luminance((hdr * row[:, None, None]).sum(axis=(0, 1))))
-
-
-def true_cct(hdr: np.ndarray) -> float:
-    """CCT of the float panorama's L00, the same projection compute makes."""
-    h, w = hdr.shape[:2]
-    return cct_duv(SH9Projector(w, h, "equirect").project(hdr.astype(np.float32))
-                   .coefficients[0])[0]
 
 
 def stills(folder, name, hdr, evs, n, iso, *, bias_ev=0.0, seed=0, times_off=None):

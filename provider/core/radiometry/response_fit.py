@@ -42,8 +42,8 @@ L1_LAMBDAS = (100.0, 300.0, 1000.0, 3000.0, 10000.0)
 #: of a ripple of ln g whose period is one step (every pair of frames agrees with it), and
 #: the least-smoothed fits let the sensor's noise and the codes' rounding in the toe and the
 #: shoulder set one; on the noisy camera that clips 2.5 EV above mid-grey (±4 EV in 2 EV
-#: steps) the best-scoring curve rippled ±15 %, differently per channel (a 2,700 K room read
-#: 3,218 K), 4 % better scored than a curve within 1 % of the truth. The truth itself scores
+#: steps) the best-scoring curve rippled ±15 %, differently per channel (a 6,500 K room read
+#: 7,136 K), 4 % better scored than a curve within 1 % of the truth. The truth itself scores
 #: worse than both (its frames are noisy).
 SCORE_SLACK = 0.05
 #: Codes the toe is also extrapolated from, below the trusted range's own first code.
