@@ -464,7 +464,8 @@ def calibrate_best(frames, times, *, samples: int = 1000, lambdas=LAMBDAS):
     bracket best (:func:`fit_response`, OpenCV's Debevec and Robertson beside it), with
     ``params["quality"]``: the disagreement of this curve and of sRGB per code range, and
     ``params["trusted_codes"]`` (the codes every channel explains) and
-    ``params["trusted_codes_rgb"]`` (each channel's own). Bad input raises :class:`.response.ResponseError`."""
+    ``params["trusted_codes_rgb"]`` (each channel's own). Bad input raises
+    :class:`.response.ResponseError`."""
     from .response import ANCHOR_VALUE, ANCHOR_WINDOW_8, CameraResponse, ResponseError, calibrate
     opencv = {}
     for method in ("debevec", "robertson"):
