@@ -21,7 +21,9 @@ included. That is the number :func:`fit_response` minimises:
   rest), continued by a monotone extrapolation from the trusted edge (or from a few fixed
   codes below it) instead of whatever the solve left there;
 * among all these, a curve at least as good as sRGB in every code range is preferred: a
-  calibration must not explain the frames worse than the assumption it replaces.
+  calibration must not explain the frames worse than the assumption it replaces; and of
+  those that explain the frames within :data:`SCORE_SLACK` of the best, the smoothest
+  (:func:`roughness`): a bracket of equal steps cannot see a ripple of one step's period.
 """
 from __future__ import annotations
 
@@ -315,7 +317,8 @@ def trusted_codes(table: np.ndarray, pairs: list, channel: int | None = None) ->
 def fit_response(frames, times, samples: int = 1000, lambdas=LAMBDAS,
                  others: dict | None = None, beside: dict | None = None,
                  pairs: list | None = None):
-    """The (256, 3) inverse response that explains ``frames`` best (any scale), with what
+    """The (256, 3) inverse response that explains ``frames`` best (any scale: the
+    smoothest of the curves within :data:`SCORE_SLACK` of the best score), with what
     was tried: ``(table, info)``; ``info``: ``method``, ``lambda`` (Debevec's or the robust
     fit's, or None), ``samples``, ``trusted`` (lo, hi) in every channel, ``trusted_rgb``
     ((lo, hi) of each channel), ``extrapolated``, ``candidates``
@@ -460,8 +463,9 @@ def frame_disagreement(frames, times, response) -> list:
 
 
 def calibrate_best(frames, times, *, samples: int = 1000, lambdas=LAMBDAS):
-    """A :class:`~provider.core.radiometry.response.CameraResponse` from the curve that explains the
-    bracket best (:func:`fit_response`, OpenCV's Debevec and Robertson beside it), with
+    """A :class:`~provider.core.radiometry.response.CameraResponse` from the curve
+    :func:`fit_response` keeps (the smoothest of those that explain the bracket within
+    :data:`SCORE_SLACK` of the best; OpenCV's Debevec and Robertson beside them), with
     ``params["quality"]``: the disagreement of this curve and of sRGB per code range, and
     ``params["trusted_codes"]`` (the codes every channel explains) and
     ``params["trusted_codes_rgb"]`` (each channel's own). Bad input raises
