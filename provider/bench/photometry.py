@@ -88,7 +88,7 @@ def span(names):
         response = calibrate_best(frames, times)
         plain = type(response)(response.table, method=response.method,
                                params={k: v for k, v in response.params.items()
-                                       if k != "trusted_codes"})
+                                       if not k.startswith("trusted_codes")})
         change = []
         for r in (response, plain):
             levels = [projector.project(merge(*cam.bracket(hdr, t0, evs, seed=1), r)

@@ -52,13 +52,15 @@ def run(args) -> int:
     from ..bench.response_plot import plot_response
     from ..core.errors import InputError
     from ..core.radiometry.response import DEBEVEC_LAMBDA, DEBEVEC_SAMPLES, calibrate
-    from ..core.radiometry.response_fit import calibrate_best, disagreement
+    from ..core.radiometry.response_fit import (calibrate_best, disagreement,
+                                                frame_disagreement)
     from ..live.probe.camerafile import save_camera
     from .compute import exposure_of
     from .frames import read_exposed_frames
     camera, picture = check_arguments(args)
     print(f"reading {len(args.frames)} frames ...", file=sys.stderr, flush=True)
-    images, exposures, paths = read_exposed_frames(args.frames, need_times=True)
+    images, exposures, paths = read_exposed_frames(args.frames, need_times=True,
+                                                   command="calibrate-response")
     times, gain, f_number = exposure_of(exposures)
     f_number, iso = args.f_number or f_number, args.iso or exposures[0].iso
     check_frames(images, times, args.samples)
@@ -78,6 +80,7 @@ def run(args) -> int:
         raise InputError("the calibration gave a broken curve (not positive and finite): "
                          "are the frames one static view with these exposure times?")
     response.params["frames"] = [os.path.basename(p) for p in paths]
+    response.params["frame_disagreement_stops"] = frame_disagreement(images, times, response)
     if args.lux is not None:
         response.params["absolute"] = absolute_scale(response, images, times, args.lux,
                                                      f_number, iso, args.projection)
@@ -91,9 +94,41 @@ def run(args) -> int:
     png = picture.path
     from .checker import checker_lines
     print("\n".join(summary_lines(response) + quality_lines(response)
-                    + absolute_lines(response) + checker_lines(response)))
+                    + agreement_lines(response) + absolute_lines(response)
+                    + checker_lines(response)))
     print(f"wrote {args.output} and {png}")
+    warn_disagreement(response)
     return 0
+
+
+def agreement_lines(response) -> list[str]:
+    """Each frame's light against the others' merge, in stops (camera.json
+    ``params.frame_disagreement_stops``)."""
+    stops = response.params.get("frame_disagreement_stops") or []
+    names = response.params.get("frames") or [f"frame {i}" for i in range(len(stops))]
+    known = [v for v in stops if v is not None]
+    if not known:
+        return []
+    return ["each frame's light against the other frames' merge (stops; its exposure "
+            "time, f-number and ISO as given): "
+            + ", ".join(f"{n} {'?' if v is None else f'{v:+.3f}'}"
+                        for n, v in zip(names, stops))
+            + f"; they agree within {max(abs(v) for v in known):.3f} stops"]
+
+
+def warn_disagreement(response) -> None:
+    """One warning per frame further than FRAME_DISAGREEMENT_WARN_STOPS from the others."""
+    from ..core.radiometry.response_fit import FRAME_DISAGREEMENT_WARN_STOPS as LIMIT
+    from .feedback import say
+    stops = response.params.get("frame_disagreement_stops") or []
+    for name, v in zip(response.params.get("frames") or [], stops):
+        if v is not None and abs(v) > LIMIT:
+            say("calibrate-response", "warning",
+                f"{name} is {v:+.2f} stops ({2 ** v - 1:+.0%}) from the other frames' light: "
+                "its exposure time, f-number or ISO is not what the camera did (a rounded "
+                "or wrong EXIF, a frame of another bracket?); the curve"
+                + (" and the absolute scale carry" if response.params.get("absolute")
+                   else " carries") + " it")
 
 
 def absolute_scale(response, images, times, lux, f_number, iso, projection) -> dict:
@@ -226,8 +261,12 @@ def quality_lines(response) -> list[str]:
                      f"  {name}")
     trusted = response.params.get("trusted_codes")
     if trusted:
-        lines.append(f"trusted codes {trusted[0]}-{trusted[1]} (enough pixel pairs in every "
-                     "channel); beyond them the curve is extrapolated, monotone")
+        own = response.params.get("trusted_codes_rgb")
+        each = (" (r " + ", g ".join(f"{a}-{b}" for a, b in own[:2]) + f", b {own[2][0]}-"
+                f"{own[2][1]} alone)") if own else ""
+        lines.append(f"trusted codes {trusted[0]}-{trusted[1]} in every channel{each}: enough "
+                     "pixel pairs, well explained; beyond them the curve is extrapolated, "
+                     "monotone, and a bracket's merge weighs those codes 1000× less")
     fit = response.params.get("fit")
     if fit:
         lines.append("chosen: " + fit["method"] + (f" lambda {fit['lambda']:g}"

@@ -61,7 +61,8 @@ def wire_message(args, command: str = "compute") -> dict:
     several = len(args.image) > 1
     say_fifo_waits(args.image, command)
     images, exposures, paths = read_exposed_frames(args.image, need_times=several,
-                                                   max_pixels=args.max_frame_pixels)
+                                                   max_pixels=args.max_frame_pixels,
+                                                   command=command)
     times, gain, f_number = exposure_of(exposures)
     options = engine_options(args)
     image = images[0]

@@ -41,25 +41,36 @@ def read_frames(texts, *, need_times: bool, max_pixels: int = 0):
     return images, [e.exposure_s for e in exposures], paths
 
 
-def read_exposed_frames(texts, *, need_times: bool, max_pixels: int = 0):
+def read_exposed_frames(texts, *, need_times: bool, max_pixels: int = 0,
+                        command: str | None = None):
     """Images, what each says of its exposure (:class:`~provider.core.radiometry.exif.
     StillExposure`: ``@SECONDS`` wins over EXIF ExposureTime; f-number and ISO from EXIF)
-    and paths of ``FRAME[@SECONDS]`` arguments."""
+    and paths of ``FRAME[@SECONDS]`` arguments. An EXIF number no camera records is not
+    used: ``command`` (its name) says so on stderr, one warning per value."""
     from ..core.radiometry.exif import StillExposure, read_still_exposure
     from ..core.radiometry.images import read_image
+    from .feedback import say
     items = [parse_frame(t) for t in texts]
     for p, _ in items:
         if "@" in p and not os.path.exists(p):
             raise InputError(f"no such file: {p} (an exposure time after '@' is a decimal or "
                              "a fraction such as 1/60)")
-    exposures = []
+    exposures, why = [], {}
     for p, t in items:
         e = read_still_exposure(p)
-        exposures.append(StillExposure(t or e.exposure_s, e.f_number, e.iso))
+        exposures.append(StillExposure(t or e.exposure_s, e.f_number, e.iso,
+                                       e.exposure_bias_ev))
+        refused = [r for r in e.refused if not (t and r.startswith("EXIF ExposureTime"))]
+        if refused:
+            why[p] = refused
     if need_times:
         missing = [p for (p, _), e in zip(items, exposures) if e.exposure_s is None]
         if missing:
+            first = f" ({why[missing[0]][0]})" if missing[0] in why else ""
             raise InputError(f"every frame needs its exposure time as FRAME@SECONDS (e.g. "
                              f"{missing[0]}@1/60) or in its EXIF (ExposureTime); missing "
-                             f"for: {', '.join(missing)}")
+                             f"for: {', '.join(missing)}{first}")
+    for p, lines in why.items() if command else ():
+        for line in lines:
+            say(command, "warning", f"{p}: {line}")
     return ([read_image(p, max_pixels) for p, _ in items], exposures, [p for p, _ in items])

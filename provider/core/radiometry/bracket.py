@@ -52,20 +52,38 @@ def hat_weights(bits: int = 8, trusted=None) -> np.ndarray:
     """Debevec's hat ``w(z) = min(z, top − z)`` (0 at black and at clipping), float64.
 
     ``trusted``: the (lo, hi) 8-bit codes where the curve was calibrated (camera.json's
-    ``params.trusted_codes``); codes outside weigh :data:`UNTRUSTED_WEIGHT` × the hat. Why:
-    a bracket wider than the calibration's puts the extra frames' samples in the toe and
-    the shoulder, where the curve is extrapolated; with the plain hat their weight (code 30
-    weighs 30) moved a room's level by up to 5.5 % between a ±4 and a ±6 EV bracket of one
-    simulated camera (docs/photometry.md)."""
+    ``params.trusted_codes``), or one (lo, hi) per channel (``params.trusted_codes_rgb``:
+    then the weights are (2**bits, 3)); codes outside weigh :data:`UNTRUSTED_WEIGHT` × the
+    hat. Why: a bracket wider than the calibration's puts the extra frames' samples in the
+    toe and the shoulder, where the curve is extrapolated; with the plain hat their weight
+    (code 30 weighs 30) moved a room's level by up to 5.5 % between a ±4 and a ±6 EV
+    bracket of one simulated camera (docs/photometry.md). Per channel, because a tinted
+    room puts one channel's samples low in the codes where another channel's curve is not
+    trusted: one range for all made the weakest channel's toe every channel's."""
     top = _top(bits)
     z = np.arange(top + 1, dtype=np.float64)
     w = np.minimum(z, top - z)
-    if trusted is not None:
-        lo, hi = (int(v) for v in trusted)
-        if bits == 16:
-            lo, hi = lo * 257, hi * 257
-        w[(z < lo) | (z > hi)] *= UNTRUSTED_WEIGHT
+    if trusted is None:
+        return w
+    ranges = np.asarray(trusted, np.int64) * (257 if bits == 16 else 1)
+    if ranges.ndim == 1:
+        w[(z < ranges[0]) | (z > ranges[1])] *= UNTRUSTED_WEIGHT
+        return w
+    w = np.repeat(w[:, None], 3, axis=1)
+    for c, (lo, hi) in enumerate(ranges):
+        w[(z < lo) | (z > hi), c] *= UNTRUSTED_WEIGHT
     return w
+
+
+def trusted_ranges(response: CameraResponse):
+    """The codes where ``response`` was calibrated: camera.json's per-channel
+    ``trusted_codes_rgb`` where it has them, else ``trusted_codes`` (one range), else
+    None (every code trusted: sRGB, a gamma, a table without a record)."""
+    p = response.params
+    own = p.get("trusted_codes_rgb")
+    if isinstance(own, (list, tuple)) and len(own) == 3:
+        return own
+    return p.get("trusted_codes")
 
 
 @dataclass
@@ -86,7 +104,7 @@ class Merged:
 
 def _slot_tables(response: CameraResponse, times: np.ndarray, gain: float):
     """Per frame: (numerator table w·g/(t·gain), weight table w) for the hat merge."""
-    w0 = hat_weights(response.bits, response.params.get("trusted_codes"))
+    w0 = hat_weights(response.bits, trusted_ranges(response))
     top = _top(response.bits)
     short, long_ = int(np.argmin(times)), int(np.argmax(times))
     out = []
@@ -96,9 +114,9 @@ def _slot_tables(response: CameraResponse, times: np.ndarray, gain: float):
             w[top] = END_WEIGHT
         if i == long_:
             w[0] = END_WEIGHT
-        num = w[:, None] * response.table / (t * gain)
-        out.append((_as_lut(num, response.bits, response.channels_identical),
-                    _as_lut(w, response.bits, True)))
+        num = (w if w.ndim == 2 else w[:, None]) * response.table / (t * gain)
+        out.append((_as_lut(num, response.bits, response.channels_identical and w.ndim == 1),
+                    _as_lut(w, response.bits, w.ndim == 1)))
     return out
 
 
@@ -117,11 +135,13 @@ def merge(frames, times, response: CameraResponse, *, gain: float = 1.0) -> Merg
     """Hat-weighted merge of a bracket into radiance per second of exposure.
 
     ``R = Σ_i w(z_i) g(z_i)/(t_i·gain) / Σ_i w(z_i)`` per channel sample, ``w`` the hat
-    (:func:`hat_weights`, near 0 outside a calibrated curve's trusted codes, so a bracket's
-    span does not move the scale): a sample clipped or black in one frame gets weight 0 there and
-    is taken from the others; a sample clipped in every frame gets the shortest frame's
-    clip level (``END_WEIGHT``), a lower bound. 8-bit frames go through cv2.LUT, 16-bit
-    through numpy gathers.
+    (:func:`hat_weights`, near 0 outside a calibrated curve's trusted codes, each channel's
+    own, so a bracket's span does not move the scale): a sample clipped or black in one
+    frame gets weight 0 there and is taken from the others; a sample clipped in every frame
+    gets the shortest frame's clip level (``END_WEIGHT``), a lower bound. A sample that a
+    shorter frame shows brighter than this frame can measure (above its curve's last trusted
+    code) is clipped whatever its code says (:func:`_evidence`). 8-bit frames go through
+    cv2.LUT, 16-bit through numpy gathers.
     """
     frames, times, bits = check_bracket(frames, times)
     gain = check_time(gain, "gain")
@@ -130,12 +150,64 @@ def merge(frames, times, response: CameraResponse, *, gain: float = 1.0) -> Merg
                             f"(use response.to_bits({bits}))")
     num = np.zeros(frames[0].shape, np.float32)
     den = np.zeros(frames[0].shape, np.float32)
-    for f, (nt, wt) in zip(frames, _slot_tables(response, times, gain)):
+    tables = _slot_tables(response, times, gain)
+    evidence, ceiling = _evidence(response)
+    top = _top(bits)
+    shorter = None
+    for i in np.argsort(times, kind="stable"):
+        f, (nt, wt) = frames[i], tables[i]
+        if shorter is not None:
+            # the codes of the next shorter frame that prove more light than this frame
+            # measures (g(z)/t_j ≥ g(hi)/t_i); a clipped one does (g(hi)/t_j > g(hi)/t_i),
+            # so the next shorter frame speaks for all the shorter ones
+            ratio = times[shorter] / times[i]
+            proof = [int(np.searchsorted(evidence[:, c], ceiling[c] * ratio)) for c in range(3)]
+            f = _as_clipped(f, frames[shorter], proof, top)
         num += apply_lut(f, nt)
         den += apply_lut(f, wt)
+        shorter = i
     rad = np.divide(num, den, out=np.zeros_like(num), where=den > 0)
     clipped, black = _extreme_fractions(frames, bits)
     return Merged(rad, clipped, black, times.tolist())
+
+
+def _evidence(response: CameraResponse) -> tuple[np.ndarray, np.ndarray]:
+    """What a sample proves of its light, for :func:`merge`: a table (2**bits, 3) of the
+    exposure it shows at least (0 below the curve's trusted codes, where the curve is
+    extrapolated and noise rules; g(hi) above them, a clipped sample included), and (3,)
+    the most a frame measures on its trusted codes, g(hi) (lo, hi: each channel's trusted
+    codes, else 1 and the code below the top).
+
+    Why :func:`merge` takes a sample that a shorter frame shows above that as clipped: a
+    JPEG rings at the edge of a clipped lamp, and the codes it decodes there (245-254 where
+    the sensor clipped) read as light just below the clip; the five longer frames of a
+    ±6 EV bracket each outvoted the short frame that measured the lamp, and a room lit by
+    bright tubes read 3.1 % low (now 1.6 %). The shorter frame's light proves them clipped."""
+    top = _top(response.bits)
+    ranges = trusted_ranges(response)
+    scale = 257 if response.bits == 16 else 1
+    if ranges is None:
+        ranges = [(1, top - 1)] * 3
+    elif np.ndim(ranges) == 1:
+        ranges = [ranges] * 3
+    table = response.table.copy()
+    ceiling = np.empty(3)
+    for c, (lo, hi) in enumerate(ranges):
+        lo, hi = int(lo) * scale, min(int(hi) * scale, top - 1)
+        table[:lo, c] = 0.0
+        table[hi + 1:, c] = ceiling[c] = table[hi, c]
+    return table, ceiling
+
+
+def _as_clipped(frame: np.ndarray, shorter: np.ndarray, proof, top: int) -> np.ndarray:
+    """``frame`` with the top code wherever ``shorter`` has a code at or above ``proof``
+    (one per channel): those samples weigh 0 in the merge, as clipped ones do. uint8 frames
+    through OpenCV (a lookup and a max: no float work)."""
+    if frame.dtype == np.uint8:
+        codes = np.arange(256)[:, None]
+        lut = np.where(codes >= np.asarray(proof)[None, :], 255, 0).astype(np.uint8)
+        return cv2.max(frame, cv2.LUT(shorter, lut.reshape(256, 1, 3)))
+    return np.where(shorter >= np.asarray(proof, np.int64), frame.dtype.type(top), frame)
 
 
 def merge_opencv(frames, times, response: CameraResponse) -> np.ndarray:

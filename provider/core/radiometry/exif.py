@@ -7,7 +7,15 @@ put them in IFD0 itself, read too), EXIF 2.32 (CIPA DC-008):
 * 0x829A ``ExposureTime``  RATIONAL, seconds;
 * 0x829D ``FNumber``       RATIONAL;
 * 0x8827 ``PhotographicSensitivity`` (EXIF 2.2's ``ISOSpeedRatings``) SHORT; a value of
-  65535 means "above 65534": the ``RecommendedExposureIndex`` (0x8832, LONG) then says it.
+  65535 means "above 65534": the ``RecommendedExposureIndex`` (0x8832, LONG) then says it;
+* 0x9204 ``ExposureBiasValue`` SRATIONAL, EV.
+
+The standard's types are what cameras write, but Pillow writes a Python float as DOUBLE and
+some tools write FLOAT, SHORT or LONG: every numeric TIFF type is read (BYTE, SHORT, LONG,
+RATIONAL, SBYTE, SSHORT, SLONG, SRATIONAL, FLOAT, DOUBLE), so a still is not refused as
+having no exposure for the type its writer chose. A number no camera records (a negative
+time, an f-number of 0.1: :mod:`.photometry`'s bounds) is not used, and
+``StillExposure.refused`` says why in one line.
 
 A reader of the standard TIFF tag layout (a few dozen lines) rather than a dependency: the
 core stays on numpy + OpenCV, and OpenCV does not read EXIF. Malformed or missing EXIF is not
@@ -22,6 +30,7 @@ import struct
 from dataclasses import dataclass
 
 from .image_size import jpeg_segments
+from .photometry import EXPOSURE_S_RANGE, F_NUMBER_RANGE, ISO_RANGE
 
 #: The JPEG header is read up to here at most (EXIF lives in APP1, at most 64 KiB, near the
 #: start; a Theta still puts its XMP and EXIF in its first segments).
@@ -32,7 +41,12 @@ EXPOSURE_TIME = 0x829A
 F_NUMBER = 0x829D
 ISO = 0x8827
 RECOMMENDED_EXPOSURE_INDEX = 0x8832
-_SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 7: 1, 9: 4, 10: 8}
+EXPOSURE_BIAS = 0x9204
+#: TIFF 6.0 field types: (byte size, struct code; None for the two-LONG rationals).
+_TYPES = {1: (1, "B"), 2: (1, None), 3: (2, "H"), 4: (4, "I"), 5: (8, "II"), 6: (1, "b"),
+          7: (1, "B"), 8: (2, "h"), 9: (4, "i"), 10: (8, "ii"), 11: (4, "f"), 12: (8, "d")}
+#: An exposure bias beyond this (EV) is no camera's setting (they offer ±5, some ±7).
+EXPOSURE_BIAS_RANGE = (-16.0, 16.0)
 
 
 @dataclass(frozen=True)
@@ -40,11 +54,15 @@ class StillExposure:
     """What a still says of its own exposure; None where it does not say.
 
     exposure_s : exposure time, seconds; f_number : the aperture's f-number N;
-    iso : the ISO speed (sensitivity) the camera recorded."""
+    iso : the ISO speed (sensitivity) the camera recorded; exposure_bias_ev : the exposure
+    compensation the camera applied (EV, for the record: the time already holds it);
+    refused : one line per value the EXIF holds but no camera records (not used)."""
 
     exposure_s: float | None = None
     f_number: float | None = None
     iso: float | None = None
+    exposure_bias_ev: float | None = None
+    refused: tuple = ()
 
     @property
     def complete(self) -> bool:
@@ -52,8 +70,18 @@ class StillExposure:
         return None not in (self.exposure_s, self.f_number, self.iso)
 
 
-def _positive(v) -> float | None:
-    return float(v) if v is not None and math.isfinite(v) and v > 0 else None
+def _bounded(tags: dict, tag: int, name: str, bounds, unit: str, refused: list):
+    """The tag's number when it lies within ``bounds`` (low exclusive when 0), else None,
+    with a line in ``refused`` when it was there but out of bounds."""
+    v = tags.get(tag)
+    if v is None or math.isnan(v):      # absent, or a rational 0/0 ("unknown")
+        return None
+    low, high = bounds
+    if math.isfinite(v) and (v > low if low == 0 else v >= low) and v <= high:
+        return float(v)
+    refused.append(f"EXIF {name} {v:g}{unit} is not one a camera records ({low:g} to "
+                   f"{high:g}{unit}): not used")
+    return None
 
 
 class _Tiff:
@@ -73,7 +101,8 @@ class _Tiff:
         self.ifd0 = struct.unpack(self.e + "I", data[4:8])[0]
 
     def tags(self, offset: int) -> dict:
-        """{tag: value} of the IFD at ``offset`` (numbers only; the first of a list)."""
+        """{tag: value} of the IFD at ``offset`` (numbers of every numeric type, as float or
+        int; the first of a list; a rational with a zero denominator is NaN)."""
         e, d = self.e, self.data
         if offset + 2 > len(d):
             raise ValueError("IFD beyond the data")
@@ -84,22 +113,18 @@ class _Tiff:
             if at + 12 > len(d):
                 break
             tag, kind, count = struct.unpack(e + "HHI", d[at:at + 8])
-            size = _SIZES.get(kind)
-            if size is None or count < 1:
+            size, code = _TYPES.get(kind, (None, None))
+            if code is None or count < 1:
                 continue
             where = at + 8 if size * count <= 4 else struct.unpack(e + "I", d[at + 8:at + 12])[0]
             if where + size > len(d):
                 continue
-            raw = d[where:where + size]
-            if kind == 3:
-                out[tag] = struct.unpack(e + "H", raw)[0]
-            elif kind in (4, 9):
-                out[tag] = struct.unpack(e + ("I" if kind == 4 else "i"), raw)[0]
-            elif kind in (5, 10):
-                num, den = struct.unpack(e + ("II" if kind == 5 else "ii"), raw)
+            value = struct.unpack(e + code, d[where:where + size])
+            if len(value) == 2:          # RATIONAL, SRATIONAL
+                num, den = value
                 out[tag] = num / den if den else float("nan")
-            elif kind in (1, 7):
-                out[tag] = raw[0]
+            else:
+                out[tag] = value[0]
         return out
 
 
@@ -113,11 +138,16 @@ def exposure_from_tiff(data: bytes) -> StillExposure:
             tags = {**tags, **tiff.tags(int(tags[EXIF_IFD]))}
     except (ValueError, struct.error):
         return StillExposure()
-    iso = tags.get(ISO)
-    if iso == 65535 and tags.get(RECOMMENDED_EXPOSURE_INDEX):
-        iso = tags[RECOMMENDED_EXPOSURE_INDEX]
-    return StillExposure(_positive(tags.get(EXPOSURE_TIME)), _positive(tags.get(F_NUMBER)),
-                         _positive(iso))
+    if tags.get(ISO) == 65535 and tags.get(RECOMMENDED_EXPOSURE_INDEX):
+        tags[ISO] = tags[RECOMMENDED_EXPOSURE_INDEX]
+    refused: list = []
+    return StillExposure(
+        _bounded(tags, EXPOSURE_TIME, "ExposureTime", EXPOSURE_S_RANGE, " s", refused),
+        _bounded(tags, F_NUMBER, "FNumber", F_NUMBER_RANGE, "", refused),
+        _bounded(tags, ISO, "ISO", ISO_RANGE, "", refused),
+        _bounded(tags, EXPOSURE_BIAS, "ExposureBiasValue", EXPOSURE_BIAS_RANGE, " EV",
+                 refused),
+        tuple(refused))
 
 
 def exif_payload(jpeg: bytes) -> bytes | None:
