@@ -131,3 +131,42 @@ def test_unity_light_probes_hold_the_servers_grid(probes_file, grid_exe):
     assert out["moved"] and out["count_after_move"] == 75
     assert out["tetrahedralizations_after_move"] == 2 == out["stand_in_tetrahedralize_calls"]
     assert "401" in out["wrong_token_error"]
+
+
+@pytest.fixture(scope="module")
+def point_exe(tmp_path_factory):
+    mcs, _ = _mono_tools()
+    out = tmp_path_factory.mktemp("point_light") / "PointLightTest.exe"
+    cmd = [mcs, "-nologo", "-warnaserror+", "-nowarn:618", "-target:exe", f"-out:{out}",
+           *map(str, [*CORE, *RUNTIME, STANDIN, CSHARP / "PointLightTest.cs"])]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, f"mcs failed:\n{r.stdout}\n{r.stderr}"
+    return out
+
+
+def test_a_renderer_gets_the_light_where_it_stands(probes_file, point_exe):
+    """SH9PointLight: a sphere not on light probes gets, as its own probe, the light at its
+    position (shlight interpolate's there), then where it moved to; disabled, it is given back."""
+    _, mono = _mono_tools()
+    at, moved = np.array([3.0, 1.2, 1.2]), np.array([4.0, 1.0, 2.5])       # wire frame
+    normals = np.vstack([np.eye(3), -np.eye(3), sh.fibonacci_sphere(20)])
+    with ServerThread(*_serve_args(probes_file)) as srv:
+        args = [srv.url, TOKEN, *map(str, at * S), *map(str, moved * S),
+                ";".join(",".join(map(str, n)) for n in normals * S)]
+        r = subprocess.run([mono, str(point_exe), *args], capture_output=True, text=True,
+                           timeout=300)
+        assert r.returncode == 0, r.stdout + r.stderr
+        out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["first"], out["error"]
+    assert out["usage"] == "CustomProvided"
+    # Unity's frame: the renderer's probe at S n shows E(n)/π of the light at the point (float32)
+    for place, shown in ((at, out["evaluated"]), (moved, out["evaluated_moved"])):
+        r = subprocess.run([sys.executable, "-m", "provider.cli", "interpolate", str(probes_file),
+                            "--at", ",".join(map(str, place)), "--room", room.room_box()],
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+        cli = np.reshape(json.loads(r.stdout)["points"][0]["coefficients"], (9, 3))
+        E = sh.irradiance(cli, normals) / np.pi
+        assert np.allclose(np.reshape(shown, (-1, 3)), E, rtol=1e-5, atol=1e-5 * np.abs(E).max())
+    assert out["followed"] and out["moved_position"] == moved.tolist()
+    assert out["usage_after"] == "BlendProbes" and out["block_after"] is None

@@ -202,6 +202,13 @@ namespace UnityEngine
         {
             StandInPropertyBlock = properties == null ? null : properties.StandInCopy();
         }
+
+        // Unity fills the block given with the renderer's (Renderer.GetPropertyBlock), clearing it first.
+        public void GetPropertyBlock(MaterialPropertyBlock dest)
+        {
+            dest.Clear();
+            if (StandInPropertyBlock != null) dest.StandInCopyFrom(StandInPropertyBlock);
+        }
     }
 
     public class MeshRenderer : Renderer { }
@@ -209,17 +216,34 @@ namespace UnityEngine
     public sealed class MaterialPropertyBlock
     {
         readonly Dictionary<int, Color> colors = new Dictionary<int, Color>();
+        Rendering.SphericalHarmonicsL2[] shArrays;
         public void SetColor(string name, Color value) { SetColor(Shader.PropertyToID(name), value); }
         public void SetColor(int nameID, Color value) { colors[nameID] = value; }
-        public void Clear() { colors.Clear(); }
-        public bool isEmpty { get { return colors.Count == 0; } }
+        public void Clear() { colors.Clear(); shArrays = null; }
+        public bool isEmpty { get { return colors.Count == 0 && shArrays == null; } }
+
+        // Unity packs each probe into unity_SHAr..unity_SHC for renderers with LightProbeUsage.CustomProvided
+        // (UnityCsReference Runtime/Export/Shaders/MaterialPropertyBlock.cs); the stand-in keeps the probes.
+        public void CopySHCoefficientArraysFrom(Rendering.SphericalHarmonicsL2[] lightProbes)
+        {
+            if (lightProbes == null) throw new ArgumentNullException("lightProbes");
+            shArrays = (Rendering.SphericalHarmonicsL2[])lightProbes.Clone();
+        }
 
         /// <summary>Stand-in only.</summary>
         public bool StandInTryGetColor(string name, out Color value) { return colors.TryGetValue(Shader.PropertyToID(name), out value); }
+        /// <summary>Stand-in only: the probes last given to CopySHCoefficientArraysFrom; null if none.</summary>
+        public Rendering.SphericalHarmonicsL2[] StandInSH { get { return shArrays; } }
+        internal void StandInCopyFrom(MaterialPropertyBlock other)
+        {
+            foreach (KeyValuePair<int, Color> kv in other.colors) colors[kv.Key] = kv.Value;
+            shArrays = other.shArrays;
+        }
         internal MaterialPropertyBlock StandInCopy()
         {
             var copy = new MaterialPropertyBlock();
             foreach (KeyValuePair<int, Color> kv in colors) copy.colors[kv.Key] = kv.Value;
+            copy.shArrays = shArrays == null ? null : (Rendering.SphericalHarmonicsL2[])shArrays.Clone();
             return copy;
         }
     }
