@@ -87,6 +87,10 @@ def _interpolate(probes_file, at):
 
 
 def test_unity_light_probes_hold_the_servers_grid(probes_file, grid_exe):
+    """SH9ProbeGrid: the scene's light probes hold the server's grid in Unity's frame and
+    convention; a sphere at a grid point evaluates to the command's light there; refreshes keep
+    the tetrahedra, a new step rebuilds them; a scene without light probes or a wrong token is
+    reported, not thrown."""
     _, mono = _mono_tools()
     # the box in the wire frame: x 1..3, y 0.5..1.5, z 1..3 -> Unity's z -3..-1
     lo, hi, step = np.array([1, 0.5, 1.0]), np.array([3, 1.5, 3.0]), 1.0
@@ -105,6 +109,8 @@ def test_unity_light_probes_hold_the_servers_grid(probes_file, grid_exe):
                                    f"&token={TOKEN}")
         assert status == 200
         server = json.loads(body)
+    # a scene without baked light probes: said how to fix, nothing filled
+    assert "bake a Light Probe Group" in out["no_probes_error"] and out["fills_without_probes"] == 0
     assert out["first"], out["error"]
     positions = np.reshape(server["positions"], (-1, 3))
     assert len(positions) == 18

@@ -1,6 +1,7 @@
 // Drives SH9ProbeGrid (the package's MonoBehaviour) against a live `shlight serve` through Unity's player
 // loop as tests/unity_stubs/UnityEngineStandIn.cs plays it (NOT Unity): the scene's LightProbes are filled
 // from /probe-grid.json, refilled at the refresh rate, re-tetrahedralised only when the points move.
+// First with no LightProbes in the scene (the component says to bake a Light Probe Group), then with one.
 // Arguments: URL TOKEN MINX MINY MINZ MAXX MAXY MAXZ STEP ATX ATY ATZ (Unity's frame) [NORMALS (x,y,z;...)].
 // Prints one JSON object: the probes' positions and values after the first fill, the probe at AT evaluated
 // at NORMALS (Unity's frame) with SphericalHarmonicsL2.Evaluate, and the counts of the phases.
@@ -42,7 +43,7 @@ static class ProbeGridTest
     static int Main(string[] a)
     {
         var probes = LightProbes.StandInCreate();
-        LightmapSettings.lightProbes = probes;
+        LightmapSettings.lightProbes = null;       // first a scene without baked light probes
         var go = new GameObject("grid");
         var grid = go.AddComponent<SH9ProbeGrid>();
         grid.ServerUrl = a[0];
@@ -61,6 +62,9 @@ static class ProbeGridTest
             }
         var o = new StringBuilder("{");
         Call(grid, "OnEnable");
+        Play(grid, () => grid.LastError != null && grid.LastError.Contains("Light Probe Group"), 90);
+        o.Append("\"no_probes_error\":" + MiniJson.Quote(grid.LastError ?? "") + ",\"fills_without_probes\":" + grid.Fills + ",");
+        LightmapSettings.lightProbes = probes;
         // the server may not have every probe's frame yet: 503s until it has
         bool first = Play(grid, () => grid.Fills >= 1, 90);
         o.Append("\"first\":" + (first ? "true" : "false") + ",\"error\":" + MiniJson.Quote(grid.LastError ?? ""));
