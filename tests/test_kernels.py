@@ -102,6 +102,14 @@ def _lamp_frame(w, h, seed):
     return frame
 
 
+#: The C fold against numpy's band by band path: float32 sums over 10^5-10^6 pixels in other
+#: orders (the kernel's rows and quarters, numpy's and the BLAS's blocks, which each CPU's
+#: BLAS kernels order its own way). Measured: 2e-6 of the largest coefficient on x86-64,
+#: 9.4e-6 on aarch64 (Debian 12's OpenBLAS NEON kernels, scripts/arm64.sh); a wrong weight or
+#: a missed pixel is 1e-3 or more.
+FOLD_ATOL = 3e-5
+
+
 def _both_paths(monkeypatch, build, frame):
     from provider.core.sh9 import lens_fold
     with_kernel = build().project(frame)
@@ -123,7 +131,7 @@ def test_fold_kernel_gives_the_numpy_fold_coefficients(case, monkeypatch, kernel
     got, want = _both_paths(monkeypatch, lambda: SH9Projector(w, h, name, **options), frame)
     assert calls, "the 8-bit frame went through the kernel"
     scale = np.abs(want.coefficients).max()
-    np.testing.assert_allclose(got.coefficients, want.coefficients, atol=2e-6 * scale)
+    np.testing.assert_allclose(got.coefficients, want.coefficients, atol=FOLD_ATOL * scale)
     assert got.stats["clipped_fraction"] == want.stats["clipped_fraction"]
 
 
@@ -141,7 +149,7 @@ def test_fold_kernel_reads_a_camera_table_and_a_window_of_the_frame(monkeypatch,
     got, want = _both_paths(monkeypatch, lambda: SH9Projector(
         640, 480, "fisheye", response=response), frame)
     scale = np.abs(want.coefficients).max()
-    np.testing.assert_allclose(got.coefficients, want.coefficients, atol=2e-6 * scale)
+    np.testing.assert_allclose(got.coefficients, want.coefficients, atol=FOLD_ATOL * scale)
 
 
 def test_fold_kernel_gives_the_lights_the_block_means_of_what_they_see(monkeypatch,
@@ -167,7 +175,8 @@ def test_fold_kernel_gives_the_lights_the_block_means_of_what_they_see(monkeypat
     for a, b in zip(got.lights, want.lights):
         np.testing.assert_allclose(a.direction, b.direction, atol=1e-5)
         np.testing.assert_allclose(a.irradiance, b.irradiance, rtol=1e-4)
-    assert got.stats["light_error"] == pytest.approx(want.stats["light_error"], rel=1e-4)
+    # a relative RMS error of ~1e-3, moved by at most the coefficients' own difference
+    assert got.stats["light_error"] == pytest.approx(want.stats["light_error"], abs=FOLD_ATOL)
 
 
 def test_fold_kernel_frames_in_a_row_leave_nothing_behind(kernels):
@@ -257,4 +266,4 @@ def test_without_the_c_kernels_the_twins_are_chosen_at_import():
     got = np.array(json.loads(done.stdout))
     want = SH9Projector(160, 120, "fisheye").project(frame).coefficients
     # the band by band float32 path against the C fold's: float32 sums in other orders
-    np.testing.assert_allclose(got, want, atol=2e-6 * np.abs(want).max())
+    np.testing.assert_allclose(got, want, atol=FOLD_ATOL * np.abs(want).max())

@@ -18,7 +18,8 @@ import sys
 import cv2
 import numpy as np
 
-from ..core.radiometry.bracket import merge, project_bracket
+from ..core.radiometry.bracket import merge
+from ..core.sh9.bracket_projection import project_bracket
 from ..core.radiometry.colour_temperature import cct_duv, rgb_of_cct
 from ..core.radiometry.images import read_image
 from ..core.radiometry.photometry import NOMINAL_CD_M2, calibrate_absolute, luminance

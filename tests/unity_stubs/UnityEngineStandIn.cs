@@ -202,6 +202,13 @@ namespace UnityEngine
         {
             StandInPropertyBlock = properties == null ? null : properties.StandInCopy();
         }
+
+        // Unity fills the block given with the renderer's (Renderer.GetPropertyBlock), clearing it first.
+        public void GetPropertyBlock(MaterialPropertyBlock dest)
+        {
+            dest.Clear();
+            if (StandInPropertyBlock != null) dest.StandInCopyFrom(StandInPropertyBlock);
+        }
     }
 
     public class MeshRenderer : Renderer { }
@@ -209,17 +216,34 @@ namespace UnityEngine
     public sealed class MaterialPropertyBlock
     {
         readonly Dictionary<int, Color> colors = new Dictionary<int, Color>();
+        Rendering.SphericalHarmonicsL2[] shArrays;
         public void SetColor(string name, Color value) { SetColor(Shader.PropertyToID(name), value); }
         public void SetColor(int nameID, Color value) { colors[nameID] = value; }
-        public void Clear() { colors.Clear(); }
-        public bool isEmpty { get { return colors.Count == 0; } }
+        public void Clear() { colors.Clear(); shArrays = null; }
+        public bool isEmpty { get { return colors.Count == 0 && shArrays == null; } }
+
+        // Unity packs each probe into unity_SHAr..unity_SHC for renderers with LightProbeUsage.CustomProvided
+        // (UnityCsReference Runtime/Export/Shaders/MaterialPropertyBlock.cs); the stand-in keeps the probes.
+        public void CopySHCoefficientArraysFrom(Rendering.SphericalHarmonicsL2[] lightProbes)
+        {
+            if (lightProbes == null) throw new ArgumentNullException("lightProbes");
+            shArrays = (Rendering.SphericalHarmonicsL2[])lightProbes.Clone();
+        }
 
         /// <summary>Stand-in only.</summary>
         public bool StandInTryGetColor(string name, out Color value) { return colors.TryGetValue(Shader.PropertyToID(name), out value); }
+        /// <summary>Stand-in only: the probes last given to CopySHCoefficientArraysFrom; null if none.</summary>
+        public Rendering.SphericalHarmonicsL2[] StandInSH { get { return shArrays; } }
+        internal void StandInCopyFrom(MaterialPropertyBlock other)
+        {
+            foreach (KeyValuePair<int, Color> kv in other.colors) colors[kv.Key] = kv.Value;
+            shArrays = other.shArrays;
+        }
         internal MaterialPropertyBlock StandInCopy()
         {
             var copy = new MaterialPropertyBlock();
             foreach (KeyValuePair<int, Color> kv in colors) copy.colors[kv.Key] = kv.Value;
+            copy.shArrays = shArrays == null ? null : (Rendering.SphericalHarmonicsL2[])shArrays.Clone();
             return copy;
         }
     }
@@ -657,6 +681,62 @@ namespace UnityEngine
         }
     }
 
+    // ---- light probes at runtime (Unity 6: UnityCsReference Runtime/Export/Graphics/LightProbes.bindings.cs) ----
+    // Stand-in only: holds what is set; Tetrahedralize counts its calls; GetInterpolatedProbe answers at a probe's
+    // own position (Unity blends the tetrahedron's four; at a vertex that is the vertex's probe) and nowhere else.
+    public sealed class LightProbes : Object
+    {
+        Vector3[] positionsSelf = new Vector3[0];
+        Rendering.SphericalHarmonicsL2[] probes = new Rendering.SphericalHarmonicsL2[0];
+        public static int StandInTetrahedralizeCalls;
+        internal LightProbes() { }
+        public static LightProbes StandInCreate() { return new LightProbes(); }
+
+        public Vector3[] positions { get { return (Vector3[])positionsSelf.Clone(); } }
+        public int count { get { return positionsSelf.Length; } }
+        public Vector3[] GetPositionsSelf() { return (Vector3[])positionsSelf.Clone(); }
+        public bool SetPositionsSelf(Vector3[] positions, bool checkForDuplicatePositions)
+        {
+            if (positions == null) return false;
+            positionsSelf = (Vector3[])positions.Clone();
+            return true;
+        }
+        // Unity refuses an array of another size than the probes' count ("must match").
+        public Rendering.SphericalHarmonicsL2[] bakedProbes
+        {
+            get { return (Rendering.SphericalHarmonicsL2[])probes.Clone(); }
+            set
+            {
+                if (value == null || value.Length != positionsSelf.Length)
+                    throw new ArgumentException("bakedProbes: the array size must match the light probes' count");
+                probes = (Rendering.SphericalHarmonicsL2[])value.Clone();
+            }
+        }
+        public static void Tetrahedralize() { StandInTetrahedralizeCalls++; }
+
+        public static void GetInterpolatedProbe(Vector3 position, Renderer renderer, out Rendering.SphericalHarmonicsL2 probe)
+        {
+            LightProbes lp = LightmapSettings.lightProbes;
+            if (lp != null)
+                for (int i = 0; i < lp.positionsSelf.Length; i++)
+                {
+                    Vector3 p = lp.positionsSelf[i];
+                    if (Math.Abs(p.x - position.x) < 1e-5f && Math.Abs(p.y - position.y) < 1e-5f && Math.Abs(p.z - position.z) < 1e-5f)
+                    {
+                        probe = lp.probes[i];
+                        return;
+                    }
+                }
+            throw new NotSupportedException("stand-in: GetInterpolatedProbe only at a probe's position");
+        }
+    }
+
+    public sealed class LightmapSettings : Object
+    {
+        static LightProbes current;
+        public static LightProbes lightProbes { get { return current; } set { current = value; } }
+    }
+
     public sealed class Time
     {
         public static float unscaledTime { get { return (float)(DateTime.UtcNow - DateTime.Today).TotalSeconds; } }
@@ -848,6 +928,24 @@ namespace UnityEngine.Rendering
             }
         }
 
+        // Stand-in maths: what Unity's shaders make of these values (UnityCG.cginc's ShadeSH9 on the
+        // constants packed from them: basis 1, y, z, x, xy, yz, 3z²-1, xz, x²-y², Sh9Math.ShadeSH9), for the
+        // values the ambient probe and light probes hold. Unity's native Evaluate is not published.
+        public void Evaluate(Vector3[] directions, Color[] results)
+        {
+            if (directions == null || results == null || directions.Length != results.Length)
+                throw new ArgumentException("directions and results must have the same size");
+            for (int d = 0; d < directions.Length; d++)
+            {
+                float x = directions[d].x, y = directions[d].y, z = directions[d].z;
+                float[] basis = { 1f, y, z, x, x * y, y * z, 3f * z * z - 1f, x * z, x * x - y * y };
+                var rgb = new float[3];
+                for (int c = 0; c < 3; c++)
+                    for (int i = 0; i < 9; i++) rgb[c] += this[c, i] * basis[i];
+                results[d] = new Color(rgb[0], rgb[1], rgb[2], 1f);
+            }
+        }
+
         static int Index(int rgb, int coefficient)
         {
             if (rgb < 0 || rgb > 2 || coefficient < 0 || coefficient > 8)
@@ -877,5 +975,75 @@ namespace Unity.Collections
                 throw new ArgumentOutOfRangeException("length", "copy out of range");
             Array.Copy(src, srcIndex, dst.buffer, dstIndex, length);
         }
+    }
+}
+
+namespace UnityEngine
+{
+    public class AsyncOperation { internal volatile bool done; public bool isDone { get { return done; } } }
+}
+
+namespace UnityEngine.Networking
+{
+    // UnityWebRequest (UnityCsReference Modules/UnityWebRequest/Public/UnityWebRequest.bindings.cs), the members the
+    // package uses. Stand-in only: a real HTTP GET on a thread pool thread (HttpWebRequest); isDone turns true
+    // when the answer is in, as Unity's does between frames.
+    public sealed class UnityWebRequestAsyncOperation : AsyncOperation { }
+
+    public sealed class DownloadHandler { internal string body = ""; public string text { get { return body; } } }
+
+    public sealed class UnityWebRequest : IDisposable
+    {
+        public enum Result { InProgress, Success, ConnectionError, ProtocolError, DataProcessingError }
+        readonly string address;
+        readonly System.Collections.Generic.Dictionary<string, string> headers = new System.Collections.Generic.Dictionary<string, string>();
+        volatile Result outcome = Result.InProgress;
+        string failure;
+        long code;
+        public int timeout;
+        public readonly DownloadHandler downloadHandler = new DownloadHandler();
+        UnityWebRequest(string url) { address = url; }
+
+        public static UnityWebRequest Get(string uri) { return new UnityWebRequest(uri); }
+        public string url { get { return address; } }
+        public Result result { get { return outcome; } }
+        public string error { get { return failure; } }
+        public long responseCode { get { return code; } }
+        public bool isDone { get { return outcome != Result.InProgress; } }
+        public void SetRequestHeader(string name, string value) { headers[name] = value; }
+
+        public UnityWebRequestAsyncOperation SendWebRequest()
+        {
+            var op = new UnityWebRequestAsyncOperation();
+            System.Threading.ThreadPool.QueueUserWorkItem(_ =>
+            {
+                try
+                {
+                    var rq = (System.Net.HttpWebRequest)System.Net.WebRequest.Create(address);
+                    foreach (var h in headers) rq.Headers[h.Key] = h.Value;
+                    if (timeout > 0) rq.Timeout = timeout * 1000;
+                    System.Net.HttpWebResponse rs;
+                    try { rs = (System.Net.HttpWebResponse)rq.GetResponse(); }
+                    catch (System.Net.WebException e)
+                    {
+                        rs = e.Response as System.Net.HttpWebResponse;
+                        if (rs == null) { failure = e.Message; outcome = Result.ConnectionError; return; }
+                    }
+                    using (rs)
+                    using (var reader = new System.IO.StreamReader(rs.GetResponseStream()))
+                    {
+                        downloadHandler.body = reader.ReadToEnd();
+                        code = (long)rs.StatusCode;
+                    }
+                    if (code >= 400) failure = "HTTP/1.1 " + code;
+                    outcome = code >= 400 ? Result.ProtocolError : Result.Success;
+                }
+                catch (Exception e) { failure = e.Message; outcome = Result.ConnectionError; }
+                finally { op.done = true; }
+            });
+            return op;
+        }
+
+        public void Dispose() { }
     }
 }

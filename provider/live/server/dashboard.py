@@ -28,7 +28,7 @@ DASHBOARD_CSP = ("default-src 'none'; script-src 'self'; style-src 'self'; img-s
 #: that may import them: any (they hold no secret; ES modules are fetched with CORS).
 PUBLIC_FILES = {"/client.js": "client.js", "/client-three.js": "client-three.js",
                 "/xr-lighting-polyfill.js": "xr-lighting-polyfill.js", "/xr.html": "xr.html",
-                "/passthrough.js": "passthrough.js"}
+                "/passthrough.js": "passthrough.js", "/probe-grid-three.js": "probe-grid-three.js"}
 PUBLIC_HEADERS = [("Access-Control-Allow-Origin", "*")]
 
 
