@@ -17,12 +17,15 @@ def shlight(*args, timeout=300):
                           capture_output=True, text=True, timeout=timeout)
 
 
-def jpeg_still(path, rgb, t: float, n: float, iso: int) -> None:
-    """An 8-bit JPEG (quality 95) with EXIF ExposureTime, FNumber and ISO in the Exif IFD."""
+def jpeg_still(path, rgb, t: float, n: float, iso: int, subsampling: int = -1) -> None:
+    """An 8-bit JPEG (quality 95) with EXIF ExposureTime, FNumber and ISO in the Exif IFD;
+    ``subsampling``: Pillow's (-1 its default, 4:2:0 at this quality; 0: 4:4:4, full
+    chroma, which colour to 2 % needs: docs/photometry.md)."""
     exif = Image.Exif()
     ifd = exif.get_ifd(0x8769)
     t_, n_ = (Fraction(v).limit_denominator(1_000_000) for v in (t, n))
     ifd[0x829A] = IFDRational(t_.numerator, t_.denominator)
     ifd[0x829D] = IFDRational(n_.numerator, n_.denominator)
     ifd[0x8827] = int(iso)
-    Image.fromarray(np.ascontiguousarray(rgb)).save(path, exif=exif, quality=95)
+    Image.fromarray(np.ascontiguousarray(rgb)).save(path, exif=exif, quality=95,
+                                                     subsampling=subsampling)
