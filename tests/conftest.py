@@ -78,3 +78,11 @@ def kernels(request, monkeypatch):
         monkeypatch.setattr(lens_fold, "_fold_kernel", lens_fold._fold_twin)
         monkeypatch.setattr(lens_fold, "KERNEL", True)
     return request.param
+
+
+@pytest.fixture(scope="module")
+def camera(tmp_path_factory):
+    """An absolutely calibrated camera.json of the simulated filmic camera (the photometry
+    tests': tests/photometrytools.py), made once per module."""
+    from photometrytools import calibrated_camera
+    return calibrated_camera(tmp_path_factory.mktemp("meter"))

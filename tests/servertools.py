@@ -187,10 +187,10 @@ def run_cli(*argv: str, timeout: float = 60) -> subprocess.CompletedProcess:
 
 def refused(res: subprocess.CompletedProcess, *words: str) -> str:
     """The one line of a refused command (exit 2, nothing on stdout, no traceback, one line
-    on stderr holding each of ``words``)."""
+    on stderr holding each of ``words``; progress lines, "... ...", are not counted)."""
     assert res.returncode == 2, (res.stdout, res.stderr)
     assert res.stdout == "" and "Traceback" not in res.stderr, (res.stdout, res.stderr)
-    lines = res.stderr.strip().splitlines()
+    lines = [line for line in res.stderr.strip().splitlines() if not line.endswith(" ...")]
     assert len(lines) == 1, res.stderr
     for word in words:
         assert word in lines[0], lines[0]

@@ -14,18 +14,7 @@ import cv2
 import numpy as np
 import pytest
 
-from servertools import ServeProcess, health, poll, run_cli
-
-
-def _refused(res, *words):
-    assert res.returncode == 2, (res.stdout, res.stderr)
-    assert res.stdout == "", res.stdout
-    assert "Traceback" not in res.stderr
-    lines = [l for l in res.stderr.strip().splitlines() if not l.endswith(" ...")]
-    assert len(lines) == 1, res.stderr
-    for w in words:
-        assert w in lines[0], lines[0]
-    return lines[0]
+from servertools import ServeProcess, health, poll, refused, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +59,7 @@ def test_an_enormous_header_is_one_line_for_every_command(files, name, command):
             "validate-shaders": ["validate-shaders", "--out", str(files / "v"), path],
             "calibrate-response": ["calibrate-response", f"{path}@1", f"{files / 'ok.png'}@2",
                                    f"{files / 'ok.png'}@4", "-o", str(files / "cam.json")]}
-    _refused(run_cli(*argv[command]), "too large to decode")
+    refused(run_cli(*argv[command]), "too large to decode")
     assert not (files / "cam.json").exists() and not (files / "v").exists()
 
 
@@ -80,13 +69,13 @@ def test_an_enormous_header_is_one_line_for_every_command(files, name, command):
 def test_a_truncated_file_is_refused_in_shlights_own_words(files, name, words):
     """Not decoded half-way (OpenCV fills the rest with grey) and no libjpeg/libpng/OpenEXR
     words on stdout or stderr."""
-    line = _refused(run_cli("compute", str(files / name)), *words)
+    line = refused(run_cli("compute", str(files / name)), *words)
     assert line.startswith("shlight compute: error:")
 
 
-def test_a_frame_with_no_usable_light_is_refused(files):
+def test_a_frame_with_no_usable_light_isrefused(files):
     for name in ("nan.exr", "negative.exr"):
-        _refused(run_cli("compute", str(files / name)), "no usable light")
+        refused(run_cli("compute", str(files / name)), "no usable light")
 
 
 def test_the_live_server_rejects_and_counts_frames_with_no_usable_light(files):
@@ -133,7 +122,7 @@ def test_options_are_checked_before_any_work(files, argv, words):
     names = {"ok": str(files / "ok.png"), "file": str(files / "file"),
              "missing": str(files / "missing")}
     before = sorted(os.listdir(files))
-    _refused(run_cli(*[a.format(**names) for a in argv]), *words)
+    refused(run_cli(*[a.format(**names) for a in argv]), *words)
     assert sorted(os.listdir(files)) == before                 # nothing written
 
 

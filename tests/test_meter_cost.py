@@ -12,8 +12,7 @@ import pytest
 from provider.core.sh9 import meter as meter_module
 from provider.core.sh9.engine import SH9Projector
 
-from test_meter_31 import camera  # noqa: F401  (the absolutely calibrated camera.json)
-from test_photometry_31 import exact_illuminance_up, scene, write_bracket
+from photometrytools import exact_illuminance_up, scene, write_bracket
 
 
 @pytest.fixture

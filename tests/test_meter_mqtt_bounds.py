@@ -19,8 +19,7 @@ from provider.live.probe.luxmeter import (MAX_LUX, FixedLux, LuxMeter, RefusedRe
 from mqtttools import Mosquitto
 from servertools import ServeProcess, health, http_get, poll
 
-from test_meter_31 import camera  # noqa: F401  (the absolutely calibrated camera.json)
-from test_photometry_31 import scene, write_bracket
+from photometrytools import scene, write_bracket
 
 TOPIC = "garden/lux"
 

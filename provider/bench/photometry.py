@@ -252,6 +252,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m provider.bench.photometry")
     p.add_argument("--out", default="docs", help="folder for photometry.png")
     args = p.parse_args(argv)
+    Path(args.out).mkdir(parents=True, exist_ok=True)      # the picture's folder, made
     scenes = ["bridge", "city", "dawn", "forest", "lab", "night", "sky", "venice"]
     print("absolute units (held-out brackets, -6..+4 EV, exposure from the stills alone):",
           file=sys.stderr)

@@ -19,8 +19,7 @@ from provider.live.probe.luxmeter import (BH1750, TSL2591, TSL2591_LUX_DF, Fixed
 from mqtttools import MOSQUITTO_PASSWD, Mosquitto
 from servertools import ServeProcess, http_get, poll
 
-from test_meter_31 import camera  # noqa: F401  (the absolutely calibrated camera.json)
-from test_photometry_31 import exact_illuminance_up, scene, write_bracket
+from photometrytools import exact_illuminance_up, scene, write_bracket
 
 
 class FakeBH1750Bus:
@@ -218,7 +217,7 @@ def test_serve_with_a_meter_toward_a_low_sun(camera, tmp_path):  # noqa: F811
     sun (4° up) as compute does, and says where the meter faced."""
     from provider.core.geometry.projections import Equirect
     from provider.core.sh9.engine import SH9Projector
-    from test_meter_31 import facing_reading, relative_rms
+    from photometrytools import facing_reading, relative_rms
     hdr = scene("dawn")
     (frame,) = write_bracket(tmp_path, "dawn", hdr, (0,), n=8.0, iso=100, ext="jpg")
     h, w = hdr.shape[:2]
@@ -302,7 +301,7 @@ def test_serve_meter_closes_a_live_bracket(monkeypatch, tmp_path):
     from provider.live.wire.message import validate
     from conftest import load_hdri
     from servertools import ServerThread, connect, recv_json, recv_until
-    from test_meter_31 import relative_rms
+    from photometrytools import relative_rms
     monkeypatch.syspath_prepend(str(Path(__file__).resolve().parent / "fakecams"))
     monkeypatch.delitem(sys.modules, "picamera2", raising=False)
     import picamera2

@@ -7,30 +7,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from provider.core.geometry import sh
 from provider.core.geometry.projections import Equirect
 from provider.core.sh9.engine import SH9Projector
 from provider.core.sh9.meter import close_clipped, up_weights
 
-from test_photometry_31 import (exact_illuminance_up, message, scene, shlight,
-                                write_bracket)
-
-
-def relative_rms(coefficients, truth_coefficients) -> float:
-    """Relative RMS irradiance error over the sphere of normals."""
-    e, t = sh.sphere_irradiance(np.asarray(coefficients)), sh.sphere_irradiance(truth_coefficients)
-    return float(np.sqrt(np.mean((e - t) ** 2)) / np.sqrt(np.mean(t ** 2)))
-
-
-@pytest.fixture(scope="module")
-def camera(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("meter")
-    hdr = scene("apartment")
-    paths = write_bracket(folder, "cal", hdr, (-4, -2, 0, 2, 4), n=2.0, iso=100)
-    p = shlight("calibrate-response", *paths, "--lux", exact_illuminance_up(hdr),
-                "-o", folder / "camera.json")
-    assert p.returncode == 0, p.stderr
-    return folder / "camera.json"
+from photometrytools import (exact_illuminance_up, facing_reading, message, relative_rms,
+                             scene, shlight, write_bracket)
 
 
 def test_meter_closes_the_clipped_sun(camera, tmp_path):
@@ -79,17 +61,6 @@ def test_a_meter_below_the_camera_closes_nothing():
 
 
 # -- where the meter faces, and a chroma meter's colour (part A of issue 31's follow-up) -------
-
-def facing_reading(hdr: np.ndarray, normal) -> tuple[float, tuple]:
-    """(lux, (CCT, Duv)) a meter facing ``normal`` reads of an equirect panorama: Σ Y(L)
-    max(d·n, 0) dω over its pixels (pixel centres), and the CCT/Duv of that light."""
-    from provider.core.radiometry.colour_temperature import cct_duv
-    from provider.core.radiometry.photometry import luminance
-    _, omega, dirs = up_weights(Equirect(hdr.shape[1], hdr.shape[0]))
-    rgb = np.tensordot(np.maximum(dirs @ np.asarray(normal), 0) * omega, hdr,
-                       axes=([0, 1], [0, 1]))
-    return float(luminance(rgb)), cct_duv(rgb)
-
 
 def test_parse_facing_and_meter_colour():
     from provider.core.errors import InputError

@@ -256,8 +256,7 @@ def test_lighting_client_glue_compiles_against_the_standin(tmp_path, defines):
 # ---- live: the component against `shlight serve` with absolute lighting ---------------------------------
 
 from servertools import ServeProcess  # noqa: E402
-from test_meter_31 import camera  # noqa: E402,F401  (an absolutely calibrated camera.json)
-from test_photometry_31 import exact_illuminance_up, scene, write_bracket  # noqa: E402
+from photometrytools import exact_illuminance_up, scene, write_bracket  # noqa: E402
 from test_unity import S4, _LiveClient, build_dir, live_exe  # noqa: E402,F401
 
 

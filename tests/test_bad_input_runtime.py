@@ -15,8 +15,7 @@ import cv2
 import numpy as np
 import pytest
 
-from servertools import ROOT, SHLIGHT, run_cli
-from test_bad_input_more import _refused   # one refusal: one line, exit 2, nothing on stdout
+from servertools import ROOT, SHLIGHT, refused, run_cli
 
 
 def _png_with_size(src: bytes, width: int, height: int) -> bytes:
@@ -72,10 +71,10 @@ def _bracket(files, name):
     (["environment", "{d}/bright.exr", "--exposure", "3e38", "-o", "{d}/over.ktx2"],
      ["the lighting overflows at exposure 3e+38", "float32"]),
 ])
-def test_an_exposure_whose_lighting_overflows_is_refused(files, argv, words):
+def test_an_exposure_whose_lighting_overflows_isrefused(files, argv, words):
     res = run_cli(*[a.format(d=files) for a in argv])
     assert "RuntimeWarning" not in res.stderr
-    _refused(res, *words)
+    refused(res, *words)
 
 
 def test_a_cube_brighter_than_half_float_says_how_many_texels_are_held(files):
@@ -140,7 +139,7 @@ def test_a_reader_that_left_is_quiet(files):
                                                 ("small", "debevec", "8×4")])
 def test_frames_too_small_to_calibrate_are_one_line(files, name, method, size):
     out = files / "cam.json"
-    line = _refused(run_cli("calibrate-response", "--method", method, "-o", str(out),
+    line = refused(run_cli("calibrate-response", "--method", method, "-o", str(out),
                             *_bracket(files, name)),
                     "the frames are too small to calibrate", size, "at least 12×12")
     assert "cv2" not in line and not out.exists()
@@ -149,7 +148,7 @@ def test_frames_too_small_to_calibrate_are_one_line(files, name, method, size):
 def test_an_absurd_lambda_is_refused_before_solving(files):
     """No LAPACK lines on stdout, and not blamed on the frames."""
     out = files / "cam.json"
-    _refused(run_cli("calibrate-response", "--method", "debevec", "--lambda", "1e300",
+    refused(run_cli("calibrate-response", "--method", "debevec", "--lambda", "1e300",
                      "-o", str(out), *_bracket(files, "small")),
              "--lambda must be a finite number above 0 and at most 1e+06", "1e+300")
     assert not out.exists()
@@ -169,13 +168,13 @@ def test_the_library_refuses_them_too(files):
 
 @pytest.mark.parametrize("size", ["1e300", "1e6", "0.001", "0"])
 def test_register_refuses_a_marker_size_no_marker_has(files, size):
-    _refused(run_cli("register", str(files / "pano.jpg"), "--marker", "aruco:DICT_4X4_50:7",
+    refused(run_cli("register", str(files / "pano.jpg"), "--marker", "aruco:DICT_4X4_50:7",
                      "--marker-size", size), "--marker-size", "0.005-5 m")
 
 
 def test_a_qr_text_past_a_qr_codes_capacity_is_one_line(files):
     out = files / "m.png"
-    line = _refused(run_cli("marker", "qr:" + "x" * 5000, "-o", str(out)),
+    line = refused(run_cli("marker", "qr:" + "x" * 5000, "-o", str(out)),
                     "too long for a QR code", "5000 characters", "2953 bytes")
     assert len(line) < 300 and not out.exists()
 
@@ -197,7 +196,7 @@ def test_the_library_refuses_marker_sizes_and_long_qr_text():
 def test_bench_out_under_a_file_is_one_line(files):
     """(A read-only folder, the issue's case, is the same check; root writes anywhere, so it
     is tested below only for other users.)"""
-    _refused(run_cli("bench", "--out", str(files / "file" / "b"), "--quick"),
+    refused(run_cli("bench", "--out", str(files / "file" / "b"), "--quick"),
              "--out", "cannot write under", str(files / "file"))
 
 
@@ -207,7 +206,7 @@ def test_bench_out_in_a_read_only_folder_is_one_line(tmp_path):
     ro.mkdir()
     ro.chmod(0o555)
     try:
-        _refused(run_cli("bench", "--out", str(ro / "b"), "--quick"), "cannot write under")
+        refused(run_cli("bench", "--out", str(ro / "b"), "--quick"), "cannot write under")
     finally:
         ro.chmod(0o755)
 
@@ -221,7 +220,7 @@ def test_bench_out_in_a_read_only_folder_is_one_line(tmp_path):
     ("bad.hdr", ["not a Radiance .hdr file"]),
 ])
 def test_no_libpng_or_opencv_lines_before_the_one_line(files, name, words):
-    line = _refused(run_cli("compute", str(files / name)), *words)
+    line = refused(run_cli("compute", str(files / name)), *words)
     assert "libpng" not in line and "[ERROR" not in line
 
 
@@ -233,7 +232,7 @@ def test_no_libpng_or_opencv_lines_before_the_one_line(files, name, words):
     (["--cube-size", "64", "--no-cube"], ["--cube-size", "--no-cube"]),
 ])
 def test_export_refuses_a_cube_size_it_cannot_make(files, extra, words):
-    _refused(run_cli("export", str(files / "pano.jpg"), "--to", "gltf", *extra), *words)
+    refused(run_cli("export", str(files / "pano.jpg"), "--to", "gltf", *extra), *words)
 
 
 # -- a frame of all zeros: said, and still answered --------------------------------------------
