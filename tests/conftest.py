@@ -86,3 +86,17 @@ def camera(tmp_path_factory):
     tests': tests/photometrytools.py), made once per module."""
     from photometrytools import calibrated_camera
     return calibrated_camera(tmp_path_factory.mktemp("meter"))
+
+
+# ---- the Unity tests' C# builds, once a session (tests/unitytools.py) -------------------------
+
+@pytest.fixture(scope="session")
+def build_dir(tmp_path_factory):
+    return tmp_path_factory.mktemp("unity_csharp")
+
+
+@pytest.fixture(scope="session")
+def live_exe(build_dir):
+    """tests/csharp/LiveClient.cs with the package's runtime against the Unity stand-in."""
+    from unitytools import CORE, CSHARP, RUNTIME, STANDIN, _compile
+    return _compile(build_dir / "LiveClient.exe", [*CORE, *RUNTIME, STANDIN, CSHARP / "LiveClient.cs"])

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from provider.verify.cubemap import CubeSampler, texel_directions
-from test_unity import CORE, CSHARP, _compile, _mono_tools
+from unitytools import CORE, CSHARP, _compile, _mono_tools
 
 ROOT = Path(__file__).resolve().parent.parent
 HDRI = ROOT / "tests" / "data" / "hdri"
@@ -443,7 +443,7 @@ def test_registration_that_is_not_a_rotation_is_refused(registration_exe, tmp_pa
 
 @pytest.fixture(scope="module")
 def reflections_exe(tmp_path_factory):
-    from test_unity import RUNTIME, STANDIN
+    from unitytools import RUNTIME, STANDIN
     return _compile(tmp_path_factory.mktemp("refl") / "ReflectionsClient.exe",
                     [*CORE, *RUNTIME, STANDIN, CSHARP / "ReflectionsClient.cs"])
 
@@ -451,7 +451,7 @@ def reflections_exe(tmp_path_factory):
 def test_components_compile_for_unity_2022_and_later(tmp_path):
     """With UNITY_2022_1_OR_NEWER the component sets RenderSettings.customReflectionTexture (2022.1
     made customReflection an obsolete wrapper): both branches compile against the stand-in."""
-    from test_unity import RUNTIME, STANDIN
+    from unitytools import RUNTIME, STANDIN
     mcs, _ = _mono_tools()
     r = subprocess.run([mcs, "-nologo", "-warnaserror+", "-define:UNITY_2022_1_OR_NEWER", "-target:library",
                         f"-out:{tmp_path / 'r.dll'}", *map(str, [*CORE, *RUNTIME, STANDIN])],

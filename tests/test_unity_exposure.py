@@ -257,7 +257,7 @@ def test_lighting_client_glue_compiles_against_the_standin(tmp_path, defines):
 
 from servertools import ServeProcess  # noqa: E402
 from photometrytools import exact_illuminance_up, scene, write_bracket  # noqa: E402
-from test_unity import S4, _LiveClient, build_dir, live_exe  # noqa: E402,F401
+from unitytools import S4, _LiveClient  # noqa: E402
 
 
 def _first_absolute_message_with_a_light(exe, serve_args, client_args):

@@ -25,8 +25,8 @@ from provider.core.lights.shadows import (occluded_ambient, shadow_ratio, sphere
                                           sphere_occluder)
 
 from servertools import ServeProcess
-from test_unity import (CORE, CSHARP, S3, S4, _compile, _LiveClient, _mono_tools, _serve_help,  # noqa: F401
-                        build_dir, live_exe)
+from unitytools import (CORE, CSHARP, S3, S4, _compile, _LiveClient, _mono_tools,  # noqa: F401
+                        _serve_help)
 from test_shadows_three import SUN, write_sun_and_sky
 
 
@@ -164,7 +164,7 @@ def test_occluder_component_uploads_the_holograms_bounding_sphere(build_dir):
     """SH9ShadowOccluder under Mono against the UnityEngine stand-in (not Unity): _SHOccluderSphere is the
     bounding sphere of the renderers' union box, follows them each LateUpdate, leaves a disabled renderer
     out, takes the radius scale, is cleared (radius 0) on disable; the last enabled occluder wins."""
-    from test_unity import RUNTIME, STANDIN
+    from unitytools import RUNTIME, STANDIN
     exe = _compile(build_dir / "OccluderTest.exe", [*CORE, *RUNTIME, STANDIN, CSHARP / "Checks.cs",
                                                     CSHARP / "OccluderTest.cs"])
     _, mono = _mono_tools()
