@@ -124,8 +124,10 @@ def test_shlight_serve_with_a_theta_s_probe_lights_and_a_cube_fits_an_edge_board
                                                                                  tmp_path):
     """The same as ``shlight serve --lights auto --environment`` itself (its server, threads
     and frames in flight: ~45 MB more than the bare process): it builds SH9's tables, then
-    the cube's, before the first frame, one at a time, and peaks under 256 MB. Measured
-    227-242 MB built, 225 MB read (was 748 MB, the cube's build beside SH9's)."""
+    the cube's, before the first frame, one at a time, and its own memory peaks under 210 MB.
+    Measured VmHWM 219-272 MB, of which 41-143 MB are library and table-file pages (below),
+    its own 114-195 MB (was 748 MB in all, the cube's build beside SH9's). 256 MB in all is
+    met where the page cache leaves fewer library pages resident, not always (issue 44)."""
     import cv2
     from provider.bench.edge import edge_frame
     from servertools import ServeProcess, health, poll
@@ -134,13 +136,33 @@ def test_shlight_serve_with_a_theta_s_probe_lights_and_a_cube_fits_an_edge_board
     env = {"SHLIGHT_CACHE_DIR": str(tmp_path / "cache"),
            "SHLIGHT_TABLE_CACHE": "0" if tables == "built" else "1"}
 
+    def mb(status, key) -> float:
+        return int(status[key].split()[0]) / 1024
+
+    def status() -> dict:
+        return dict(line.split(":", 1) for line in open(f"/proc/{srv.proc.pid}/status"))
+
     def served() -> dict:
+        own.append(mb(status(), "RssAnon"))
         probe = health(srv.http)["probes"]["default"]
         return probe if probe["environment"]["updates"] >= 1 and probe["frames"] >= 5 else {}
     for _ in range(1 if tables == "built" else 2):       # the cache's: a start to write it
+        own: list = []
         with ServeProcess("--source", str(image), "--projection", "dual-fisheye",
                           "--lights", "auto", "--environment", env=env) as srv:
             poll(served, timeout=60, interval=0.2, what="a cube and five frames")
-            status = dict(line.split(":", 1) for line in open(f"/proc/{srv.proc.pid}/status"))
-    peak = int(status["VmHWM"].split()[0]) / 1024
-    assert peak <= 256, f"shlight serve peaked at {peak:.0f} MB resident"
+            last = status()
+    # What the process owns at its peak: its anonymous memory, sampled as it starts, and its
+    # high-water mark less the libraries' file-backed pages (its resident set still grows at
+    # the end: the peak is the last frames'). Those file pages (OpenCV's 92 MB library and
+    # numpy's, mapped around each page fault from the page cache) are clean and shared: the
+    # kernel drops them under pressure, and how many are resident depends on the page cache,
+    # not on us: 42 MB in a long-used install, 82 MB in one just written (VmHWM 228 / 266 MB,
+    # RssAnon 186 / 184 MB, the same code). Its own, measured so: 192-195 MB with the tables
+    # built, 114 MB with them read (mapped from the cache: file pages too); 210 MB leaves
+    # room for another libc's or numpy's allocations, and a regression of the build's peak
+    # (it was 600 MB) shows.
+    peak_own = max(max(own, default=0.0), mb(last, "VmHWM") - mb(last, "RssFile"))
+    print(f"shlight serve ({tables}): {peak_own:.0f} MB its own at the peak, VmHWM "
+          f"{mb(last, 'VmHWM'):.0f} MB with {mb(last, 'RssFile'):.0f} MB of library pages")
+    assert peak_own <= 210, f"shlight serve's own memory peaked at {peak_own:.0f} MB"
