@@ -92,7 +92,7 @@ for _ in range(3):                           # as serve --environment: one decod
     sh9.project(frame, work=work)
     cube.project(frame, work=work)
 status = dict(line.split(":", 1) for line in open("/proc/self/status"))
-print(int(status["VmHWM"].split()[0]) / 1024, int(status["VmRSS"].split()[0]) / 1024)
+print(*(int(status[key].split()[0]) / 1024 for key in ("VmHWM", "VmRSS", "RssFile")))
 """
 
 
@@ -100,12 +100,11 @@ print(int(status["VmHWM"].split()[0]) / 1024, int(status["VmRSS"].split()[0]) / 
 @pytest.mark.parametrize("tables", ["built", "read from the table cache"])
 def test_a_theta_s_probe_with_lights_and_a_cube_fits_an_edge_board(tables, tmp_path):
     """A Pi Zero 2 W has 512 MB in all (issue 44): the process that builds and serves a
-    Theta S frame's SH9 + lights and its 32² cube peaks under 256 MB resident, whether it
-    builds the tables (the first start) or reads them (later starts). Peak resident memory
-    is a count, not a timing: it does not depend on the machine's load. Measured 214 MB
-    built (the cube's prefilter build on top of SH9's held tables; ~52 MB of it is Python,
-    numpy and OpenCV themselves, more or less by a few MB with other builds of them: the
-    40 MB of headroom) and 177 MB read; before issue 44, 660 MB."""
+    Theta S frame's SH9 + lights and its 32² cube peaks at 214 MB resident (177 MB reading
+    its tables; before issue 44, 660 MB), of which its own (less the libraries' file pages)
+    at most 200 MB, whether it builds the tables (the first start) or reads them (later
+    starts). Peak resident memory is a count, not a timing: it does not depend on the
+    machine's load (the page cache decides the file pages: below)."""
     env = {**os.environ, "SHLIGHT_CACHE_DIR": str(tmp_path), "SHLIGHT_TABLE_CACHE": "0"}
     if tables != "built":
         env["SHLIGHT_TABLE_CACHE"] = "1"
@@ -114,8 +113,12 @@ def test_a_theta_s_probe_with_lights_and_a_cube_fits_an_edge_board(tables, tmp_p
         assert len(list((tmp_path / "tables").glob("*.tables"))) == 2
     out = subprocess.run([sys.executable, "-c", EDGE_SCRIPT], env=env, capture_output=True,
                          text=True, timeout=600, check=True).stdout.split()
-    peak, steady = float(out[0]), float(out[1])
-    assert peak <= 256, f"peak {peak:.0f} MB resident, {steady:.0f} MB after three frames"
+    peak, steady, files = (float(v) for v in out[:3])
+    # its own at the peak: less the libraries' file-backed pages, which depend on the page
+    # cache (41-82 MB here: test_shlight_serve_... below says why)
+    print(f"edge process ({tables}): VmHWM {peak:.0f} MB, {files:.0f} MB of it file pages")
+    assert peak - files <= 200, f"peak {peak:.0f} MB resident ({files:.0f} MB file pages), " \
+                                f"{steady:.0f} MB after three frames"
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/PID/status")
