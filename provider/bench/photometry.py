@@ -55,16 +55,23 @@ def _bracket(hdr, evs, n, iso, seed=0, bias_ev=0.0):
     return cam.bracket(hdr, t0, evs)
 
 
-def absolute(names):
-    """{(scene, f-number, ISO): (illuminance_lux read, truth, clipped_light_fraction)}."""
-    hdr = _scene("apartment")
-    frames, times = _bracket(hdr, (-4, -2, 0, 2, 4), 2.0, 100)
+def _calibrated(frames, times, lux: float):
+    """The camera calibrated as `calibrate-response BRACKET --lux` does (the ±4 EV bracket
+    at f/2, ISO 100, the meter's ``lux``): its response with the absolute scale, and a
+    projector built on it."""
     response = calibrate_best(frames, times)
     projector = SH9Projector(512, 256, "equirect", response=response)
     merged = merge(frames, times, response, gain=1.0).radiance
     response.params["absolute"] = calibrate_absolute(projector.up_illuminance(merged),
-                                                     _truth_lux(hdr), 2.0, 100)
-    projector = SH9Projector(512, 256, "equirect", response=response)
+                                                     lux, 2.0, 100)
+    return response, SH9Projector(512, 256, "equirect", response=response)
+
+
+def absolute(names):
+    """{(scene, f-number, ISO): (illuminance_lux read, truth, clipped_light_fraction)}."""
+    hdr = _scene("apartment")
+    frames, times = _bracket(hdr, (-4, -2, 0, 2, 4), 2.0, 100)
+    response, projector = _calibrated(frames, times, _truth_lux(hdr))
     out = {}
     for name in names:
         hdr = _scene(name)
@@ -189,12 +196,7 @@ def sun_skies(cases=SUN_SKIES):
     room *= ROOM_CD_M2 / float(luminance(room.reshape(-1, 3)).mean())
     frames, times = _bracket(room, (-4, -2, 0, 2, 4), 2.0, 100, seed=1)
     frames = [_jpeg(f) for f in frames]
-    response = calibrate_best(frames, times)
-    projector = SH9Projector(512, 256, "equirect", response=response)
-    merged = merge(frames, times, response, gain=1.0).radiance
-    response.params["absolute"] = calibrate_absolute(projector.up_illuminance(merged),
-                                                     _truth_lux(room), 2.0, 100)
-    projector = SH9Projector(512, 256, "equirect", response=response)
+    response, projector = _calibrated(frames, times, _truth_lux(room))
     out = {}
     for elevation, tau in cases:
         hdr, _ = sunny_sky(512, 256, elevation, atmosphere={**HAZY,
