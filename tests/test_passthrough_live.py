@@ -362,6 +362,7 @@ def test_the_sphere_follows_the_room_when_its_light_changes(room, headset, tmp_p
                                                                             str(brighter))
     assert (brighter / json.loads((brighter / "transforms.json").read_text())["frames"][3]
             ["file_path"]).read_bytes() == jpegs[3]
+    # the same float64 arithmetic on a room exactly twice as bright: no sum reordered
     np.testing.assert_allclose(twin.exposure, np.asarray(truth.exposure) / 2, rtol=1e-9)
 
     path = tmp_path / "room.exr"
@@ -421,6 +422,7 @@ def test_the_live_sphere_is_in_the_units_of_the_probes_coefficients(room, tmp_pa
     with serve(str(path), "--exposure", "4") as srv:
         wait_for_sphere(srv)
         sphere = srv.call(lambda: sphere_of(next(iter(srv.server.probes.values()))))
+    # one float32 product a pixel (no resampling: an equirect at most 512 rows), no sums
     np.testing.assert_allclose(sphere, 4 * np.asarray(room, np.float32), rtol=1e-6)
 
 
