@@ -25,7 +25,6 @@ using Shlight.Lighting;
 
 static class PassthroughTest
 {
-
     static int Main(string[] args)
     {
         CultureInfo.DefaultThreadCurrentCulture = CultureInfo.InvariantCulture;

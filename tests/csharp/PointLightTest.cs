@@ -13,7 +13,6 @@ using UnityEngine.Rendering;
 
 static class PointLightTest
 {
-
     // Unity's player loop: Update, then the next frame
     static bool Play(SH9PointLight light, Func<bool> until, double seconds)
     {

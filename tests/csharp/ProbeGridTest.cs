@@ -14,7 +14,6 @@ using UnityEngine.Rendering;
 
 static class ProbeGridTest
 {
-
     // Unity's player loop: Update, then the next frame
     static bool Play(SH9ProbeGrid grid, Func<bool> until, double seconds)
     {
