@@ -88,6 +88,14 @@ def camera(tmp_path_factory):
     return calibrated_camera(tmp_path_factory.mktemp("meter"))
 
 
+@pytest.fixture(scope="session")
+def room_probes(tmp_path_factory):
+    """The analytic room's eight positioned probes (provider/bench/room.py, 64 rows): the
+    probes file the probe-grid tests serve (tests/roomtools.py), written once a session."""
+    from provider.bench import room
+    return room.write_probes(tmp_path_factory.mktemp("room"), height=64)
+
+
 # ---- the Unity tests' C# builds, once a session (tests/unitytools.py) -------------------------
 
 @pytest.fixture(scope="session")

@@ -12,20 +12,17 @@ positioned probes of the analytic room (provider/bench/room.py) and ``--room``:
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 
 from browsertools import (NEEDS_BROWSER, PageHost, browser, canvas_rgba, f32, page_of,  # noqa: F401
                           srgb8, three_version)
-from provider.bench import room
 from provider.core.geometry import sh
+from roomtools import TOKEN, interpolate, serve_args
 from servertools import ServerThread, http_get, poll
 
 pytestmark = NEEDS_BROWSER
 
-TOKEN = "s3cret"
 AT = np.array([3.0, 1.2, 1.2])            # the light changes slowly here: <1 % over 7 cm
 STEP = 0.1
 LO, HI = AT - 0.2, AT + 0.2                 # 5 × 5 × 5 points around the point
@@ -61,14 +58,6 @@ window.conn = g.connectProbeGrid(location.origin + "/", { THREE, scene, LightPro
 </script>"""
 
 
-def _serve_args(probes_file):
-    args = ["--fps", "2", "--token", TOKEN, "--room", room.room_box()]
-    for p in json.loads(probes_file.read_text())["probes"]:
-        args += ["--probe", f"{p['name']}={probes_file.parent / p['image']}",
-                 "--probe-position", f"{p['name']}={','.join(map(str, p['position']))}"]
-    return args
-
-
 def _pack(grid):
     """Three r187's atlas (LightProbeGridWebGL.js): 7 sub-volumes of nz + 2 slices along z."""
     nx, ny, nz = grid["counts"]
@@ -99,24 +88,14 @@ def _trilinear(grid, p):
     return out
 
 
-def _interpolate(probes_file, at):
-    # the server's grid points re-project 32-row panoramas (provider/live/probe/points.py GRID_ROWS)
-    r = subprocess.run([sys.executable, "-m", "provider.cli", "interpolate", str(probes_file),
-                        "--at", ",".join(map(str, at)), "--room", room.room_box(), "--rows", "32"],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stderr
-    return json.loads(r.stdout)["points"][0]
-
-
 def _linear(v8):
     v = v8 / 255
     return v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4
 
 
-def test_a_sphere_in_the_grid_shows_the_light_at_its_point(browser, tmp_path):
-    probes_file = room.write_probes(tmp_path / "room", height=64)
+def test_a_sphere_in_the_grid_shows_the_light_at_its_point(browser, room_probes):
     page_html = PAGE % {"v": three_version()}
-    with ServerThread(*_serve_args(probes_file)) as srv:
+    with ServerThread(*serve_args(room_probes)) as srv:
         query = {"at": AT.tolist(), "min": LO.tolist(), "max": HI.tolist(), "step": STEP,
                  "token": TOKEN, "radius": RADIUS, "albedo": ALBEDO, "half": HALF_VIEW, "size": SIZE}
         url = f"{srv.http}/grid-test.html#" + json.dumps(query)
@@ -150,7 +129,8 @@ def test_a_sphere_in_the_grid_shows_the_light_at_its_point(browser, tmp_path):
     assert np.allclose(held["min"], LO - STEP / 2) and np.allclose(held["max"], HI + STEP / 2)
 
     # the sphere: pixels on its middle row at x = 0, ±0.8 r (normals +Z, (±0.8, 0, 0.6))
-    cli = np.reshape(_interpolate(probes_file, AT)["coefficients"], (9, 3))
+    # the server's grid points re-project 32-row panoramas (provider/live/probe/points.py GRID_ROWS)
+    cli = np.reshape(interpolate(room_probes, AT, "--rows", "32")["coefficients"], (9, 3))
     row = rgba[SIZE // 2 - 1: SIZE // 2 + 1]
     for nx_ in (-0.8, 0.0, 0.8):
         n = np.array([nx_, 0.0, np.sqrt(1 - nx_ ** 2)])
@@ -189,14 +169,13 @@ window.pt = { THREE, hologram, conn: connectPointLight(q.provider + "/", hologra
 </script>"""
 
 
-def test_a_point_light_follows_an_object(browser, tmp_path):
-    probes_file = room.write_probes(tmp_path / "room", height=64)
+def test_a_point_light_follows_an_object(browser, room_probes):
     at, moved = [3.0, 1.2, 1.2], [4.0, 1.0, 2.5]
     # an app's page on its own origin (a page the server answers through a test route is
     # "public" to Chromium, which then refuses it a loopback WebSocket)
     host = PageHost(POINT_PAGE % {"v": three_version()})
     try:
-        with ServerThread(*_serve_args(probes_file), "--allow-origin", host.origin) as srv:
+        with ServerThread(*serve_args(room_probes), "--allow-origin", host.origin) as srv:
             def light_at(p):
                 status, _, body = poll(lambda: (lambda r: r if r[0] == 200 else None)(http_get(
                     f"{srv.http}/latest.json?at={','.join(map(str, p))}&token={TOKEN}")),

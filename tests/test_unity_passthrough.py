@@ -17,7 +17,6 @@ import math
 import re
 import shutil
 import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,13 +24,10 @@ import pytest
 from conftest import load_hdri
 from provider.core.passthrough import display_codes, display_lookup
 from replica_unity import replica_codes, sphere_pixels, stops_apart, true_irradiance
+from unitytools import CORE, CSHARP, HARNESS, PKG, RUNTIME, STANDIN, _compile, _mono_tools
 
-ROOT = Path(__file__).resolve().parent.parent
-PKG = ROOT / "unity_package"
-CORE = sorted((PKG / "Runtime" / "Core").glob("*.cs"))
-RUNTIME = sorted((PKG / "Runtime").glob("*.cs"))
-STUBS = ROOT / "tests" / "unity_stubs"
-DRIVER = ROOT / "tests" / "csharp" / "PassthroughTest.cs"
+STUBS = STANDIN.parent
+DRIVER = [HARNESS, CSHARP / "PassthroughTest.cs"]
 SHADERS = PKG / "Shaders"
 #: A room none of the shared nine is as it stands, and the albedo of the grey sphere.
 ROOM, ROOM_SEED = "venice", 23
@@ -40,24 +36,8 @@ ALBEDO = 0.5
 REPLICA_STOPS = 0.1
 
 
-def _mono():
-    mcs, mono = shutil.which("mcs"), shutil.which("mono")
-    if not (mcs and mono):
-        pytest.skip("Mono is not installed: apt-get install mono-mcs mono-runtime")
-    return mcs, mono
-
-
-def _compile(out: Path, sources, defines=()):
-    mcs, _ = _mono()
-    r = subprocess.run([mcs, "-nologo", "-warnaserror+", "-nowarn:618", f"-out:{out}",
-                        *[f"-define:{d}" for d in defines], *map(str, sources)],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stdout + r.stderr
-    return out
-
-
 def _run(exe, *args, stdin: str, timeout=120) -> list[dict]:
-    _, mono = _mono()
+    _, mono = _mono_tools()
     r = subprocess.run([mono, str(exe), *args], input=stdin, capture_output=True, text=True,
                        timeout=timeout)
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-4000:]
@@ -66,7 +46,7 @@ def _run(exe, *args, stdin: str, timeout=120) -> list[dict]:
 
 @pytest.fixture(scope="module")
 def core_exe(tmp_path_factory):
-    return _compile(tmp_path_factory.mktemp("passthrough") / "PassthroughTest.exe", [*CORE, DRIVER])
+    return _compile(tmp_path_factory.mktemp("passthrough") / "PassthroughTest.exe", [*CORE, *DRIVER])
 
 
 @pytest.fixture(scope="module")
@@ -187,7 +167,7 @@ static class P { static int Main() {
   return 0; } }
 """)
     exe = _compile(tmp_path / "Parse.exe", [*CORE, src])
-    _, mono = _mono()
+    _, mono = _mono_tools()
     lines = subprocess.run([mono, str(exe)], capture_output=True, text=True, timeout=60).stdout.splitlines()
     assert lines[0] == "False False"
     ok, r, g, b, answers, dropped, errors, no_camera, *error = lines[1].split()
@@ -392,19 +372,14 @@ def _unity_quaternion(r):
 @pytest.fixture(scope="module")
 def sender_exe(tmp_path_factory):
     return _compile(tmp_path_factory.mktemp("sender") / "PassthroughSender.exe",
-                    [*CORE, *RUNTIME, STUBS / "UnityEngineStandIn.cs", STUBS / "MrukStandIn.cs", DRIVER],
+                    [*CORE, *RUNTIME, STANDIN, STUBS / "MrukStandIn.cs", *DRIVER],
                     defines=("SHLIGHT_MRUK",))
 
 
 def test_the_runtime_compiles_without_mruk(tmp_path):
     """Without SHLIGHT_MRUK (a project without Meta's MRUK) the package compiles: the sender is an empty
     component that says what it needs."""
-    out = tmp_path / "Runtime.dll"
-    mcs, _ = _mono()
-    r = subprocess.run([mcs, "-nologo", "-warnaserror+", "-nowarn:618", "-target:library", f"-out:{out}",
-                        *map(str, [*CORE, *RUNTIME, STUBS / "UnityEngineStandIn.cs"])],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stdout + r.stderr
+    _compile(tmp_path / "Runtime.dll", [*CORE, *RUNTIME, STANDIN], target="library")
     assert "#if SHLIGHT_MRUK" in (PKG / "Runtime" / "SH9PassthroughSender.cs").read_text()
 
 

@@ -14,33 +14,18 @@ docs/probes.md "In the engines"), checked under Mono against tests/unity_stubs/U
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from provider.bench import room
 from provider.core.geometry import sh
+from roomtools import TOKEN, interpolate, serve_args
 from servertools import ServerThread, http_get
+from unitytools import CORE, CSHARP, HARNESS, RUNTIME, STANDIN, _compile, _mono_tools
 
-ROOT = Path(__file__).resolve().parent.parent
-RUNTIME = sorted((ROOT / "unity_package" / "Runtime").glob("*.cs"))
-CORE = sorted((ROOT / "unity_package" / "Runtime" / "Core").glob("*.cs"))
-STANDIN = ROOT / "tests" / "unity_stubs" / "UnityEngineStandIn.cs"
-CSHARP = ROOT / "tests" / "csharp"
-
-TOKEN = "s3cret"
 S = np.array([1.0, 1.0, -1.0])          # the wire frame -> Unity's: (x, y, z) -> (x, y, -z)
-
-
-def _mono_tools():
-    mcs, mono = shutil.which("mcs"), shutil.which("mono")
-    if not (mcs and mono):
-        pytest.skip("Mono is not installed: apt-get install mono-mcs mono-runtime")
-    return mcs, mono
 
 
 def _shade_sh9(probe27, normals):
@@ -52,41 +37,14 @@ def _shade_sh9(probe27, normals):
 
 
 @pytest.fixture(scope="module")
-def probes_file(tmp_path_factory):
-    return room.write_probes(tmp_path_factory.mktemp("room"), height=64)
-
-
-@pytest.fixture(scope="module")
 def grid_exe(tmp_path_factory):
-    mcs, _ = _mono_tools()
-    out = tmp_path_factory.mktemp("probe_grid") / "ProbeGridTest.exe"
     # Unity 6's LightProbes API is behind UNITY_2023_2_OR_NEWER, as Unity defines it
-    cmd = [mcs, "-nologo", "-warnaserror+", "-nowarn:618", "-define:UNITY_2023_2_OR_NEWER",
-           "-target:exe", f"-out:{out}", *map(str, [*CORE, *RUNTIME, STANDIN,
-                                                      CSHARP / "ProbeGridTest.cs"])]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, f"mcs failed:\n{r.stdout}\n{r.stderr}"
-    return out
+    return _compile(tmp_path_factory.mktemp("probe_grid") / "ProbeGridTest.exe",
+                    [*CORE, *RUNTIME, STANDIN, HARNESS, CSHARP / "ProbeGridTest.cs"],
+                    defines=("UNITY_2023_2_OR_NEWER",))
 
 
-def _serve_args(probes_file):
-    args = ["--fps", "2", "--token", TOKEN, "--room", room.room_box()]
-    for p in json.loads(probes_file.read_text())["probes"]:
-        args += ["--probe", f"{p['name']}={probes_file.parent / p['image']}",
-                 "--probe-position", f"{p['name']}={','.join(map(str, p['position']))}"]
-    return args
-
-
-def _interpolate(probes_file, at):
-    # the server's grid points re-project 32-row panoramas (provider/live/probe/points.py GRID_ROWS)
-    r = subprocess.run([sys.executable, "-m", "provider.cli", "interpolate", str(probes_file),
-                        "--at", ",".join(map(str, at)), "--room", room.room_box(), "--rows", "32"],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stderr
-    return json.loads(r.stdout)["points"][0]
-
-
-def test_unity_light_probes_hold_the_servers_grid(probes_file, grid_exe):
+def test_unity_light_probes_hold_the_servers_grid(room_probes, grid_exe):
     """SH9ProbeGrid: the scene's light probes hold the server's grid in Unity's frame and
     convention; a sphere at a grid point evaluates to the command's light there; refreshes keep
     the tetrahedra, a new step rebuilds them; a scene without light probes or a wrong token is
@@ -97,7 +55,7 @@ def test_unity_light_probes_hold_the_servers_grid(probes_file, grid_exe):
     at = np.array([2.0, 1.5, 2.0])                        # a grid point, wire frame
     normals = np.vstack([np.eye(3), -np.eye(3), sh.fibonacci_sphere(20)])
     unity_normals = normals * S
-    with ServerThread(*_serve_args(probes_file)) as srv:
+    with ServerThread(*serve_args(room_probes)) as srv:
         # Unity's box: min and max per axis in Unity's frame
         umin, umax = np.minimum(lo * S, hi * S), np.maximum(lo * S, hi * S)
         args = [srv.url, TOKEN, *map(str, umin), *map(str, umax), str(step), *map(str, at * S),
@@ -125,7 +83,8 @@ def test_unity_light_probes_hold_the_servers_grid(probes_file, grid_exe):
         assert np.allclose(_shade_sh9(p, unity_normals), expected, rtol=1e-5,
                            atol=1e-5 * np.abs(expected).max())
     # a sphere at the point, lit by Unity's probe there: shlight interpolate's irradiance / π
-    cli = _interpolate(probes_file, at)
+    # the server's grid points re-project 32-row panoramas (provider/live/probe/points.py GRID_ROWS)
+    cli = interpolate(room_probes, at, "--rows", "32")
     E = sh.irradiance(np.reshape(cli["coefficients"], (9, 3)), normals) / np.pi
     shown = np.reshape(out["evaluated"], (-1, 3))
     # the server's grid and the command compute the point alike; float32 in Unity: 1e-5
@@ -141,22 +100,17 @@ def test_unity_light_probes_hold_the_servers_grid(probes_file, grid_exe):
 
 @pytest.fixture(scope="module")
 def point_exe(tmp_path_factory):
-    mcs, _ = _mono_tools()
-    out = tmp_path_factory.mktemp("point_light") / "PointLightTest.exe"
-    cmd = [mcs, "-nologo", "-warnaserror+", "-nowarn:618", "-target:exe", f"-out:{out}",
-           *map(str, [*CORE, *RUNTIME, STANDIN, CSHARP / "PointLightTest.cs"])]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, f"mcs failed:\n{r.stdout}\n{r.stderr}"
-    return out
+    return _compile(tmp_path_factory.mktemp("point_light") / "PointLightTest.exe",
+                    [*CORE, *RUNTIME, STANDIN, HARNESS, CSHARP / "PointLightTest.cs"])
 
 
-def test_a_renderer_gets_the_light_where_it_stands(probes_file, point_exe):
+def test_a_renderer_gets_the_light_where_it_stands(room_probes, point_exe):
     """SH9PointLight: a sphere not on light probes gets, as its own probe, the light at its
     position (shlight interpolate's there), then where it moved to; disabled, it is given back."""
     _, mono = _mono_tools()
     at, moved = np.array([3.0, 1.2, 1.2]), np.array([4.0, 1.0, 2.5])       # wire frame
     normals = np.vstack([np.eye(3), -np.eye(3), sh.fibonacci_sphere(20)])
-    with ServerThread(*_serve_args(probes_file)) as srv:
+    with ServerThread(*serve_args(room_probes)) as srv:
         args = [srv.url, TOKEN, *map(str, at * S), *map(str, moved * S),
                 ";".join(",".join(map(str, n)) for n in normals * S)]
         r = subprocess.run([mono, str(point_exe), *args], capture_output=True, text=True,
@@ -167,11 +121,7 @@ def test_a_renderer_gets_the_light_where_it_stands(probes_file, point_exe):
     assert out["usage"] == "CustomProvided"
     # Unity's frame: the renderer's probe at S n shows E(n)/π of the light at the point (float32)
     for place, shown in ((at, out["evaluated"]), (moved, out["evaluated_moved"])):
-        r = subprocess.run([sys.executable, "-m", "provider.cli", "interpolate", str(probes_file),
-                            "--at", ",".join(map(str, place)), "--room", room.room_box()],
-                           capture_output=True, text=True, timeout=300)
-        assert r.returncode == 0, r.stderr
-        cli = np.reshape(json.loads(r.stdout)["points"][0]["coefficients"], (9, 3))
+        cli = np.reshape(interpolate(room_probes, place)["coefficients"], (9, 3))
         E = sh.irradiance(cli, normals) / np.pi
         assert np.allclose(np.reshape(shown, (-1, 3)), E, rtol=1e-5, atol=1e-5 * np.abs(E).max())
     assert out["followed"] and out["moved_position"] == moved.tolist()

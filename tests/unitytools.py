@@ -24,6 +24,8 @@ RUNTIME = sorted((PKG / "Runtime").glob("*.cs"))
 SAMPLES = sorted((PKG / "Samples~").rglob("*.cs"))
 STANDIN = ROOT / "tests" / "unity_stubs" / "UnityEngineStandIn.cs"
 CSHARP = ROOT / "tests" / "csharp"
+#: What the Mono drivers share (reflection calls of Unity's messages, numbers, frames played).
+HARNESS = CSHARP / "Harness.cs"
 VECTORS = ROOT / "shaders" / "contract_vectors.json"
 PACKAGE_NAME = "org.shlight.sh9lighting"
 
@@ -40,11 +42,14 @@ def _mono_tools():
     return mcs, mono
 
 
-def _compile(out: Path, sources, target="exe"):
+def _compile(out: Path, sources, target="exe", defines=()):
+    """mcs as the package must pass it (warnings are errors); ``defines`` as Unity or a project
+    would define them (UNITY_2023_2_OR_NEWER, SHLIGHT_MRUK)."""
     mcs, _ = _mono_tools()
     cmd = [mcs, "-nologo", "-warnaserror+", "-nowarn:618", f"-target:{target}", f"-out:{out}",
-           *[str(s) for s in sources]]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+           *[f"-define:{d}" for d in defines], *[str(s) for s in sources]]
+    # the whole runtime with the stand-in takes a while beside other work on 2 shared cores
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, f"mcs failed:\n{r.stdout}\n{r.stderr}"
     return out
 

@@ -1,5 +1,6 @@
 // A Mono program built from the package's core (and, for "sender", SH9LightingClient, SH9PassthroughSender and
-// the UnityEngine and MRUK stand-ins, -define:SHLIGHT_MRUK) -- NOT Unity. tests/test_unity_passthrough.py runs it.
+// the UnityEngine and MRUK stand-ins, -define:SHLIGHT_MRUK) and Harness.cs -- NOT Unity. tests/test_unity_passthrough.py
+// runs it.
 //
 //   lut     stdin: a camera.json object. Out: {"log2_lo", "log2_hi", "toe_scale", "lut": [256 × 4], "display": [...]} with
 //           "display" the lookup at the sensor exposures of the second stdin line (a JSON array of [r, g, b]).
@@ -18,30 +19,12 @@
 using System;
 using System.Collections.Generic;
 using System.Globalization;
-using System.Reflection;
 using System.Text;
 using System.Threading;
 using Shlight.Lighting;
 
 static class PassthroughTest
 {
-    static string Num(double v) { return double.IsNaN(v) || double.IsInfinity(v) ? "null" : v.ToString("R", CultureInfo.InvariantCulture); }
-
-    static string Array(IList<double> a)
-    {
-        var sb = new StringBuilder("[");
-        for (int i = 0; i < a.Count; i++) sb.Append(i == 0 ? "" : ",").Append(Num(a[i]));
-        return sb.Append(']').ToString();
-    }
-
-    static double[] Numbers(object o)
-    {
-        var list = (List<object>)o;
-        var r = new double[list.Count];
-        for (int i = 0; i < r.Length; i++) r[i] = (double)list[i];
-        return r;
-    }
-
     static int Main(string[] args)
     {
         CultureInfo.DefaultThreadCurrentCulture = CultureInfo.InvariantCulture;
@@ -51,7 +34,7 @@ static class PassthroughTest
             case "lut": return Lut();
             case "render": return Render();
 #if SHLIGHT_MRUK
-            case "sender": return Sender.Run(args[1], args[2] == "-" ? "" : args[2], double.Parse(args[3]));
+            case "sender": return Sender.Run(args[1], Harness.Text(args[2]), Harness.Double(args[3]));
 #endif
             default: Console.Error.WriteLine("unknown mode " + args[0]); return 2;
         }
@@ -64,14 +47,14 @@ static class PassthroughTest
         var display = new List<double>();
         foreach (object o in xs)
         {
-            double[] x = Numbers(o);
+            double[] x = Harness.Numbers(o);
             for (int c = 0; c < 3; c++) display.Add(camera.Display(c, x[c]));
         }
         var lut = new double[camera.Lut.Length];
         for (int i = 0; i < lut.Length; i++) lut[i] = camera.Lut[i];
-        Console.WriteLine("{\"log2_lo\":" + Num(camera.Log2Lo) + ",\"log2_hi\":" + Num(camera.Log2Hi) +
-                          ",\"toe_scale\":" + Num(camera.ToeScale) + ",\"lut\":" +
-                          Array(lut) + ",\"display\":" + Array(display) + "}");
+        Console.WriteLine("{\"log2_lo\":" + Harness.Num(camera.Log2Lo) + ",\"log2_hi\":" + Harness.Num(camera.Log2Hi) +
+                          ",\"toe_scale\":" + Harness.Num(camera.ToeScale) + ",\"lut\":" +
+                          Harness.Array(lut) + ",\"display\":" + Harness.Array(display) + "}");
         return 0;
     }
 
@@ -98,7 +81,7 @@ static class PassthroughTest
             bool first = true;
             foreach (object o in (List<object>)scene["normals"])
             {
-                double[] n = Numbers(o);
+                double[] n = Harness.Numbers(o);
                 var rgb = new double[3];
                 for (int c = 0; c < 3; c++)
                 {
@@ -106,13 +89,13 @@ static class PassthroughTest
                     double e = Math.Max(0, Sh9Math.Irradiance(m, c, n[0], n[1], -n[2]));
                     rgb[c] = camera.Display(c, albedo * e / Math.PI * gain[c]);
                 }
-                display.Append(first ? "" : ",").Append(Array(rgb));
+                display.Append(first ? "" : ",").Append(Harness.Array(rgb));
                 first = false;
             }
             display.Append(']');
-            Console.WriteLine("{\"display\":" + display + ",\"gain\":" + Array(gain) + ",\"matrices\":" + Array(m) +
-                              ",\"log2_lo\":" + Num(camera.Log2Lo) + ",\"log2_hi\":" + Num(camera.Log2Hi) +
-                              ",\"toe_scale\":" + Num(camera.ToeScale) + "}");
+            Console.WriteLine("{\"display\":" + display + ",\"gain\":" + Harness.Array(gain) + ",\"matrices\":" + Harness.Array(m) +
+                              ",\"log2_lo\":" + Harness.Num(camera.Log2Lo) + ",\"log2_hi\":" + Harness.Num(camera.Log2Hi) +
+                              ",\"toe_scale\":" + Harness.Num(camera.ToeScale) + "}");
         }
         return 0;
     }
@@ -120,17 +103,6 @@ static class PassthroughTest
 #if SHLIGHT_MRUK
     static class Sender
     {
-        static void Call(object target, string method)
-        {
-            MethodInfo mi = target.GetType().GetMethod(method, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public);
-            mi.Invoke(target, null);
-        }
-
-        static void SetField(object target, string name, object value)
-        {
-            target.GetType().GetField(name, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public).SetValue(target, value);
-        }
-
         static UnityEngine.Quaternion Q(double[] q) { return new UnityEngine.Quaternion((float)q[0], (float)q[1], (float)q[2], (float)q[3]); }
         static UnityEngine.Vector3 V(double[] p) { return new UnityEngine.Vector3((float)p[0], (float)p[1], (float)p[2]); }
 
@@ -145,31 +117,31 @@ static class PassthroughTest
             client.Token = token;
             client.Probe = "";
             client.ExposureMode = Sh9ExposureMode.Passthrough;
-            SetField(client, "logToConsole", false);
+            Harness.SetField(client, "logToConsole", false);
             var camGo = new UnityEngine.GameObject("Camera");
             var access = camGo.AddComponent<Meta.XR.PassthroughCameraAccess>();
             var sender = anchor.AddComponent<SH9PassthroughSender>();
             sender.CameraAccess = access;
             sender.LightingClient = client;
             sender.ViewsPerSecond = 30f;
-            Call(client, "OnEnable");
-            Call(sender, "OnEnable");
+            Harness.Call(client, "OnEnable");
+            Harness.Call(sender, "OnEnable");
             var deadline = DateTime.UtcNow.AddSeconds(seconds);
             Action frame = () =>
             {
                 UnityEngine.Time.StandInFrameCount++;
-                Call(client, "Update");
-                Call(sender, "Update");
+                Harness.Call(client, "Update");
+                Harness.Call(sender, "Update");
                 access.StandInUpdatedThisFrame = false;
                 Thread.Sleep(10);
             };
             foreach (var v in views)
             {
-                double[] anchorPos = Numbers(v["anchor_position"]), anchorRot = Numbers(v["anchor_rotation"]);
+                double[] anchorPos = Harness.Numbers(v["anchor_position"]), anchorRot = Harness.Numbers(v["anchor_rotation"]);
                 anchor.transform.position = V(anchorPos);
                 anchor.transform.rotation = Q(anchorRot);
-                double[] size = Numbers(v["size"]), focal = Numbers(v["focal"]), principal = Numbers(v["principal"]);
-                double[] sensor = Numbers(v["sensor"]);
+                double[] size = Harness.Numbers(v["size"]), focal = Harness.Numbers(v["focal"]), principal = Harness.Numbers(v["principal"]);
+                double[] sensor = Harness.Numbers(v["sensor"]);
                 access.CurrentResolution = new UnityEngine.Vector2Int((int)size[0], (int)size[1]);
                 access.Intrinsics = new Meta.XR.PassthroughCameraAccess.CameraIntrinsics
                 {
@@ -177,7 +149,7 @@ static class PassthroughTest
                     PrincipalPoint = new UnityEngine.Vector2((float)principal[0], (float)principal[1]),
                     SensorResolution = new UnityEngine.Vector2Int((int)sensor[0], (int)sensor[1]),
                 };
-                access.StandInPose = new UnityEngine.Pose(V(Numbers(v["position"])), Q(Numbers(v["rotation"])));
+                access.StandInPose = new UnityEngine.Pose(V(Harness.Numbers(v["position"])), Q(Harness.Numbers(v["rotation"])));
                 access.Timestamp = new DateTime(1970, 1, 1, 0, 0, 0, DateTimeKind.Utc).AddTicks((long)((double)v["time"] * 1e7));
                 // the camera's image lands on the render thread of this frame: the sender reads it next frame
                 var tex = new UnityEngine.Texture2D((int)size[0], (int)size[1], UnityEngine.TextureFormat.RGBA32, false);
@@ -188,9 +160,12 @@ static class PassthroughTest
                 long before = sender.Capture.ViewsSent, answers = sender.Capture.State.Answers + sender.Capture.State.Errors;
                 while (sender.Capture.ViewsSent == before && DateTime.UtcNow < deadline)
                 {
+                    long skipped = sender.Capture.ViewsSkipped;
                     frame();
-                    if (sender.Capture.ViewsSent == before && !access.StandInUpdatedThisFrame && sender.Capture.Connected)
-                        access.StandInUpdatedThisFrame = true;  // the next camera image: the same view again
+                    // the sender took the image but the socket refused the view: the next camera image, the same
+                    // view again. Only then: an image taken while one waits would go out as the next view.
+                    if (sender.Capture.ViewsSent == before && sender.Capture.ViewsSkipped != skipped)
+                        access.StandInUpdatedThisFrame = true;
                 }
                 Console.WriteLine("{\"sent\":" + MiniJson.Quote(sender.LastViewMessage ?? "") + "}");
                 while (sender.Capture.State.Answers + sender.Capture.State.Errors == answers && DateTime.UtcNow < deadline) frame();
@@ -205,16 +180,16 @@ static class PassthroughTest
             Console.WriteLine("{\"answers\":" + st.Answers + ",\"dropped\":" + st.Dropped + ",\"errors\":" + st.Errors +
                               ",\"last_error\":" + MiniJson.Quote(st.LastError ?? "") +
                               ",\"camera\":" + (st.Camera != null ? "true" : "false") +
-                              ",\"exposure\":" + Num(st.Answer == null ? double.NaN : st.Answer.Exposure) +
+                              ",\"exposure\":" + Harness.Num(st.Answer == null ? double.NaN : st.Answer.Exposure) +
                               ",\"passthrough_active\":" + (client.PassthroughActive ? "true" : "false") +
                               ",\"keyword\":" + (UnityEngine.Shader.IsKeywordEnabled("SH9_PASSTHROUGH") ? "true" : "false") +
-                              ",\"gain\":" + Array(new double[] { g.x, g.y, g.z }) +
-                              ",\"range\":" + Array(new double[] { range.x, range.y, range.z }) +
-                              ",\"log2_lo\":" + Num(st.Camera == null ? double.NaN : st.Camera.Log2Lo) +
-                              ",\"log2_hi\":" + Num(st.Camera == null ? double.NaN : st.Camera.Log2Hi) +
+                              ",\"gain\":" + Harness.Array(new double[] { g.x, g.y, g.z }) +
+                              ",\"range\":" + Harness.Array(new double[] { range.x, range.y, range.z }) +
+                              ",\"log2_lo\":" + Harness.Num(st.Camera == null ? double.NaN : st.Camera.Log2Lo) +
+                              ",\"log2_hi\":" + Harness.Num(st.Camera == null ? double.NaN : st.Camera.Log2Hi) +
                               ",\"lut_uploaded\":" + (client.PassthroughLut != null ? "true" : "false") + "}");
-            Call(sender, "OnDisable");
-            Call(client, "OnDisable");
+            Harness.Call(sender, "OnDisable");
+            Harness.Call(client, "OnDisable");
             return 0;
         }
     }

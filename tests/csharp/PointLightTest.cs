@@ -3,38 +3,20 @@
 // at its position as its own probe, then the light where it moved to; disabling gives the renderer back.
 // Arguments: URL TOKEN ATX ATY ATZ MOVEDX MOVEDY MOVEDZ (Unity's frame) NORMALS (x,y,z;... Unity's frame).
 // Prints one JSON object: the renderer's probe evaluated at NORMALS at each place, and what it held.
+// Built with Harness.cs.
 using System;
 using System.Collections.Generic;
-using System.Globalization;
-using System.Reflection;
 using System.Text;
-using System.Threading;
 using Shlight.Lighting;
 using UnityEngine;
 using UnityEngine.Rendering;
 
 static class PointLightTest
 {
-    static void Call(object target, string method)
-    {
-        target.GetType().GetMethod(method, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public)
-              .Invoke(target, null);
-    }
-
-    static float F(string s) { return float.Parse(s, CultureInfo.InvariantCulture); }
-    static string N(double v) { return v.ToString("R", CultureInfo.InvariantCulture); }
-
+    // Unity's player loop: Update, then the next frame
     static bool Play(SH9PointLight light, Func<bool> until, double seconds)
     {
-        DateTime end = DateTime.UtcNow.AddSeconds(seconds);
-        while (DateTime.UtcNow < end)
-        {
-            Call(light, "Update");
-            Time.StandInFrameCount++;
-            if (until()) return true;
-            Thread.Sleep(10);
-        }
-        return false;
+        return Harness.Play(() => { Harness.Call(light, "Update"); Time.StandInFrameCount++; }, until, seconds);
     }
 
     static string Evaluated(Renderer r, Vector3[] normals)
@@ -45,42 +27,38 @@ static class PointLightTest
         sh[0].Evaluate(normals, colors);
         var o = new StringBuilder("[");
         for (int i = 0; i < colors.Length; i++)
-            o.Append((i > 0 ? "," : "") + N(colors[i].r) + "," + N(colors[i].g) + "," + N(colors[i].b));
+            o.Append((i > 0 ? "," : "") + Harness.Num(colors[i].r) + "," + Harness.Num(colors[i].g) + "," + Harness.Num(colors[i].b));
         return o.Append("]").ToString();
     }
 
     static int Main(string[] a)
     {
         var sphere = GameObject.CreatePrimitive(PrimitiveType.Sphere);
-        sphere.transform.position = new Vector3(F(a[2]), F(a[3]), F(a[4]));
+        sphere.transform.position = new Vector3(Harness.Float(a[2]), Harness.Float(a[3]), Harness.Float(a[4]));
         Renderer r = sphere.GetComponent<Renderer>();
         var light = sphere.AddComponent<SH9PointLight>();
         light.ServerUrl = a[0];
         light.Token = a[1];
         var normals = new List<Vector3>();
-        foreach (string t in a[8].Split(';'))
-        {
-            string[] v = t.Split(',');
-            normals.Add(new Vector3(F(v[0]), F(v[1]), F(v[2])));
-        }
-        Call(light, "OnEnable");
+        foreach (float[] v in Harness.Vectors(a[8])) normals.Add(new Vector3(v[0], v[1], v[2]));
+        Harness.Call(light, "OnEnable");
         var o = new StringBuilder("{");
         bool first = Play(light, () => r.StandInPropertyBlock != null && r.StandInPropertyBlock.StandInSH != null, 60);
         o.Append("\"first\":" + (first ? "true" : "false") + ",\"error\":" + MiniJson.Quote(light.Points.LastError ?? ""));
         o.Append(",\"usage\":\"" + r.lightProbeUsage + "\",\"evaluated\":" + Evaluated(r, normals.ToArray()));
         // a small move keeps the subscription; a move past the threshold asks for the light there
         long v0 = light.Points.Version;
-        sphere.transform.position = new Vector3(F(a[2]) + 0.1f, F(a[3]), F(a[4]));
-        Call(light, "Update");
-        var moved = new Vector3(F(a[5]), F(a[6]), F(a[7]));
+        sphere.transform.position = new Vector3(Harness.Float(a[2]) + 0.1f, Harness.Float(a[3]), Harness.Float(a[4]));
+        Harness.Call(light, "Update");
+        var moved = new Vector3(Harness.Float(a[5]), Harness.Float(a[6]), Harness.Float(a[7]));
         sphere.transform.position = moved;
         bool followed = Play(light, () => light.Points.Position != null && light.Points.Position[0] == moved.x &&
                                          light.Points.Version > v0, 60);
         Play(light, () => false, 0.2);    // the frame after the message: the block is set
         o.Append(",\"followed\":" + (followed ? "true" : "false") + ",\"moved_position\":[" +
-                 string.Join(",", Array.ConvertAll(light.Points.Position ?? new double[0], N)) + "]");
+                 string.Join(",", Array.ConvertAll(light.Points.Position ?? new double[0], Harness.Num)) + "]");
         o.Append(",\"evaluated_moved\":" + Evaluated(r, normals.ToArray()));
-        Call(light, "OnDisable");
+        Harness.Call(light, "OnDisable");
         o.Append(",\"usage_after\":\"" + r.lightProbeUsage + "\",\"block_after\":" +
                  (r.StandInPropertyBlock == null ? "null" : "\"kept\"") + "}");
         Console.WriteLine(o.ToString());

@@ -4,40 +4,20 @@
 // First with no LightProbes in the scene (the component says to bake a Light Probe Group), then with one.
 // Arguments: URL TOKEN MINX MINY MINZ MAXX MAXY MAXZ STEP ATX ATY ATZ (Unity's frame) [NORMALS (x,y,z;...)].
 // Prints one JSON object: the probes' positions and values after the first fill, the probe at AT evaluated
-// at NORMALS (Unity's frame) with SphericalHarmonicsL2.Evaluate, and the counts of the phases.
+// at NORMALS (Unity's frame) with SphericalHarmonicsL2.Evaluate, and the counts of the phases. Built with Harness.cs.
 using System;
 using System.Collections.Generic;
-using System.Globalization;
-using System.Reflection;
 using System.Text;
-using System.Threading;
 using Shlight.Lighting;
 using UnityEngine;
 using UnityEngine.Rendering;
 
 static class ProbeGridTest
 {
-    static void Call(object target, string method)
-    {
-        target.GetType().GetMethod(method, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public)
-              .Invoke(target, null);
-    }
-
-    static float F(string s) { return float.Parse(s, CultureInfo.InvariantCulture); }
-    static string N(double v) { return v.ToString("R", CultureInfo.InvariantCulture); }
-
-    // Play frames until the condition holds (each frame: Update, then a short wait as a frame takes).
+    // Unity's player loop: Update, then the next frame
     static bool Play(SH9ProbeGrid grid, Func<bool> until, double seconds)
     {
-        DateTime end = DateTime.UtcNow.AddSeconds(seconds);
-        while (DateTime.UtcNow < end)
-        {
-            Call(grid, "Update");
-            Time.StandInFrameCount++;
-            if (until()) return true;
-            Thread.Sleep(10);
-        }
-        return false;
+        return Harness.Play(() => { Harness.Call(grid, "Update"); Time.StandInFrameCount++; }, until, seconds);
     }
 
     static int Main(string[] a)
@@ -48,20 +28,16 @@ static class ProbeGridTest
         var grid = go.AddComponent<SH9ProbeGrid>();
         grid.ServerUrl = a[0];
         grid.Token = a[1];
-        grid.BoxMin = new Vector3(F(a[2]), F(a[3]), F(a[4]));
-        grid.BoxMax = new Vector3(F(a[5]), F(a[6]), F(a[7]));
-        grid.Step = F(a[8]);
+        grid.BoxMin = new Vector3(Harness.Float(a[2]), Harness.Float(a[3]), Harness.Float(a[4]));
+        grid.BoxMax = new Vector3(Harness.Float(a[5]), Harness.Float(a[6]), Harness.Float(a[7]));
+        grid.Step = Harness.Float(a[8]);
         grid.RefreshSeconds = 0.2f;
-        var at = new Vector3(F(a[9]), F(a[10]), F(a[11]));
+        var at = new Vector3(Harness.Float(a[9]), Harness.Float(a[10]), Harness.Float(a[11]));
         var normals = new List<Vector3>();
         if (a.Length > 12)
-            foreach (string t in a[12].Split(';'))
-            {
-                string[] v = t.Split(',');
-                normals.Add(new Vector3(F(v[0]), F(v[1]), F(v[2])));
-            }
+            foreach (float[] v in Harness.Vectors(a[12])) normals.Add(new Vector3(v[0], v[1], v[2]));
         var o = new StringBuilder("{");
-        Call(grid, "OnEnable");
+        Harness.Call(grid, "OnEnable");
         Play(grid, () => grid.LastError != null && grid.LastError.Contains("Light Probe Group"), 90);
         o.Append("\"no_probes_error\":" + MiniJson.Quote(grid.LastError ?? "") + ",\"fills_without_probes\":" + grid.Fills + ",");
         LightmapSettings.lightProbes = probes;
@@ -73,13 +49,13 @@ static class ProbeGridTest
             o.Append(",\"positions\":[");
             Vector3[] ps = probes.positions;
             for (int i = 0; i < ps.Length; i++)
-                o.Append((i > 0 ? "," : "") + N(ps[i].x) + "," + N(ps[i].y) + "," + N(ps[i].z));
+                o.Append((i > 0 ? "," : "") + Harness.Num(ps[i].x) + "," + Harness.Num(ps[i].y) + "," + Harness.Num(ps[i].z));
             o.Append("],\"probes\":[");
             SphericalHarmonicsL2[] sh = probes.bakedProbes;
             for (int i = 0; i < sh.Length; i++)
                 for (int c = 0; c < 3; c++)
                     for (int k = 0; k < 9; k++)
-                        o.Append((i + c + k > 0 ? "," : "") + N(sh[i][c, k]));
+                        o.Append((i + c + k > 0 ? "," : "") + Harness.Num(sh[i][c, k]));
             o.Append("]");
             SphericalHarmonicsL2 here;
             LightProbes.GetInterpolatedProbe(at, null, out here);
@@ -87,15 +63,16 @@ static class ProbeGridTest
             here.Evaluate(normals.ToArray(), colors);
             o.Append(",\"evaluated\":[");
             for (int i = 0; i < colors.Length; i++)
-                o.Append((i > 0 ? "," : "") + N(colors[i].r) + "," + N(colors[i].g) + "," + N(colors[i].b));
+                o.Append((i > 0 ? "," : "") + Harness.Num(colors[i].r) + "," + Harness.Num(colors[i].g) + "," + Harness.Num(colors[i].b));
             o.Append("]");
             // refreshed at the rate: the same points, new values, no re-tetrahedralisation
             bool refreshed = Play(grid, () => grid.Fills >= 3, 60);
             o.Append(",\"refreshed\":" + (refreshed ? "true" : "false") + ",\"tetrahedralizations_after_refresh\":" + grid.Tetrahedralizations);
-            // a finer step moves the points: Unity's tetrahedra are rebuilt once
+            // a finer step moves the points: Unity's tetrahedra are rebuilt once (a fetch already under way when
+            // the step changed may bring the old points first: that fill is no move)
             grid.Step = grid.Step / 2;
-            int before = grid.Fills;
-            bool moved = Play(grid, () => grid.Fills > before, 90);
+            int before = grid.Tetrahedralizations;
+            bool moved = Play(grid, () => grid.Tetrahedralizations > before, 90);
             o.Append(",\"moved\":" + (moved ? "true" : "false") + ",\"count_after_move\":" + probes.count +
                      ",\"tetrahedralizations_after_move\":" + grid.Tetrahedralizations +
                      ",\"stand_in_tetrahedralize_calls\":" + LightProbes.StandInTetrahedralizeCalls);

@@ -11,14 +11,8 @@ namespace Shlight.Lighting
 {
     [AddComponentMenu("Lighting/SH9 Point Light (shlight)")]
     [DisallowMultipleComponent]
-    public sealed class SH9PointLight : MonoBehaviour
+    public sealed class SH9PointLight : SH9ServerComponent
     {
-        [Tooltip("Take the server address and token from this client (leave empty to type them here).")]
-        [SerializeField] SH9LightingClient client;
-        [SerializeField] string serverUrl = "ws://127.0.0.1:8765/";
-        [Tooltip("The server's --token. Sent as 'Authorization: Bearer <token>'.")]
-        [SerializeField] string token = "";
-        [SerializeField] bool tokenInQuery = false;
         [Tooltip("The renderer to light (this GameObject's if empty).")]
         [SerializeField] Renderer target;
         [Tooltip("Metres the transform moves before the light is asked for where it is now.")]
@@ -32,10 +26,6 @@ namespace Shlight.Lighting
         Vector3 subscribedAt;
         long appliedVersion;
 
-        public SH9LightingClient Client { get { return client; } set { client = value; } }
-        public string ServerUrl { get { return serverUrl; } set { serverUrl = value; } }
-        public string Token { get { return token; } set { token = value; } }
-        public bool TokenInQuery { get { return tokenInQuery; } set { tokenInQuery = value; } }
         public Renderer Target { get { return target; } set { target = value; } }
         public float MoveThreshold { get { return moveThreshold; } set { moveThreshold = value; } }
         /// <summary>The subscription (null while disabled): its light, position and last error.</summary>
@@ -52,9 +42,7 @@ namespace Shlight.Lighting
             }
             block = new MaterialPropertyBlock();
             appliedVersion = 0;
-            points = new Sh9PointClient(client != null ? client.ServerUrl : serverUrl,
-                                        client != null ? client.Token : token,
-                                        client != null ? client.TokenInQuery : tokenInQuery);
+            points = new Sh9PointClient(UsedServerUrl, UsedToken, UsedTokenInQuery);
             Subscribe();
             points.Start();
         }

@@ -19,14 +19,8 @@ namespace Shlight.Lighting
 {
     [AddComponentMenu("Lighting/SH9 Probe Grid (shlight)")]
     [DisallowMultipleComponent]
-    public sealed class SH9ProbeGrid : MonoBehaviour
+    public sealed class SH9ProbeGrid : SH9ServerComponent
     {
-        [Tooltip("Take the server address and token from this client (leave empty to type them here).")]
-        [SerializeField] SH9LightingClient client;
-        [SerializeField] string serverUrl = "ws://127.0.0.1:8765/";
-        [Tooltip("The server's --token. Sent as 'Authorization: Bearer <token>'.")]
-        [SerializeField] string token = "";
-        [SerializeField] bool tokenInQuery = false;
         [Tooltip("The box the grid fills, in this scene's world frame (metres): the room, or the part holograms use.")]
         [SerializeField] Vector3 boxMin = new Vector3(0, 0, -5);
         [SerializeField] Vector3 boxMax = new Vector3(6, 3, 0);
@@ -41,10 +35,6 @@ namespace Shlight.Lighting
         string lastError;
         int fills, tetrahedralizations;
 
-        public SH9LightingClient Client { get { return client; } set { client = value; } }
-        public string ServerUrl { get { return serverUrl; } set { serverUrl = value; } }
-        public string Token { get { return token; } set { token = value; } }
-        public bool TokenInQuery { get { return tokenInQuery; } set { tokenInQuery = value; } }
         public Vector3 BoxMin { get { return boxMin; } set { boxMin = value; } }
         public Vector3 BoxMax { get { return boxMax; } set { boxMax = value; } }
         public float Step { get { return step; } set { step = value; } }
@@ -79,13 +69,11 @@ namespace Shlight.Lighting
         void Send()
         {
             nextFetch = Time.unscaledTime + refreshSeconds;
-            string url = client != null ? client.ServerUrl : serverUrl;
-            string tok = client != null ? client.Token : token;
-            bool inQuery = client != null ? client.TokenInQuery : tokenInQuery;
+            string tok = UsedToken;
             Uri uri;
             try
             {
-                uri = Sh9ProbeGrid.GridUri(url, tok, inQuery, new double[] { boxMin.x, boxMin.y, boxMin.z },
+                uri = Sh9ProbeGrid.GridUri(UsedServerUrl, tok, UsedTokenInQuery, new double[] { boxMin.x, boxMin.y, boxMin.z },
                                            new double[] { boxMax.x, boxMax.y, boxMax.z }, step);
             }
             catch (ArgumentException e) { lastError = e.Message; return; }

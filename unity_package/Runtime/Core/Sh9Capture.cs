@@ -93,10 +93,7 @@ namespace Shlight.Lighting
     public sealed class Sh9CaptureClient : IDisposable
     {
         readonly string token;
-        readonly object gate = new object();
-        CancellationTokenSource cts;
-        Task loop;
-        ClientWebSocket current;
+        readonly Sh9SocketLoop socketLoop = new Sh9SocketLoop(new object());
         int inFlight;                      // 1 while a sent view waits for its answer (Interlocked)
         long sentAt;                       // Stopwatch timestamp of the last send
         long viewsSent, viewsSkipped;
@@ -122,37 +119,15 @@ namespace Shlight.Lighting
             Uri = b.Uri;
         }
 
-        public bool Connected { get { ClientWebSocket ws = current; return ws != null && ws.State == WebSocketState.Open; } }
+        public bool Connected { get { ClientWebSocket ws = socketLoop.Current; return ws != null && ws.State == WebSocketState.Open; } }
         public long ViewsSent { get { return Interlocked.Read(ref viewsSent); } }
         /// <summary>Views not sent because the last one was not answered yet or the socket was down.</summary>
         public long ViewsSkipped { get { return Interlocked.Read(ref viewsSkipped); } }
         public string LastError { get { return Volatile.Read(ref lastError); } }
 
-        public void Start()
-        {
-            lock (gate)
-            {
-                if (loop != null) return;
-                cts = new CancellationTokenSource();
-                CancellationToken ct = cts.Token;
-                loop = Task.Run(() => RunAsync(ct));
-            }
-        }
+        public void Start() { socketLoop.Start(RunAsync); }
 
-        public void Stop(int waitMilliseconds = 1000)
-        {
-            Task t;
-            lock (gate)
-            {
-                if (loop == null) return;
-                t = loop;
-                loop = null;
-            }
-            cts.Cancel();
-            ClientWebSocket ws = current;
-            if (ws != null) { try { ws.Abort(); } catch (Exception) { } }
-            try { t.Wait(waitMilliseconds); } catch (Exception) { }
-        }
+        public void Stop(int waitMilliseconds = 1000) { socketLoop.Stop(waitMilliseconds, null); }
 
         public void Dispose() { Stop(); }
 
@@ -160,7 +135,7 @@ namespace Shlight.Lighting
         /// is unanswered; returns at once (the send runs on the thread pool).</summary>
         public bool TrySend(string viewMessage, byte[] jpeg)
         {
-            ClientWebSocket ws = current;
+            ClientWebSocket ws = socketLoop.Current;
             long now = System.Diagnostics.Stopwatch.GetTimestamp();
             bool stale = (now - Interlocked.Read(ref sentAt)) > AnswerTimeoutSeconds * System.Diagnostics.Stopwatch.Frequency;
             if (ws == null || ws.State != WebSocketState.Open ||
@@ -172,7 +147,7 @@ namespace Shlight.Lighting
             Interlocked.Exchange(ref inFlight, 1);
             Interlocked.Exchange(ref sentAt, now);
             Interlocked.Increment(ref viewsSent);
-            CancellationToken ct = cts == null ? CancellationToken.None : cts.Token;
+            CancellationToken ct = socketLoop.Token;
             Task.Run(async () =>
             {
                 try
@@ -205,7 +180,7 @@ namespace Shlight.Lighting
                         await ws.ConnectAsync(Uri, connect.Token).ConfigureAwait(false);
                     }
                     Interlocked.Exchange(ref inFlight, 0);
-                    current = ws;
+                    socketLoop.Attach(ws);
                     backoff = 0.5;
                     await ReceiveAsync(ws, ct).ConfigureAwait(false);
                 }
@@ -216,7 +191,7 @@ namespace Shlight.Lighting
                 }
                 finally
                 {
-                    current = null;
+                    socketLoop.Detach(ws);
                     try { ws.Abort(); } catch (Exception) { }
                     ws.Dispose();
                 }

@@ -67,10 +67,8 @@ namespace Shlight.Lighting
     {
         readonly Sh9ClientOptions options;
         readonly object gate = new object();
+        readonly Sh9SocketLoop socketLoop;
         int keyLight = -1;   // the last key light's index (receive thread only)
-        CancellationTokenSource cts;
-        Task loop;
-        ClientWebSocket current;
 
         Sh9Snapshot latest;        // published with Volatile.Write, read with Volatile.Read
         Sh9Hello hello;
@@ -95,6 +93,7 @@ namespace Shlight.Lighting
         {
             if (options == null) throw new ArgumentNullException("options");
             this.options = options.Clone();
+            socketLoop = new Sh9SocketLoop(gate);
             Uri = BuildUri(this.options.Url, this.options.Token, this.options.TokenInQuery);
         }
 
@@ -115,7 +114,7 @@ namespace Shlight.Lighting
         public int HandshakeStatus { get { return Volatile.Read(ref httpStatus); } }
         /// <summary>Successful connections so far (1 + reconnects).</summary>
         public int Connections { get { return Volatile.Read(ref connections); } }
-        public bool IsRunning { get { lock (gate) return loop != null; } }
+        public bool IsRunning { get { return socketLoop.IsRunning; } }
 
         /// <summary>Seconds since the last frame of any kind arrived on a connection (-1 before the first).</summary>
         public double SecondsSinceLastFrame
@@ -141,9 +140,9 @@ namespace Shlight.Lighting
             CancellationTokenSource wait;
             lock (gate)
             {
-                if (loop == null) return;
+                if (!socketLoop.IsRunning) return;
                 reconnectRequested = true;
-                ws = current;
+                ws = socketLoop.Current;
                 wait = backoffWait;
             }
             Emit("reconnecting now" + (string.IsNullOrEmpty(reason) ? "" : " (" + reason + ")"));
@@ -184,46 +183,23 @@ namespace Shlight.Lighting
         }
 
         /// <summary>Start the background connection loop (idempotent).</summary>
-        public void Start()
-        {
-            lock (gate)
-            {
-                if (loop != null) return;
-                cts = new CancellationTokenSource();
-                CancellationToken token = cts.Token;
-                loop = Task.Run(() => RunAsync(token));
-            }
-        }
+        public void Start() { socketLoop.Start(RunAsync); }
 
         /// <summary>Stop and close the connection; waits up to <paramref name="waitMilliseconds"/>.</summary>
         public void Stop(int waitMilliseconds = 2000)
         {
-            Task t;
-            ClientWebSocket ws;
-            lock (gate)
-            {
-                if (loop == null) return;
-                t = loop;
-                loop = null;
-                ws = current;
-            }
             // Say goodbye properly (a close frame) when we can do so quickly, then tear down.
-            if (ws != null && ws.State == WebSocketState.Open)
+            bool stopped = socketLoop.Stop(waitMilliseconds, ws =>
             {
+                if (ws.State != WebSocketState.Open) return;
                 try
                 {
                     ws.CloseOutputAsync(WebSocketCloseStatus.NormalClosure, "client stopped", CancellationToken.None)
                       .Wait(Math.Min(300, Math.Max(0, waitMilliseconds)));
                 }
                 catch (Exception) { }
-            }
-            cts.Cancel();
-            if (ws != null)
-            {
-                try { ws.Abort(); } catch (Exception) { }
-            }
-            try { t.Wait(waitMilliseconds); } catch (Exception) { }
-            Volatile.Write(ref phase, 0);
+            });
+            if (stopped) Volatile.Write(ref phase, 0);
         }
 
         public void Dispose() { Stop(); }
@@ -266,7 +242,7 @@ namespace Shlight.Lighting
                 reconnectRequested = false; // this attempt is the one asked for
                 bool gotData = false;
                 var ws = new ClientWebSocket();
-                lock (gate) current = ws;
+                socketLoop.Attach(ws);
                 try
                 {
                     if (!string.IsNullOrEmpty(options.Token))
@@ -353,7 +329,7 @@ namespace Shlight.Lighting
                 finally
                 {
                     Volatile.Write(ref phase, 0);
-                    lock (gate) if (current == ws) current = null;
+                    socketLoop.Detach(ws);
                     try { ws.Abort(); } catch (Exception) { }
                     ws.Dispose();
                 }

@@ -20,9 +20,7 @@ namespace Shlight.Lighting
         readonly string token;
         readonly SemaphoreSlim sending = new SemaphoreSlim(1, 1);
         readonly object gate = new object();
-        CancellationTokenSource cts;
-        Task loop;
-        ClientWebSocket current;
+        readonly Sh9SocketLoop socketLoop;
         double[] at;                 // the point asked for, wire frame (under gate)
         double[] probe, coefficients, position;
         long version;
@@ -32,6 +30,7 @@ namespace Shlight.Lighting
         {
             uri = Sh9Client.BuildUri(serverUrl, token, tokenInQuery);
             this.token = token;
+            socketLoop = new Sh9SocketLoop(gate);
         }
 
         public Uri Uri { get { return uri; } }
@@ -46,16 +45,7 @@ namespace Shlight.Lighting
         /// <summary>The server's last refusal or the connection's last failure; null while all is well.</summary>
         public string LastError { get { return Volatile.Read(ref lastError); } }
 
-        public void Start()
-        {
-            lock (gate)
-            {
-                if (loop != null) return;
-                cts = new CancellationTokenSource();
-                CancellationToken ct = cts.Token;
-                loop = Task.Run(() => RunAsync(ct));
-            }
-        }
+        public void Start() { socketLoop.Start(RunAsync); }
 
         /// <summary>Follow the light at (x, y, z), the wire's frame (Unity's with z negated).</summary>
         public void MoveTo(double x, double y, double z)
@@ -64,7 +54,7 @@ namespace Shlight.Lighting
             lock (gate)
             {
                 at = new[] { x, y, z };
-                ws = current;
+                ws = socketLoop.Current;
             }
             if (ws != null && ws.State == WebSocketState.Open) Task.Run(() => SubscribeAsync(ws, CancellationToken.None));
         }
@@ -94,7 +84,7 @@ namespace Shlight.Lighting
                 {
                     if (!string.IsNullOrEmpty(token)) ws.Options.SetRequestHeader("Authorization", "Bearer " + token);
                     await ws.ConnectAsync(uri, ct).ConfigureAwait(false);
-                    lock (gate) current = ws;
+                    socketLoop.Attach(ws);
                     backoff = 1;
                     await SubscribeAsync(ws, ct).ConfigureAwait(false);
                     var text = new MemoryStream();
@@ -112,7 +102,7 @@ namespace Shlight.Lighting
                 catch (Exception e) { Volatile.Write(ref lastError, e.Message); }
                 finally
                 {
-                    lock (gate) if (current == ws) current = null;
+                    socketLoop.Detach(ws);
                     ws.Dispose();
                 }
                 if (ct.IsCancellationRequested) break;
@@ -167,21 +157,6 @@ namespace Shlight.Lighting
             return r;
         }
 
-        public void Dispose()
-        {
-            Task t;
-            lock (gate)
-            {
-                if (cts == null) return;
-                cts.Cancel();
-                ClientWebSocket ws = current;
-                if (ws != null) try { ws.Abort(); } catch (Exception) { }
-                t = loop;
-                loop = null;
-            }
-            try { if (t != null) t.Wait(TimeSpan.FromSeconds(2)); } catch (Exception) { }
-            cts.Dispose();
-            cts = null;
-        }
+        public void Dispose() { socketLoop.Stop(2000, null); }
     }
 }
