@@ -34,14 +34,22 @@ def test_the_theta_keeps_its_settings(caplog, api):
             first = cam["settings_applied"]
 
             # the camera slept and woke with its defaults, the stream still up
+            reconnects = health(srv.http)["probes"]["default"]["reconnects"]
             theta.forget()
             assert "whiteBalance" not in theta.options
             cam = poll(lambda: camera_health(srv).get("settings_lost") and camera_health(srv),
                        20, what="settings lost and set again")
             assert theta.options["whiteBalance"] == "daylight"
-            assert "after the camera lost them" in cam["settings_reason"]
-            assert any("re-applied Theta settings" in r.getMessage() and "lost them" in
-                       r.getMessage() for r in caplog.records)
+            # Beside a CPU hog the preview stream can stall past its read timeout and be
+            # reconnected around the next check: then either may have set them again, and
+            # says which. Otherwise the check found them lost, and says that.
+            if health(srv.http)["probes"]["default"]["reconnects"] == reconnects:
+                assert "after the camera lost them" in cam["settings_reason"]
+                assert any("re-applied Theta settings" in r.getMessage() and "lost them" in
+                           r.getMessage() for r in caplog.records)
+            else:
+                assert any(why in cam["settings_reason"]
+                           for why in ("after the camera lost them", "reconnection"))
 
             # a power cycle: the options are lost and the stream drops; the new connection
             # sets them before its preview starts
