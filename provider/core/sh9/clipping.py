@@ -19,6 +19,7 @@ import weakref
 import cv2
 import numpy as np
 
+from ..framepass.sinks import Sink
 from ..geometry import sh
 from ..geometry.projections import Equirect
 
@@ -95,3 +96,38 @@ class ClippedLight:
                 self.band(frame[r0:r0 + self.p.BAND_ROWS], r0, clip)
         stats["clipped_fraction"] = clip["n"] / frame.size
         return clip["l00"]
+
+
+class ClipCount(Sink):
+    """The clip counter's sink in the frame pass: ``stats["clipped_fraction"]`` and ``l00``
+    (the clipped samples' L00, summed over the channels) of one frame. Equirect: each raw
+    band tallied while in cache; dense weights, or a pass that fed no band (a fused kernel),
+    the whole 8/16-bit frame at the end. A float frame clips nothing."""
+
+    name = "clip"
+    needs_bands = False
+
+    def __init__(self, clipped: ClippedLight):
+        self.clipped, self.l00 = clipped, 0.0
+
+    def start(self, frame, table, stats):
+        self.frame, self.table, self.tally, self.rows = frame, table, None, 0
+        if table is None:
+            stats["clipped_fraction"] = 0.0
+        elif self.clipped.p._weights is None:
+            self.tally = self.clipped.start(frame, table)
+
+    def band(self, lin, r0, raw, columns):
+        if self.tally is not None:
+            self.clipped.band(raw, r0, self.tally)
+            self.rows += raw.shape[0]
+
+    def finish(self, stats):
+        frame, self.frame = self.frame, None
+        if self.table is None:
+            return
+        if self.tally is not None and self.rows == frame.shape[0]:
+            stats["clipped_fraction"] = self.tally["n"] / frame.size
+            self.l00 = self.tally["l00"]
+        else:
+            self.l00 = self.clipped.whole(frame, self.table, stats)
