@@ -194,7 +194,6 @@ class SH9Projector(FrameDecoder):
             #: L00 weight of each pixel (H·W,): what the clipped samples carry.
             self._l00_weights = tables.l00
         self._clipped = ClippedLight(self)
-        self._pass = FramePass(self._strategies(), self.BAND_ROWS)
         self._estimator = None
         self._coverage = 4 * math.pi if isinstance(p, Equirect) else tables.coverage
         if not self._coverage > 0:
@@ -211,7 +210,8 @@ class SH9Projector(FrameDecoder):
 
     def _strategies(self) -> list:
         """The frame pass's decode strategies (:mod:`provider.core.framepass`), tried in
-        order: the one place where how a frame is decoded is chosen."""
+        order: the one place where how a frame is decoded is chosen. Made per frame from
+        the tables the projector holds now (a few small objects)."""
         if self.downsample > 1:
             p = self.projection
             return [BlockMeans(self.downsample, self._block, (p.width, p.height),
@@ -244,7 +244,7 @@ class SH9Projector(FrameDecoder):
         ``sinks.clip``, ``sinks.up``, ``sinks.lights``, ``sinks.small``. ``lut``: a table
         other than the projector's own."""
         sinks = self._sinks(frame, lut, work)
-        self._pass.run(self, frame, sinks, stats, lut)
+        FramePass(self._strategies(), self.BAND_ROWS).run(self, frame, sinks, stats, lut)
         return sinks
 
     def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
