@@ -11,7 +11,8 @@ A sink is one product of a frame pass. For each frame the pass calls, in order:
    (``downsample`` > 1) it gets the block means once, through ``whole(lin)``;
 3. ``finish(stats)``: after the last band; the sink then holds its result.
 
-What a sink declares: ``name`` (how the caller reads it: ``sinks.sh9``), ``at_projection``,
+A sink is registered under a name (``Sinks(sh9=..., lights=...)``), which the caller reads it
+by (``sinks.sh9``) and a fused strategy names it by. What a sink declares: ``at_projection``,
 ``all_columns`` (needs every column decoded: no spans) and ``needs_bands`` (False: it copes
 with a pass that feeds it no band, a fused kernel's or the fast path's, by reading the raw
 frame in ``finish`` or by staying incomplete).
@@ -25,7 +26,6 @@ class Sink:
     """One product of a frame pass (see the module docstring); each method does nothing
     by default."""
 
-    name = "sink"
     at_projection = False
     all_columns = False
     needs_bands = True
@@ -47,18 +47,13 @@ class Sink:
 
 
 class Sinks:
-    """The sinks registered for one frame, in the order they are fed; each read by its
-    name as an attribute (``sinks.lights``), None where that product was not registered."""
+    """The sinks registered for one frame by name, in the order they are fed; each read as
+    an attribute (``sinks.lights``), None where the frame does not feed that product."""
 
-    def __init__(self, *sinks: Sink | None):
-        self.all = [s for s in sinks if s is not None]
-        for s in self.all:
-            self.__dict__[s.name] = s
-
-    def __getattr__(self, name: str):
-        if name.startswith("__"):
-            raise AttributeError(name)
-        return None
+    def __init__(self, **sinks: Sink | None):
+        self.__dict__.update(sinks)
+        self.named = [(name, s) for name, s in sinks.items() if s is not None]
+        self.all = [s for _, s in self.named]
 
     def __iter__(self):
         return iter(self.all)
@@ -68,9 +63,7 @@ class WholeFrame(Sink):
     """The whole linear frame, kept for a reader after the pass (``image``): the frame
     itself where every band was it (a clean float32 frame), else a float32 copy."""
 
-    def __init__(self, name: str):
-        self.name = name
-        self.frame = self.out = self.image = None
+    frame = out = image = None
 
     def start(self, frame, table, stats):
         self.frame, self.out = frame, None
@@ -95,7 +88,6 @@ class SmallFrame(Sink):
     """The fast path's block means (``image``), kept for a reader after the pass (the
     error estimate)."""
 
-    name = "small"
     at_projection = True
     needs_bands = False
     image = None

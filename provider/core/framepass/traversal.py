@@ -2,8 +2,9 @@
 
 :class:`FramePass` holds a product's decode strategies, in the order they are tried; the
 first whose ``accepts(frame, sinks)`` holds decodes the frame and feeds the sinks
-(:mod:`.sinks`). A strategy ``serves`` the sinks it fills inside a fused kernel (the pass
-feeds them no band); it accepts a frame only where every other sink copes without bands.
+(:mod:`.sinks`). A strategy ``serves`` the sinks (by name) it fills inside a fused kernel
+(the pass feeds them no band); it accepts a frame only where every other sink copes
+without bands.
 
 * :class:`LutBands`: an 8/16-bit frame at its own size, band by band through its table,
   or only the column spans the projection sees (:class:`~provider.core.sh9.support.DecodeSpans`-like
@@ -24,10 +25,6 @@ from ..radiometry.blocks import shrink
 from ..radiometry.float_clean import FloatCleaner, clean_frame
 
 _INTEGER = (np.uint8, np.uint16)
-
-
-def _band_sinks(sinks, served=frozenset()) -> list:
-    return [s for s in sinks if s.name not in served]
 
 
 def _finish(sinks, stats: dict) -> None:
@@ -81,7 +78,7 @@ class LutBands:
         if spans is not None and any(s.all_columns for s in sinks):
             spans = None
         buffer = spans.new_buffer() if spans is not None else None
-        fed = _band_sinks(sinks)
+        fed = sinks.all
         columns = None
         for r0 in range(0, frame.shape[0], fp.band_rows):
             band = frame[r0:r0 + fp.band_rows]
@@ -107,7 +104,7 @@ class FloatBands:
 
     def run(self, fp, decoder, frame, table, lut, sinks, stats):
         cleaner = FloatCleaner()
-        fed = _band_sinks(sinks)
+        fed = sinks.all
         for r0 in range(0, frame.shape[0], fp.band_rows):
             band = frame[r0:r0 + fp.band_rows]
             lin = cleaner.band(band)

@@ -532,8 +532,6 @@ class DetectionCopy(Sink):
     block means of ``factor``) of an integer frame, built band by band from the linear
     bands (:meth:`LightExtractor.reduce_band`) or by a fused kernel that serves it."""
 
-    name = "lights"
-
     def __init__(self, extractor: LightExtractor):
         self.extractor, self.factor = extractor, extractor.mid_factor
         self.image = extractor.new_mid()

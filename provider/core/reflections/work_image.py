@@ -23,7 +23,6 @@ class WorkImage(Sink):
     cube's sink: it needs every column decoded, and a pass that feeds it no band (a fused
     kernel's) leaves it incomplete (the cube then decodes the frame itself)."""
 
-    name = "work"
     all_columns = True
     needs_bands = False
 

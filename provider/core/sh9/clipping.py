@@ -104,7 +104,6 @@ class ClipCount(Sink):
     band tallied while in cache; dense weights, or a pass that fed no band (a fused kernel),
     the whole 8/16-bit frame at the end. A float frame clips nothing."""
 
-    name = "clip"
     needs_bands = False
 
     def __init__(self, clipped: ClippedLight):

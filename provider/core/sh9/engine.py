@@ -194,6 +194,7 @@ class SH9Projector(FrameDecoder):
             #: L00 weight of each pixel (H·W,): what the clipped samples carry.
             self._l00_weights = tables.l00
         self._clipped = ClippedLight(self)
+        self._pass = None      # (fold, spans, FramePass): made on the first frame
         self._estimator = None
         self._coverage = 4 * math.pi if isinstance(p, Equirect) else tables.coverage
         if not self._coverage > 0:
@@ -210,8 +211,7 @@ class SH9Projector(FrameDecoder):
 
     def _strategies(self) -> list:
         """The frame pass's decode strategies (:mod:`provider.core.framepass`), tried in
-        order: the one place where how a frame is decoded is chosen. Made per frame from
-        the tables the projector holds now (a few small objects)."""
+        order: the one place where how a frame is decoded is chosen."""
         if self.downsample > 1:
             p = self.projection
             return [BlockMeans(self.downsample, self._block, (p.width, p.height),
@@ -230,12 +230,12 @@ class SH9Projector(FrameDecoder):
             # a copy not built in the pass is decoded again by the lights (_add_lights)
             lights = DetectionCopy(self._extractor) if self._fuse_lights else None
         elif self._extractor is not None:
-            lights = WholeFrame("lights")
+            lights = WholeFrame()
         if work is not None and not (lut is None and integer and self.downsample == 1):
             work = None
-        return Sinks(sh9, UpSum(self, sh9) if self._up_in_pass else None,
-                     ClipCount(self._clipped), lights, work,
-                     SmallFrame() if self.downsample > 1 else None)
+        return Sinks(sh9=sh9, up=UpSum(self, sh9) if self._up_in_pass else None,
+                     clip=ClipCount(self._clipped), lights=lights, work=work,
+                     small=SmallFrame() if self.downsample > 1 else None)
 
     def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None,
                        work=None) -> Sinks:
@@ -244,7 +244,12 @@ class SH9Projector(FrameDecoder):
         ``sinks.clip``, ``sinks.up``, ``sinks.lights``, ``sinks.small``. ``lut``: a table
         other than the projector's own."""
         sinks = self._sinks(frame, lut, work)
-        FramePass(self._strategies(), self.BAND_ROWS).run(self, frame, sinks, stats, lut)
+        made = self._pass
+        if made is None or made[0] is not self._fold or made[1] is not self._spans:
+            # built once; again where the fold or the spans were swapped (a test's twin)
+            made = self._pass = (self._fold, self._spans,
+                                 FramePass(self._strategies(), self.BAND_ROWS))
+        made[2].run(self, frame, sinks, stats, lut)
         return sinks
 
     def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
@@ -460,7 +465,6 @@ class SH9Sums(Sink):
     ``coefficients()``: (9, 3) float64, times the exposure for a float frame (an integer
     frame's is in its table)."""
 
-    name = "sh9"
     at_projection = True
     scale = 1.0
 
@@ -540,7 +544,7 @@ class FoldDecode:
         return (frame.dtype == np.uint8
                 and self.fold.decodes(frame, None if lights is None else lights.image.shape[:2],
                                       1 if lights is None else lights.factor)
-                and all(s.name in self.serves or not s.needs_bands for s in sinks))
+                and all(name in self.serves or not s.needs_bands for name, s in sinks.named))
 
     def run(self, fp, decoder, frame, table, lut, sinks, stats):
         lights = sinks.lights

@@ -178,8 +178,6 @@ class UpSum(Sink):
     product and this one reads them; an equirect frame under a sensor rotation (a turned
     cosine is not separable) is summed here, per pixel, band by band."""
 
-    name = "up"
-
     def __init__(self, projector, sh9):
         self.sh9, self.dense = sh9, projector._up_dense      # (H, W, 1) or None
         self.needs_bands = self.dense is not None
