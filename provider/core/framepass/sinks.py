@@ -55,6 +55,12 @@ class Sinks:
         self.named = [(name, s) for name, s in sinks.items() if s is not None]
         self.all = [s for _, s in self.named]
 
+    def __getattr__(self, name: str):
+        # a name not given at all reads None too (given as None, it costs no failed lookup)
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return None
+
     def __iter__(self):
         return iter(self.all)
 
