@@ -104,12 +104,12 @@ def test_a_sink_that_needs_every_column_turns_the_spans_off():
 def test_a_fused_kernel_is_taken_only_where_no_other_sink_needs_bands(kernels):
     projector = SH9Projector(192, 128, "fisheye", lights="auto")
     frame = frame_of("uint8", 192, 128)
-    sinks = projector._sinks(frame, None, None)
+    sinks = projector._sinks(frame, None, None, False)
     fp = FramePass(projector._strategies())
     assert type(fp.strategy(frame, sinks)).__name__ == "FoldDecode"
     assert sinks.lights is not None and sinks.lights.image is not None
-    banded = Sinks(**{name: s for name, s in sinks.named}, rows=Rows())
+    banded = Sinks(**sinks.named, rows=Rows())
     assert isinstance(fp.strategy(frame, banded), LutBands)
     rows = Rows(needs_bands=False)        # copes without: left unfed by the fused kernel
-    fp.run(projector, frame, Sinks(**{name: s for name, s in sinks.named}, rows=rows), {})
+    fp.run(projector, frame, Sinks(**sinks.named, rows=rows), {})
     assert rows.bands == [] and (rows.starts, rows.finishes) == (1, 1)

@@ -47,16 +47,18 @@ class Sink:
 
 
 class Sinks:
-    """The sinks registered for one frame by name, in the order they are fed; each read as
-    an attribute (``sinks.lights``), None where the frame does not feed that product."""
+    """The sinks registered for one frame by name (``named``), in the order they are fed
+    (``all``); each read as an attribute (``sinks.lights``), None where the frame does not
+    feed that product. A product's subclass names its sinks as class attributes set to
+    None: an absent one then costs no failed lookup (a frame's pass is counted in
+    instructions: ``shlight bench --sections edge``)."""
 
-    def __init__(self, **sinks: Sink | None):
+    def __init__(self, **sinks: Sink):
         self.__dict__.update(sinks)
-        self.named = [(name, s) for name, s in sinks.items() if s is not None]
-        self.all = [s for _, s in self.named]
+        self.named = sinks
+        self.all = list(sinks.values())
 
     def __getattr__(self, name: str):
-        # a name not given at all reads None too (given as None, it costs no failed lookup)
         if name.startswith("__"):
             raise AttributeError(name)
         return None

@@ -28,7 +28,7 @@ _INTEGER = (np.uint8, np.uint16)
 
 
 def _finish(sinks, stats: dict) -> None:
-    for s in sinks:
+    for s in sinks.all:
         s.finish(stats)
 
 
@@ -56,7 +56,7 @@ class FramePass:
         table = None
         if frame.dtype in _INTEGER:
             table = decoder._lut(frame.dtype) if lut is None else lut
-        for s in sinks:
+        for s in sinks.all:
             s.start(frame, table, stats)
         self.strategy(frame, sinks).run(self, decoder, frame, table, lut, sinks, stats)
 
@@ -134,7 +134,7 @@ class BlockMeans:
     def run(self, fp, decoder, frame, table, lut, sinks, stats):
         integer = frame.dtype in _INTEGER
         # sinks at the frame's size that read it whole (the lights' copy): decode it all
-        full = [s for s in sinks if not s.at_projection and s.needs_bands]
+        full = [s for s in sinks.all if not s.at_projection and s.needs_bands]
         lin = None
         bw, bh = self.block
         if frame.dtype == np.uint8 and blocks.KERNEL and not full:
@@ -145,7 +145,7 @@ class BlockMeans:
         else:
             lin = decoder._linearise(frame, lut) if integer else clean_frame(frame, stats)
             small = shrink(lin[:bh, :bw], self.size)
-        for s in sinks:
+        for s in sinks.all:
             if s.at_projection:
                 s.whole(small)
             elif lin is not None:

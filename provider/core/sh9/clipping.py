@@ -42,7 +42,9 @@ class ClippedLight:
         if self.p._weights is None and (self._l00 is None or len(self._l00) != h):
             full = Equirect(w, h)    # full-resolution rows, whatever the downsampling
             self._l00 = sh.C0 * full.row_integrals()[0] * full.col_integrals()[0].mean()
-        return {"top": top, "value": value, "one": bool(np.all(value == value[0])),
+        # array methods, not numpy's Python wrappers: a frame's tally is counted in
+        # instructions (shlight bench --sections edge)
+        return {"top": top, "value": value, "one": bool((value == value[0]).all()),
                 "n": 0, "l00": 0.0}
 
     def band(self, band: np.ndarray, r0: int, clip: dict) -> None:
@@ -79,7 +81,8 @@ class ClippedLight:
         weights = self._l00[rows] if few else self._l00
         total = weights.reshape(-1) @ (mask[rows] if few else mask).reshape(-1, 3).astype(
             np.float32)
-        return float(np.broadcast_to(clip["value"], (3,)) @ total) / 255.0
+        value = clip["value"]
+        return float((value if value.size == 3 else value.repeat(3)) @ total) / 255.0
 
     def whole(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
         """``stats["clipped_fraction"]`` of a whole frame; returns the clipped L00 summed

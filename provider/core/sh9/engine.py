@@ -219,31 +219,35 @@ class SH9Projector(FrameDecoder):
         fused = [FoldDecode(self._fold)] if self._fold is not None else []
         return fused + [LutBands(self._spans), FloatBands()]
 
-    def _sinks(self, frame: np.ndarray, lut, work) -> Sinks:
+    def _sinks(self, frame: np.ndarray, lut, work, small: bool) -> "SH9Sinks":
         """The sinks of the products ``frame`` feeds, in the order they are fed: the SH9
         sums, the meter's up-facing sum, the clip counter, the lights' copy, the cube's
-        work image and the fast path's small frame, each where this frame needs it."""
+        work image and the fast path's small frame (``small``: for the error estimate),
+        each where this frame needs it."""
         integer = frame.dtype in (np.uint8, np.uint16)
-        sh9 = SH9Sums(self)
-        lights = None
+        sinks = {"sh9": SH9Sums(self)}
+        if self._up_in_pass:
+            sinks["up"] = UpSum(self, sinks["sh9"])
+        sinks["clip"] = ClipCount(self._clipped)
         if self._extractor is not None and integer and self.downsample == 1:
-            # a copy not built in the pass is decoded again by the lights (_add_lights)
-            lights = DetectionCopy(self._extractor) if self._fuse_lights else None
+            if self._fuse_lights:  # else the lights decode the frame again (_add_lights)
+                sinks["lights"] = DetectionCopy(self._extractor)
         elif self._extractor is not None:
-            lights = WholeFrame()
-        if work is not None and not (lut is None and integer and self.downsample == 1):
-            work = None
-        return Sinks(sh9=sh9, up=UpSum(self, sh9) if self._up_in_pass else None,
-                     clip=ClipCount(self._clipped), lights=lights, work=work,
-                     small=SmallFrame() if self.downsample > 1 else None)
+            sinks["lights"] = WholeFrame()
+        if work is not None and lut is None and integer and self.downsample == 1:
+            sinks["work"] = work
+        if small and self.downsample > 1:
+            sinks["small"] = SmallFrame()
+        return SH9Sinks(**sinks)
 
     def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None,
-                       work=None) -> Sinks:
+                       work=None, small: bool = False) -> "SH9Sinks":
         """Decode ``frame`` once (counting bad samples into ``stats``) and feed the sinks of
         its products (:meth:`_sinks`), which hold their results: ``sinks.sh9``,
-        ``sinks.clip``, ``sinks.up``, ``sinks.lights``, ``sinks.small``. ``lut``: a table
-        other than the projector's own."""
-        sinks = self._sinks(frame, lut, work)
+        ``sinks.clip``, ``sinks.up``, ``sinks.lights``, ``sinks.small`` (the fast path's
+        small frame, kept where ``small``). ``lut``: a table other than the projector's
+        own."""
+        sinks = self._sinks(frame, lut, work, small)
         made = self._pass
         if made is None or made[0] is not self._fold or made[1] is not self._spans:
             # built once; again where the fold or the spans were swapped (a test's twin)
@@ -308,7 +312,8 @@ class SH9Projector(FrameDecoder):
         k = exposure_scale(exposure_s, gain, stats)
         k = self.absolute_scale(k, f_number, stats)
         absolute = UNITS_ABSOLUTE in (stats["coefficient_units"], units)
-        sinks = self._project_frame(frame, stats, work=work)
+        estimate = self.error_estimate if error_estimate is None else error_estimate
+        sinks = self._project_frame(frame, stats, work=work, small=estimate)
         coeffs, clipped = sinks.sh9.coefficients(), sinks.clip.l00
         small = None if sinks.small is None else sinks.small.image
         light_input = None if sinks.lights is None else sinks.lights.image
@@ -325,7 +330,7 @@ class SH9Projector(FrameDecoder):
         result = self.result(coeffs, stats, exposure_s)
         if self._extractor is not None:
             self._add_lights(result, frame, coeffs, light_input, tracker, k)
-        if self.error_estimate if error_estimate is None else error_estimate:
+        if estimate:
             if small is None:
                 small = (self._linearise(frame) if frame.dtype in (np.uint8, np.uint16)
                          else self._clean_float(frame, {}))
@@ -389,7 +394,8 @@ class SH9Projector(FrameDecoder):
         stats["radiometry"] = radiometry
         if self.response is not None and radiometry != "linear":
             stats["response"] = self.response.method
-        total = float(np.sum(coefficients[0]))
+        # array methods, not numpy's Python wrappers (a frame is counted in instructions)
+        total = float(np.asarray(coefficients[0]).sum())
         part = float(np.sum(clipped_l00))
         stats["clipped_light_fraction"] = min(max(part / total, 0.0), 1.0) if total > 0 else 0.0
 
@@ -398,7 +404,7 @@ class SH9Projector(FrameDecoder):
         E_exact = sh.sphere_irradiance(exact)
         # The channels' minima over a contiguous copy: a reduction over axis 0 of an (N, 3)
         # array runs its inner loop once a row (N calls; issue 34).
-        stats["ringing"] = bool(np.any(np.ascontiguousarray(E_exact.T).min(axis=1) < 0))
+        stats["ringing"] = bool((np.ascontiguousarray(E_exact.T).min(axis=1) < 0).any())
         stats["window_cutoff"] = None
         if self.dering == "auto":
             coeffs, cutoff = sh.dering(coeffs)
@@ -417,7 +423,7 @@ class SH9Projector(FrameDecoder):
         E = sh.sphere_irradiance(coeffs)
         stats["order"] = order
         stats["order_error"] = sh.relative_rms(E, E_exact)
-        stats["min_irradiance"] = [float(v) for v in np.ascontiguousarray(E.T).min(axis=1)]
+        stats["min_irradiance"] = np.ascontiguousarray(E.T).min(axis=1).tolist()
         stats["coverage_sr"] = self._coverage
         return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats)
 
@@ -541,18 +547,34 @@ class FoldDecode:
 
     def accepts(self, frame, sinks) -> bool:
         lights = sinks.lights
-        return (frame.dtype == np.uint8
-                and self.fold.decodes(frame, None if lights is None else lights.image.shape[:2],
-                                      1 if lights is None else lights.factor)
-                and all(name in self.serves or not s.needs_bands for name, s in sinks.named))
+        if frame.dtype != np.uint8 or not self.fold.decodes(
+                frame, None if lights is None else lights.image.shape[:2],
+                1 if lights is None else lights.factor):
+            return False
+        for name, s in sinks.named.items():
+            if s.needs_bands and name not in self.serves:
+                return False
+        return True
 
     def run(self, fp, decoder, frame, table, lut, sinks, stats):
         lights = sinks.lights
         self.fold.decode_project(frame, table, sinks.sh9.acc,
                                  None if lights is None else lights.image,
                                  1 if lights is None else lights.factor)
-        for s in sinks:
+        for s in sinks.all:
             s.finish(stats)
+
+
+class SH9Sinks(Sinks):
+    """The sinks of one frame's pass in the SH9 engine (:meth:`SH9Projector._sinks`), each
+    None where the frame does not feed it."""
+
+    sh9: SH9Sums
+    clip: ClipCount
+    up: UpSum | None = None
+    lights: DetectionCopy | WholeFrame | None = None
+    work = None                 # the cube's WorkImage
+    small: SmallFrame | None = None
 
 
 _PROJECTOR_CACHE: dict = {}
