@@ -34,7 +34,7 @@ from .lens_fold import centred_on_grid
 from .tables import pixel_tables
 from .result import SH9Result
 from .meter import UpSum, has_absolute_scale, pixels_up_illuminance, up_weights
-from .support import DecodeSpans, DownsampledSpans
+from .support import DecodeSpans, DownsampledSpans, FoldDecode
 from ..blas import one_blas_thread
 from ..errors import InputError
 from ..framepass.sinks import Sink, Sinks, SmallFrame, WholeFrame
@@ -531,38 +531,6 @@ class SH9Sums(Sink):
         if p._weights is not None:
             return acc[:, 9].astype(np.float64)
         return acc[6].reshape(-1, 3).astype(np.float64).sum(axis=0)
-
-
-class FoldDecode:
-    """The frame pass's fused strategy for a lens's fold: an 8-bit frame decoded inside the
-    fold's C kernel, one pass over the bytes that fills the SH9 sums and the lights'
-    detection copy (no float copy of the frame). The other sinks get no band: the clip
-    counter reads the 8-bit frame, a cube's work image stays incomplete (its own
-    decode_blocks costs less than a float copy shared by both)."""
-
-    serves = frozenset({"sh9", "lights"})
-
-    def __init__(self, fold):
-        self.fold = fold
-
-    def accepts(self, frame, sinks) -> bool:
-        lights = sinks.lights
-        if frame.dtype != np.uint8 or not self.fold.decodes(
-                frame, None if lights is None else lights.image.shape[:2],
-                1 if lights is None else lights.factor):
-            return False
-        for name, s in sinks.named.items():
-            if s.needs_bands and name not in self.serves:
-                return False
-        return True
-
-    def run(self, fp, decoder, frame, table, lut, sinks, stats):
-        lights = sinks.lights
-        self.fold.decode_project(frame, table, sinks.sh9.acc,
-                                 None if lights is None else lights.image,
-                                 1 if lights is None else lights.factor)
-        for s in sinks.all:
-            s.finish(stats)
 
 
 class SH9Sinks(Sinks):
