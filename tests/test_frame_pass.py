@@ -1,7 +1,8 @@
 """SH9's frame pass (one traversal, each product a sink: provider.core.framepass) gives what
 the pass gave before it had sinks: coefficients, counts, lux, lights, the cube's work image
 and a bracket slot, for 8/16-bit and float frames, equirect, lenses through the fold (the C
-kernel's fused pass and the band pass), dense tables, and the downsampled fast path."""
+kernel's fused pass and the band pass), dense tables, and the downsampled fast path; over
+the C kernels and their Python twins (the ``kernels`` fixture)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -28,7 +29,7 @@ def golden():
 
 
 @pytest.mark.parametrize("name", list(CASES))
-def test_the_pass_gives_what_it_gave_before_it_had_sinks(name, golden):
+def test_the_pass_gives_what_it_gave_before_it_had_sinks(name, golden, kernels):
     want = {key.split("/", 1)[1]: value for key, value in golden.items()
             if key.split("/", 1)[0] == name}
     got = run_case(name)
