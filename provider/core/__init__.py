@@ -11,7 +11,9 @@ in pyproject.toml, checked by the test command. From the bottom up:
   solid angles), probe projections, cube-map geometry, pinhole views of a sphere;
 * :mod:`.radiometry`: from code values to light: image reading, the decode (transfer function
   or camera response as a table, exposure, float clean-up), response fitting, brackets;
-* the products, each built on geometry and radiometry: :mod:`.lights` (directional lights),
+* :mod:`.framepass`: one pass over a frame that decodes it once and feeds each product's
+  sink (the SH9 sums, the lights' copy, the cube's work image, the clip counter);
+* the products, each built on geometry, radiometry and the frame pass: :mod:`.lights` (directional lights),
   :mod:`.reflections` (the radiance cube and its GGX mips, glTF IBL images) and :mod:`.sh9`
   (the SH9 engine, which hands its decoded frame to the lights extractor);
 * above them: :mod:`.registration` (markers, XMP pose, ball finding) and :mod:`.conventions`

@@ -57,6 +57,7 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
+from ..framepass.sinks import Sink
 from ..geometry import sh
 from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
                        chain_count, elongation, measure, model_irradiance)
@@ -524,6 +525,19 @@ def pixel_footprint2(projection, px, py) -> np.ndarray:
     invalid)."""
     valid = projection.pixel_to_direction(px, py)[1]
     return np.where(valid, _footprint2(*pixel_sides(projection, px, py)), 0.0)
+
+
+class DetectionCopy(Sink):
+    """The lights' sink in the frame pass: the detection copy (``image``, mid resolution
+    block means of ``factor``) of an integer frame, built band by band from the linear
+    bands (:meth:`LightExtractor.reduce_band`) or by a fused kernel that serves it."""
+
+    def __init__(self, extractor: LightExtractor):
+        self.extractor, self.factor = extractor, extractor.mid_factor
+        self.image = extractor.new_mid()
+
+    def band(self, lin, r0, raw, columns):
+        self.extractor.reduce_band(lin, r0, self.image, columns)
 
 
 class LinearView:

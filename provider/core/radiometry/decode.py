@@ -108,7 +108,7 @@ class FrameDecoder:
         into ``stats``: :mod:`.float_clean`, band by band). Clean float32 frames are not
         copied; exposure is applied to the product, not here. A frame with no usable light
         left (all NaN, all negative) raises :class:`InputError`. SH9's projection cleans
-        inside its own pass instead (``SH9Projector._project_float``)."""
+        inside its own pass instead (:class:`~provider.core.framepass.traversal.FloatBands`)."""
         return clean_frame(frame, stats)
 
     def _prepare(self, frame) -> np.ndarray:

@@ -7,9 +7,10 @@
   at a time;
 * :mod:`.prefilter`: GGX prefiltering as a fixed sparse operator;
 * :mod:`.bright`: the brightest work pixels, prefiltered from their own directions;
-* :mod:`.work_image`: the work image filled by the pass that decodes the frame anyway;
+* :mod:`.work_image`: the work image filled by the pass that decodes the frame anyway
+  (the cube's sink in :mod:`provider.core.framepass`);
 * :mod:`.gltf_ibl`: the cube as glTF ``EXT_lights_image_based`` images (Babylon.js).
 
-May import: geometry, radiometry, :mod:`provider.core.options`,
-:mod:`provider.core.table_cache`. Not the other products.
+May import: geometry, radiometry, :mod:`provider.core.framepass`,
+:mod:`provider.core.options`, :mod:`provider.core.table_cache`. Not the other products.
 """

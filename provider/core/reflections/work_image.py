@@ -10,15 +10,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..framepass.sinks import Sink
 from ..radiometry.blocks import shrink
 
 
-class WorkImage:
+class WorkImage(Sink):
     """The work image of one integer frame, filled band by band by a pass that decodes the
     frame anyway (SH9's: :meth:`~provider.core.sh9.engine.SH9Projector.project`'s ``work``), so
     that the frame is decoded once for both products. Made by
     :meth:`~provider.core.reflections.environment.EnvironmentProjector.new_work` (its
-    ``projector``); bands must come in order from row 0."""
+    ``projector``); bands must come in order from row 0. In the frame pass it is the
+    cube's sink: it needs every column decoded, and a pass that feeds it no band (a fused
+    kernel's) leaves it incomplete (the cube then decodes the frame itself)."""
+
+    all_columns = True
+    needs_bands = False
 
     def __init__(self, projector):
         self.projector = projector
@@ -46,3 +52,6 @@ class WorkImage:
             self.array[r0 // f:stop // f] = shrink(
                 lin[:stop - r0, :cw], (self.array.shape[1], (stop - r0) // f))
         self.complete = self.rows >= ch
+
+    def band(self, lin, r0, raw, columns):
+        self.add_band(lin, r0)

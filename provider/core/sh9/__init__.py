@@ -13,7 +13,9 @@
 * :mod:`.bracket_projection`: a bracket projected (``shlight compute FRAME@T ...``) and the
   live merge of a source that cycles its exposure (the merge's maths is radiometry's).
 
-May import: geometry, radiometry, :mod:`provider.core.options`, :mod:`provider.core.table_cache`
+May import: geometry, radiometry, :mod:`provider.core.framepass` (the engine's one pass
+over a frame, its sinks here: the SH9 sums, the clip counter, the meter's up-facing sum),
+:mod:`provider.core.options`, :mod:`provider.core.table_cache`
 and the public classes of :mod:`provider.core.lights` (the engine hands its decoded frame to
 the lights extractor, so that a frame is decoded once for both). Not
 :mod:`provider.core.reflections`.

@@ -19,6 +19,7 @@ import weakref
 import cv2
 import numpy as np
 
+from ..framepass.sinks import Sink
 from ..geometry import sh
 from ..geometry.projections import Equirect
 
@@ -41,7 +42,9 @@ class ClippedLight:
         if self.p._weights is None and (self._l00 is None or len(self._l00) != h):
             full = Equirect(w, h)    # full-resolution rows, whatever the downsampling
             self._l00 = sh.C0 * full.row_integrals()[0] * full.col_integrals()[0].mean()
-        return {"top": top, "value": value, "one": bool(np.all(value == value[0])),
+        # array methods, not numpy's Python wrappers: a frame's tally is counted in
+        # instructions (shlight bench --sections edge)
+        return {"top": top, "value": value, "one": bool((value == value[0]).all()),
                 "n": 0, "l00": 0.0}
 
     def band(self, band: np.ndarray, r0: int, clip: dict) -> None:
@@ -78,7 +81,8 @@ class ClippedLight:
         weights = self._l00[rows] if few else self._l00
         total = weights.reshape(-1) @ (mask[rows] if few else mask).reshape(-1, 3).astype(
             np.float32)
-        return float(np.broadcast_to(clip["value"], (3,)) @ total) / 255.0
+        value = clip["value"]
+        return float((value if value.size == 3 else value.repeat(3)) @ total) / 255.0
 
     def whole(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
         """``stats["clipped_fraction"]`` of a whole frame; returns the clipped L00 summed
@@ -95,3 +99,37 @@ class ClippedLight:
                 self.band(frame[r0:r0 + self.p.BAND_ROWS], r0, clip)
         stats["clipped_fraction"] = clip["n"] / frame.size
         return clip["l00"]
+
+
+class ClipCount(Sink):
+    """The clip counter's sink in the frame pass: ``stats["clipped_fraction"]`` and ``l00``
+    (the clipped samples' L00, summed over the channels) of one frame. Equirect: each raw
+    band tallied while in cache; dense weights, or a pass that fed no band (a fused kernel),
+    the whole 8/16-bit frame at the end. A float frame clips nothing."""
+
+    needs_bands = False
+
+    def __init__(self, clipped: ClippedLight):
+        self.clipped, self.l00 = clipped, 0.0
+
+    def start(self, frame, table, stats):
+        self.frame, self.table, self.tally, self.rows = frame, table, None, 0
+        if table is None:
+            stats["clipped_fraction"] = 0.0
+        elif self.clipped.p._weights is None:
+            self.tally = self.clipped.start(frame, table)
+
+    def band(self, lin, r0, raw, columns):
+        if self.tally is not None:
+            self.clipped.band(raw, r0, self.tally)
+            self.rows += raw.shape[0]
+
+    def finish(self, stats):
+        frame, self.frame = self.frame, None
+        if self.table is None:
+            return
+        if self.tally is not None and self.rows == frame.shape[0]:
+            stats["clipped_fraction"] = self.tally["n"] / frame.size
+            self.l00 = self.tally["l00"]
+        else:
+            self.l00 = self.clipped.whole(frame, self.table, stats)

@@ -27,17 +27,19 @@ import time
 import numpy as np
 
 from ..geometry import sh
-from .clipping import ClippedLight
+from .clipping import ClipCount, ClippedLight
 from .error_estimate import ErrorEstimator
 from . import lens_fold as _lens_fold
 from .lens_fold import centred_on_grid
 from .tables import pixel_tables
 from .result import SH9Result
-from .meter import has_absolute_scale, pixels_up_illuminance, up_weights
-from .support import DecodeSpans, DownsampledSpans
+from .meter import UpSum, has_absolute_scale, pixels_up_illuminance, up_weights
+from .support import DecodeSpans, DownsampledSpans, FoldDecode
 from ..blas import one_blas_thread
 from ..errors import InputError
-from ..lights.extractor import LightExtractor, LinearView
+from ..framepass.sinks import Sink, Sinks, SmallFrame, WholeFrame
+from ..framepass.traversal import BlockMeans, FloatBands, FramePass, LutBands
+from ..lights.extractor import DetectionCopy, LightExtractor, LinearView
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from ..geometry import projections_exr  # registers exr-latlong, exr-cube; the cube's rules
@@ -46,8 +48,6 @@ from ..radiometry.photometry import (UNITS_ABSOLUTE, UNITS_RELATIVE, absolute_ca
 from ..options import check_lighting, check_options, exposure_scale, freeze_options
 from ..radiometry import blocks
 from ..radiometry.checker import colour_matrix
-from ..radiometry.blocks import shrink
-from ..radiometry.float_clean import FloatCleaner
 from ..radiometry.decode import FrameDecoder, image_array, srgb_to_linear  # noqa: F401
 
 
@@ -159,7 +159,7 @@ class SH9Projector(FrameDecoder):
         # Pixel-independent precomputation.
         p = self.projection
         self._block = full.scaled_source_size(downsample)
-        self._fold = self._spans = None
+        self._fold = self._spans = self._up_dense = None
         # A camera with an absolute scale reports the up-facing illuminance of every frame:
         # its cosine weights are one more column of the projection's weights (a 10th weight),
         # summed in the same pass as the SH9, never a second decode (issue 34).
@@ -173,7 +173,6 @@ class SH9Projector(FrameDecoder):
             self._rows = rows.astype(np.float32)          # (6, H), 7 with the up row
             self._cols = cols                               # (6, W) float64
             self._weights = None
-            self._up_dense = None
             if up is not None and self.rotation is None:   # Δφ·½(sin²θ_b − sin²θ_t): a row
                 self._rows = np.vstack([self._rows, up[:, :1].T.astype(np.float32)])
             elif up is not None:     # a turned cosine is not separable: per pixel, same pass
@@ -195,6 +194,7 @@ class SH9Projector(FrameDecoder):
             #: L00 weight of each pixel (H·W,): what the clipped samples carry.
             self._l00_weights = tables.l00
         self._clipped = ClippedLight(self)
+        self._pass = None      # (fold, spans, FramePass): made on the first frame
         self._estimator = None
         self._coverage = 4 * math.pi if isinstance(p, Equirect) else tables.coverage
         if not self._coverage > 0:
@@ -209,144 +209,52 @@ class SH9Projector(FrameDecoder):
     #: Rows per band when linearising integer frames: the float32 band stays in cache.
     BAND_ROWS = 32
 
-    def _accumulate(self, lin: np.ndarray, r0: int, acc: np.ndarray) -> None:
-        """Add the projection of linear rows [r0, r0+len) to ``acc``."""
-        h, w = lin.shape[:2]
-        if self._weights is None:
-            if self._up_dense is not None:
-                acc[6] += (self._up_dense[r0:r0 + h] * lin).sum(axis=0).reshape(-1)
-                acc[:6] += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
-            else:
-                # a frame of huge values overflows here: refused after, in one line
-                # (check_lighting), so numpy's own warning is not printed
-                with np.errstate(over="ignore", invalid="ignore"):
-                    acc += self._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
-        elif self._fold is not None:
-            self._fold.add(lin, r0, acc)
-        else:
-            acc += lin.reshape(-1, 3).T @ self._weights[r0 * w:(r0 + h) * w]
+    def _strategies(self) -> list:
+        """The frame pass's decode strategies (:mod:`provider.core.framepass`), tried in
+        order: the one place where how a frame is decoded is chosen."""
+        if self.downsample > 1:
+            p = self.projection
+            return [BlockMeans(self.downsample, self._block, (p.width, p.height),
+                               getattr(self, "_block_spans", None), self._spans)]
+        fused = [FoldDecode(self._fold)] if self._fold is not None else []
+        return fused + [LutBands(self._spans), FloatBands()]
 
-    def _new_accumulator(self):
-        if self._fold is not None:
-            return self._fold.new(self.BAND_ROWS)
-        w = self.projection.width
-        if self._weights is None:
-            return np.zeros((6 + self._up_in_pass, w * 3), np.float32)
-        return np.zeros((3, self._weights.shape[1]), np.float32)
-
-    def _coefficients(self, acc: np.ndarray) -> np.ndarray:
-        """(9, 3) float64 coefficients from an accumulator."""
-        if self._fold is not None:
-            return self._fold.coefficients(acc)
-        if self._weights is not None:
-            return acc.T[:9].astype(np.float64)
-        w = self.projection.width
-        rowsum = acc[:6].reshape(6, w, 3).astype(np.float64)
-        partial = np.einsum("rwc,kw->rkc", rowsum, self._cols)  # (6 row fns, 6 col fns, 3)
-        out = np.zeros((9, 3))
-        with np.errstate(over="ignore", invalid="ignore"):     # as in _accumulate
-            for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
-                out[k] += const * partial[ri, ci]
-        return out
-
-    def _up_sum(self, acc) -> np.ndarray | None:
-        """(3,) float64: Σ up-facing cosine weight × linear RGB of the rows accumulated (the
-        10th weight), or None where it is not summed in the pass."""
-        if not self._up_in_pass:
-            return None
-        if self._fold is not None:
-            return self._fold.extra_sums(acc)[0]
-        if self._weights is not None:
-            return acc[:, 9].astype(np.float64)
-        return acc[6].reshape(-1, 3).astype(np.float64).sum(axis=0)
+    def _sinks(self, frame: np.ndarray, lut, work, small: bool) -> "SH9Sinks":
+        """The sinks of the products ``frame`` feeds, in the order they are fed: the SH9
+        sums, the meter's up-facing sum, the clip counter, the lights' copy, the cube's
+        work image and the fast path's small frame (``small``: for the error estimate),
+        each where this frame needs it."""
+        integer = frame.dtype in (np.uint8, np.uint16)
+        sinks = {"sh9": SH9Sums(self)}
+        if self._up_in_pass:
+            sinks["up"] = UpSum(self, sinks["sh9"])
+        sinks["clip"] = ClipCount(self._clipped)
+        if self._extractor is not None and integer and self.downsample == 1:
+            if self._fuse_lights:  # else the lights decode the frame again (_add_lights)
+                sinks["lights"] = DetectionCopy(self._extractor)
+        elif self._extractor is not None:
+            sinks["lights"] = WholeFrame()
+        if work is not None and lut is None and integer and self.downsample == 1:
+            sinks["work"] = work
+        if small and self.downsample > 1:
+            sinks["small"] = SmallFrame()
+        return SH9Sinks(**sinks)
 
     def _project_frame(self, frame: np.ndarray, stats: dict, lut: np.ndarray | None = None,
-                       work=None):
-        """Linearise (counting bad samples) and project; returns the (9, 3) float64
-        coefficients, the fast path's small frame (or None), the linear frame the lights read
-        (the full linear frame, the fused detection copy, or None) and the L00 of the clipped
-        samples (summed over the channels). ``lut``: a table other than the projector's own."""
-        acc = self._new_accumulator()
-        integer = frame.dtype in (np.uint8, np.uint16)
-        scale = 1.0 if integer else self.exposure  # integer frames: folded into the LUT
-        if not integer:
-            stats["clipped_fraction"] = 0.0
-        if self.downsample == 1:
-            if integer:
-                table = self._lut(frame.dtype) if lut is None else lut
-                mid = self._extractor.new_mid() if self._fuse_lights else None
-                f = self._extractor.mid_factor if mid is not None else 1
-                if self._fold is not None and self._fold.decodes(
-                        frame, None if mid is None else mid.shape[:2], f):
-                    # The C kernel: decoded inside the fold, no float copy of the frame
-                    # (a cube's ``work`` stays empty: its own decode_blocks is cheaper).
-                    self._fold.decode_project(frame, table, acc, mid, f)
-                    return (self._coefficients(acc) * scale, None, mid,
-                            self.clipping(frame, table, stats), self._up_sum(acc))
-                clip = self._clipped.start(frame, table)
-                spans = self._spans if work is None else None    # the cube reads them all
-                buffer = spans.new_buffer() if spans is not None else None
-                for r0 in range(0, frame.shape[0], self.BAND_ROWS):
-                    band = frame[r0:r0 + self.BAND_ROWS]
-                    lin = (self._linearise(band, lut) if spans is None
-                           else spans.decode(band, r0, table, buffer))
-                    self._accumulate(lin, r0, acc)
-                    if work is not None and lut is None:   # the reflection cube's share
-                        work.add_band(lin, r0)
-                    if mid is not None:
-                        self._extractor.reduce_band(
-                            lin, r0, mid, None if spans is None else spans.columns(r0))
-                    if self._weights is None:
-                        self._clipped.band(band, r0, clip)  # while the band is in cache
-                if buffer is not None:
-                    spans.done(buffer)
-                if self._weights is not None:
-                    clipped = self.clipping(frame, table, stats)
-                else:
-                    stats["clipped_fraction"] = clip["n"] / frame.size
-                    clipped = clip["l00"]
-                return self._coefficients(acc) * scale, None, mid, clipped, self._up_sum(acc)
-            lin = self._project_float(frame, stats, acc)
-            up = self._up_sum(acc)
-            return (self._coefficients(acc) * scale, None, lin, 0.0,
-                    None if up is None else up * scale)
-        # Fast path: area-average the *linear* frame, then project the small one.
-        table = (self._lut(frame.dtype) if lut is None else lut) if integer else None
-        clipped = self.clipping(frame, table, stats) if integer else 0.0
-        if frame.dtype == np.uint8 and blocks.KERNEL and self._extractor is None:
-            bw, bh = self._block      # the C kernel: decode and block means in one pass
-            lin, small = None, blocks.decode_blocks(frame[:bh, :bw], table, self.downsample,
-                                                    spans=self._block_spans)
-        elif integer and self._spans is not None:        # only the blocks seen (.support)
-            lin, small = None, self._spans.small(frame, table)
-        else:
-            lin = self._linearise(frame, lut) if integer else self._clean_float(frame, stats)
-            bw, bh = self._block
-            small = shrink(lin[:bh, :bw], (self.projection.width, self.projection.height))
-        if self._fold is not None and self._fold.decodes(small):
-            self._fold.decode_project(small, None, acc)        # the C kernel, no decode
-        else:
-            self._accumulate(small, 0, acc)
-        return self._coefficients(acc) * scale, small, lin, clipped, None
-
-    def _project_float(self, frame: np.ndarray, stats: dict, acc: np.ndarray):
-        """Clean (:class:`.float_clean.FloatCleaner`) and project a float frame band by band,
-        each band while it is in cache; returns the whole clean frame when the lights or the
-        error estimate will read it (a copy only if a band was dirty), else None."""
-        cleaner = FloatCleaner()
-        keep = self._extractor is not None or self.error_estimate
-        out = None
-        rows = self.BAND_ROWS
-        for r0 in range(0, frame.shape[0], rows):
-            band = cleaner.band(frame[r0:r0 + rows])
-            self._accumulate(band, r0, acc)
-            if keep and out is None and not np.may_share_memory(band, frame):
-                out = np.empty(frame.shape, np.float32)
-                out[:r0] = frame[:r0]
-            if out is not None:
-                out[r0:r0 + rows] = band
-        cleaner.finish(stats)
-        return out if out is not None else (frame if keep else None)
+                       work=None, small: bool = False) -> "SH9Sinks":
+        """Decode ``frame`` once (counting bad samples into ``stats``) and feed the sinks of
+        its products (:meth:`_sinks`), which hold their results: ``sinks.sh9``,
+        ``sinks.clip``, ``sinks.up``, ``sinks.lights``, ``sinks.small`` (the fast path's
+        small frame, kept where ``small``). ``lut``: a table other than the projector's
+        own."""
+        sinks = self._sinks(frame, lut, work, small)
+        made = self._pass
+        if made is None or made[0] is not self._fold or made[1] is not self._spans:
+            # built once; again where the fold or the spans were swapped (a test's twin)
+            made = self._pass = (self._fold, self._spans,
+                                 FramePass(self._strategies(), self.BAND_ROWS))
+        made[2].run(self, frame, sinks, stats, lut)
+        return sinks
 
     def clipping(self, frame: np.ndarray, lut: np.ndarray, stats: dict) -> float:
         """Sets ``stats["clipped_fraction"]`` (channel samples of an 8/16-bit frame at the top
@@ -404,8 +312,13 @@ class SH9Projector(FrameDecoder):
         k = exposure_scale(exposure_s, gain, stats)
         k = self.absolute_scale(k, f_number, stats)
         absolute = UNITS_ABSOLUTE in (stats["coefficient_units"], units)
-        coeffs, small, light_input, clipped, up = self._project_frame(frame, stats, work=work)
-        if absolute and up is not None:     # the 10th weight's sum, from the same pass
+        estimate = self.error_estimate if error_estimate is None else error_estimate
+        sinks = self._project_frame(frame, stats, work=work, small=estimate)
+        coeffs, clipped = sinks.sh9.coefficients(), sinks.clip.l00
+        small = None if sinks.small is None else sinks.small.image
+        light_input = None if sinks.lights is None else sinks.lights.image
+        if absolute and sinks.up is not None:     # the 10th weight's sum, from the same pass
+            up = sinks.up.total()
             scale = 1.0 if k is None else float(k)     # None: no exposure known
             if self.colour_matrix is not None:
                 up = self.colour_matrix @ np.asarray(up, np.float64)
@@ -417,7 +330,7 @@ class SH9Projector(FrameDecoder):
         result = self.result(coeffs, stats, exposure_s)
         if self._extractor is not None:
             self._add_lights(result, frame, coeffs, light_input, tracker, k)
-        if self.error_estimate if error_estimate is None else error_estimate:
+        if estimate:
             if small is None:
                 small = (self._linearise(frame) if frame.dtype in (np.uint8, np.uint16)
                          else self._clean_float(frame, {}))
@@ -458,8 +371,9 @@ class SH9Projector(FrameDecoder):
         frame = self._prepare(frame)
         if frame.dtype not in (np.uint8, np.uint16):
             raise InputError(f"a bracket needs 8- or 16-bit frames, got {frame.dtype}")
-        coeffs, _, _, clipped, _ = self._project_frame(frame, stats, lut=table)
-        return coeffs * self.exposure, clipped * self.exposure, stats
+        sinks = self._project_frame(frame, stats, lut=table)
+        return (sinks.sh9.coefficients() * self.exposure, sinks.clip.l00 * self.exposure,
+                stats)
 
     def result(self, coefficients: np.ndarray, stats: dict, exposure_s=None) -> SH9Result:
         """An :class:`SH9Result` from exact (un-rotated) coefficients: the sensor rotation,
@@ -480,7 +394,8 @@ class SH9Projector(FrameDecoder):
         stats["radiometry"] = radiometry
         if self.response is not None and radiometry != "linear":
             stats["response"] = self.response.method
-        total = float(np.sum(coefficients[0]))
+        # array methods, not numpy's Python wrappers (a frame is counted in instructions)
+        total = float(np.asarray(coefficients[0]).sum())
         part = float(np.sum(clipped_l00))
         stats["clipped_light_fraction"] = min(max(part / total, 0.0), 1.0) if total > 0 else 0.0
 
@@ -489,7 +404,7 @@ class SH9Projector(FrameDecoder):
         E_exact = sh.sphere_irradiance(exact)
         # The channels' minima over a contiguous copy: a reduction over axis 0 of an (N, 3)
         # array runs its inner loop once a row (N calls; issue 34).
-        stats["ringing"] = bool(np.any(np.ascontiguousarray(E_exact.T).min(axis=1) < 0))
+        stats["ringing"] = bool((np.ascontiguousarray(E_exact.T).min(axis=1) < 0).any())
         stats["window_cutoff"] = None
         if self.dering == "auto":
             coeffs, cutoff = sh.dering(coeffs)
@@ -508,7 +423,7 @@ class SH9Projector(FrameDecoder):
         E = sh.sphere_irradiance(coeffs)
         stats["order"] = order
         stats["order_error"] = sh.relative_rms(E, E_exact)
-        stats["min_irradiance"] = [float(v) for v in np.ascontiguousarray(E.T).min(axis=1)]
+        stats["min_irradiance"] = np.ascontiguousarray(E.T).min(axis=1).tolist()
         stats["coverage_sr"] = self._coverage
         return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats)
 
@@ -547,6 +462,87 @@ class SH9Projector(FrameDecoder):
         if self.dering == "auto":
             out, _ = sh.dering(out)
         return sh.truncate_order(out, order)
+
+
+class SH9Sums(Sink):
+    """SH9's sink in the frame pass: a frame's sums against the projection's weights (the
+    separable rows and columns of an equirect frame, a lens's fold, or dense tables), the
+    meter's up-facing cosine one more weight where it rides in the pass (:class:`UpSum`).
+    ``coefficients()``: (9, 3) float64, times the exposure for a float frame (an integer
+    frame's is in its table)."""
+
+    at_projection = True
+    scale = 1.0
+
+    def __init__(self, projector: SH9Projector):
+        self.p = p = projector
+        if p._fold is not None:
+            self.acc = p._fold.new(p.BAND_ROWS)
+        elif p._weights is None:
+            self.acc = np.zeros((len(p._rows), p.projection.width * 3), np.float32)
+        else:
+            self.acc = np.zeros((3, p._weights.shape[1]), np.float32)
+
+    def start(self, frame, table, stats):
+        if table is None:
+            self.scale = self.p.exposure
+
+    def band(self, lin, r0, raw, columns):
+        p, acc = self.p, self.acc
+        h, w = lin.shape[:2]
+        if p._weights is None:
+            # a frame of huge values overflows here: refused after, in one line
+            # (check_lighting), so numpy's own warning is not printed
+            with np.errstate(over="ignore", invalid="ignore"):
+                acc += p._rows[:, r0:r0 + h] @ lin.reshape(h, w * 3)
+        elif p._fold is not None:
+            p._fold.add(lin, r0, acc)
+        else:
+            acc += lin.reshape(-1, 3).T @ p._weights[r0 * w:(r0 + h) * w]
+
+    def whole(self, lin):
+        fold = self.p._fold
+        if fold is not None and fold.decodes(lin):
+            fold.decode_project(lin, None, self.acc)        # the C kernel, no decode
+        else:
+            self.band(lin, 0, None, None)
+
+    def coefficients(self) -> np.ndarray:
+        """(9, 3) float64 coefficients of the frame (not rotated)."""
+        p, acc = self.p, self.acc
+        if p._fold is not None:
+            return p._fold.coefficients(acc) * self.scale
+        if p._weights is not None:
+            return acc.T[:9].astype(np.float64) * self.scale
+        w = p.projection.width
+        rowsum = acc[:6].reshape(6, w, 3).astype(np.float64)
+        partial = np.einsum("rwc,kw->rkc", rowsum, p._cols)  # (6 row fns, 6 col fns, 3)
+        out = np.zeros((9, 3))
+        with np.errstate(over="ignore", invalid="ignore"):     # as in band
+            for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
+                out[k] += const * partial[ri, ci]
+        return out * self.scale
+
+    def extra_sum(self) -> np.ndarray:
+        """(3,) float64: the frame's sum against the 10th weight column (not scaled)."""
+        p, acc = self.p, self.acc
+        if p._fold is not None:
+            return p._fold.extra_sums(acc)[0]
+        if p._weights is not None:
+            return acc[:, 9].astype(np.float64)
+        return acc[6].reshape(-1, 3).astype(np.float64).sum(axis=0)
+
+
+class SH9Sinks(Sinks):
+    """The sinks of one frame's pass in the SH9 engine (:meth:`SH9Projector._sinks`), each
+    None where the frame does not feed it."""
+
+    sh9: SH9Sums
+    clip: ClipCount
+    up: UpSum | None = None
+    lights: DetectionCopy | WholeFrame | None = None
+    work = None                 # the cube's WorkImage
+    small: SmallFrame | None = None
 
 
 _PROJECTOR_CACHE: dict = {}

@@ -49,6 +49,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..framepass.sinks import Sink
 from ..geometry import sh
 from ..geometry.projections import Equirect
 from ..radiometry.bracket import merge
@@ -167,6 +168,31 @@ def has_absolute_scale(response) -> bool:
         return absolute_calibration(response) is not None
     except InputError:
         return False
+
+
+class UpSum(Sink):
+    """The meter's up-facing sum in the frame pass (the 10th weight): ``total()``, (3,)
+    float64 Σ cosine weight × linear RGB of the frame, scaled as the SH9 coefficients.
+    Where the cosine weights are one more column of SH9's tables (a row of the separable
+    ones, a column of the fold's or the dense ones) the SH9 sink sums them in its own
+    product and this one reads them; an equirect frame under a sensor rotation (a turned
+    cosine is not separable) is summed here, per pixel, band by band."""
+
+    def __init__(self, projector, sh9):
+        self.sh9, self.dense = sh9, projector._up_dense      # (H, W, 1) or None
+        self.needs_bands = self.dense is not None
+        if self.dense is not None:
+            self.sums = np.zeros(self.dense.shape[1] * 3, np.float32)
+
+    def band(self, lin, r0, raw, columns):
+        if self.dense is not None:
+            h = lin.shape[0]
+            self.sums += (self.dense[r0:r0 + h] * lin).sum(axis=0).reshape(-1)
+
+    def total(self) -> np.ndarray:
+        if self.dense is None:
+            return self.sh9.extra_sum() * self.sh9.scale
+        return self.sums.reshape(-1, 3).astype(np.float64).sum(axis=0) * self.sh9.scale
 
 
 def pixels_up_illuminance(projector, frame: np.ndarray, scale: float = 1.0) -> float | None:

@@ -9,6 +9,10 @@ zero (black, as a real lens's surround). The projection is unchanged (zero weigh
 zero), and so are the clipped tallies (counted on the 8-bit frame). The lights' detection
 copy sees the surround as black: blocks that straddle the circle's edge average the seen
 pixels with zeros instead of with whatever the sensor recorded outside the lens.
+
+:class:`FoldDecode` is SH9's fused decode strategy in the frame pass
+(:mod:`provider.core.framepass`): an 8-bit frame of a folded lens decoded inside the fold's
+C kernel, no float band at all.
 """
 from __future__ import annotations
 
@@ -142,3 +146,35 @@ class DownsampledSpans:
             out[r0 // f:(r0 + len(band)) // f] = shrink(lin, (w, len(band) // f))
         spans.done(buffer)
         return out
+
+
+class FoldDecode:
+    """The frame pass's fused strategy for a lens's fold: an 8-bit frame decoded inside the
+    fold's C kernel, one pass over the bytes that fills the SH9 sums and the lights'
+    detection copy (no float copy of the frame). The other sinks get no band: the clip
+    counter reads the 8-bit frame, a cube's work image stays incomplete (its own
+    decode_blocks costs less than a float copy shared by both)."""
+
+    serves = frozenset({"sh9", "lights"})
+
+    def __init__(self, fold):
+        self.fold = fold
+
+    def accepts(self, frame, sinks) -> bool:
+        lights = sinks.lights
+        if frame.dtype != np.uint8 or not self.fold.decodes(
+                frame, None if lights is None else lights.image.shape[:2],
+                1 if lights is None else lights.factor):
+            return False
+        for name, s in sinks.named.items():
+            if s.needs_bands and name not in self.serves:
+                return False
+        return True
+
+    def run(self, fp, decoder, frame, table, lut, sinks, stats):
+        lights = sinks.lights
+        self.fold.decode_project(frame, table, sinks.sh9.acc,
+                                 None if lights is None else lights.image,
+                                 1 if lights is None else lights.factor)
+        for s in sinks.all:
+            s.finish(stats)
