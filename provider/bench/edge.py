@@ -5,7 +5,8 @@ between a run of 4 frames and a run of 1 (start-up and the first frame cancel ou
 by 3 — the steady-state instructions of one frame:
 
 * **theta**: SH9 with lights (``lights="auto"``) of a Ricoh Theta S live frame (1280×720
-  dual fisheye, 8-bit);
+  dual fisheye, 8-bit) of a lit room, whose ceiling panels the extractor takes as lights
+  (:mod:`provider.bench.edge_frames`);
 * **cube**: a 32² reflection cube update of the same frame (its own decode);
 * **pi**: SH9 of a Raspberry Pi camera's 640×480 fisheye frame (8-bit), exact and fast.
 
@@ -79,7 +80,8 @@ def edge_workloads() -> dict:
     """name -> (description, projector builder, frame): the section's counted workloads."""
     from ..core.sh9.engine import SH9Projector
     from ..core.reflections.environment import EnvironmentProjector
-    theta = edge_frame(1280, 720)
+    from .edge_frames import lit_theta_frame
+    theta = lit_theta_frame(1280, 720)
     pi = edge_frame(640, 480, seed=1)
     return {
         "theta": ("Theta S 1280×720 dual fisheye, SH9 + lights",
