@@ -20,14 +20,24 @@ EXPOSURE_STOPS = -2.0
 
 @functools.lru_cache(maxsize=2)
 def lit_theta_frame(width: int = 1280, height: int = 720):
-    """The lit room as a Ricoh Theta S live frame: (height, width, 3) uint8 sRGB, read-only
-    (cached: the bench and its callers share one)."""
+    """The lit room as a Ricoh Theta S live frame: (height, width, 3) uint8 sRGB, black
+    outside the two image circles; read-only (cached: the bench and its callers share one)."""
+    import cv2
+    import numpy as np
     from ..core.geometry.projections import DualFisheye
     from . import room
     from .common import _auto_exposure, _to_srgb8
-    from .scenes import fisheye_from_equirect
     panorama = room.panorama(THETA_AT, height=max(64, height // 2), supersample=2)
-    fisheye = fisheye_from_equirect(panorama, DualFisheye(width, height))
+    ph, pw = panorama.shape[:2]
+    py, px = np.mgrid[0:height, 0:width].astype(np.float32) + 0.5
+    d, valid = DualFisheye(width, height).pixel_to_direction(px, py)
+    # equirect lookup in the contract's frame (docs/contract.md §1: +Y up, -Z the centre)
+    theta = np.arccos(np.clip(d[..., 1], -1, 1))
+    phi = np.arctan2(d[..., 0], -d[..., 2])
+    mapx = ((phi / (2 * np.pi) + 0.5) * pw - 0.5).astype(np.float32)
+    mapy = (theta / np.pi * ph - 0.5).astype(np.float32)
+    fisheye = cv2.remap(panorama, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+    fisheye[~valid] = 0
     frame = _to_srgb8(fisheye, _auto_exposure(panorama) * 2.0 ** EXPOSURE_STOPS)
     frame.setflags(write=False)
     return frame
