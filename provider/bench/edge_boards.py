@@ -31,8 +31,9 @@ def _fps(ghz: float, per_frame: float | None) -> str:
 def board_lines(per_frame: dict, startup: dict | None = None,
                 peak_mb: float | None = None) -> list:
     """Markdown lines: one row a board. ``per_frame``: workload name ("theta", "cube", "pi")
-    -> x86-64 instructions a frame; ``startup``: :func:`~provider.bench.edge_startup.
-    startup_instructions`' counts; ``peak_mb``: the memory run's peak with the tables built."""
+    -> x86-64 instructions a frame; ``startup``: the start-up counts
+    (:func:`provider.bench.edge_startup.startup_instructions`); ``peak_mb``: the memory
+    run's peak with the tables built."""
     theta, cube, pi = (per_frame.get(k) for k in ("theta", "cube", "pi"))
     both = theta + cube if theta and cube else None
     lines = ["| board (OS) | CPU, clock | memory | Theta S SH9 + lights, est. fps | "
