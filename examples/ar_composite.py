@@ -382,8 +382,7 @@ uniform sampler2D frame; in vec2 uv; out vec4 color;
 void main() { color = vec4(texture(frame, uv).bgr, 1.0); }"""
 
     def __init__(self, size, title: str = "shlight AR composite"):
-        import glfw
-        import moderngl
+        glfw, moderngl = render.gl_module("glfw"), render.gl_module("moderngl")
         if not glfw.init():
             raise UserError("glfw cannot initialise (no display? use --output FILE to run "
                             "headless)")

@@ -80,8 +80,16 @@ def parse_args(argv=None):
     return p.parse_args(argv)
 
 
+def gl_module(name: str):
+    """moderngl or glfw, or one line naming the extra that installs them."""
+    try:
+        return render.gl_module(name)
+    except render.NoOpenGL as exc:
+        raise SystemExit(f"viewer: error: {exc}") from None
+
+
 def open_window(width: int, height: int, title: str):
-    import glfw
+    glfw = gl_module("glfw")
     if not glfw.init():
         raise SystemExit("viewer: error: glfw cannot initialise (no display? run it under "
                          "`xvfb-run -a`, or install xvfb libgl1-mesa-dri)")
@@ -106,7 +114,7 @@ def save_png(path: str, rgb) -> None:
 
 
 def run(args) -> int:
-    import moderngl
+    moderngl = gl_module("moderngl")
     try:
         width, height = (int(v) for v in args.size.lower().split("x"))
     except ValueError:

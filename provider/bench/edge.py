@@ -5,7 +5,8 @@ between a run of 4 frames and a run of 1 (start-up and the first frame cancel ou
 by 3 — the steady-state instructions of one frame:
 
 * **theta**: SH9 with lights (``lights="auto"``) of a Ricoh Theta S live frame (1280×720
-  dual fisheye, 8-bit);
+  dual fisheye, 8-bit) of a lit room, whose ceiling panels the extractor takes as lights
+  (:mod:`provider.bench.edge_frames`);
 * **cube**: a 32² reflection cube update of the same frame (its own decode);
 * **pi**: SH9 of a Raspberry Pi camera's 640×480 fisheye frame (8-bit), exact and fast.
 
@@ -21,7 +22,9 @@ The section also measures what the edge board's 512 MB must hold: a process that
 Theta S SH9 + lights and 32² cube projectors and projects frames, its peak and steady
 resident memory and the CPU seconds of its build, with the table cache
 (:mod:`provider.core.table_cache`) off, then on (a first start writes, a later one reads);
-``python -m provider.bench.edge --memory`` prints just that.
+``python -m provider.bench.edge --memory`` prints just that, and ``--startup`` the
+instructions of a first start and of a second one that reads the cache
+(:mod:`provider.bench.edge_startup`).
 """
 from __future__ import annotations
 
@@ -79,7 +82,8 @@ def edge_workloads() -> dict:
     """name -> (description, projector builder, frame): the section's counted workloads."""
     from ..core.sh9.engine import SH9Projector
     from ..core.reflections.environment import EnvironmentProjector
-    theta = edge_frame(1280, 720)
+    from .edge_frames import lit_theta_frame
+    theta = lit_theta_frame(1280, 720)
     pi = edge_frame(640, 480, seed=1)
     return {
         "theta": ("Theta S 1280×720 dual fisheye, SH9 + lights",
@@ -205,6 +209,7 @@ def bench_edge(hdri, out: Path, args):
     workloads = edge_workloads()
     missing = valgrind_missing()
     count = args.instructions and missing is None
+    counted, memory_rows = {}, []          # for the boards' table (provider.bench.edge_boards)
     lines = ["# Edge device: instructions per frame against a 1 GHz core", "",
              "One core. At about one instruction per cycle, a 1 GHz in-order core (Cortex-A53: "
              "Pi Zero 2 W, Pi 3) has ~33 M instructions per frame at 30 fps. The fps column is "
@@ -219,7 +224,7 @@ def bench_edge(hdri, out: Path, args):
         ms = _median_ms(lambda: projector.project(frame), repeat)
         if count:
             _progress(f"bench edge {name}: callgrind ({FRAMES_LONG} and {FRAMES_SHORT} frames)")
-            per = instructions_per_frame(projector, frame)
+            per = counted[name] = instructions_per_frame(projector, frame)
             ins, fps = f"{per / 1e6:.1f} M", f"~{EDGE_IPS / per:.0f}"
         elif missing:
             ins, fps = "n/a (valgrind not installed)", "n/a"
@@ -239,8 +244,11 @@ def bench_edge(hdri, out: Path, args):
                   "serve --environment --lights auto` does; peak and steady resident memory "
                   "(VmHWM, VmRSS) and the CPU seconds of the build (this machine).", "",
                   "| start | build CPU s | peak RSS MB | steady RSS MB |", "|---|---:|---:|---:|"]
-        for what, cpu, peak, steady in memory_and_startup():
+        memory_rows = memory_and_startup()
+        for what, cpu, peak, steady in memory_rows:
             lines.append(f"| {what} | {cpu:.2f} | {peak:.0f} | {steady:.0f} |")
+    if count:
+        lines += _startup_and_boards(counted, memory_rows)
     (out / "fisheye_edge.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
@@ -261,7 +269,17 @@ def main(argv=None) -> int:
                         help="count the calls into C and Python a frame makes, not instructions")
     parser.add_argument("--memory", action="store_true",
                         help="build CPU, peak and steady RSS: cache off, first start, later start")
+    parser.add_argument("--startup", action="store_true",
+                        help="instructions of a first start and of a second one reading "
+                             "the table cache (callgrind)")
+    parser.add_argument("--boards", action="store_true",
+                        help="what runs on which Raspberry Pi: counts, memory and start-up "
+                             "(~15 min)")
     args = parser.parse_args(argv)
+    if args.boards:
+        return _print_boards()
+    if args.startup:
+        return _print_startup()
     if args.memory:
         for what, cpu, peak, steady in memory_and_startup():
             print(f"{what}: build {cpu:.2f} s CPU, peak {peak:.0f} MB, steady {steady:.0f} MB")
@@ -288,6 +306,44 @@ def main(argv=None) -> int:
         per = instructions_per_frame(build(), frame)
         print(f"{name}: {what}: {per / 1e6:.1f} M instructions/frame, "
               f"~{EDGE_IPS / per:.0f} fps at 1 GHz (estimate)", flush=True)
+    return 0
+
+
+def _startup_and_boards(counted: dict, memory_rows: list) -> list:
+    """The page's start-up section (provider.bench.edge_startup) and its table of boards
+    (provider.bench.edge_boards) from this run's counts."""
+    from .edge_boards import board_lines
+    from .edge_startup import startup_section
+    lines, startup = startup_section()
+    peak = memory_rows[0][2] if memory_rows else None
+    return lines + ["", "## What runs on which Raspberry Pi (estimates)", ""] + board_lines(
+        counted, startup, peak)
+
+
+def _print_boards() -> int:
+    """``--boards``: count the workloads, the memory run and the start-up, print the table."""
+    from .edge_boards import board_lines
+    from .edge_startup import startup_instructions
+    missing = valgrind_missing()
+    if missing:
+        print(missing)
+        return 1
+    workloads = edge_workloads()
+    counted = {name: instructions_per_frame(workloads[name][1](), workloads[name][2])
+               for name in ("theta", "cube", "pi")}
+    rows = memory_and_startup()
+    print("\n".join(board_lines(counted, startup_instructions(), rows[0][2])))
+    return 0
+
+
+def _print_startup() -> int:
+    """``--startup``: the start-up section's table (provider.bench.edge_startup)."""
+    from .edge_startup import startup_instructions, startup_lines
+    missing = valgrind_missing()
+    if missing:
+        print(missing)
+        return 1
+    print("\n".join(startup_lines(startup_instructions())))
     return 0
 
 

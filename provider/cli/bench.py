@@ -21,7 +21,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"timed runs per path (median; 1 to {MAX_REPEAT}, default 15)")
     p.add_argument("--instructions", action=argparse.BooleanOptionalAction, default=None,
                    help="count instructions per frame with valgrind's callgrind in the edge "
-                        "section (slow: about 2 min; default: on, off with --quick)")
+                        "section, and a first and a cached start's (slow: about 8 min; "
+                        "default: on, off with --quick)")
     p.add_argument("--sections", default="speed,edge,fill,scenes",
                    help="comma list of: speed, edge, fill, scenes, server, radiometry, probes, "
                         "environment, shadows, passthrough, points (each "

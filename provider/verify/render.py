@@ -20,16 +20,27 @@ INSTALL_HINT = ("headless OpenGL needs EGL and a Mesa driver: on Debian/Ubuntu "
                 "`sudo apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri`")
 
 
+#: What an install without the ``gl`` extra (moderngl, glfw) is told when it needs them.
+GL_EXTRA_HINT = ("the GL harness is not installed (moderngl, glfw): "
+                 "pip install 'shlight[gl]'")
+
+
 class NoOpenGL(RuntimeError):
     """No OpenGL context could be made; the message names what to install."""
 
 
+def gl_module(name: str):
+    """``moderngl`` or ``glfw``, or :class:`NoOpenGL` naming the extra that installs them."""
+    import importlib
+    try:
+        return importlib.import_module(name)
+    except ImportError:  # an edge install leaves the GL harness out (the gl extra)
+        raise NoOpenGL(GL_EXTRA_HINT) from None
+
+
 def create_context(require: int = 330):
     """A standalone moderngl context (EGL backend), or :class:`NoOpenGL` with a hint."""
-    try:
-        import moderngl
-    except ImportError as exc:  # pragma: no cover - declared dependency
-        raise NoOpenGL(f"moderngl is not installed ({exc}): pip install moderngl") from None
+    moderngl = gl_module("moderngl")
     errors = []
     for kwargs in ({"backend": "egl"}, {}):
         try:
