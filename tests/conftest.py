@@ -106,5 +106,6 @@ def build_dir(tmp_path_factory):
 @pytest.fixture(scope="session")
 def live_exe(build_dir):
     """tests/csharp/LiveClient.cs with the package's runtime against the Unity stand-in."""
-    from unitytools import CORE, CSHARP, RUNTIME, STANDIN, _compile
-    return _compile(build_dir / "LiveClient.exe", [*CORE, *RUNTIME, STANDIN, CSHARP / "LiveClient.cs"])
+    from unitytools import CORE, CSHARP, HARNESS, RUNTIME, STANDIN, _compile
+    return _compile(build_dir / "LiveClient.exe",
+                    [*CORE, *RUNTIME, STANDIN, HARNESS, CSHARP / "LiveClient.cs"])

@@ -17,31 +17,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from unitytools import CORE, HARNESS, RUNTIME, STANDIN, _compile, _mono_tools
+
 ROOT = Path(__file__).resolve().parent.parent
-PKG = ROOT / "unity_package"
-CORE = sorted((PKG / "Runtime" / "Core").glob("*.cs"))
-RUNTIME = sorted((PKG / "Runtime").glob("*.cs"))
-STANDIN = ROOT / "tests" / "unity_stubs" / "UnityEngineStandIn.cs"
 VECTORS = ROOT / "tests" / "data" / "exposure_vectors.json"
 CLIENT_THREE = ROOT / "provider" / "live" / "server" / "static" / "client-three.js"
 Y00 = 0.5 / math.sqrt(math.pi)                      # 0.282095: uniform radiance L has L00 = L / Y00
 REC709 = np.array([0.2126, 0.7152, 0.0722])
-
-
-def _mono():
-    mcs, mono = shutil.which("mcs"), shutil.which("mono")
-    if not (mcs and mono):
-        pytest.skip("Mono is not installed: apt-get install mono-mcs mono-runtime")
-    return mcs, mono
-
-
-def _compile(out: Path, sources, target="exe", defines=()):
-    mcs, _ = _mono()
-    r = subprocess.run([mcs, "-nologo", "-warnaserror+", "-nowarn:618", f"-target:{target}", f"-out:{out}",
-                        *[f"-define:{d}" for d in defines], *map(str, sources)],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stdout + r.stderr
-    return out
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +34,7 @@ def exposure_exe(tmp_path_factory):
 
 def run_cases(exe, cases):
     """cases: (mode, compensation_ev, aperture, iso, colour_space, kelvin_rgb, message) → the core's outputs."""
-    _, mono = _mono()
+    _, mono = _mono_tools()
     lines = [f"{mode} {float(comp)!r} {float(n)!r} {float(s)!r} {space} " + " ".join(repr(float(v)) for v in k) + f"\t{json.dumps(msg)}"
              for mode, comp, n, s, space, k, msg in cases]
     r = subprocess.run([mono, str(exe)], input="\n".join(lines) + "\n", capture_output=True, text=True, timeout=60)
@@ -317,7 +299,7 @@ def test_live_client_sets_the_physical_camera_for_hdrp(camera, tmp_path):  # noq
     message's light_illuminance_lux."""
     from provider.core.geometry import sh
     exe = _compile(tmp_path / "LiveClient2022.exe",
-                   [*CORE, *RUNTIME, STANDIN, ROOT / "tests" / "csharp" / "LiveClient.cs"],
+                   [*CORE, *RUNTIME, STANDIN, HARNESS, ROOT / "tests" / "csharp" / "LiveClient.cs"],
                    defines=("UNITY_2022_2_OR_NEWER",))
     hdr = scene("lab")
     (frame,) = write_bracket(tmp_path, "lab", hdr, (0,), n=4.0, iso=400, ext="jpg")

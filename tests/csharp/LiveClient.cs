@@ -53,19 +53,8 @@ static class LiveClient
         }
     }
 
-    static void SetField(object target, string name, object value)
-    {
-        FieldInfo f = target.GetType().GetField(name, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public);
-        if (f == null) throw new MissingFieldException(target.GetType().Name, name);
-        f.SetValue(target, value);
-    }
-
-    static void Call(object target, string method)
-    {
-        MethodInfo m = target.GetType().GetMethod(method, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public);
-        m.Invoke(target, null);
-    }
-
+    // Unity's messages and the inspector's fields by reflection: Harness.cs (shared with the other drivers);
+    // only the messages that take a flag (OnApplicationPause/Focus) are called here.
     static void Call(object target, string method, bool argument)
     {
         MethodInfo m = target.GetType().GetMethod(method, BindingFlags.Instance | BindingFlags.NonPublic | BindingFlags.Public);
@@ -191,7 +180,7 @@ static class LiveClient
         Camera camera = null;
         foreach (string f in flags)
         {
-            if (f == "--token-in-query") SetField(component, "tokenInQuery", true);
+            if (f == "--token-in-query") Harness.SetField(component, "tokenInQuery", true);
             else if (f.StartsWith("--intensity=")) component.Intensity = float.Parse(f.Substring(12), CultureInfo.InvariantCulture);
             else if (f == "--light")
             {
@@ -231,8 +220,8 @@ static class LiveClient
         component.Token = token;
         component.Probe = probe;
         component.DriveAmbientProbe = true;
-        SetField(component, "staleAfterSeconds", 30f);  // staleness here must come from the server
-        SetField(component, "logToConsole", true);   // to stderr (the stand-in's Debug.Log)
+        Harness.SetField(component, "staleAfterSeconds", 30f);  // staleness here must come from the server
+        Harness.SetField(component, "logToConsole", true);   // to stderr (the stand-in's Debug.Log)
 
         bool quit = false;
         var commands = new System.Collections.Concurrent.ConcurrentQueue<string>();
@@ -249,7 +238,7 @@ static class LiveClient
         stdin.IsBackground = true;
         stdin.Start();
 
-        Call(component, "OnEnable");
+        Harness.Call(component, "OnEnable");
         Action update = Method(component, "Update");
         bool paused = false;
         int appliedSeen = 0;
@@ -381,7 +370,7 @@ static class LiveClient
         finally
         {
             long received = component.MessagesReceived;
-            Call(component, "OnDisable");
+            Harness.Call(component, "OnDisable");
             Emit("{\"event\":\"exit\",\"state\":\"" + component.State + "\",\"received\":" + received +
                  ",\"connections\":" + component.Connections +
                  ",\"ambient_mode_restored\":\"" + RenderSettings.ambientMode + "\"" +
