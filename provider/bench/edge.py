@@ -142,16 +142,63 @@ def _callgrind_total(pickled: Path, frames: int, tmp: Path) -> int:
     outfile = tmp / f"cg.{frames}.out"
     cmd = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={outfile}",
            sys.executable, str(script), str(pickled), str(frames)]
+    subprocess.run(cmd, check=True, capture_output=True, env=_valgrind_env())
+    for line in outfile.read_text().splitlines():
+        if line.startswith("totals:") or line.startswith("summary:"):
+            return int(line.split()[1])
+    raise RuntimeError("callgrind wrote no totals")
+
+
+#: A Cortex-A53's caches as cachegrind simulates them (size, ways, line bytes): 32 KB L1s
+#: and the Pi Zero 2 W's and Pi 3's 512 KB shared L2 as the last level.
+A53_CACHES = ("--I1=32768,2,64", "--D1=32768,4,64", "--LL=524288,16,64")
+LINE_BYTES = 64
+
+
+def _cachegrind_misses(pickled: Path, frames: int, tmp: Path) -> int:
+    """Last-level misses (instruction reads, data reads and writes) of ``frames`` frames
+    after the first, through :data:`A53_CACHES`."""
+    script = tmp / "edge_frames.py"
+    script.write_text(_CALLGRIND_SNIPPET)
+    outfile = tmp / f"cachegrind.{frames}.out"
+    cmd = ["valgrind", "--tool=cachegrind", "--cache-sim=yes", "--branch-sim=no",
+           *A53_CACHES, f"--cachegrind-out-file={outfile}",
+           sys.executable, str(script), str(pickled), str(frames)]
+    subprocess.run(cmd, check=True, capture_output=True, env=_valgrind_env())
+    events = summary = None
+    for line in outfile.read_text().splitlines():
+        if line.startswith("events:"):
+            events = line.split()[1:]
+        elif line.startswith("summary:"):
+            summary = [int(v) for v in line.split()[1:]]
+    if events is None or summary is None:
+        raise RuntimeError("cachegrind wrote no summary")
+    got = dict(zip(events, summary))
+    return got["ILmr"] + got["DLmr"] + got["DLmw"]
+
+
+def dram_bytes_per_frame(projector, frame) -> float:
+    """Steady-state bytes a frame of ``projector.project(frame)`` moves between a
+    Cortex-A53-like 512 KB last-level cache and DRAM: cachegrind's last-level misses of
+    FRAMES_LONG frames minus FRAMES_SHORT, over the difference, × 64 B a line (fills only:
+    write-backs of dirty lines are not simulated)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        pickled = tmp / "work.pickle"
+        with open(pickled, "wb") as fh:
+            pickle.dump((projector, frame), fh, protocol=pickle.HIGHEST_PROTOCOL)
+        long = _cachegrind_misses(pickled, FRAMES_LONG, tmp)
+        short = _cachegrind_misses(pickled, FRAMES_SHORT, tmp)
+    return LINE_BYTES * (long - short) / (FRAMES_LONG - FRAMES_SHORT)
+
+
+def _valgrind_env() -> dict:
     env = {**os.environ, **SINGLE_CORE_ENV, "PYTHONPATH": str(PACKAGE_ROOT)}
     if env.get("OPENBLAS_CORETYPE", "").lower() in AVX512_CORETYPES:
         # valgrind runs no AVX-512: OpenBLAS forced onto such a kernel dies of SIGILL under
         # it; left to itself, it picks a kernel for the CPU valgrind emulates
         del env["OPENBLAS_CORETYPE"]
-    subprocess.run(cmd, check=True, capture_output=True, env=env)
-    for line in outfile.read_text().splitlines():
-        if line.startswith("totals:") or line.startswith("summary:"):
-            return int(line.split()[1])
-    raise RuntimeError("callgrind wrote no totals")
+    return env
 
 
 def instructions_per_frame(projector, frame) -> float:

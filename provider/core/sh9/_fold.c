@@ -11,7 +11,8 @@
  *   parity 0 (x even, y even): (a + b) + (c + d)    parity 1 (x odd, y even): (a - b) + (c - d)
  *   parity 2 (x even, y odd):  (a + b) - (c + d)    parity 3 (x odd, y odd):  (a - b) - (c - d)
  *
- * fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, factor, clear)
+ * fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, tables,
+ *           parities, sums, mid, factor, clear)
  * (its Python twin, the same signature, numbers and errors: fold_twin.py)
  *   frame     uint8 (H, W, 3), pixels contiguous (rows may be strided); or, without a
  *             table, linear float32 (H, W, 3) (the fast path's block means, a float frame)
@@ -20,9 +21,21 @@
  *             and rows yb + i, yt - 1 - i, for i < ny, j < nx
  *   extents   int32 (ny,): row pair i reads columns j < extents[i] only (beyond, every
  *             weight is zero and no block of mid is seen)
- *   tables    float32 (K, ny * nx), row k the quarter table of weight k
- *   parities  int32 (K,): the fold each weight meets (0..3 above)
- *   sums      float64 (K, 3), added to
+ *   radial    float32 (B, 20): the lens-frame SH9 weights as functions of the distance r of
+ *             the quarter pixel's centre from the lens centre (dx = j + (xr - xl + 1) / 2,
+ *             dy = i + (yb - yt + 1) / 2, r = sqrt(dx^2 + dy^2)), linear in each bin b =
+ *             floor(r * inv_step) (the last bin beyond): columns 0-7 the values of weights
+ *             0-7 at the bin's inner edge, 8-15 their slopes (a bin's change), 16 and 17
+ *             weight 8's; weight k is (value + (r * inv_step - b) * slope) times its
+ *             monomial: 1, dy, 1, dx, dx dy, dy, 1, dx, dx^2 - dy^2 (a radially symmetric
+ *             lens: issue 44), and meets the fold 0, 2, 0, 1, 3, 2, 0, 1, 0
+ *   inv_step  1 / the bins' width in pixels (> 0)
+ *   fix_at    int32 (F,), increasing quarter pixel indices i * nx + j, and
+ *   fixes     float32 (F, 9): added to those pixels' SH9 weights (where the radial form does
+ *             not hold to the build's tolerance: the circle's edge, a blend's seam)
+ *   tables    float32 (K, ny * nx), row k the quarter table of extra weight k (K may be 0)
+ *   parities  int32 (K,): the fold each extra weight meets (0..3 above)
+ *   sums      float64 (9 + K, 3), added to: the SH9 weights' sums, then the extras'
  *   mid       None, or float32 (H / f, W / f, 3): the sums of the decoded pixels over f x f
  *             blocks are added to it (the caller divides by f * f once every pixel is in:
  *             the lights' block copy, black where nothing was read)
@@ -42,6 +55,10 @@
 #include <string.h>
 
 #include "buffer_check.h"
+
+#include <math.h>
+
+#define NVIEWS 10
 
 #if KERNEL_VECTOR
 /* Four floats: GCC's and Clang's vector extension, SSE on x86-64 and NEON on 64-bit ARM.
@@ -266,19 +283,115 @@ dots(const float *const *w, int m, const float *restrict x0, const float *restri
     }
 }
 
+/* The fold code of each SH9 weight and the order the dots take them in (grouped by fold). */
+static const int SH_PARITY[9] = {0, 2, 0, 1, 3, 2, 0, 1, 0};
+static const int SH_ORDER[9] = {0, 2, 6, 8, 3, 7, 1, 5, 4};
+
+/* r * inv for the row's n pixels: dx = dx0 + j, dy fixed (sqrt without errno: vectorised). */
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("no-math-errno")))
+#endif
+static void
+radii(float dx0, float dy, float inv, Py_ssize_t n, float *restrict t)
+{
+    const float dy2 = dy * dy;
+    for (Py_ssize_t j = 0; j < n; j++) {
+        const float x = dx0 + (float)j;
+        t[j] = sqrtf(x * x + dy2) * inv;
+    }
+}
+
+#if KERNEL_VECTOR
+#if defined(__clang__)
+#define SHUF(a, b, i, j, k, l) __builtin_shufflevector(a, b, i, j, k, l)
+#else
+typedef int v4i __attribute__((vector_size(16)));
+#define SHUF(a, b, i, j, k, l) __builtin_shuffle(a, b, (v4i){i, j, k, l})
+#endif
+
+/* Rows r0..r3 (at j) of the four pixels' vectors a..d (lane k: row k). */
+static inline void
+transpose_store(v4 a, v4 b, v4 c, v4 d, float *r0, float *r1, float *r2, float *r3)
+{
+    const v4 t0 = SHUF(a, b, 0, 4, 1, 5), t1 = SHUF(a, b, 2, 6, 3, 7);
+    const v4 t2 = SHUF(c, d, 0, 4, 1, 5), t3 = SHUF(c, d, 2, 6, 3, 7);
+    store4(r0, SHUF(t0, t2, 0, 1, 4, 5));
+    store4(r1, SHUF(t0, t2, 2, 3, 6, 7));
+    store4(r2, SHUF(t1, t3, 0, 1, 4, 5));
+    store4(r3, SHUF(t1, t3, 2, 3, 6, 7));
+}
+#endif
+
+/* The nine SH9 weight rows (w + k * stride, j < n) of row pair i from the radial table
+ * (nb bins of 20 floats); t: n floats of scratch. */
+static void
+radial_row(const float *restrict rad, Py_ssize_t nb, float inv, float dx0, float dy,
+           Py_ssize_t n, float *restrict t, float *restrict w, Py_ssize_t stride)
+{
+    radii(dx0, dy, inv, n, t);
+    Py_ssize_t j = 0;
+#if KERNEL_VECTOR
+    for (; j + 4 <= n; j += 4) {
+        v4 lo[4], hi[4];
+        float last[4];
+        for (int p = 0; p < 4; p++) {
+            Py_ssize_t b = (Py_ssize_t)t[j + p];
+            if (b > nb - 1)
+                b = nb - 1;
+            const float f = t[j + p] - (float)b;
+            const float *row = rad + 20 * b;
+            const v4 fv = {f, f, f, f};
+            lo[p] = load4(row) + fv * load4(row + 8);
+            hi[p] = load4(row + 4) + fv * load4(row + 12);
+            last[p] = row[16] + f * row[17];
+        }
+        transpose_store(lo[0], lo[1], lo[2], lo[3], w + j, w + stride + j, w + 2 * stride + j,
+                        w + 3 * stride + j);
+        transpose_store(hi[0], hi[1], hi[2], hi[3], w + 4 * stride + j, w + 5 * stride + j,
+                        w + 6 * stride + j, w + 7 * stride + j);
+        store4(w + 8 * stride + j, load4(last));
+    }
+#endif
+    for (; j < n; j++) {
+        Py_ssize_t b = (Py_ssize_t)t[j];
+        if (b > nb - 1)
+            b = nb - 1;
+        const float f = t[j] - (float)b;
+        const float *row = rad + 20 * b;
+        for (int k = 0; k < 8; k++)
+            w[k * stride + j] = row[k] + f * row[8 + k];
+        w[8 * stride + j] = row[16] + f * row[17];
+    }
+    /* The monomials: plain loops the compiler vectorises. */
+    float *w1 = w + stride, *w3 = w + 3 * stride, *w4 = w + 4 * stride;
+    float *w5 = w + 5 * stride, *w7 = w + 7 * stride, *w8 = w + 8 * stride;
+    const float dy2 = dy * dy;
+    for (Py_ssize_t l = 0; l < n; l++) {
+        const float x = dx0 + (float)l;
+        w1[l] *= dy;
+        w5[l] *= dy;
+        w3[l] *= x;
+        w7[l] *= x;
+        w4[l] *= x * dy;
+        w8[l] *= x * x - dy2;
+    }
+}
+
 static PyObject *
 fold_lens(PyObject *self, PyObject *args)
 {
     PyObject *frame_obj, *table_obj, *ext_obj, *tab_obj, *par_obj, *sums_obj, *mid_obj;
+    PyObject *rad_obj, *fat_obj, *fix_obj;
     Py_ssize_t xl, xr, yt, yb, nx, ny;
+    double inv_step;
     int f, clear;
-    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOOOOip", &frame_obj, &table_obj, &xl, &xr, &yt,
-                          &yb, &nx, &ny, &ext_obj, &tab_obj, &par_obj, &sums_obj, &mid_obj,
-                          &f, &clear))
+    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOdOOOOOOip", &frame_obj, &table_obj, &xl, &xr,
+                          &yt, &yb, &nx, &ny, &ext_obj, &rad_obj, &inv_step, &fat_obj,
+                          &fix_obj, &tab_obj, &par_obj, &sums_obj, &mid_obj, &f, &clear))
         return NULL;
-    Py_buffer views[7];
+    Py_buffer views[NVIEWS];
     memset(views, 0, sizeof views);
-    int got[7] = {0, 0, 0, 0, 0, 0, 0};
+    int got[NVIEWS] = {0};
     int use_mid = mid_obj != Py_None, linear = table_obj == Py_None;
     const char *err = NULL;
 #define VIEW(n, obj, w, fmt, nd, name) \
@@ -288,6 +401,9 @@ fold_lens(PyObject *self, PyObject *args)
     if (!linear)
         VIEW(1, table_obj, 0, "f", 1, "table");
     VIEW(2, ext_obj, 0, "i", 1, "extents");
+    VIEW(7, rad_obj, 0, "f", 2, "radial");
+    VIEW(8, fat_obj, 0, "i", 1, "fix_at");
+    VIEW(9, fix_obj, 0, "f", 2, "fixes");
     VIEW(3, tab_obj, 0, "f", 2, "tables");
     VIEW(4, par_obj, 0, "i", 1, "parities");
     VIEW(5, sums_obj, 1, "d", 2, "sums");
@@ -295,7 +411,7 @@ fold_lens(PyObject *self, PyObject *args)
         VIEW(6, mid_obj, 1, "f", 3, "mid");
 #undef VIEW
     Py_buffer fr = views[0], tb = views[1], ex = views[2], tabs = views[3], par = views[4];
-    Py_buffer sums = views[5], mid = views[6];
+    Py_buffer sums = views[5], mid = views[6], rad = views[7], fat = views[8], fix = views[9];
     Py_ssize_t H = fr.shape[0], W = fr.shape[1], K = tabs.shape[0];
     const Py_ssize_t item = linear ? 4 : 1;
     if (fr.shape[2] != 3 || fr.strides[2] != item || fr.strides[1] != 3 * item)
@@ -309,12 +425,19 @@ fold_lens(PyObject *self, PyObject *args)
         err = "geometry: the square must lie inside the frame";
     else if (!contiguous(&ex) || ex.shape[0] != ny)
         err = "extents: (ny,) contiguous int32";
+    else if (!contiguous(&rad) || rad.shape[0] < 1 || rad.shape[1] != 20)
+        err = "radial: (B, 20) contiguous float32";
+    else if (!(inv_step > 0.0 && inv_step < HUGE_VAL))
+        err = "inv_step: positive and finite";
+    else if (!contiguous(&fat) || !contiguous(&fix) || fix.shape[0] != fat.shape[0]
+             || fix.shape[1] != 9)
+        err = "fixes: (F,) int32 and (F, 9) float32, contiguous";
     else if (!contiguous(&tabs) || tabs.shape[1] != nx * ny)
         err = "tables: (K, ny * nx) contiguous float32";
     else if (!contiguous(&par) || par.shape[0] != K)
         err = "parities: (K,) contiguous int32";
-    else if (!contiguous(&sums) || sums.shape[0] != K || sums.shape[1] != 3)
-        err = "sums: (K, 3) contiguous float64";
+    else if (!contiguous(&sums) || sums.shape[0] != 9 + K || sums.shape[1] != 3)
+        err = "sums: (9 + K, 3) contiguous float64";
     else if (use_mid && (f < 1 || !contiguous(&mid) || mid.shape[0] != H / f
                          || mid.shape[1] != W / f || mid.shape[2] != 3
                          || nx > (W / f) * f - xr || ny > (H / f) * f - yb))
@@ -327,13 +450,19 @@ fold_lens(PyObject *self, PyObject *args)
     for (Py_ssize_t k = 0; !err && k < K; k++)
         if (parity[k] < 0 || parity[k] > 3)
             err = "parities: 0 to 3";
+    const int *at = (const int *)fat.buf;
+    const Py_ssize_t F = fat.shape[0];
+    for (Py_ssize_t q = 0; !err && q < F; q++)
+        if (at[q] < 0 || at[q] >= nx * ny || (q > 0 && at[q] <= at[q - 1]))
+            err = "fixes: increasing indices in [0, ny * nx)";
     if (err) {
         PyErr_SetString(PyExc_ValueError, err);
         goto fail;
     }
-    /* Planar rows: 4 half rows x 3 channels decoded, 4 folds x 3 channels, and per half
-     * row and channel the block sums of a block row (mid). */
-    float *buf = (float *)malloc(sizeof(float) * (size_t)(36 * nx));
+    /* Planar rows: 4 half rows x 3 channels decoded, 4 folds x 3 channels, per half row
+     * and channel the block sums of a block row (mid), the 9 SH9 weight rows and the
+     * radii's scratch. */
+    float *buf = (float *)malloc(sizeof(float) * (size_t)(46 * nx + 4));
     if (buf == NULL) {
         PyErr_NoMemory();
         goto fail;
@@ -343,6 +472,29 @@ fold_lens(PyObject *self, PyObject *args)
                                                2 top right, 3 top left */
         float *folds = buf + 12 * nx;       /* [parity][c][j] */
         float *cols = folds + 12 * nx;      /* [h][c][j]: column sums of a block row */
+        float *wrows = cols + 12 * nx;      /* [k][j]: the SH9 weights of the row pair */
+        float *radius = wrows + 9 * nx;     /* [j]: r * inv_step */
+        const float *radp = (const float *)rad.buf, *fixp = (const float *)fix.buf;
+        const Py_ssize_t nb = rad.shape[0];
+        const float inv = (float)inv_step;
+        const float dx0 = (float)(xr - xl + 1) * 0.5f, dy0 = (float)(yb - yt + 1) * 0.5f;
+        Py_ssize_t fq = 0;                  /* the next fix */
+        /* The weight rows the dots take, in their order (grouped by fold), and where each
+         * one's sums go. */
+        const Py_ssize_t KT = 9 + K;
+        Py_ssize_t *order = (Py_ssize_t *)malloc(sizeof(Py_ssize_t) * (size_t)KT);
+        int *fold_of = (int *)malloc(sizeof(int) * (size_t)KT);
+        if (order == NULL || fold_of == NULL) {
+            free(order);
+            free(fold_of);
+            free(buf);
+            PyErr_NoMemory();
+            goto fail;
+        }
+        for (Py_ssize_t k = 0; k < KT; k++) {
+            order[k] = k < 9 ? SH_ORDER[k] : k;
+            fold_of[k] = k < 9 ? SH_PARITY[order[k]] : parity[k - 9];
+        }
         Py_ssize_t block_row[4] = {-1, -1, -1, -1}, used[4] = {0, 0, 0, 0};
         const Py_ssize_t x0[4] = {xr, xl - 1, xr, xl - 1};
         const int dir[4] = {1, -1, 1, -1};
@@ -398,18 +550,21 @@ fold_lens(PyObject *self, PyObject *args)
                     fold_row(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
                              half + (9 + c) * nx, folds + c * nx, folds + (3 + c) * nx,
                              folds + (6 + c) * nx, folds + (9 + c) * nx, e);
-            /* Runs of up to three weights that meet the same fold (the rows are
-             * grouped by fold). */
-            for (Py_ssize_t k = 0; e > 0 && k < K;) {
+            if (e > 0)
+                radial_row(radp, nb, inv, dx0, dy0 + (float)i, e, radius, wrows, nx);
+            /* Runs of up to three weights that meet the same fold (in their order, grouped
+             * by fold). */
+            for (Py_ssize_t k = 0; e > 0 && k < KT;) {
                 int m = 1;
-                while (m < 3 && k + m < K && parity[k + m] == parity[k])
+                while (m < 3 && k + m < KT && fold_of[k + m] == fold_of[k])
                     m++;
-                const float *x = folds + (parity[k] * 3) * nx;
+                const float *x = folds + (fold_of[k] * 3) * nx;
                 const float *w[3];
                 double *o[3];
                 for (int r = 0; r < m; r++) {
-                    w[r] = tab + (k + r) * nx * ny + i * nx;
-                    o[r] = out + 3 * (k + r);
+                    const Py_ssize_t row = order[k + r];
+                    w[r] = row < 9 ? wrows + row * nx : tab + (row - 9) * nx * ny + i * nx;
+                    o[r] = out + 3 * row;
                 }
                 if (m == 3)
                     dots(w, 3, x, x + nx, x + 2 * nx, e, o);
@@ -419,20 +574,36 @@ fold_lens(PyObject *self, PyObject *args)
                     dots(w, 1, x, x + nx, x + 2 * nx, e, o);
                 k += m;
             }
+            /* The pixels of this row pair the radial table does not fit: their corrections
+             * (float64 sums, a few hundred pixels a lens). */
+            for (; fq < F && at[fq] < (i + 1) * nx; fq++) {
+                const Py_ssize_t j = at[fq] - i * nx;
+                if (j >= e)
+                    continue;
+                for (int k = 0; k < 9; k++) {
+                    const double d = fixp[9 * fq + k];
+                    const float *x = folds + (SH_PARITY[k] * 3) * nx + j;
+                    out[3 * k] += d * x[0];
+                    out[3 * k + 1] += d * x[nx];
+                    out[3 * k + 2] += d * x[2 * nx];
+                }
+            }
         }
         for (int h = 0; use_mid && h < 4; h++)
             if (block_row[h] >= 0)
                 spill(cols + (3 * h) * nx, nx, used[h], x0[h], dir[h], f,
                       midp + block_row[h] * mw * 3);
         Py_END_ALLOW_THREADS
+        free(order);
+        free(fold_of);
         free(buf);
     }
-    for (int v = 0; v < 7; v++)
+    for (int v = 0; v < NVIEWS; v++)
         if (got[v])
             PyBuffer_Release(&views[v]);
     Py_RETURN_NONE;
 fail:
-    for (int v = 0; v < 7; v++)
+    for (int v = 0; v < NVIEWS; v++)
         if (got[v])
             PyBuffer_Release(&views[v]);
     return NULL;
@@ -440,7 +611,8 @@ fail:
 
 static PyMethodDef methods[] = {
     {"fold_lens", fold_lens, METH_VARARGS,
-     "fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, factor, clear): "
+     "fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, tables, "
+     "parities, sums, mid, factor, clear): "
      "one lens's folded projection of an 8-bit frame decoded through table (or of a float32 "
      "frame, table None), and its block means into mid."},
     {NULL, NULL, 0, NULL}

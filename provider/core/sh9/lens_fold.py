@@ -18,6 +18,17 @@ edge) keep their own 9 world weights (a short list). The fold is checked against
 table when it is built: a lens whose weights are not symmetric to 1e-7 (an off-grid centre,
 a skewed calibration) keeps the dense table (:func:`lens_fold` returns None).
 
+The quarter tables themselves are not kept (issue 44: at 36 bytes a quarter pixel they were
+most of a frame's DRAM traffic through a Pi's 512 KB cache): in the lens frame each SH9
+weight of a radially symmetric lens is a function of the pixel's distance r from the centre
+times a monomial of its offset (dx, dy) (1, dx, dy, dx·dy or dx² − dy²), so a lens keeps a
+*radial table* per weight, linear in bins of a quarter pixel (fitted to the dense pixel
+integrals by least squares: 20 floats a bin, ~100 KB for a Theta S lens), and the kernel
+makes each row's weights from it. The few quarter pixels where that form does not hold to
+:data:`RADIAL_TOLERANCE` of the weight's largest (the image circle's edge, where a pixel is
+partly outside; a blend's seam) keep an exact correction (a sparse list). The weights so made
+are checked against the dense ones when the fold is built.
+
 The lens is reached only through the projection's dense weights and its
 :class:`~provider.core.geometry.projections.FisheyeLens` (centre, ``frame``): whatever its
 r(θ) curve, the check decides.
@@ -35,7 +46,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..geometry import sh
+from ..geometry import radial_fit, sh
+from .fold_twin import RADIAL_COLUMNS, SH_MONOMIAL, SH_PARITY, radial_weights
 from .fold_twin import fold_lens as _fold_twin
 
 try:
@@ -49,26 +61,75 @@ except ImportError:          # built without a C compiler: its Python twin (same
 KERNEL = _fold_kernel is not _fold_twin
 #: The kernel's code of each (x parity, y parity) fold (see ``_fold.c``).
 _PARITY_CODE = {("E", "E"): 0, ("O", "E"): 1, ("E", "O"): 2, ("O", "O"): 3}
+_PARITY_NAME = {code: parity for parity, code in _PARITY_CODE.items()}
 
 #: Largest |mirror weight − sign × weight| accepted, relative to the coefficient's largest
 #: weight: float64 rounding is ~1e-13; float32 tables round at 6e-8.
 SYMMETRY_TOLERANCE = 1e-7
 #: Most pixels left unfolded (residual list), as a share of the pixels that see anything.
 MAX_RESIDUAL_SHARE = 0.1
+#: Radial tables: bins per pixel of radius (linear in each: ~3e-8 of a weight's largest on a
+#: Theta S or Pi lens, the median; half-pixel bins leave 1e-6), and the largest error a
+#: quarter pixel's made weights may have, relative to the weight's largest, before it keeps
+#: an exact correction (10× float32's rounding of the old quarter tables: the coefficients
+#: stay within 1e-6 of the dense table's, their tests ask 1e-5).
+RADIAL_BINS_PER_PIXEL = 4
+RADIAL_TOLERANCE = 1e-6
 
 
 @dataclass
 class _FoldedLens:
     """One lens's folded square: centre twice (X, Y, integers), pairs per axis (nx, ny),
-    lens→world SH rotation D (9, 9), parity groups, quarter tables (k, ny·nx) float32."""
+    lens→world SH rotation D (9, 9), the lens-frame SH9 weights as a radial table (B, 20)
+    float32 with its bins' 1 / width and exact corrections of the quarter pixels it does not
+    fit (``fix_at`` (F,) int32, ``fixes`` (F, 9) float32), the extra columns' parity groups
+    of quarter tables (k, ny·nx) float32, and per row pair the columns that carry a weight."""
 
     X: int
     Y: int
     nx: int
     ny: int
     D: np.ndarray
+    radial: np.ndarray
+    inv_step: float
+    fix_at: np.ndarray
+    fixes: np.ndarray
     groups: list            # [(("E"|"O", "E"|"O"), k indices, table (len(k), ny·nx))]:
-    #                         k < 9 a lens-frame SH weight, k ≥ 9 the extra column k − 9
+    #                         k ≥ 9, the extra column k − 9
+    extent: np.ndarray      # (ny,) int32
+
+    @property
+    def geometry(self) -> tuple:
+        """(xl, xr, yt, yb, nx, ny), the kernel's."""
+        xl, yt = self.X // 2, self.Y // 2
+        return xl, self.X - xl, yt, self.Y - yt, self.nx, self.ny
+
+    def sh_quarter(self) -> np.ndarray:
+        """(9, ny·nx) float32: the lens-frame SH9 weight of every quarter pixel (the band by
+        band path's; made on first use, not kept by the table cache)."""
+        q = radial_weights(self.radial, self.inv_step, self.geometry)
+        q[:, self.fix_at] += self.fixes.T
+        q.reshape(9, self.ny, self.nx)[:, np.arange(self.nx) >= self.extent[:, None]] = 0
+        return q.astype(np.float32)
+
+    @functools.cached_property
+    def group_ks(self) -> list:
+        """Parity groups of every weight, SH9 and extras: [(parity, k indices)], the order
+        of the sums the fold hands back."""
+        sh9 = {}
+        for k, code in enumerate(SH_PARITY):
+            sh9.setdefault(_PARITY_NAME[code], []).append(k)
+        return sorted(list(sh9.items()) + [(parity, ks) for parity, ks, _ in self.groups],
+                      key=lambda g: g[0])
+
+    @functools.cached_property
+    def all_groups(self) -> list:
+        """:attr:`group_ks` with each group's quarter tables (len(k), ny·nx) float32, the
+        SH9's made from the radial table: the band by band path's (without the kernel)."""
+        q = self.sh_quarter()
+        extra = {tuple(ks): t for _, ks, t in self.groups}
+        return [(parity, ks, q[ks] if ks[0] < 9 else extra[tuple(ks)])
+                for parity, ks in self.group_ks]
 
     @property
     def rows(self):
@@ -79,18 +140,23 @@ class _FoldedLens:
 
     @functools.cached_property
     def kernel_data(self) -> tuple:
-        """The C kernel's constant arguments (made once): geometry (xl, xr, yt, yb, nx, ny),
-        per row pair the columns to read (up to the last where some weight is non-zero),
-        the stacked quarter tables (K, ny·nx) and each row's fold code."""
-        tables = np.ascontiguousarray(np.concatenate([t for _, _, t in self.groups]),
-                                      np.float32)
+        """The C kernel's constant arguments (made once): geometry, per row pair the columns
+        to read (up to the last where some weight is non-zero), the radial table, its bins'
+        1 / width, the corrections, the extras' stacked quarter tables (K, ny·nx) (K may be
+        0) and each one's fold code."""
+        tables = np.ascontiguousarray(
+            np.concatenate([t for _, _, t in self.groups]) if self.groups
+            else np.zeros((0, self.ny * self.nx)), np.float32)
         codes = np.array([_PARITY_CODE[parity] for parity, k, _ in self.groups for _ in k],
                          np.int32)
-        seen = np.any(tables.reshape(-1, self.ny, self.nx) != 0, axis=0)
-        extent = np.where(seen.any(axis=1), self.nx - np.argmax(seen[:, ::-1], axis=1), 0)
-        xl, yt = self.X // 2, self.Y // 2
-        geometry = (xl, self.X - xl, yt, self.Y - yt, self.nx, self.ny)
-        return geometry, extent.astype(np.int32), tables, codes
+        return (self.geometry, self.extent, self.radial, self.inv_step, self.fix_at,
+                self.fixes, tables, codes)
+
+    @property
+    def table_floats(self) -> int:
+        """Floats (and indices) a frame reads for this lens's weights."""
+        return (self.radial.size + self.fix_at.size + self.fixes.size
+                + sum(t.size for _, _, t in self.groups))
 
     def x_fold(self, rows: np.ndarray, even: np.ndarray, odd: np.ndarray,
                flipped: np.ndarray) -> None:
@@ -130,8 +196,9 @@ class LensFold:
 
     @property
     def table_floats(self) -> int:
-        """Weights read per frame (floats): quarter tables and the residual list."""
-        return sum(t.size for L in self.lenses for _, _, t in L.groups) + self._res_weights.size
+        """Weights read per frame (floats): radial tables, corrections, extras' quarter
+        tables and the residual list."""
+        return sum(L.table_floats for L in self.lenses) + self._res_weights.size
 
     def _buffers(self, band_rows: int) -> list:
         """Per lens: x-folded (even, odd) rows (2·ny, nx, 3) float32, the y fold's flipped
@@ -205,15 +272,14 @@ class LensFold:
             frame = np.ascontiguousarray(frame)
         sums = []
         for n, L in enumerate(self.lenses):
-            geometry, extent, tables, codes = L.kernel_data
-            out = np.zeros((tables.shape[0], 3))
+            geometry, extent, radial, inv, fix_at, fixes, tables, codes = L.kernel_data
+            out = np.zeros((9 + tables.shape[0], 3))
             # The first lens's call zeroes mid: every lens, then the unpaired pixels, add.
-            _fold_kernel(frame, t, geometry, extent, tables, codes, out, mid, factor, n == 0)
-            parts, at = [], 0
-            for _, k, _ in L.groups:
-                parts.append(out[at:at + len(k)].T)
-                at += len(k)
-            sums.append(parts)
+            _fold_kernel(frame, t, geometry, extent, radial, inv, fix_at, fixes, tables,
+                         codes, out, mid, factor, n == 0)
+            # rows: the SH9 weights, then the extras in their groups' order
+            row = dict(zip([k for _, ks, _ in L.groups for k in ks], range(9, out.shape[0])))
+            sums.append([out[[row.get(k, k) for k in ks]].T for _, ks in L.group_ks])
         state["sums"] = sums
         if self._res_index.size:           # the unpaired pixels: a gather, a product
             samples = self._ops.get("samples")
@@ -270,19 +336,19 @@ class LensFold:
             return state["sums"]
         buffers = state["buffers"]
         if buffers is None:                     # no rows were added
-            state["sums"] = [[np.zeros((3, len(k))) for _, k, _ in L.groups]
+            state["sums"] = [[np.zeros((3, len(k))) for _, k in L.group_ks]
                              for L in self.lenses]
             return state["sums"]
         sums = []
         for L, buf in zip(self.lenses, buffers):
             ny = L.ny
             halves = {}
-            for name in {parity[0] for parity, _, _ in L.groups}:
+            for name in {parity[0] for parity, _, _ in L.all_groups}:
                 # Top rows by distance from the centre row (flipped), against the bottom's.
                 cv2.flip(buf[name][:ny], 0, dst=buf["top" + name])
                 halves[name] = (buf[name][ny:], buf["top" + name])
             out, folded = [], buf["fold"]
-            for parity, k, table in L.groups:
+            for parity, k, table in L.all_groups:
                 bottom, top = halves[parity[0]]
                 if parity[1] == "E":
                     cv2.add(bottom, top, dst=folded)
@@ -307,7 +373,7 @@ class LensFold:
         out = state["res"].T[:9].astype(np.float64)
         for L, sums in zip(self.lenses, self._reduce(state)):
             local = np.zeros((9 + self.extras, 3))
-            for a, (_, k, _) in zip(sums, L.groups):
+            for a, (_, k) in zip(sums, L.group_ks):
                 local[k] += a.T
             out += L.D @ local[:9]
         return out
@@ -316,7 +382,7 @@ class LensFold:
         """(extras, 3) float64: the frame's sums against the extra weight columns."""
         out = state["res"].T[9:].astype(np.float64)
         for L, sums in zip(self.lenses, self._reduce(state)):
-            for a, (_, k, _) in zip(sums, L.groups):
+            for a, (_, k) in zip(sums, L.group_ks):
                 for j, kk in enumerate(k):
                     if kk >= 9:
                         out[kk - 9] += a[:, j]
@@ -401,8 +467,10 @@ def _fold_lens(lens, region, weights, height, extra=None):
             sign = (sx if mx < 0 else 1) * (sy if my < 0 else 1)
             if np.max(np.abs(w[..., k] - sign * q[..., k])) > tol:
                 return None
-        groups.setdefault(("E" if sx > 0 else "O", "E" if sy > 0 else "O"), []).append(k)
-    columns = {parity: [q[..., k] for k in ks] for parity, ks in groups.items()}
+        parity = ("E" if sx > 0 else "O", "E" if sy > 0 else "O")
+        if parity != _PARITY_NAME[SH_PARITY[k]] and np.any(q[..., k] != 0):
+            return None       # not a lens frame aligned with the image (kept dense)
+    groups, columns = {}, {}
     if extra is not None:
         ex = extra[:, a:b]
         eq = quadrants(ex)
@@ -418,10 +486,58 @@ def _fold_lens(lens, region, weights, height, extra=None):
     tables = [(parity, ks, np.ascontiguousarray(
                   np.stack(columns[parity]).reshape(len(ks), ny * nx), np.float32))
               for parity, ks in sorted(groups.items())]     # (k, ny·nx): one row a weight
+    seen = np.any(q != 0, axis=-1)
+    for _, _, t in tables:
+        seen |= np.any(t.reshape(-1, ny, nx) != 0, axis=0)
+    extent = np.where(seen.any(axis=1), nx - np.argmax(seen[:, ::-1], axis=1), 0)
+    geometry = (xl, xr, yt, yb, nx, ny)
+    made = _radial_table(q, geometry, extent)
+    if made is None:
+        return None
     mask = np.zeros(weights.shape[:2], bool)
     rows = np.r_[yt - ny:yt, yb:yb + ny]
     mask[np.ix_(rows, np.r_[xl - nx:xl, xr:xr + nx])] = True
-    return _FoldedLens(X, Y, nx, ny, D, tables), mask
+    return _FoldedLens(X, Y, nx, ny, D, *made, tables, extent.astype(np.int32)), mask
+
+
+def _radial_table(q, geometry, extent):
+    """(radial table (B, 20) float32, its bins' 1 / width, fix_at, fixes) of the lens-frame
+    SH9 quarter weights ``q`` (ny, nx, 9) float64 (see ``_fold.c``), fitted to the quarter
+    pixels read (columns j < ``extent[i]``); None where the made weights and their
+    corrections do not give ``q`` back to :data:`RADIAL_TOLERANCE`."""
+    nx, ny = geometry[4], geometry[5]
+    read = np.arange(nx)[None, :] < extent[:, None]
+    inv = float(RADIAL_BINS_PER_PIXEL)
+    if not read.any():
+        return (np.zeros((1, RADIAL_COLUMNS), np.float32), inv, np.zeros(0, np.int32),
+                np.zeros((0, 9), np.float32))
+    dy, dx = np.nonzero(read)
+    dx = dx + (geometry[1] - geometry[0] + 1) / 2
+    dy = dy + (geometry[3] - geometry[2] + 1) / 2
+    monomials = {"1": np.ones_like(dx), "dx": dx, "dy": dy, "dx dy": dx * dy,
+                 "dx2 - dy2": dx * dx - dy * dy}
+    scale = np.maximum(np.abs(q).max(axis=(0, 1)), 1e-300)
+    R = radial_fit.fit_profiles(np.hypot(dx, dy) * inv, lambda k: q[..., k][read],
+                                [monomials[m] for m in SH_MONOMIAL],
+                                10 * RADIAL_TOLERANCE * scale)
+    radial = np.zeros((R.shape[0] - 1, RADIAL_COLUMNS), np.float32)
+    radial[:, 0:8] = R[:-1, :8]
+    radial[:, 8:16] = R[1:, :8] - R[:-1, :8]
+    radial[:, 16] = R[:-1, 8]
+    radial[:, 17] = R[1:, 8] - R[:-1, 8]
+    # The check: the weights the kernel makes, and exact corrections where they miss.
+    made = radial_weights(radial, inv, geometry)
+    flat = read.reshape(-1)
+    miss = np.zeros(ny * nx, bool)
+    for k in range(9):
+        miss |= flat & (np.abs(q[..., k].reshape(-1) - made[k]) > RADIAL_TOLERANCE * scale[k])
+    fix_at = np.flatnonzero(miss)
+    fixes = (q.reshape(-1, 9)[fix_at] - made[:, fix_at].T).astype(np.float32)
+    made[:, fix_at] += fixes.T
+    err = np.abs(q.reshape(-1, 9)[flat] - made[:, flat].T) / scale
+    if not np.all(err <= RADIAL_TOLERANCE):
+        return None
+    return radial, inv, fix_at.astype(np.int32), fixes
 
 
 def lens_fold(projection, weights: np.ndarray,
