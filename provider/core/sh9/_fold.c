@@ -57,6 +57,11 @@
 #include "buffer_check.h"
 
 #include <math.h>
+#if KERNEL_VECTOR && defined(__SSE__)
+#include <xmmintrin.h>
+#elif KERNEL_VECTOR && defined(__ARM_NEON) && defined(__aarch64__)
+#include <arm_neon.h>
+#endif
 
 #define NVIEWS 10
 
@@ -287,93 +292,101 @@ dots(const float *const *w, int m, const float *restrict x0, const float *restri
 static const int SH_PARITY[9] = {0, 2, 0, 1, 3, 2, 0, 1, 0};
 static const int SH_ORDER[9] = {0, 2, 6, 8, 3, 7, 1, 5, 4};
 
-/* r * inv for the row's n pixels: dx = dx0 + j, dy fixed (sqrt without errno: vectorised). */
-#if defined(__GNUC__) && !defined(__clang__)
-__attribute__((optimize("no-math-errno")))
-#endif
-static void
-radii(float dx0, float dy, float inv, Py_ssize_t n, float *restrict t)
-{
-    const float dy2 = dy * dy;
-    for (Py_ssize_t j = 0; j < n; j++) {
-        const float x = dx0 + (float)j;
-        t[j] = sqrtf(x * x + dy2) * inv;
-    }
-}
-
 #if KERNEL_VECTOR
+typedef int v4i __attribute__((vector_size(16)));
 #if defined(__clang__)
 #define SHUF(a, b, i, j, k, l) __builtin_shufflevector(a, b, i, j, k, l)
 #else
-typedef int v4i __attribute__((vector_size(16)));
 #define SHUF(a, b, i, j, k, l) __builtin_shuffle(a, b, (v4i){i, j, k, l})
 #endif
 
-/* Rows r0..r3 (at j) of the four pixels' vectors a..d (lane k: row k). */
-static inline void
-transpose_store(v4 a, v4 b, v4 c, v4 d, float *r0, float *r1, float *r2, float *r3)
+/* Four square roots: one instruction where the target has it (IEEE's, as sqrtf's). */
+static inline v4
+sqrt4(v4 x)
 {
-    const v4 t0 = SHUF(a, b, 0, 4, 1, 5), t1 = SHUF(a, b, 2, 6, 3, 7);
-    const v4 t2 = SHUF(c, d, 0, 4, 1, 5), t3 = SHUF(c, d, 2, 6, 3, 7);
-    store4(r0, SHUF(t0, t2, 0, 1, 4, 5));
-    store4(r1, SHUF(t0, t2, 2, 3, 6, 7));
-    store4(r2, SHUF(t1, t3, 0, 1, 4, 5));
-    store4(r3, SHUF(t1, t3, 2, 3, 6, 7));
+#if defined(__SSE__)
+    return (v4)_mm_sqrt_ps((__m128)x);
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+    return (v4)vsqrtq_f32((float32x4_t)x);
+#else
+    for (int p = 0; p < 4; p++)
+        x[p] = sqrtf(x[p]);
+    return x;
+#endif
+}
+
+/* The four pixels' vectors a..d (lane k: weight k) as four rows of weights (lane p: pixel
+ * p), in place. */
+static inline void
+transpose4(v4 *a, v4 *b, v4 *c, v4 *d)
+{
+    const v4 t0 = SHUF(*a, *b, 0, 4, 1, 5), t1 = SHUF(*a, *b, 2, 6, 3, 7);
+    const v4 t2 = SHUF(*c, *d, 0, 4, 1, 5), t3 = SHUF(*c, *d, 2, 6, 3, 7);
+    *a = SHUF(t0, t2, 0, 1, 4, 5);
+    *b = SHUF(t0, t2, 2, 3, 6, 7);
+    *c = SHUF(t1, t3, 0, 1, 4, 5);
+    *d = SHUF(t1, t3, 2, 3, 6, 7);
 }
 #endif
 
-/* The nine SH9 weight rows (w + k * stride, j < n) of row pair i from the radial table
- * (nb bins of 20 floats); t: n floats of scratch. */
+/* The nine SH9 weight rows (w + k * stride, j < n) of row pair i (dy) from the radial table
+ * (nb bins of 20 floats): per pixel its bin's two rows of values and slopes, then per four
+ * pixels a transpose and the monomials. */
 static void
 radial_row(const float *restrict rad, Py_ssize_t nb, float inv, float dx0, float dy,
-           Py_ssize_t n, float *restrict t, float *restrict w, Py_ssize_t stride)
+           Py_ssize_t n, float *restrict w, Py_ssize_t stride)
 {
-    radii(dx0, dy, inv, n, t);
+    const float dy2 = dy * dy;
     Py_ssize_t j = 0;
 #if KERNEL_VECTOR
-    for (; j + 4 <= n; j += 4) {
+    const v4 dyv = {dy, dy, dy, dy}, dy2v = {dy2, dy2, dy2, dy2}, invv = {inv, inv, inv, inv};
+    const v4 four = {4, 4, 4, 4};
+    v4 x = {dx0, dx0 + 1, dx0 + 2, dx0 + 3};
+    const v4i last_bin = {(int)nb - 1, (int)nb - 1, (int)nb - 1, (int)nb - 1};
+    for (; j + 4 <= n; j += 4, x += four) {
+        /* the four pixels' bins (at most the last) and fractions, in vector registers */
+        const v4 t = sqrt4(x * x + dy2v) * invv;
+        v4i bin = __builtin_convertvector(t, v4i);
+        const v4i over = bin > last_bin;
+        bin = (bin & ~over) | (last_bin & over);
+        int bins[4];
+        float frac[4], last[4];
+        memcpy(bins, &bin, sizeof bins);
+        store4(frac, t - __builtin_convertvector(bin, v4));
         v4 lo[4], hi[4];
-        float last[4];
         for (int p = 0; p < 4; p++) {
-            Py_ssize_t b = (Py_ssize_t)t[j + p];
-            if (b > nb - 1)
-                b = nb - 1;
-            const float f = t[j + p] - (float)b;
-            const float *row = rad + 20 * b;
+            const float *row = rad + 20 * (Py_ssize_t)bins[p];
+            const float f = frac[p];
             const v4 fv = {f, f, f, f};
             lo[p] = load4(row) + fv * load4(row + 8);
             hi[p] = load4(row + 4) + fv * load4(row + 12);
             last[p] = row[16] + f * row[17];
         }
-        transpose_store(lo[0], lo[1], lo[2], lo[3], w + j, w + stride + j, w + 2 * stride + j,
-                        w + 3 * stride + j);
-        transpose_store(hi[0], hi[1], hi[2], hi[3], w + 4 * stride + j, w + 5 * stride + j,
-                        w + 6 * stride + j, w + 7 * stride + j);
-        store4(w + 8 * stride + j, load4(last));
+        transpose4(&lo[0], &lo[1], &lo[2], &lo[3]);
+        transpose4(&hi[0], &hi[1], &hi[2], &hi[3]);
+        store4(w + j, lo[0]);
+        store4(w + stride + j, lo[1] * dyv);
+        store4(w + 2 * stride + j, lo[2]);
+        store4(w + 3 * stride + j, lo[3] * x);
+        store4(w + 4 * stride + j, hi[0] * (x * dyv));
+        store4(w + 5 * stride + j, hi[1] * dyv);
+        store4(w + 6 * stride + j, hi[2]);
+        store4(w + 7 * stride + j, hi[3] * x);
+        store4(w + 8 * stride + j, load4(last) * (x * x - dy2v));
     }
 #endif
     for (; j < n; j++) {
-        Py_ssize_t b = (Py_ssize_t)t[j];
+        const float x = dx0 + (float)j;
+        const float t = sqrtf(x * x + dy2) * inv;
+        Py_ssize_t b = (Py_ssize_t)t;
         if (b > nb - 1)
             b = nb - 1;
-        const float f = t[j] - (float)b;
+        const float f = t - (float)b;
         const float *row = rad + 20 * b;
+        const float m[9] = {1, dy, 1, x, x * dy, dy, 1, x, x * x - dy2};
         for (int k = 0; k < 8; k++)
-            w[k * stride + j] = row[k] + f * row[8 + k];
-        w[8 * stride + j] = row[16] + f * row[17];
-    }
-    /* The monomials: plain loops the compiler vectorises. */
-    float *w1 = w + stride, *w3 = w + 3 * stride, *w4 = w + 4 * stride;
-    float *w5 = w + 5 * stride, *w7 = w + 7 * stride, *w8 = w + 8 * stride;
-    const float dy2 = dy * dy;
-    for (Py_ssize_t l = 0; l < n; l++) {
-        const float x = dx0 + (float)l;
-        w1[l] *= dy;
-        w5[l] *= dy;
-        w3[l] *= x;
-        w7[l] *= x;
-        w4[l] *= x * dy;
-        w8[l] *= x * x - dy2;
+            w[k * stride + j] = (row[k] + f * row[8 + k]) * m[k];
+        w[8 * stride + j] = (row[16] + f * row[17]) * m[8];
     }
 }
 
@@ -460,9 +473,8 @@ fold_lens(PyObject *self, PyObject *args)
         goto fail;
     }
     /* Planar rows: 4 half rows x 3 channels decoded, 4 folds x 3 channels, per half row
-     * and channel the block sums of a block row (mid), the 9 SH9 weight rows and the
-     * radii's scratch. */
-    float *buf = (float *)malloc(sizeof(float) * (size_t)(46 * nx + 4));
+     * and channel the block sums of a block row (mid), and the 9 SH9 weight rows. */
+    float *buf = (float *)malloc(sizeof(float) * (size_t)(45 * nx));
     if (buf == NULL) {
         PyErr_NoMemory();
         goto fail;
@@ -473,7 +485,6 @@ fold_lens(PyObject *self, PyObject *args)
         float *folds = buf + 12 * nx;       /* [parity][c][j] */
         float *cols = folds + 12 * nx;      /* [h][c][j]: column sums of a block row */
         float *wrows = cols + 12 * nx;      /* [k][j]: the SH9 weights of the row pair */
-        float *radius = wrows + 9 * nx;     /* [j]: r * inv_step */
         const float *radp = (const float *)rad.buf, *fixp = (const float *)fix.buf;
         const Py_ssize_t nb = rad.shape[0];
         const float inv = (float)inv_step;
@@ -551,7 +562,15 @@ fold_lens(PyObject *self, PyObject *args)
                              half + (9 + c) * nx, folds + c * nx, folds + (3 + c) * nx,
                              folds + (6 + c) * nx, folds + (9 + c) * nx, e);
             if (e > 0)
-                radial_row(radp, nb, inv, dx0, dy0 + (float)i, e, radius, wrows, nx);
+                radial_row(radp, nb, inv, dx0, dy0 + (float)i, e, wrows, nx);
+            /* The pixels of this row pair the radial table does not fit: their corrections
+             * (a few thousand a lens, at the circle's edge and a blend's seam). */
+            for (; fq < F && at[fq] < (i + 1) * nx; fq++) {
+                const Py_ssize_t j = at[fq] - i * nx;
+                if (j < e)
+                    for (int k = 0; k < 9; k++)
+                        wrows[k * nx + j] += fixp[9 * fq + k];
+            }
             /* Runs of up to three weights that meet the same fold (in their order, grouped
              * by fold). */
             for (Py_ssize_t k = 0; e > 0 && k < KT;) {
@@ -573,20 +592,6 @@ fold_lens(PyObject *self, PyObject *args)
                 else
                     dots(w, 1, x, x + nx, x + 2 * nx, e, o);
                 k += m;
-            }
-            /* The pixels of this row pair the radial table does not fit: their corrections
-             * (float64 sums, a few hundred pixels a lens). */
-            for (; fq < F && at[fq] < (i + 1) * nx; fq++) {
-                const Py_ssize_t j = at[fq] - i * nx;
-                if (j >= e)
-                    continue;
-                for (int k = 0; k < 9; k++) {
-                    const double d = fixp[9 * fq + k];
-                    const float *x = folds + (SH_PARITY[k] * 3) * nx + j;
-                    out[3 * k] += d * x[0];
-                    out[3 * k + 1] += d * x[nx];
-                    out[3 * k + 2] += d * x[2 * nx];
-                }
             }
         }
         for (int h = 0; use_mid && h < 4; h++)
