@@ -17,6 +17,12 @@ the count costs seconds, not the minutes the precomputation would take under emu
 Without valgrind the section says so and reports times only. ``python -m
 provider.bench.edge --calls theta`` lists the calls one frame makes instead (no valgrind).
 
+With the counts comes each frame's **DRAM traffic** (issue 44): valgrind's cachegrind with a
+Cortex-A53's caches (32 KB L1s, the Pi Zero 2 W's and Pi 3's 512 KB L2 as the last level),
+the last-level misses of 4 frames minus 1, over 3, times 64 B a line (fills; write-backs are
+not simulated), for each workload and for the Theta frame's SH9 fold alone (its decode and
+its weights: what its tables cost). ``python -m provider.bench.edge --traffic`` prints them.
+
 The section also measures what the edge board's 512 MB must hold: a process that builds the
 Theta S SH9 + lights and 32² cube projectors and projects frames, its peak and steady
 resident memory and the CPU seconds of its build, with the table cache
@@ -73,6 +79,22 @@ def edge_frame(width: int, height: int, seed: int = 0):
     cv2.circle(frame, (int(width * 0.23), int(height * 0.28)), r, (255, 255, 255), -1)
     cv2.circle(frame, (int(width * 0.70), int(height * 0.40)), r, (255, 240, 200), -1)
     return frame
+
+
+class FoldOnly:
+    """The SH9 fold's own pass of a folded projector's 8-bit frame (the C kernel's decode and
+    products, no lights, no clipping tally): what the fold's weights cost a frame. Has the
+    ``project(frame)`` the counted runs call; pickles with its projector."""
+
+    def __init__(self, projector):
+        self.p = projector
+
+    def project(self, frame):
+        import numpy as np
+        fold = self.p._fold
+        state = fold.new()
+        fold.decode_project(frame, self.p._lut(np.uint8), state)
+        return fold.coefficients(state)
 
 
 def edge_workloads() -> dict:
@@ -239,6 +261,12 @@ def calls_per_frame(projector, frame) -> tuple[Counter, Counter]:
     return c_calls, py_calls
 
 
+def lens_fold_kernel() -> bool:
+    """Whether the C fold kernel is built (the fold-alone count needs it)."""
+    from ..core.sh9 import lens_fold
+    return lens_fold.KERNEL
+
+
 def valgrind_missing() -> str | None:
     """Why instructions cannot be counted here, or None."""
     if shutil.which("valgrind") is None:
@@ -252,13 +280,15 @@ def bench_edge(hdri, out: Path, args):
     workloads = edge_workloads()
     missing = valgrind_missing()
     count = args.instructions and missing is None
+    traffic = {}
     lines = ["# Edge device: instructions per frame against a 1 GHz core", "",
              "One core. At about one instruction per cycle, a 1 GHz in-order core (Cortex-A53: "
              "Pi Zero 2 W, Pi 3) has ~33 M instructions per frame at 30 fps. The fps column is "
              "an **estimate**: 10⁹ / instructions per frame (x86-64 instructions with SIMD "
              "counted by callgrind; ARM's NEON is narrower and its memory slower).", "",
              "| workload | ms/frame (this machine) | × floor | instructions/frame | "
-             "est. fps at 1 GHz |", "|---|---:|---:|---:|---:|"]
+             "est. fps at 1 GHz | DRAM MB/frame (A53 caches) |",
+             "|---|---:|---:|---:|---:|---:|"]
     for name, (what, build, frame) in workloads.items():
         _progress(f"bench edge {name}")
         projector = build()
@@ -268,15 +298,31 @@ def bench_edge(hdri, out: Path, args):
             _progress(f"bench edge {name}: callgrind ({FRAMES_LONG} and {FRAMES_SHORT} frames)")
             per = instructions_per_frame(projector, frame)
             ins, fps = f"{per / 1e6:.1f} M", f"~{EDGE_IPS / per:.0f}"
+            _progress(f"bench edge {name}: cachegrind, A53 caches")
+            traffic[name] = dram_bytes_per_frame(projector, frame)
+            dram = f"{traffic[name] / 1e6:.1f}"
         elif missing:
-            ins, fps = "n/a (valgrind not installed)", "n/a"
+            ins, fps, dram = "n/a (valgrind not installed)", "n/a", "n/a"
         else:
-            ins, fps = "not counted (--instructions counts them)", "n/a"
-        lines.append(f"| {what} | {ms:.2f} | {ms / floor:.1f} | {ins} | {fps} |")
+            ins, fps, dram = "not counted (--instructions counts them)", "n/a", "n/a"
+        lines.append(f"| {what} | {ms:.2f} | {ms / floor:.1f} | {ins} | {fps} | {dram} |")
     lines += ["", "Instructions: `valgrind --tool=callgrind`, the difference between "
               f"{FRAMES_LONG} frames and {FRAMES_SHORT} frame divided by "
               f"{FRAMES_LONG - FRAMES_SHORT} (start-up cancels out). × floor: time over "
               "`cv2.sumElems` of the same frame (reading it once), measured in the same run."]
+    if traffic:
+        lines += ["", "DRAM traffic: `valgrind --tool=cachegrind` with a Cortex-A53's caches (" +
+                  ", ".join(A53_CACHES) + "), last-level misses × 64 B, the same difference "
+                  "of frames; the frame itself is its width × height × 3 bytes."]
+        if "theta" in workloads and lens_fold_kernel():
+            _progress("bench edge: the Theta frame's SH9 fold alone (cachegrind)")
+            p, frame = workloads["theta"][1](), workloads["theta"][2]
+            fold = FoldOnly(p)
+            lines += [f"The Theta frame's SH9 fold alone (decode and weights, "
+                      f"{frame.nbytes / 1e6:.2f} MB of frame): "
+                      f"{dram_bytes_per_frame(fold, frame) / 1e6:.2f} MB a frame, "
+                      f"{instructions_per_frame(fold, frame) / 1e6:.1f} M instructions; its "
+                      f"weights {p._fold.table_floats * 4 / 1e6:.2f} MB."]
     if missing:
         lines += ["", missing + "."]
     if {"theta", "cube"} <= set(workloads) and sys.platform.startswith("linux"):
@@ -308,6 +354,9 @@ def main(argv=None) -> int:
                         help="count the calls into C and Python a frame makes, not instructions")
     parser.add_argument("--memory", action="store_true",
                         help="build CPU, peak and steady RSS: cache off, first start, later start")
+    parser.add_argument("--traffic", action="store_true",
+                        help="DRAM bytes a frame through a Cortex-A53's caches (cachegrind), "
+                             "not instructions")
     args = parser.parse_args(argv)
     if args.memory:
         for what, cpu, peak, steady in memory_and_startup():
@@ -332,6 +381,11 @@ def main(argv=None) -> int:
         return 1
     for name in names:
         what, build, frame = workloads[name]
+        if args.traffic:
+            per = dram_bytes_per_frame(build(), frame)
+            print(f"{name}: {what}: {per / 1e6:.2f} MB a frame between a 512 KB last-level "
+                  f"cache and DRAM (the frame: {frame.nbytes / 1e6:.2f} MB)", flush=True)
+            continue
         per = instructions_per_frame(build(), frame)
         print(f"{name}: {what}: {per / 1e6:.1f} M instructions/frame, "
               f"~{EDGE_IPS / per:.0f} fps at 1 GHz (estimate)", flush=True)

@@ -23,7 +23,8 @@ most of a frame's DRAM traffic through a Pi's 512 KB cache): in the lens frame e
 weight of a radially symmetric lens is a function of the pixel's distance r from the centre
 times a monomial of its offset (dx, dy) (1, dx, dy, dx·dy or dx² − dy²), so a lens keeps a
 *radial table* per weight, linear in bins of a quarter pixel (fitted to the dense pixel
-integrals by least squares: 20 floats a bin, ~100 KB for a Theta S lens), and the kernel
+integrals by least squares: 20 floats a bin, 8 bins a pixel, ~200 KB for a Theta S lens, which
+stays in a Pi's cache from frame to frame), and the kernel
 makes each row's weights from it. The few quarter pixels where that form does not hold to
 :data:`RADIAL_TOLERANCE` of the weight's largest (the image circle's edge, where a pixel is
 partly outside; a blend's seam) keep an exact correction (a sparse list). The weights so made
@@ -68,12 +69,13 @@ _PARITY_NAME = {code: parity for parity, code in _PARITY_CODE.items()}
 SYMMETRY_TOLERANCE = 1e-7
 #: Most pixels left unfolded (residual list), as a share of the pixels that see anything.
 MAX_RESIDUAL_SHARE = 0.1
-#: Radial tables: bins per pixel of radius (linear in each: ~3e-8 of a weight's largest on a
-#: Theta S or Pi lens, the median; half-pixel bins leave 1e-6), and the largest error a
+#: Radial tables: bins per pixel of radius (linear in each: ~1e-8 of a weight's largest on a
+#: Theta S or Pi lens; half-pixel bins leave 1e-6, and a Theta S lens's blend towards the
+#: other keeps 6061 corrections at 4 bins a pixel, 960 at 8), and the largest error a
 #: quarter pixel's made weights may have, relative to the weight's largest, before it keeps
 #: an exact correction (10× float32's rounding of the old quarter tables: the coefficients
 #: stay within 1e-6 of the dense table's, their tests ask 1e-5).
-RADIAL_BINS_PER_PIXEL = 4
+RADIAL_BINS_PER_PIXEL = 8
 RADIAL_TOLERANCE = 1e-6
 
 
