@@ -153,7 +153,8 @@ FOLD_FAULTS = ["square off the frame", "right half left of the left", "float fra
                "table", "uint8 frame without a table", "pixels reversed", "short table",
                "extent past the square", "short extents", "parity 4", "sums short",
                "mid too small", "factor 0 with mid", "radial of 19 columns", "no radial bins",
-               "step 0", "fixes out of order", "fix past the square", "fixes of 8 weights"]
+               "step 0", "fixes out of order", "fix past the square", "fixes of 8 weights",
+               "another lens off the frame", "another lens's centre offset"]
 
 
 @st.composite
@@ -171,6 +172,16 @@ def fold_calls(draw):
         nx = W - xr + 1
     elif fault == "right half left of the left":
         xr = xl - 1
+    # More lenses with the same weights (a dual fisheye's other lens): their (xl, xr).
+    others, hi = [], W - nx - max(xr - xl, 0)
+    for _ in range(draw(st.integers(0, 2)) if hi >= nx else 0):
+        ol = draw(st.integers(nx, hi))
+        others.append((ol, ol + xr - xl))
+    if fault == "another lens off the frame":
+        others.append((W - nx + 1, W - nx + 1 + xr - xl))
+    elif fault == "another lens's centre offset":
+        others.append((nx, nx + 1 - (xr - xl)))
+    others = np.array(others, np.int32).reshape(-1, 2)
     linear = draw(st.booleans())
     row_step = draw(st.sampled_from([1, -1, 2]))
     col_step = -1 if fault == "pixels reversed" else 1
@@ -204,30 +215,31 @@ def fold_calls(draw):
     parities = rng.integers(0, 4, K).astype(np.int32)
     if fault == "parity 4" and K:
         parities[0] = 4
-    sums = rng.standard_normal((9 + K - (fault == "sums short"), 3))
+    sums = rng.standard_normal((1 + len(others), 9 + K - (fault == "sums short"), 3))
     factor, mid = draw(st.integers(1, 4)), None
     if draw(st.booleans()) or fault in ("mid too small", "factor 0 with mid"):
-        if nx > (W // factor) * factor - xr or ny > (H // factor) * factor - yb:
-            factor = 1                     # blocks that hold the square
+        right = max([xr] + [o[1] for o in others])
+        if nx > (W // factor) * factor - right or ny > (H // factor) * factor - yb:
+            factor = 1                     # blocks that hold the squares
         if fault == "factor 0 with mid":
             factor = 0
         f = max(factor, 1)
         mid = rng.standard_normal((H // f - (fault == "mid too small"), W // f, 3)
                                   ).astype(np.float32)
-    return (frame, table, (xl, xr, yt, yb, nx, ny), extents, radial, inv_step, fix_at, fixes,
-            tables, parities, sums, mid, factor, draw(st.booleans()))
+    return (frame, table, (xl, xr, yt, yb, nx, ny), others, extents, radial, inv_step, fix_at,
+            fixes, tables, parities, sums, mid, factor, draw(st.booleans()))
 
 
 @pytest.mark.parametrize("build", ["vector", "scalar"])
 @SETTINGS
 @given(call=fold_calls())
 def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
-    both = _same(c_kernels[build][1], fold_twin.fold_lens, call, (10, 11))
+    both = _same(c_kernels[build][1], fold_twin.fold_lens, call, (11, 12))
     if both is None:
         return
     (sums, mid), (want_sums, want_mid) = both
-    (frame, table, geometry, extents, radial, inv_step, fix_at, fixes, tables, parities,
-     start, start_mid, factor, clear) = call
+    (frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes, tables,
+     parities, start, start_mid, factor, clear) = call
     nx = geometry[4]
     values = np.abs(np.asarray(frame, np.float64) if table is None else table).max(initial=0)
     # The weights' magnitudes: the radial ones as the C makes them in float32 (a value, a
@@ -241,6 +253,9 @@ def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
     # magnitudes, each at most |weight|·4·max|sample|.
     bound = (nx + 8) * EPS32 * weights.sum(axis=1) * 4 * values
     assert np.all(np.abs(sums - want_sums) <= 2 * bound[:, None] + 1e-12 * np.abs(start))
+    if mid is not None and len(others):
+        # A block the lenses share gets each one's sums: at most their count times one's.
+        values = values * (1 + len(others))
     if mid is not None:
         # A block's at most f² samples (and the value it held) summed in float32.
         f = factor

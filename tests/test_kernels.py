@@ -223,8 +223,9 @@ def test_fold_kernel_refuses_bad_arrays_with_a_message(bad, kernels):
     else:
         parities = np.array([0, 7], np.int32)
     with pytest.raises(ValueError):
-        lens_fold._fold_kernel(frame, table, geometry, extents, radial, inv_step, fix_at, fixes,
-                               tables, parities, np.zeros((11, 3)), None, 1, False)
+        lens_fold._fold_kernel(frame, table, geometry, np.zeros((0, 2), np.int32), extents,
+                               radial, inv_step, fix_at, fixes, tables, parities,
+                               np.zeros((1, 11, 3)), None, 1, False)
 
 
 def test_downsample_2_is_withdrawn_where_the_half_size_lens_is_off_the_grid():

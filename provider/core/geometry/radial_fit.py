@@ -1,4 +1,8 @@
-"""Radial profiles of a radially symmetric image's per-pixel weights (no pixels, no I/O).
+"""Radially symmetric images (fisheye lenses, a probe's disc) and their per-pixel weights'
+radial profiles (no pixels, no I/O).
+
+:func:`symmetric_images` finds a projection's lenses or disc, :func:`centred_on_grid` whether
+their centres fall on the pixel grid (the condition for a mirror fold).
 
 A fisheye lens or a probe's disc is symmetric about its centre, so in its own frame each of
 its pixels' SH weights is a function of the pixel's distance r from the centre times a
@@ -9,7 +13,53 @@ squares (:mod:`provider.core.sh9.lens_fold` keeps the tables and checks them).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+
+
+@dataclass
+class DiscAxes:
+    """A light probe's disc (mirror ball, angular map) as a lens: its centre, and the
+    camera's axes (looking along −Z, image right +X, up +Y: the lens frame is the world's)."""
+
+    cx: float
+    cy: float
+    frame: tuple = ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0))   # (axis, right, up)
+
+
+def symmetric_images(projection) -> tuple:
+    """The radially symmetric images of a projection: its fisheye lenses, or a probe's disc."""
+    lenses = getattr(projection, "lenses", None)
+    if lenses:
+        return tuple(lenses)
+    lens = getattr(projection, "lens", None)
+    if lens is not None:
+        return (lens,)
+    if hasattr(projection, "normalised") and hasattr(projection, "cx"):
+        return (DiscAxes(projection.cx, projection.cy),)
+    return ()
+
+
+def centred_on_grid(projection) -> bool:
+    """True when ``projection`` has radially symmetric images (lenses, a probe's disc)
+    whose centres all fall on the pixel grid (a pixel's corner or centre): the condition
+    for the fold, checked before any weight is made."""
+    lenses = symmetric_images(projection)
+    return bool(lenses) and all(on_grid(lens) for lens in lenses)
+
+
+def on_grid(lens) -> bool:
+    """The lens's centre on a pixel's corner or centre (twice it an integer, both axes)."""
+    return all(abs(2 * v - round(2 * v)) <= 1e-9 for v in (lens.cx, lens.cy))
+
+
+def lens_region(projection, i, n):
+    """Columns [a, b) whose weights belong to lens ``i`` of ``n``."""
+    w = projection.width
+    if n == 1:
+        return 0, w
+    return (0, w // 2) if i == 0 else (w - w // 2, w)
 
 
 def fit_profiles(t: np.ndarray, weights, monomials: list, outlier: np.ndarray) -> np.ndarray:

@@ -19,6 +19,9 @@
  *   table     float32, 256 entries (one curve) or 768 (per channel, entry v*3 + c); or None
  *   geometry  (xl, xr, yt, yb, nx, ny): quarter pixel (i, j) reads columns xr + j, xl - 1 - j
  *             and rows yb + i, yt - 1 - i, for i < ny, j < nx
+ *   others    int32 (M, 2): the (xl, xr) of M more lenses with the same rows and weights
+ *             (xr - xl the same: the two lenses of a dual fisheye), each summed into its own
+ *             sums: one lens's weight rows made once a row pair for all (M = 0: one lens)
  *   extents   int32 (ny,): row pair i reads columns j < extents[i] only (beyond, every
  *             weight is zero and no block of mid is seen)
  *   radial    float32 (B, 20): the lens-frame SH9 weights as functions of the distance r of
@@ -35,7 +38,8 @@
  *             not hold to the build's tolerance: the circle's edge, a blend's seam)
  *   tables    float32 (K, ny * nx), row k the quarter table of extra weight k (K may be 0)
  *   parities  int32 (K,): the fold each extra weight meets (0..3 above)
- *   sums      float64 (9 + K, 3), added to: the SH9 weights' sums, then the extras'
+ *   sums      float64 (1 + M, 9 + K, 3), added to, a lens each: the SH9 weights' sums,
+ *             then the extras'
  *   mid       None, or float32 (H / f, W / f, 3): the sums of the decoded pixels over f x f
  *             blocks are added to it (the caller divides by f * f once every pixel is in:
  *             the lights' block copy, black where nothing was read)
@@ -63,7 +67,7 @@
 #include <arm_neon.h>
 #endif
 
-#define NVIEWS 10
+#define NVIEWS 11
 
 #if KERNEL_VECTOR
 /* Four floats: GCC's and Clang's vector extension, SSE on x86-64 and NEON on 64-bit ARM.
@@ -394,13 +398,14 @@ static PyObject *
 fold_lens(PyObject *self, PyObject *args)
 {
     PyObject *frame_obj, *table_obj, *ext_obj, *tab_obj, *par_obj, *sums_obj, *mid_obj;
-    PyObject *rad_obj, *fat_obj, *fix_obj;
+    PyObject *rad_obj, *fat_obj, *fix_obj, *oth_obj;
     Py_ssize_t xl, xr, yt, yb, nx, ny;
     double inv_step;
     int f, clear;
-    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOdOOOOOOip", &frame_obj, &table_obj, &xl, &xr,
-                          &yt, &yb, &nx, &ny, &ext_obj, &rad_obj, &inv_step, &fat_obj,
-                          &fix_obj, &tab_obj, &par_obj, &sums_obj, &mid_obj, &f, &clear))
+    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOOdOOOOOOip", &frame_obj, &table_obj, &xl, &xr,
+                          &yt, &yb, &nx, &ny, &oth_obj, &ext_obj, &rad_obj, &inv_step,
+                          &fat_obj, &fix_obj, &tab_obj, &par_obj, &sums_obj, &mid_obj, &f,
+                          &clear))
         return NULL;
     Py_buffer views[NVIEWS];
     memset(views, 0, sizeof views);
@@ -413,18 +418,21 @@ fold_lens(PyObject *self, PyObject *args)
                                                        : "frame (with a table: uint8)");
     if (!linear)
         VIEW(1, table_obj, 0, "f", 1, "table");
+    VIEW(10, oth_obj, 0, "i", 2, "others");
     VIEW(2, ext_obj, 0, "i", 1, "extents");
     VIEW(7, rad_obj, 0, "f", 2, "radial");
     VIEW(8, fat_obj, 0, "i", 1, "fix_at");
     VIEW(9, fix_obj, 0, "f", 2, "fixes");
     VIEW(3, tab_obj, 0, "f", 2, "tables");
     VIEW(4, par_obj, 0, "i", 1, "parities");
-    VIEW(5, sums_obj, 1, "d", 2, "sums");
+    VIEW(5, sums_obj, 1, "d", 3, "sums");
     if (use_mid)
         VIEW(6, mid_obj, 1, "f", 3, "mid");
 #undef VIEW
     Py_buffer fr = views[0], tb = views[1], ex = views[2], tabs = views[3], par = views[4];
     Py_buffer sums = views[5], mid = views[6], rad = views[7], fat = views[8], fix = views[9];
+    Py_buffer oth = views[10];
+    const Py_ssize_t L = 1 + oth.shape[0];
     Py_ssize_t H = fr.shape[0], W = fr.shape[1], K = tabs.shape[0];
     const Py_ssize_t item = linear ? 4 : 1;
     if (fr.shape[2] != 3 || fr.strides[2] != item || fr.strides[1] != 3 * item)
@@ -436,6 +444,8 @@ fold_lens(PyObject *self, PyObject *args)
     else if (nx < 1 || ny < 1 || xl < nx || yt < ny || xr < xl || yb < yt || nx > W - xr
              || ny > H - yb)
         err = "geometry: the square must lie inside the frame";
+    else if (!contiguous(&oth) || oth.shape[1] != 2)
+        err = "others: (M, 2) contiguous int32";
     else if (!contiguous(&ex) || ex.shape[0] != ny)
         err = "extents: (ny,) contiguous int32";
     else if (!contiguous(&rad) || rad.shape[0] < 1 || rad.shape[1] != 20)
@@ -449,12 +459,22 @@ fold_lens(PyObject *self, PyObject *args)
         err = "tables: (K, ny * nx) contiguous float32";
     else if (!contiguous(&par) || par.shape[0] != K)
         err = "parities: (K,) contiguous int32";
-    else if (!contiguous(&sums) || sums.shape[0] != 9 + K || sums.shape[1] != 3)
-        err = "sums: (9 + K, 3) contiguous float64";
+    else if (!contiguous(&sums) || sums.shape[0] != L || sums.shape[1] != 9 + K
+             || sums.shape[2] != 3)
+        err = "sums: (1 + M, 9 + K, 3) contiguous float64";
     else if (use_mid && (f < 1 || !contiguous(&mid) || mid.shape[0] != H / f
                          || mid.shape[1] != W / f || mid.shape[2] != 3
                          || nx > (W / f) * f - xr || ny > (H / f) * f - yb))
         err = "mid: (H / f, W / f, 3) float32 holding the square's blocks";
+    /* The other lenses: their columns as the first's (the same centre offset: the same
+     * weights), inside the frame and mid's blocks. */
+    const int *others = err ? NULL : (const int *)oth.buf;
+    for (Py_ssize_t l = 0; !err && l + 1 < L; l++) {
+        const Py_ssize_t ol = others[2 * l], orr = others[2 * l + 1];
+        if (ol < nx || orr - ol != xr - xl || nx > W - orr
+            || (use_mid && nx > (W / f) * f - orr))
+            err = "others: (xl, xr) of lenses like the first, inside the frame";
+    }
     const int *extent = (const int *)ex.buf;
     const int *parity = (const int *)par.buf;
     for (Py_ssize_t i = 0; !err && i < ny; i++)
@@ -474,8 +494,11 @@ fold_lens(PyObject *self, PyObject *args)
     }
     /* Planar rows: 4 half rows x 3 channels decoded, 4 folds x 3 channels, per half row
      * and channel the block sums of a block row (mid), and the 9 SH9 weight rows. */
-    float *buf = (float *)malloc(sizeof(float) * (size_t)(45 * nx));
-    if (buf == NULL) {
+    float *buf = (float *)malloc(sizeof(float) * (size_t)((33 + 12 * L) * nx));
+    Py_ssize_t *spills = (Py_ssize_t *)malloc(sizeof(Py_ssize_t) * (size_t)(12 * L));
+    if (buf == NULL || spills == NULL) {
+        free(buf);
+        free(spills);
         PyErr_NoMemory();
         goto fail;
     }
@@ -483,8 +506,8 @@ fold_lens(PyObject *self, PyObject *args)
         float *half = buf;                  /* [h][c][j], h: 0 bottom right, 1 bottom left,
                                                2 top right, 3 top left */
         float *folds = buf + 12 * nx;       /* [parity][c][j] */
-        float *cols = folds + 12 * nx;      /* [h][c][j]: column sums of a block row */
-        float *wrows = cols + 12 * nx;      /* [k][j]: the SH9 weights of the row pair */
+        float *wrows = folds + 12 * nx;     /* [k][j]: the SH9 weights of the row pair */
+        float *cols_all = wrows + 9 * nx;   /* [lens][h][c][j]: column sums of a block row */
         const float *radp = (const float *)rad.buf, *fixp = (const float *)fix.buf;
         const Py_ssize_t nb = rad.shape[0];
         const float inv = (float)inv_step;
@@ -499,6 +522,7 @@ fold_lens(PyObject *self, PyObject *args)
             free(order);
             free(fold_of);
             free(buf);
+            free(spills);
             PyErr_NoMemory();
             goto fail;
         }
@@ -506,9 +530,17 @@ fold_lens(PyObject *self, PyObject *args)
             order[k] = k < 9 ? SH_ORDER[k] : k;
             fold_of[k] = k < 9 ? SH_PARITY[order[k]] : parity[k - 9];
         }
-        Py_ssize_t block_row[4] = {-1, -1, -1, -1}, used[4] = {0, 0, 0, 0};
-        const Py_ssize_t x0[4] = {xr, xl - 1, xr, xl - 1};
         const int dir[4] = {1, -1, 1, -1};
+        for (Py_ssize_t q = 0; q < 4 * L; q++) {    /* per lens and half row: */
+            spills[q] = -1;                         /* its block row, */
+            spills[4 * L + q] = 0;                  /* the columns used there, */
+        }
+        for (Py_ssize_t l = 0; l < L; l++)          /* and its first column */
+            for (int h = 0; h < 4; h++) {
+                const Py_ssize_t lxl = l ? others[2 * (l - 1)] : xl;
+                const Py_ssize_t lxr = l ? others[2 * (l - 1) + 1] : xr;
+                spills[8 * L + 4 * l + h] = h % 2 ? lxl - 1 : lxr;
+            }
         const float *t = linear ? NULL : (const float *)tb.buf;
         const int shared = linear || tb.shape[0] == 256;
         const float *tab = (const float *)tabs.buf;
@@ -516,92 +548,106 @@ fold_lens(PyObject *self, PyObject *args)
         float *midp = use_mid ? (float *)mid.buf : NULL;
         const Py_ssize_t mw = use_mid ? W / f : 0;
         Py_BEGIN_ALLOW_THREADS
-        zero(cols, 12 * nx);            /* only the column sums are read before written */
+        zero(cols_all, 12 * L * nx);    /* only the column sums are read before written */
         if (use_mid && clear) {
             zero(midp, (H / f) * mw * 3);
         }
         for (Py_ssize_t i = 0; i < ny; i++) {
             const Py_ssize_t e = extent[i];
-            const char *bottom = (const char *)fr.buf + (yb + i) * fr.strides[0];
-            const char *top = (const char *)fr.buf + (yt - 1 - i) * fr.strides[0];
-            const char *start[4] = {bottom + 3 * item * xr, bottom + 3 * item * (xl - 1),
-                                    top + 3 * item * xr, top + 3 * item * (xl - 1)};
-            for (int h = 0; h < 4; h++) {
-                float *r = half + (3 * h) * nx;
-                if (linear)
-                    split_half((const float *)start[h], h % 2 ? -3 : 3, e, r, r + nx,
-                               r + 2 * nx);
-                else
-                    decode_half((const unsigned char *)start[h], h % 2 ? -3 : 3, e, t, shared,
-                                r, r + nx, r + 2 * nx);
-            }
-            if (use_mid) {
-                for (int h = 0; h < 4; h++) {
-                    const Py_ssize_t br = (h < 2 ? yb + i : yt - 1 - i) / f;
-                    float *col = cols + (3 * h) * nx;
-                    if (br != block_row[h]) {
-                        if (block_row[h] >= 0)
-                            spill(col, nx, used[h], x0[h], dir[h], f,
-                                  midp + block_row[h] * mw * 3);
-                        block_row[h] = br;
-                        used[h] = 0;
-                    }
-                    if (e > used[h])
-                        used[h] = e;
-                }
-            }
-            for (int c = 0; c < 3; c++)
-                if (use_mid)
-                    fold_row_sums(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
-                                  half + (9 + c) * nx, folds + c * nx, folds + (3 + c) * nx,
-                                  folds + (6 + c) * nx, folds + (9 + c) * nx, cols + c * nx,
-                                  cols + (3 + c) * nx, cols + (6 + c) * nx,
-                                  cols + (9 + c) * nx, e);
-                else
-                    fold_row(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
-                             half + (9 + c) * nx, folds + c * nx, folds + (3 + c) * nx,
-                             folds + (6 + c) * nx, folds + (9 + c) * nx, e);
             if (e > 0)
                 radial_row(radp, nb, inv, dx0, dy0 + (float)i, e, wrows, nx);
             /* The pixels of this row pair the radial table does not fit: their corrections
-             * (a few thousand a lens, at the circle's edge and a blend's seam). */
+             * (a few hundred a lens, at the circle's edge and a blend's seam). */
             for (; fq < F && at[fq] < (i + 1) * nx; fq++) {
                 const Py_ssize_t j = at[fq] - i * nx;
                 if (j < e)
                     for (int k = 0; k < 9; k++)
                         wrows[k * nx + j] += fixp[9 * fq + k];
             }
-            /* Runs of up to three weights that meet the same fold (in their order, grouped
-             * by fold). */
-            for (Py_ssize_t k = 0; e > 0 && k < KT;) {
-                int m = 1;
-                while (m < 3 && k + m < KT && fold_of[k + m] == fold_of[k])
-                    m++;
-                const float *x = folds + (fold_of[k] * 3) * nx;
-                const float *w[3];
-                double *o[3];
-                for (int r = 0; r < m; r++) {
-                    const Py_ssize_t row = order[k + r];
-                    w[r] = row < 9 ? wrows + row * nx : tab + (row - 9) * nx * ny + i * nx;
-                    o[r] = out + 3 * row;
+            /* Each lens reads its row pair with the same weights. */
+            for (Py_ssize_t l = 0; l < L; l++) {
+                const Py_ssize_t lxl = l ? others[2 * (l - 1)] : xl;
+                const Py_ssize_t lxr = l ? others[2 * (l - 1) + 1] : xr;
+                float *cols = cols_all + 12 * l * nx;
+                Py_ssize_t *block_row = spills + 4 * l, *used = spills + 4 * L + 4 * l;
+                const Py_ssize_t *x0 = spills + 8 * L + 4 * l;
+                double *lout = out + l * KT * 3;
+                const char *bottom = (const char *)fr.buf + (yb + i) * fr.strides[0];
+                const char *top = (const char *)fr.buf + (yt - 1 - i) * fr.strides[0];
+                const char *start[4] = {bottom + 3 * item * lxr, bottom + 3 * item * (lxl - 1),
+                                        top + 3 * item * lxr, top + 3 * item * (lxl - 1)};
+                for (int h = 0; h < 4; h++) {
+                    float *r = half + (3 * h) * nx;
+                    if (linear)
+                        split_half((const float *)start[h], h % 2 ? -3 : 3, e, r, r + nx,
+                                   r + 2 * nx);
+                    else
+                        decode_half((const unsigned char *)start[h], h % 2 ? -3 : 3, e, t,
+                                    shared, r, r + nx, r + 2 * nx);
                 }
-                if (m == 3)
-                    dots(w, 3, x, x + nx, x + 2 * nx, e, o);
-                else if (m == 2)
-                    dots(w, 2, x, x + nx, x + 2 * nx, e, o);
-                else
-                    dots(w, 1, x, x + nx, x + 2 * nx, e, o);
-                k += m;
+                if (use_mid) {
+                    for (int h = 0; h < 4; h++) {
+                        const Py_ssize_t br = (h < 2 ? yb + i : yt - 1 - i) / f;
+                        float *col = cols + (3 * h) * nx;
+                        if (br != block_row[h]) {
+                            if (block_row[h] >= 0)
+                                spill(col, nx, used[h], x0[h], dir[h], f,
+                                      midp + block_row[h] * mw * 3);
+                            block_row[h] = br;
+                            used[h] = 0;
+                        }
+                        if (e > used[h])
+                            used[h] = e;
+                    }
+                }
+                for (int c = 0; c < 3; c++)
+                    if (use_mid)
+                        fold_row_sums(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
+                                      half + (9 + c) * nx, folds + c * nx,
+                                      folds + (3 + c) * nx, folds + (6 + c) * nx,
+                                      folds + (9 + c) * nx, cols + c * nx,
+                                      cols + (3 + c) * nx, cols + (6 + c) * nx,
+                                      cols + (9 + c) * nx, e);
+                    else
+                        fold_row(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
+                                 half + (9 + c) * nx, folds + c * nx, folds + (3 + c) * nx,
+                                 folds + (6 + c) * nx, folds + (9 + c) * nx, e);
+                /* Runs of up to three weights that meet the same fold (in their order,
+                 * grouped by fold). */
+                for (Py_ssize_t k = 0; e > 0 && k < KT;) {
+                    int m = 1;
+                    while (m < 3 && k + m < KT && fold_of[k + m] == fold_of[k])
+                        m++;
+                    const float *x = folds + (fold_of[k] * 3) * nx;
+                    const float *w[3];
+                    double *o[3];
+                    for (int r = 0; r < m; r++) {
+                        const Py_ssize_t row = order[k + r];
+                        w[r] = row < 9 ? wrows + row * nx : tab + (row - 9) * nx * ny + i * nx;
+                        o[r] = lout + 3 * row;
+                    }
+                    if (m == 3)
+                        dots(w, 3, x, x + nx, x + 2 * nx, e, o);
+                    else if (m == 2)
+                        dots(w, 2, x, x + nx, x + 2 * nx, e, o);
+                    else
+                        dots(w, 1, x, x + nx, x + 2 * nx, e, o);
+                    k += m;
+                }
             }
         }
-        for (int h = 0; use_mid && h < 4; h++)
-            if (block_row[h] >= 0)
-                spill(cols + (3 * h) * nx, nx, used[h], x0[h], dir[h], f,
-                      midp + block_row[h] * mw * 3);
+        for (Py_ssize_t l = 0; use_mid && l < L; l++)
+            for (int h = 0; h < 4; h++) {
+                const Py_ssize_t br = spills[4 * l + h];
+                if (br >= 0)
+                    spill(cols_all + (12 * l + 3 * h) * nx, nx, spills[4 * L + 4 * l + h],
+                          spills[8 * L + 4 * l + h], dir[h], f, midp + br * mw * 3);
+            }
         Py_END_ALLOW_THREADS
         free(order);
         free(fold_of);
         free(buf);
+        free(spills);
     }
     for (int v = 0; v < NVIEWS; v++)
         if (got[v])
@@ -616,7 +662,7 @@ fail:
 
 static PyMethodDef methods[] = {
     {"fold_lens", fold_lens, METH_VARARGS,
-     "fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, tables, "
+     "fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes, tables, "
      "parities, sums, mid, factor, clear): "
      "one lens's folded projection of an 8-bit frame decoded through table (or of a float32 "
      "frame, table None), and its block means into mid."},

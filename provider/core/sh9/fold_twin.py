@@ -49,8 +49,8 @@ def radial_weights(radial, inv_step, geometry) -> np.ndarray:
     return w * np.stack([np.broadcast_to(mono[m], X.shape) for m in SH_MONOMIAL])
 
 
-def fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, tables,
-              parities, sums, mid, factor, clear) -> None:
+def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes,
+              tables, parities, sums, mid, factor, clear) -> None:
     """One lens's folded projection of ``frame`` (8-bit through ``table``, or linear
     float32 with ``table`` None) added to ``sums``, and its pixels' block sums to ``mid``:
     see ``_fold.c`` (the arguments) and ``_fold.pyi``."""
@@ -60,6 +60,7 @@ def fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, 
     fr = buffer_view(frame, False, "f" if linear else "B", 3,
                      "frame (no table: float32)" if linear else "frame (with a table: uint8)")
     tb = None if linear else buffer_view(table, False, "f", 1, "table")
+    oth = buffer_view(others, False, "i", 2, "others")
     ex = buffer_view(extents, False, "i", 1, "extents")
     rad = buffer_view(radial, False, "f", 2, "radial")
     inv = float(inv_step)
@@ -67,7 +68,7 @@ def fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, 
     fx = buffer_view(fixes, False, "f", 2, "fixes")
     tabs = buffer_view(tables, False, "f", 2, "tables")
     par = buffer_view(parities, False, "i", 1, "parities")
-    sm = buffer_view(sums, True, "d", 2, "sums")
+    sm = buffer_view(sums, True, "d", 3, "sums")
     md = buffer_view(mid, True, "f", 3, "mid") if use_mid else None
     H, W = fr.shape[:2]
     K = tabs.shape[0]
@@ -80,6 +81,8 @@ def fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, 
     elif (nx < 1 or ny < 1 or xl < nx or yt < ny or xr < xl or yb < yt or nx > W - xr
           or ny > H - yb):
         err = "geometry: the square must lie inside the frame"
+    elif not contiguous(oth) or oth.shape[1] != 2:
+        err = "others: (M, 2) contiguous int32"
     elif not contiguous(ex) or ex.shape[0] != ny:
         err = "extents: (ny,) contiguous int32"
     elif not contiguous(rad) or rad.shape[0] < 1 or rad.shape[1] != RADIAL_COLUMNS:
@@ -93,12 +96,20 @@ def fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, 
         err = "tables: (K, ny * nx) contiguous float32"
     elif not contiguous(par) or par.shape[0] != K:
         err = "parities: (K,) contiguous int32"
-    elif not contiguous(sm) or sm.shape[0] != 9 + K or sm.shape[1] != 3:
-        err = "sums: (9 + K, 3) contiguous float64"
+    elif (not contiguous(sm) or sm.shape[0] != 1 + oth.shape[0] or sm.shape[1] != 9 + K
+          or sm.shape[2] != 3):
+        err = "sums: (1 + M, 9 + K, 3) contiguous float64"
     elif use_mid and (f < 1 or not contiguous(md) or md.shape[0] != H // f
                       or md.shape[1] != W // f or md.shape[2] != 3
                       or nx > (W // f) * f - xr or ny > (H // f) * f - yb):
         err = "mid: (H / f, W / f, 3) float32 holding the square's blocks"
+    lenses = [(xl, xr)]
+    if err is None:
+        lenses += [tuple(int(v) for v in pair) for pair in np.asarray(oth).reshape(-1, 2)]
+    for ol, orr in lenses[1:]:
+        if err is None and (ol < nx or orr - ol != xr - xl or nx > W - orr
+                            or (use_mid and nx > (W // f) * f - orr)):
+            err = "others: (xl, xr) of lenses like the first, inside the frame"
     extent = np.asarray(ex).astype(np.int64)
     parity = np.asarray(par).astype(np.int64)
     if err is None and np.any((extent < 0) | (extent > nx)):
@@ -111,6 +122,24 @@ def fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, 
     if err is not None:
         raise ValueError(err)
 
+    if use_mid and clear:
+        np.asarray(md)[...] = 0.0
+    # The SH9 weights from the radial table, the exact corrections of the few quarter
+    # pixels it does not fit added; then the per-pixel tables' rows: the same for each lens.
+    sh9 = radial_weights(rad, inv, (xl, xr, yt, yb, nx, ny))
+    sh9[:, at] += np.asarray(fx).astype(np.float64).T
+    weights = np.concatenate([sh9, np.asarray(tabs).astype(np.float64)])
+    parity = np.concatenate([SH_PARITY, parity])
+    for n, (lxl, lxr) in enumerate(lenses):
+        _one_lens(fr, tb, (lxl, lxr, yt, yb, nx, ny), extent, weights, parity,
+                  np.asarray(sm)[n], md, f)
+
+
+def _one_lens(fr, tb, geometry, extent, weights, parity, out, md, f) -> None:
+    """One lens's sums (``out`` (9 + K, 3)) and block sums (``md`` or None) of the frame."""
+    xl, xr, yt, yb, nx, ny = geometry
+    linear = tb is None
+    H, W = fr.shape[:2]
     # The four quarters, each row i and column j counted from the centre: bottom right a,
     # bottom left b, top right c, top left d; a row pair reads columns j < extent[i] only.
     pixels = np.asarray(fr)
@@ -132,19 +161,10 @@ def fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, 
     a, b, c, d = quarters
     folds = np.stack([(a + b) + (c + d), (a - b) + (c - d), (a + b) - (c + d),
                       (a - b) - (c - d)]).reshape(4, ny * nx, 3)
-    # The SH9 weights from the radial table, the exact corrections of the few quarter
-    # pixels it does not fit added; then the per-pixel tables' rows.
-    sh9 = radial_weights(rad, inv, (xl, xr, yt, yb, nx, ny))
-    sh9[:, at] += np.asarray(fx).astype(np.float64).T
-    weights = np.concatenate([sh9, np.asarray(tabs).astype(np.float64)])
-    parity = np.concatenate([SH_PARITY, parity])
-    out = np.asarray(sm)
-    for k in range(9 + K):
+    for k in range(weights.shape[0]):
         out[k] += weights[k] @ folds[parity[k]]
-    if use_mid:
+    if md is not None:
         blocks = np.asarray(md)
-        if clear:
-            blocks[...] = 0.0
         mh, mw = H // f, W // f
         at = np.concatenate([((r // f) * mw + c // f)[read] for r, c in zip(rows, cols)])
         values = np.concatenate([q[read] for q in quarters])

@@ -48,6 +48,8 @@ import cv2
 import numpy as np
 
 from ..geometry import radial_fit, sh
+from ..geometry.radial_fit import centred_on_grid  # noqa: F401 - the engine's, from here
+from ..geometry.radial_fit import lens_region, on_grid, symmetric_images
 from .fold_twin import RADIAL_COLUMNS, SH_MONOMIAL, SH_PARITY, radial_weights
 from .fold_twin import fold_lens as _fold_twin
 
@@ -198,9 +200,12 @@ class LensFold:
 
     @property
     def table_floats(self) -> int:
-        """Weights read per frame (floats): radial tables, corrections, extras' quarter
-        tables and the residual list."""
-        return sum(L.table_floats for L in self.lenses) + self._res_weights.size
+        """Weights read per frame (floats): radial tables and corrections (once where lenses
+        share them), extras' quarter tables and the residual list."""
+        shared = {id(L.radial): L.radial.size + L.fix_at.size + L.fixes.size
+                  for L in self.lenses}
+        return (sum(shared.values()) + self._res_weights.size
+                + sum(t.size for L in self.lenses for _, _, t in L.groups))
 
     def _buffers(self, band_rows: int) -> list:
         """Per lens: x-folded (even, odd) rows (2·ny, nx, 3) float32, the y fold's flipped
@@ -272,16 +277,20 @@ class LensFold:
         item = frame.itemsize
         if frame.strides[2] != item or frame.strides[1] != 3 * item:
             frame = np.ascontiguousarray(frame)
-        sums = []
-        for n, L in enumerate(self.lenses):
+        sums = [None] * len(self.lenses)
+        for n, (first, rest) in enumerate(self._kernel_calls()):
+            L = self.lenses[first]
             geometry, extent, radial, inv, fix_at, fixes, tables, codes = L.kernel_data
-            out = np.zeros((9 + tables.shape[0], 3))
-            # The first lens's call zeroes mid: every lens, then the unpaired pixels, add.
-            _fold_kernel(frame, t, geometry, extent, radial, inv, fix_at, fixes, tables,
-                         codes, out, mid, factor, n == 0)
+            others = np.array([self.lenses[m].geometry[:2] for m in rest], np.int32
+                              ).reshape(-1, 2)
+            out = np.zeros((1 + len(rest), 9 + tables.shape[0], 3))
+            # The first call zeroes mid: every lens, then the unpaired pixels, add.
+            _fold_kernel(frame, t, geometry, others, extent, radial, inv, fix_at, fixes,
+                         tables, codes, out, mid, factor, n == 0)
             # rows: the SH9 weights, then the extras in their groups' order
-            row = dict(zip([k for _, ks, _ in L.groups for k in ks], range(9, out.shape[0])))
-            sums.append([out[[row.get(k, k) for k in ks]].T for _, ks in L.group_ks])
+            row = dict(zip([k for _, ks, _ in L.groups for k in ks], range(9, out.shape[1])))
+            for lens_out, m in zip(out, (first, *rest)):
+                sums[m] = [lens_out[[row.get(k, k) for k in ks]].T for _, ks in L.group_ks]
         state["sums"] = sums
         if self._res_index.size:           # the unpaired pixels: a gather, a product
             samples = self._ops.get("samples")
@@ -302,6 +311,30 @@ class LensFold:
                     flat[blocks, c] += np.bincount(at, px[:, c], minlength=blocks.size)
         if mid is not None:
             mid *= np.float32(1.0 / (factor * factor))
+
+    def _kernel_calls(self) -> list:
+        """[(lens, [other lenses])]: lenses whose weights are the same (a dual fisheye's two
+        lenses, each the other mirrored in the world, no extra columns: the same lens-frame
+        weights, rows and centre offset) go in one call, which makes each row pair's
+        weights once for both."""
+        calls = self._ops.get("calls")
+        if calls is None:
+            calls = []
+            for n, L in enumerate(self.lenses):
+                for first, rest in calls:
+                    F = self.lenses[first]
+                    if (not L.groups and not F.groups and L.Y == F.Y and L.nx == F.nx
+                            and L.ny == F.ny and L.X % 2 == F.X % 2
+                            and L.inv_step == F.inv_step
+                            and all(np.array_equal(a, b) for a, b in (
+                                (L.radial, F.radial), (L.fix_at, F.fix_at),
+                                (L.fixes, F.fixes), (L.extent, F.extent)))):
+                        rest.append(n)
+                        break
+                else:
+                    calls.append((n, []))
+            self._ops["calls"] = calls
+        return calls
 
     def _residual_blocks(self, mid_width: int, factor: int) -> tuple:
         """The distinct blocks of the unpaired pixels (flat indices in the lights' copy)
@@ -391,55 +424,12 @@ class LensFold:
         return out
 
 
-@dataclass
-class _DiscAxes:
-    """A light probe's disc (mirror ball, angular map) as a lens: its centre, and the
-    camera's axes (looking along −Z, image right +X, up +Y: the lens frame is the world's)."""
-
-    cx: float
-    cy: float
-    frame: tuple = ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0))   # (axis, right, up)
-
-
-def _lenses(projection) -> tuple:
-    """The radially symmetric images of a projection: its fisheye lenses, or a probe's disc."""
-    lenses = getattr(projection, "lenses", None)
-    if lenses:
-        return tuple(lenses)
-    lens = getattr(projection, "lens", None)
-    if lens is not None:
-        return (lens,)
-    if hasattr(projection, "normalised") and hasattr(projection, "cx"):
-        return (_DiscAxes(projection.cx, projection.cy),)
-    return ()
-
-
-def centred_on_grid(projection) -> bool:
-    """True when ``projection`` has radially symmetric images (lenses, a probe's disc)
-    whose centres all fall on the pixel grid (a pixel's corner or centre): the condition
-    for the fold, checked before any weight is made."""
-    lenses = _lenses(projection)
-    return bool(lenses) and all(_on_grid(lens) for lens in lenses)
-
-
-def _on_grid(lens) -> bool:
-    """The lens's centre on a pixel's corner or centre (twice it an integer, both axes)."""
-    return all(abs(2 * v - round(2 * v)) <= 1e-9 for v in (lens.cx, lens.cy))
-
-
-def _lens_region(projection, i, n):
-    """Columns [a, b) whose weights belong to lens ``i`` of ``n``."""
-    w = projection.width
-    if n == 1:
-        return 0, w
-    return (0, w // 2) if i == 0 else (w - w // 2, w)
-
-
-def _fold_lens(lens, region, weights, height, extra=None):
+def _fold_lens(lens, region, weights, height, extra=None, like=()):
     """A :class:`_FoldedLens` of ``lens`` over columns ``region`` of the (H, W, 9) world
     weights (and the (H, W, E) ``extra`` world-frame columns, split into parity parts), and
-    the mask of the pixels it folds; None where the grid is not symmetric."""
-    if not _on_grid(lens):
+    the mask of the pixels it folds; None where the grid is not symmetric. ``like``: lenses
+    already folded, whose radial tables this one shares where they give its weights."""
+    if not on_grid(lens):
         return None
     X, Y = int(round(2 * lens.cx)), int(round(2 * lens.cy))
     a, b = region
@@ -493,7 +483,16 @@ def _fold_lens(lens, region, weights, height, extra=None):
         seen |= np.any(t.reshape(-1, ny, nx) != 0, axis=0)
     extent = np.where(seen.any(axis=1), nx - np.argmax(seen[:, ::-1], axis=1), 0)
     geometry = (xl, xr, yt, yb, nx, ny)
-    made = _radial_table(q, geometry, extent)
+    made = None
+    for F in like:      # a lens already made whose weights are these (a dual fisheye's twin)
+        if (F.Y == Y and F.X % 2 == X % 2 and (F.nx, F.ny) == (nx, ny) and not tables
+                and not F.groups and np.array_equal(F.extent, extent)
+                and _gives_back(q, geometry, extent, F.radial, F.inv_step, F.fix_at,
+                                F.fixes)):
+            made = F.radial, F.inv_step, F.fix_at, F.fixes
+            break
+    else:
+        made = _radial_table(q, geometry, extent)
     if made is None:
         return None
     mask = np.zeros(weights.shape[:2], bool)
@@ -533,13 +532,24 @@ def _radial_table(q, geometry, extent):
     miss = np.zeros(ny * nx, bool)
     for k in range(9):
         miss |= flat & (np.abs(q[..., k].reshape(-1) - made[k]) > RADIAL_TOLERANCE * scale[k])
-    fix_at = np.flatnonzero(miss)
+    fix_at = np.flatnonzero(miss).astype(np.int32)
     fixes = (q.reshape(-1, 9)[fix_at] - made[:, fix_at].T).astype(np.float32)
-    made[:, fix_at] += fixes.T
-    err = np.abs(q.reshape(-1, 9)[flat] - made[:, flat].T) / scale
-    if not np.all(err <= RADIAL_TOLERANCE):
+    if not _gives_back(q, geometry, extent, radial, inv, fix_at, fixes):
         return None
-    return radial, inv, fix_at.astype(np.int32), fixes
+    return radial, inv, fix_at, fixes
+
+
+def _gives_back(q, geometry, extent, radial, inv, fix_at, fixes) -> bool:
+    """Whether the weights the kernel makes from ``radial`` with the corrections are the
+    lens-frame SH9 quarter weights ``q`` (ny, nx, 9) to :data:`RADIAL_TOLERANCE` of each
+    weight's largest, on the quarter pixels read."""
+    nx, ny = geometry[4], geometry[5]
+    flat = (np.arange(nx)[None, :] < extent[:, None]).reshape(-1)
+    made = radial_weights(radial, inv, geometry)
+    made[:, fix_at] += fixes.T
+    scale = np.maximum(np.abs(q).max(axis=(0, 1)), 1e-300)
+    err = np.abs(q.reshape(-1, 9)[flat] - made[:, flat].T) / scale
+    return bool(np.all(err <= RADIAL_TOLERANCE))
 
 
 def lens_fold(projection, weights: np.ndarray,
@@ -549,7 +559,7 @@ def lens_fold(projection, weights: np.ndarray,
     world weights ``weights`` (H·W, 9) and optional extra world-frame columns ``extra``
     (H·W, E) summed in the same pass (:meth:`LensFold.extra_sums`), or None (not such a
     geometry, a grid not symmetric about a centre, too many unpaired pixels)."""
-    lenses = _lenses(projection)
+    lenses = symmetric_images(projection)
     if not lenses:
         return None
     h, w = projection.height, projection.width
@@ -557,8 +567,8 @@ def lens_fold(projection, weights: np.ndarray,
     ex = None if extra is None else np.asarray(extra, np.float64).reshape(h, w, -1)
     folded, covered = [], np.zeros((h, w), bool)
     for i, lens in enumerate(lenses):
-        region = _lens_region(projection, i, len(lenses))
-        made = _fold_lens(lens, region, dense, h, ex)
+        region = lens_region(projection, i, len(lenses))
+        made = _fold_lens(lens, region, dense, h, ex, folded)
         if made is None:
             return None
         folded.append(made[0])
