@@ -24,29 +24,30 @@ SH_MONOMIAL = ("1", "dy", "1", "dx", "dx dy", "dy", "1", "dx", "dx2 - dy2")
 RADIAL_COLUMNS = 20
 
 
-def radial_weights(radial, inv_step, geometry) -> np.ndarray:
+def radial_weights(radial, inv_step, geometry, ks=range(9)) -> np.ndarray:
     """(9, ny·nx) float64: the lens-frame SH9 weights of a lens's quarter pixels (i, j) from
     its radial table, as the kernel computes them: r = √(dx² + dy²) (dx = j + (xr − xl + 1)/2,
     dy = i + (yb − yt + 1)/2, the pixel centre's distance from the lens centre), bin b =
     ⌊r·inv_step⌋ (at most the last), weight k = (value + (r·inv_step − b)·slope) × its
-    monomial; r, its bin and the fraction in float32, as the C."""
+    monomial; r, its bin and the fraction in float32, as the C. ``ks``: those weights only
+    (len(ks), ny·nx)."""
     xl, xr, yt, yb, nx, ny = geometry
-    rad = np.asarray(radial, np.float64)
+    rad = np.asarray(radial, np.float32)
     f32 = np.float32
     dx = f32((xr - xl + 1) / 2) + np.arange(nx, dtype=f32)
     dy = f32((yb - yt + 1) / 2) + np.arange(ny, dtype=f32)
-    r = np.sqrt(dx[None, :] * dx[None, :] + dy[:, None] * dy[:, None])
-    t = r * f32(inv_step)
+    t = np.sqrt(dx[None, :] * dx[None, :] + dy[:, None] * dy[:, None]) * f32(inv_step)
     b = np.minimum(t.astype(np.int64), rad.shape[0] - 1)
     frac = (t - b.astype(f32)).astype(np.float64).reshape(-1)
-    row = rad[b.reshape(-1)]
-    value = np.concatenate([row[:, 0:8], row[:, 16:17]], axis=1)
-    slope = np.concatenate([row[:, 8:16], row[:, 17:18]], axis=1)
-    w = (value + frac[:, None] * slope).T                       # (9, ny·nx)
+    b = b.reshape(-1)
     X = np.broadcast_to(dx[None, :].astype(np.float64), (ny, nx)).reshape(-1)
     Y = np.broadcast_to(dy[:, None].astype(np.float64), (ny, nx)).reshape(-1)
     mono = {"1": 1.0, "dx": X, "dy": Y, "dx dy": X * Y, "dx2 - dy2": X * X - Y * Y}
-    return w * np.stack([np.broadcast_to(mono[m], X.shape) for m in SH_MONOMIAL])
+    w = np.empty((len(ks), ny * nx))
+    for n, k in enumerate(ks):  # a weight at a time: a table's build holds little more
+        value, slope = (k, 8 + k) if k < 8 else (16, 17)
+        w[n] = (rad[b, value] + frac * rad[b, slope]) * mono[SH_MONOMIAL[k]]
+    return w
 
 
 def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes,

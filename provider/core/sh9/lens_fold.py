@@ -517,7 +517,7 @@ def _radial_table(q, geometry, extent):
     dy = dy + (geometry[3] - geometry[2] + 1) / 2
     monomials = {"1": np.ones_like(dx), "dx": dx, "dy": dy, "dx dy": dx * dy,
                  "dx2 - dy2": dx * dx - dy * dy}
-    scale = np.maximum(np.abs(q).max(axis=(0, 1)), 1e-300)
+    scale = np.maximum(np.maximum(q.max(axis=(0, 1)), -q.min(axis=(0, 1))), 1e-300)
     R = radial_fit.fit_profiles(np.hypot(dx, dy) * inv, lambda k: q[..., k][read],
                                 [monomials[m] for m in SH_MONOMIAL],
                                 10 * RADIAL_TOLERANCE * scale)
@@ -527,13 +527,16 @@ def _radial_table(q, geometry, extent):
     radial[:, 16] = R[:-1, 8]
     radial[:, 17] = R[1:, 8] - R[:-1, 8]
     # The check: the weights the kernel makes, and exact corrections where they miss.
-    made = radial_weights(radial, inv, geometry)
     flat = read.reshape(-1)
     miss = np.zeros(ny * nx, bool)
-    for k in range(9):
-        miss |= flat & (np.abs(q[..., k].reshape(-1) - made[k]) > RADIAL_TOLERANCE * scale[k])
+    for k in range(9):          # a weight at a time (the build's peak memory)
+        made = radial_weights(radial, inv, geometry, (k,))[0]
+        miss |= flat & (np.abs(q[..., k].reshape(-1) - made) > RADIAL_TOLERANCE * scale[k])
     fix_at = np.flatnonzero(miss).astype(np.int32)
-    fixes = (q.reshape(-1, 9)[fix_at] - made[:, fix_at].T).astype(np.float32)
+    fixes = np.empty((fix_at.size, 9), np.float32)
+    for k in range(9):
+        fixes[:, k] = q[..., k].reshape(-1)[fix_at] - radial_weights(radial, inv, geometry,
+                                                                     (k,))[0, fix_at]
     if not _gives_back(q, geometry, extent, radial, inv, fix_at, fixes):
         return None
     return radial, inv, fix_at, fixes
@@ -545,11 +548,13 @@ def _gives_back(q, geometry, extent, radial, inv, fix_at, fixes) -> bool:
     weight's largest, on the quarter pixels read."""
     nx, ny = geometry[4], geometry[5]
     flat = (np.arange(nx)[None, :] < extent[:, None]).reshape(-1)
-    made = radial_weights(radial, inv, geometry)
-    made[:, fix_at] += fixes.T
-    scale = np.maximum(np.abs(q).max(axis=(0, 1)), 1e-300)
-    err = np.abs(q.reshape(-1, 9)[flat] - made[:, flat].T) / scale
-    return bool(np.all(err <= RADIAL_TOLERANCE))
+    for k in range(9):
+        made = radial_weights(radial, inv, geometry, (k,))[0]
+        made[fix_at] += fixes[:, k]
+        if not np.all(np.abs(q[..., k].reshape(-1)[flat] - made[flat])
+                      <= RADIAL_TOLERANCE * max(np.abs(q[..., k]).max(), 1e-300)):
+            return False
+    return True
 
 
 def lens_fold(projection, weights: np.ndarray,
