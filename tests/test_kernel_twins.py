@@ -152,7 +152,9 @@ def test_decode_blocks_and_its_twin_agree(c_kernels, build, call):
 FOLD_FAULTS = ["square off the frame", "right half left of the left", "float frame with a "
                "table", "uint8 frame without a table", "pixels reversed", "short table",
                "extent past the square", "short extents", "parity 4", "sums short",
-               "mid too small", "factor 0 with mid"]
+               "mid too small", "factor 0 with mid", "radial of 19 columns", "no radial bins",
+               "step 0", "fixes out of order", "fix past the square", "fixes of 8 weights",
+               "another lens off the frame", "another lens's centre offset"]
 
 
 @st.composite
@@ -170,6 +172,16 @@ def fold_calls(draw):
         nx = W - xr + 1
     elif fault == "right half left of the left":
         xr = xl - 1
+    # More lenses with the same weights (a dual fisheye's other lens): their (xl, xr).
+    others, hi = [], W - nx - max(xr - xl, 0)
+    for _ in range(draw(st.integers(0, 2)) if hi >= nx else 0):
+        ol = draw(st.integers(nx, hi))
+        others.append((ol, ol + xr - xl))
+    if fault == "another lens off the frame":
+        others.append((W - nx + 1, W - nx + 1 + xr - xl))
+    elif fault == "another lens's centre offset":
+        others.append((nx, nx + 1 - (xr - xl)))
+    others = np.array(others, np.int32).reshape(-1, 2)
     linear = draw(st.booleans())
     row_step = draw(st.sampled_from([1, -1, 2]))
     col_step = -1 if fault == "pixels reversed" else 1
@@ -185,44 +197,68 @@ def fold_calls(draw):
         extents[-1] = nx + 1
     elif fault == "short extents":
         extents = extents[:-1]
-    K = draw(st.integers(1, 5))
+    # The SH9 weights' radial table: bins of a drawn width, some pixels past the last bin.
+    bins = 0 if fault == "no radial bins" else draw(st.integers(1, 40))
+    radial = rng.standard_normal((bins, 19 if fault == "radial of 19 columns" else 20)
+                                 ).astype(np.float32)
+    inv_step = 0.0 if fault == "step 0" else draw(st.sampled_from([0.5, 1.0, 4.0, 3.3]))
+    fix_at = np.flatnonzero(rng.random(ny * nx) < draw(st.sampled_from([0.0, 0.2, 1.0])))
+    if fault == "fixes out of order" and fix_at.size > 1:
+        fix_at = fix_at[::-1]
+    elif fault == "fix past the square":
+        fix_at = np.append(fix_at, ny * nx)
+    fix_at = fix_at.astype(np.int32)
+    fixes = rng.standard_normal((fix_at.size, 8 if fault == "fixes of 8 weights" else 9)
+                                ).astype(np.float32)
+    K = draw(st.integers(0, 4))
     tables = rng.standard_normal((K, ny * nx)).astype(np.float32)
     parities = rng.integers(0, 4, K).astype(np.int32)
-    if fault == "parity 4":
+    if fault == "parity 4" and K:
         parities[0] = 4
-    sums = rng.standard_normal((K - (fault == "sums short"), 3))
+    sums = rng.standard_normal((1 + len(others), 9 + K - (fault == "sums short"), 3))
     factor, mid = draw(st.integers(1, 4)), None
     if draw(st.booleans()) or fault in ("mid too small", "factor 0 with mid"):
-        if nx > (W // factor) * factor - xr or ny > (H // factor) * factor - yb:
-            factor = 1                     # blocks that hold the square
+        right = max([xr] + [o[1] for o in others])
+        if nx > (W // factor) * factor - right or ny > (H // factor) * factor - yb:
+            factor = 1                     # blocks that hold the squares
         if fault == "factor 0 with mid":
             factor = 0
         f = max(factor, 1)
         mid = rng.standard_normal((H // f - (fault == "mid too small"), W // f, 3)
                                   ).astype(np.float32)
-    return (frame, table, (xl, xr, yt, yb, nx, ny), extents, tables, parities, sums, mid,
-            factor, draw(st.booleans()))
+    return (frame, table, (xl, xr, yt, yb, nx, ny), others, extents, radial, inv_step, fix_at,
+            fixes, tables, parities, sums, mid, factor, draw(st.booleans()))
 
 
 @pytest.mark.parametrize("build", ["vector", "scalar"])
 @SETTINGS
 @given(call=fold_calls())
 def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
-    both = _same(c_kernels[build][1], fold_twin.fold_lens, call, (6, 7))
+    both = _same(c_kernels[build][1], fold_twin.fold_lens, call, (11, 12))
     if both is None:
         return
     (sums, mid), (want_sums, want_mid) = both
-    frame, table, geometry, extents, tables, parities, start, start_mid, factor, _ = call
+    (frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes, tables,
+     parities, start, start_mid, factor, clear) = call
     nx = geometry[4]
     values = np.abs(np.asarray(frame, np.float64) if table is None else table).max(initial=0)
+    # The weights' magnitudes: the radial ones as the C makes them in float32 (a value, a
+    # fraction of a slope, a monomial, a correction: each within 4·2⁻²⁴ of its terms' sum).
+    made = np.abs(fold_twin.radial_weights(np.abs(radial), inv_step, geometry))
+    made[:, fix_at] += np.abs(fixes.T)
+    # (counted five times: the making's rounding beside the sums')
+    weights = np.concatenate([made * 5, np.abs(tables).astype(np.float64)])
     # The C folds four samples and sums a row pair's products in four float32 lanes, the
     # twin in float64: they differ by at most (nx + 8)·2⁻²⁴ of the sum of the products'
     # magnitudes, each at most |weight|·4·max|sample|.
-    bound = (nx + 8) * EPS32 * np.abs(tables).astype(np.float64).sum(axis=1) * 4 * values
+    bound = (nx + 8) * EPS32 * weights.sum(axis=1) * 4 * values
     assert np.all(np.abs(sums - want_sums) <= 2 * bound[:, None] + 1e-12 * np.abs(start))
+    if mid is not None and len(others):
+        # A block the lenses share gets each one's sums: at most their count times one's.
+        values = values * (1 + len(others))
     if mid is not None:
         # A block's at most f² samples (and the value it held) summed in float32.
         f = factor
-        held = 0.0 if call[9] else np.abs(start_mid).max(initial=0)
+        held = 0.0 if clear else np.abs(start_mid).max(initial=0)
         tol = (f * f + 2) * EPS32 * (held + f * f * values) * 2
         np.testing.assert_allclose(mid, want_mid, rtol=0, atol=tol + 1e-30)

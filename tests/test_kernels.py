@@ -192,7 +192,8 @@ def test_fold_kernel_frames_in_a_row_leave_nothing_behind(kernels):
 
 @pytest.mark.parametrize("bad", ["float frame with a table", "square off the frame",
                                  "right half left of the frame", "top half below the frame",
-                                 "short extents", "parity 7"])
+                                 "short extents", "parity 7", "radial of 10 columns",
+                                 "a negative bin width", "a correction past the square"])
 def test_fold_kernel_refuses_bad_arrays_with_a_message(bad, kernels):
     from provider.core.sh9 import lens_fold
     frame = np.zeros((8, 8, 3), np.uint8)
@@ -201,6 +202,8 @@ def test_fold_kernel_refuses_bad_arrays_with_a_message(bad, kernels):
     extents = np.full(4, 4, np.int32)
     tables = np.zeros((2, 16), np.float32)
     parities = np.array([0, 3], np.int32)
+    radial, inv_step = np.zeros((8, 20), np.float32), 4.0
+    fix_at, fixes = np.array([3], np.int32), np.zeros((1, 9), np.float32)
     if bad == "float frame with a table":
         frame = frame.astype(np.float32)
     elif bad == "square off the frame":
@@ -211,11 +214,18 @@ def test_fold_kernel_refuses_bad_arrays_with_a_message(bad, kernels):
         geometry = (4, 4, 100_000_000, 4, 4, 4)
     elif bad == "short extents":
         extents = extents[:2]
+    elif bad == "radial of 10 columns":
+        radial = np.zeros((8, 10), np.float32)
+    elif bad == "a negative bin width":
+        inv_step = -4.0
+    elif bad == "a correction past the square":
+        fix_at = np.array([16], np.int32)
     else:
         parities = np.array([0, 7], np.int32)
     with pytest.raises(ValueError):
-        lens_fold._fold_kernel(frame, table, geometry, extents, tables, parities,
-                               np.zeros((2, 3)), None, 1, False)
+        lens_fold._fold_kernel(frame, table, geometry, np.zeros((0, 2), np.int32), extents,
+                               radial, inv_step, fix_at, fixes, tables, parities,
+                               np.zeros((1, 11, 3)), None, 1, False)
 
 
 def test_downsample_2_is_withdrawn_where_the_half_size_lens_is_off_the_grid():

@@ -18,6 +18,12 @@ the count costs seconds, not the minutes the precomputation would take under emu
 Without valgrind the section says so and reports times only. ``python -m
 provider.bench.edge --calls theta`` lists the calls one frame makes instead (no valgrind).
 
+With the counts comes each frame's **DRAM traffic** (issue 44): valgrind's cachegrind with a
+Cortex-A53's caches (32 KB L1s, the Pi Zero 2 W's and Pi 3's 512 KB L2 as the last level),
+the last-level misses of 4 frames minus 1, over 3, times 64 B a line (fills; write-backs are
+not simulated), for each workload and for the Theta frame's SH9 fold alone (its decode and
+its weights: what its tables cost). ``python -m provider.bench.edge --traffic`` prints them.
+
 The section also measures what the edge board's 512 MB must hold: a process that builds the
 Theta S SH9 + lights and 32² cube projectors and projects frames, its peak and steady
 resident memory and the CPU seconds of its build, with the table cache
@@ -76,6 +82,22 @@ def edge_frame(width: int, height: int, seed: int = 0):
     cv2.circle(frame, (int(width * 0.23), int(height * 0.28)), r, (255, 255, 255), -1)
     cv2.circle(frame, (int(width * 0.70), int(height * 0.40)), r, (255, 240, 200), -1)
     return frame
+
+
+class FoldOnly:
+    """The SH9 fold's own pass of a folded projector's 8-bit frame (the C kernel's decode and
+    products, no lights, no clipping tally): what the fold's weights cost a frame. Has the
+    ``project(frame)`` the counted runs call; pickles with its projector."""
+
+    def __init__(self, projector):
+        self.p = projector
+
+    def project(self, frame):
+        import numpy as np
+        fold = self.p._fold
+        state = fold.new()
+        fold.decode_project(frame, self.p._lut(np.uint8), state)
+        return fold.coefficients(state)
 
 
 def edge_workloads() -> dict:
@@ -146,16 +168,63 @@ def _callgrind_total(pickled: Path, frames: int, tmp: Path) -> int:
     outfile = tmp / f"cg.{frames}.out"
     cmd = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={outfile}",
            sys.executable, str(script), str(pickled), str(frames)]
+    subprocess.run(cmd, check=True, capture_output=True, env=_valgrind_env())
+    for line in outfile.read_text().splitlines():
+        if line.startswith("totals:") or line.startswith("summary:"):
+            return int(line.split()[1])
+    raise RuntimeError("callgrind wrote no totals")
+
+
+#: A Cortex-A53's caches as cachegrind simulates them (size, ways, line bytes): 32 KB L1s
+#: and the Pi Zero 2 W's and Pi 3's 512 KB shared L2 as the last level.
+A53_CACHES = ("--I1=32768,2,64", "--D1=32768,4,64", "--LL=524288,16,64")
+LINE_BYTES = 64
+
+
+def _cachegrind_misses(pickled: Path, frames: int, tmp: Path) -> int:
+    """Last-level misses (instruction reads, data reads and writes) of ``frames`` frames
+    after the first, through :data:`A53_CACHES`."""
+    script = tmp / "edge_frames.py"
+    script.write_text(_CALLGRIND_SNIPPET)
+    outfile = tmp / f"cachegrind.{frames}.out"
+    cmd = ["valgrind", "--tool=cachegrind", "--cache-sim=yes", "--branch-sim=no",
+           *A53_CACHES, f"--cachegrind-out-file={outfile}",
+           sys.executable, str(script), str(pickled), str(frames)]
+    subprocess.run(cmd, check=True, capture_output=True, env=_valgrind_env())
+    events = summary = None
+    for line in outfile.read_text().splitlines():
+        if line.startswith("events:"):
+            events = line.split()[1:]
+        elif line.startswith("summary:"):
+            summary = [int(v) for v in line.split()[1:]]
+    if events is None or summary is None:
+        raise RuntimeError("cachegrind wrote no summary")
+    got = dict(zip(events, summary))
+    return got["ILmr"] + got["DLmr"] + got["DLmw"]
+
+
+def dram_bytes_per_frame(projector, frame) -> float:
+    """Steady-state bytes a frame of ``projector.project(frame)`` moves between a
+    Cortex-A53-like 512 KB last-level cache and DRAM: cachegrind's last-level misses of
+    FRAMES_LONG frames minus FRAMES_SHORT, over the difference, × 64 B a line (fills only:
+    write-backs of dirty lines are not simulated)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        pickled = tmp / "work.pickle"
+        with open(pickled, "wb") as fh:
+            pickle.dump((projector, frame), fh, protocol=pickle.HIGHEST_PROTOCOL)
+        long = _cachegrind_misses(pickled, FRAMES_LONG, tmp)
+        short = _cachegrind_misses(pickled, FRAMES_SHORT, tmp)
+    return LINE_BYTES * (long - short) / (FRAMES_LONG - FRAMES_SHORT)
+
+
+def _valgrind_env() -> dict:
     env = {**os.environ, **SINGLE_CORE_ENV, "PYTHONPATH": str(PACKAGE_ROOT)}
     if env.get("OPENBLAS_CORETYPE", "").lower() in AVX512_CORETYPES:
         # valgrind runs no AVX-512: OpenBLAS forced onto such a kernel dies of SIGILL under
         # it; left to itself, it picks a kernel for the CPU valgrind emulates
         del env["OPENBLAS_CORETYPE"]
-    subprocess.run(cmd, check=True, capture_output=True, env=env)
-    for line in outfile.read_text().splitlines():
-        if line.startswith("totals:") or line.startswith("summary:"):
-            return int(line.split()[1])
-    raise RuntimeError("callgrind wrote no totals")
+    return env
 
 
 def instructions_per_frame(projector, frame) -> float:
@@ -196,6 +265,12 @@ def calls_per_frame(projector, frame) -> tuple[Counter, Counter]:
     return c_calls, py_calls
 
 
+def lens_fold_kernel() -> bool:
+    """Whether the C fold kernel is built (the fold-alone count needs it)."""
+    from ..core.sh9 import lens_fold
+    return lens_fold.KERNEL
+
+
 def valgrind_missing() -> str | None:
     """Why instructions cannot be counted here, or None."""
     if shutil.which("valgrind") is None:
@@ -210,13 +285,15 @@ def bench_edge(hdri, out: Path, args):
     missing = valgrind_missing()
     count = args.instructions and missing is None
     counted, memory_rows = {}, []          # for the boards' table (provider.bench.edge_boards)
+    traffic = {}
     lines = ["# Edge device: instructions per frame against a 1 GHz core", "",
              "One core. At about one instruction per cycle, a 1 GHz in-order core (Cortex-A53: "
              "Pi Zero 2 W, Pi 3) has ~33 M instructions per frame at 30 fps. The fps column is "
              "an **estimate**: 10⁹ / instructions per frame (x86-64 instructions with SIMD "
              "counted by callgrind; ARM's NEON is narrower and its memory slower).", "",
              "| workload | ms/frame (this machine) | × floor | instructions/frame | "
-             "est. fps at 1 GHz |", "|---|---:|---:|---:|---:|"]
+             "est. fps at 1 GHz | DRAM MB/frame (A53 caches) |",
+             "|---|---:|---:|---:|---:|---:|"]
     for name, (what, build, frame) in workloads.items():
         _progress(f"bench edge {name}")
         projector = build()
@@ -226,15 +303,31 @@ def bench_edge(hdri, out: Path, args):
             _progress(f"bench edge {name}: callgrind ({FRAMES_LONG} and {FRAMES_SHORT} frames)")
             per = counted[name] = instructions_per_frame(projector, frame)
             ins, fps = f"{per / 1e6:.1f} M", f"~{EDGE_IPS / per:.0f}"
+            _progress(f"bench edge {name}: cachegrind, A53 caches")
+            traffic[name] = dram_bytes_per_frame(projector, frame)
+            dram = f"{traffic[name] / 1e6:.1f}"
         elif missing:
-            ins, fps = "n/a (valgrind not installed)", "n/a"
+            ins, fps, dram = "n/a (valgrind not installed)", "n/a", "n/a"
         else:
-            ins, fps = "not counted (--instructions counts them)", "n/a"
-        lines.append(f"| {what} | {ms:.2f} | {ms / floor:.1f} | {ins} | {fps} |")
+            ins, fps, dram = "not counted (--instructions counts them)", "n/a", "n/a"
+        lines.append(f"| {what} | {ms:.2f} | {ms / floor:.1f} | {ins} | {fps} | {dram} |")
     lines += ["", "Instructions: `valgrind --tool=callgrind`, the difference between "
               f"{FRAMES_LONG} frames and {FRAMES_SHORT} frame divided by "
               f"{FRAMES_LONG - FRAMES_SHORT} (start-up cancels out). × floor: time over "
               "`cv2.sumElems` of the same frame (reading it once), measured in the same run."]
+    if traffic:
+        lines += ["", "DRAM traffic: `valgrind --tool=cachegrind` with a Cortex-A53's caches (" +
+                  ", ".join(A53_CACHES) + "), last-level misses × 64 B, the same difference "
+                  "of frames; the frame itself is its width × height × 3 bytes."]
+        if "theta" in workloads and lens_fold_kernel():
+            _progress("bench edge: the Theta frame's SH9 fold alone (cachegrind)")
+            p, frame = workloads["theta"][1](), workloads["theta"][2]
+            fold = FoldOnly(p)
+            lines += [f"The Theta frame's SH9 fold alone (decode and weights, "
+                      f"{frame.nbytes / 1e6:.2f} MB of frame): "
+                      f"{dram_bytes_per_frame(fold, frame) / 1e6:.2f} MB a frame, "
+                      f"{instructions_per_frame(fold, frame) / 1e6:.1f} M instructions; its "
+                      f"weights {p._fold.table_floats * 4 / 1e6:.2f} MB."]
     if missing:
         lines += ["", missing + "."]
     if {"theta", "cube"} <= set(workloads) and sys.platform.startswith("linux"):
@@ -275,6 +368,9 @@ def main(argv=None) -> int:
     parser.add_argument("--boards", action="store_true",
                         help="what runs on which Raspberry Pi: counts, memory and start-up "
                              "(~15 min)")
+    parser.add_argument("--traffic", action="store_true",
+                        help="DRAM bytes a frame through a Cortex-A53's caches (cachegrind), "
+                             "not instructions")
     args = parser.parse_args(argv)
     if args.boards:
         return _print_boards()
@@ -303,6 +399,11 @@ def main(argv=None) -> int:
         return 1
     for name in names:
         what, build, frame = workloads[name]
+        if args.traffic:
+            per = dram_bytes_per_frame(build(), frame)
+            print(f"{name}: {what}: {per / 1e6:.2f} MB a frame between a 512 KB last-level "
+                  f"cache and DRAM (the frame: {frame.nbytes / 1e6:.2f} MB)", flush=True)
+            continue
         per = instructions_per_frame(build(), frame)
         print(f"{name}: {what}: {per / 1e6:.1f} M instructions/frame, "
               f"~{EDGE_IPS / per:.0f} fps at 1 GHz (estimate)", flush=True)

@@ -8,6 +8,7 @@
 * :mod:`.projections_exr`: OpenEXR's own environment maps (latlong, cube) in its conventions;
 * :mod:`.lens_profiles`: fisheye lens curves and the Ricoh Theta profiles (Ricoh's tables);
 * :mod:`.lens_calibration`: a lens curve from chessboard photos (cv2.fisheye), lens files;
+* :mod:`.radial_fit`: a radially symmetric image's per-pixel weights as radial profiles;
 * :mod:`.cubemap`: cube-map texel directions, solid angles and pooling (§12);
 * :mod:`.sphere_views`: pinhole views rendered from any projection;
 * :mod:`.checks`: :class:`~provider.core.geometry.checks.ProjectionError` and the checks of

@@ -5,7 +5,7 @@
 * :mod:`.clipping`: samples clipped at the top code and the light they carry;
 * :mod:`.tables`: the per-pixel tables of a non-separable projection, made compactly and
   kept on disk (:mod:`provider.core.table_cache`);
-* :mod:`.lens_fold`: fisheye lenses projected through mirror-folded quarter tables (the C
+* :mod:`.lens_fold`: fisheye lenses projected through a mirror fold and radial tables (the C
   kernel ``_fold.c``, or its Python twin :mod:`.fold_twin`);
 * :mod:`.meter`: a lux meter's reading closes what the camera clipped;
 * :mod:`.sun_colour`: a clipped sun's colour without a chroma meter (its rim, or pvlib's

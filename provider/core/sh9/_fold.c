@@ -11,18 +11,35 @@
  *   parity 0 (x even, y even): (a + b) + (c + d)    parity 1 (x odd, y even): (a - b) + (c - d)
  *   parity 2 (x even, y odd):  (a + b) - (c + d)    parity 3 (x odd, y odd):  (a - b) - (c - d)
  *
- * fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, factor, clear)
+ * fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, tables,
+ *           parities, sums, mid, factor, clear)
  * (its Python twin, the same signature, numbers and errors: fold_twin.py)
  *   frame     uint8 (H, W, 3), pixels contiguous (rows may be strided); or, without a
  *             table, linear float32 (H, W, 3) (the fast path's block means, a float frame)
  *   table     float32, 256 entries (one curve) or 768 (per channel, entry v*3 + c); or None
  *   geometry  (xl, xr, yt, yb, nx, ny): quarter pixel (i, j) reads columns xr + j, xl - 1 - j
  *             and rows yb + i, yt - 1 - i, for i < ny, j < nx
+ *   others    int32 (M, 2): the (xl, xr) of M more lenses with the same rows and weights
+ *             (xr - xl the same: the two lenses of a dual fisheye), each summed into its own
+ *             sums: one lens's weight rows made once a row pair for all (M = 0: one lens)
  *   extents   int32 (ny,): row pair i reads columns j < extents[i] only (beyond, every
  *             weight is zero and no block of mid is seen)
- *   tables    float32 (K, ny * nx), row k the quarter table of weight k
- *   parities  int32 (K,): the fold each weight meets (0..3 above)
- *   sums      float64 (K, 3), added to
+ *   radial    float32 (B, 20): the lens-frame SH9 weights as functions of the distance r of
+ *             the quarter pixel's centre from the lens centre (dx = j + (xr - xl + 1) / 2,
+ *             dy = i + (yb - yt + 1) / 2, r = sqrt(dx^2 + dy^2)), linear in each bin b =
+ *             floor(r * inv_step) (the last bin beyond): columns 0-7 the values of weights
+ *             0-7 at the bin's inner edge, 8-15 their slopes (a bin's change), 16 and 17
+ *             weight 8's; weight k is (value + (r * inv_step - b) * slope) times its
+ *             monomial: 1, dy, 1, dx, dx dy, dy, 1, dx, dx^2 - dy^2 (a radially symmetric
+ *             lens: issue 44), and meets the fold 0, 2, 0, 1, 3, 2, 0, 1, 0
+ *   inv_step  1 / the bins' width in pixels (> 0)
+ *   fix_at    int32 (F,), increasing quarter pixel indices i * nx + j, and
+ *   fixes     float32 (F, 9): added to those pixels' SH9 weights (where the radial form does
+ *             not hold to the build's tolerance: the circle's edge, a blend's seam)
+ *   tables    float32 (K, ny * nx), row k the quarter table of extra weight k (K may be 0)
+ *   parities  int32 (K,): the fold each extra weight meets (0..3 above)
+ *   sums      float64 (1 + M, 9 + K, 3), added to, a lens each: the SH9 weights' sums,
+ *             then the extras'
  *   mid       None, or float32 (H / f, W / f, 3): the sums of the decoded pixels over f x f
  *             blocks are added to it (the caller divides by f * f once every pixel is in:
  *             the lights' block copy, black where nothing was read)
@@ -42,6 +59,15 @@
 #include <string.h>
 
 #include "buffer_check.h"
+
+#include <math.h>
+#if KERNEL_VECTOR && defined(__SSE__)
+#include <xmmintrin.h>
+#elif KERNEL_VECTOR && defined(__ARM_NEON) && defined(__aarch64__)
+#include <arm_neon.h>
+#endif
+
+#define NVIEWS 11
 
 #if KERNEL_VECTOR
 /* Four floats: GCC's and Clang's vector extension, SSE on x86-64 and NEON on 64-bit ARM.
@@ -266,19 +292,124 @@ dots(const float *const *w, int m, const float *restrict x0, const float *restri
     }
 }
 
+/* The fold code of each SH9 weight and the order the dots take them in (grouped by fold). */
+static const int SH_PARITY[9] = {0, 2, 0, 1, 3, 2, 0, 1, 0};
+static const int SH_ORDER[9] = {0, 2, 6, 8, 3, 7, 1, 5, 4};
+
+#if KERNEL_VECTOR
+typedef int v4i __attribute__((vector_size(16)));
+#if defined(__clang__)
+#define SHUF(a, b, i, j, k, l) __builtin_shufflevector(a, b, i, j, k, l)
+#else
+#define SHUF(a, b, i, j, k, l) __builtin_shuffle(a, b, (v4i){i, j, k, l})
+#endif
+
+/* Four square roots: one instruction where the target has it (IEEE's, as sqrtf's). */
+static inline v4
+sqrt4(v4 x)
+{
+#if defined(__SSE__)
+    return (v4)_mm_sqrt_ps((__m128)x);
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+    return (v4)vsqrtq_f32((float32x4_t)x);
+#else
+    for (int p = 0; p < 4; p++)
+        x[p] = sqrtf(x[p]);
+    return x;
+#endif
+}
+
+/* The four pixels' vectors a..d (lane k: weight k) as four rows of weights (lane p: pixel
+ * p), in place. */
+static inline void
+transpose4(v4 *a, v4 *b, v4 *c, v4 *d)
+{
+    const v4 t0 = SHUF(*a, *b, 0, 4, 1, 5), t1 = SHUF(*a, *b, 2, 6, 3, 7);
+    const v4 t2 = SHUF(*c, *d, 0, 4, 1, 5), t3 = SHUF(*c, *d, 2, 6, 3, 7);
+    *a = SHUF(t0, t2, 0, 1, 4, 5);
+    *b = SHUF(t0, t2, 2, 3, 6, 7);
+    *c = SHUF(t1, t3, 0, 1, 4, 5);
+    *d = SHUF(t1, t3, 2, 3, 6, 7);
+}
+#endif
+
+/* The nine SH9 weight rows (w + k * stride, j < n) of row pair i (dy) from the radial table
+ * (nb bins of 20 floats): per pixel its bin's two rows of values and slopes, then per four
+ * pixels a transpose and the monomials. */
+static void
+radial_row(const float *restrict rad, Py_ssize_t nb, float inv, float dx0, float dy,
+           Py_ssize_t n, float *restrict w, Py_ssize_t stride)
+{
+    const float dy2 = dy * dy;
+    Py_ssize_t j = 0;
+#if KERNEL_VECTOR
+    const v4 dyv = {dy, dy, dy, dy}, dy2v = {dy2, dy2, dy2, dy2}, invv = {inv, inv, inv, inv};
+    const v4 four = {4, 4, 4, 4};
+    v4 x = {dx0, dx0 + 1, dx0 + 2, dx0 + 3};
+    const v4i last_bin = {(int)nb - 1, (int)nb - 1, (int)nb - 1, (int)nb - 1};
+    for (; j + 4 <= n; j += 4, x += four) {
+        /* the four pixels' bins (at most the last) and fractions, in vector registers */
+        const v4 t = sqrt4(x * x + dy2v) * invv;
+        v4i bin = __builtin_convertvector(t, v4i);
+        const v4i over = bin > last_bin;
+        bin = (bin & ~over) | (last_bin & over);
+        int bins[4];
+        float frac[4], last[4];
+        memcpy(bins, &bin, sizeof bins);
+        store4(frac, t - __builtin_convertvector(bin, v4));
+        v4 lo[4], hi[4];
+        for (int p = 0; p < 4; p++) {
+            const float *row = rad + 20 * (Py_ssize_t)bins[p];
+            const float f = frac[p];
+            const v4 fv = {f, f, f, f};
+            lo[p] = load4(row) + fv * load4(row + 8);
+            hi[p] = load4(row + 4) + fv * load4(row + 12);
+            last[p] = row[16] + f * row[17];
+        }
+        transpose4(&lo[0], &lo[1], &lo[2], &lo[3]);
+        transpose4(&hi[0], &hi[1], &hi[2], &hi[3]);
+        store4(w + j, lo[0]);
+        store4(w + stride + j, lo[1] * dyv);
+        store4(w + 2 * stride + j, lo[2]);
+        store4(w + 3 * stride + j, lo[3] * x);
+        store4(w + 4 * stride + j, hi[0] * (x * dyv));
+        store4(w + 5 * stride + j, hi[1] * dyv);
+        store4(w + 6 * stride + j, hi[2]);
+        store4(w + 7 * stride + j, hi[3] * x);
+        store4(w + 8 * stride + j, load4(last) * (x * x - dy2v));
+    }
+#endif
+    for (; j < n; j++) {
+        const float x = dx0 + (float)j;
+        const float t = sqrtf(x * x + dy2) * inv;
+        Py_ssize_t b = (Py_ssize_t)t;
+        if (b > nb - 1)
+            b = nb - 1;
+        const float f = t - (float)b;
+        const float *row = rad + 20 * b;
+        const float m[9] = {1, dy, 1, x, x * dy, dy, 1, x, x * x - dy2};
+        for (int k = 0; k < 8; k++)
+            w[k * stride + j] = (row[k] + f * row[8 + k]) * m[k];
+        w[8 * stride + j] = (row[16] + f * row[17]) * m[8];
+    }
+}
+
 static PyObject *
 fold_lens(PyObject *self, PyObject *args)
 {
     PyObject *frame_obj, *table_obj, *ext_obj, *tab_obj, *par_obj, *sums_obj, *mid_obj;
+    PyObject *rad_obj, *fat_obj, *fix_obj, *oth_obj;
     Py_ssize_t xl, xr, yt, yb, nx, ny;
+    double inv_step;
     int f, clear;
-    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOOOOip", &frame_obj, &table_obj, &xl, &xr, &yt,
-                          &yb, &nx, &ny, &ext_obj, &tab_obj, &par_obj, &sums_obj, &mid_obj,
-                          &f, &clear))
+    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOOdOOOOOOip", &frame_obj, &table_obj, &xl, &xr,
+                          &yt, &yb, &nx, &ny, &oth_obj, &ext_obj, &rad_obj, &inv_step,
+                          &fat_obj, &fix_obj, &tab_obj, &par_obj, &sums_obj, &mid_obj, &f,
+                          &clear))
         return NULL;
-    Py_buffer views[7];
+    Py_buffer views[NVIEWS];
     memset(views, 0, sizeof views);
-    int got[7] = {0, 0, 0, 0, 0, 0, 0};
+    int got[NVIEWS] = {0};
     int use_mid = mid_obj != Py_None, linear = table_obj == Py_None;
     const char *err = NULL;
 #define VIEW(n, obj, w, fmt, nd, name) \
@@ -287,15 +418,21 @@ fold_lens(PyObject *self, PyObject *args)
                                                        : "frame (with a table: uint8)");
     if (!linear)
         VIEW(1, table_obj, 0, "f", 1, "table");
+    VIEW(10, oth_obj, 0, "i", 2, "others");
     VIEW(2, ext_obj, 0, "i", 1, "extents");
+    VIEW(7, rad_obj, 0, "f", 2, "radial");
+    VIEW(8, fat_obj, 0, "i", 1, "fix_at");
+    VIEW(9, fix_obj, 0, "f", 2, "fixes");
     VIEW(3, tab_obj, 0, "f", 2, "tables");
     VIEW(4, par_obj, 0, "i", 1, "parities");
-    VIEW(5, sums_obj, 1, "d", 2, "sums");
+    VIEW(5, sums_obj, 1, "d", 3, "sums");
     if (use_mid)
         VIEW(6, mid_obj, 1, "f", 3, "mid");
 #undef VIEW
     Py_buffer fr = views[0], tb = views[1], ex = views[2], tabs = views[3], par = views[4];
-    Py_buffer sums = views[5], mid = views[6];
+    Py_buffer sums = views[5], mid = views[6], rad = views[7], fat = views[8], fix = views[9];
+    Py_buffer oth = views[10];
+    const Py_ssize_t L = 1 + oth.shape[0];
     Py_ssize_t H = fr.shape[0], W = fr.shape[1], K = tabs.shape[0];
     const Py_ssize_t item = linear ? 4 : 1;
     if (fr.shape[2] != 3 || fr.strides[2] != item || fr.strides[1] != 3 * item)
@@ -307,18 +444,37 @@ fold_lens(PyObject *self, PyObject *args)
     else if (nx < 1 || ny < 1 || xl < nx || yt < ny || xr < xl || yb < yt || nx > W - xr
              || ny > H - yb)
         err = "geometry: the square must lie inside the frame";
+    else if (!contiguous(&oth) || oth.shape[1] != 2)
+        err = "others: (M, 2) contiguous int32";
     else if (!contiguous(&ex) || ex.shape[0] != ny)
         err = "extents: (ny,) contiguous int32";
+    else if (!contiguous(&rad) || rad.shape[0] < 1 || rad.shape[1] != 20)
+        err = "radial: (B, 20) contiguous float32";
+    else if (!(inv_step > 0.0 && inv_step < HUGE_VAL))
+        err = "inv_step: positive and finite";
+    else if (!contiguous(&fat) || !contiguous(&fix) || fix.shape[0] != fat.shape[0]
+             || fix.shape[1] != 9)
+        err = "fixes: (F,) int32 and (F, 9) float32, contiguous";
     else if (!contiguous(&tabs) || tabs.shape[1] != nx * ny)
         err = "tables: (K, ny * nx) contiguous float32";
     else if (!contiguous(&par) || par.shape[0] != K)
         err = "parities: (K,) contiguous int32";
-    else if (!contiguous(&sums) || sums.shape[0] != K || sums.shape[1] != 3)
-        err = "sums: (K, 3) contiguous float64";
+    else if (!contiguous(&sums) || sums.shape[0] != L || sums.shape[1] != 9 + K
+             || sums.shape[2] != 3)
+        err = "sums: (1 + M, 9 + K, 3) contiguous float64";
     else if (use_mid && (f < 1 || !contiguous(&mid) || mid.shape[0] != H / f
                          || mid.shape[1] != W / f || mid.shape[2] != 3
                          || nx > (W / f) * f - xr || ny > (H / f) * f - yb))
         err = "mid: (H / f, W / f, 3) float32 holding the square's blocks";
+    /* The other lenses: their columns as the first's (the same centre offset: the same
+     * weights), inside the frame and mid's blocks. */
+    const int *others = err ? NULL : (const int *)oth.buf;
+    for (Py_ssize_t l = 0; !err && l + 1 < L; l++) {
+        const Py_ssize_t ol = others[2 * l], orr = others[2 * l + 1];
+        if (ol < nx || orr - ol != xr - xl || nx > W - orr
+            || (use_mid && nx > (W / f) * f - orr))
+            err = "others: (xl, xr) of lenses like the first, inside the frame";
+    }
     const int *extent = (const int *)ex.buf;
     const int *parity = (const int *)par.buf;
     for (Py_ssize_t i = 0; !err && i < ny; i++)
@@ -327,14 +483,22 @@ fold_lens(PyObject *self, PyObject *args)
     for (Py_ssize_t k = 0; !err && k < K; k++)
         if (parity[k] < 0 || parity[k] > 3)
             err = "parities: 0 to 3";
+    const int *at = (const int *)fat.buf;
+    const Py_ssize_t F = fat.shape[0];
+    for (Py_ssize_t q = 0; !err && q < F; q++)
+        if (at[q] < 0 || at[q] >= nx * ny || (q > 0 && at[q] <= at[q - 1]))
+            err = "fixes: increasing indices in [0, ny * nx)";
     if (err) {
         PyErr_SetString(PyExc_ValueError, err);
         goto fail;
     }
-    /* Planar rows: 4 half rows x 3 channels decoded, 4 folds x 3 channels, and per half
-     * row and channel the block sums of a block row (mid). */
-    float *buf = (float *)malloc(sizeof(float) * (size_t)(36 * nx));
-    if (buf == NULL) {
+    /* Planar rows: 4 half rows x 3 channels decoded, 4 folds x 3 channels, per half row
+     * and channel the block sums of a block row (mid), and the 9 SH9 weight rows. */
+    float *buf = (float *)malloc(sizeof(float) * (size_t)((33 + 12 * L) * nx));
+    Py_ssize_t *spills = (Py_ssize_t *)malloc(sizeof(Py_ssize_t) * (size_t)(12 * L));
+    if (buf == NULL || spills == NULL) {
+        free(buf);
+        free(spills);
         PyErr_NoMemory();
         goto fail;
     }
@@ -342,10 +506,41 @@ fold_lens(PyObject *self, PyObject *args)
         float *half = buf;                  /* [h][c][j], h: 0 bottom right, 1 bottom left,
                                                2 top right, 3 top left */
         float *folds = buf + 12 * nx;       /* [parity][c][j] */
-        float *cols = folds + 12 * nx;      /* [h][c][j]: column sums of a block row */
-        Py_ssize_t block_row[4] = {-1, -1, -1, -1}, used[4] = {0, 0, 0, 0};
-        const Py_ssize_t x0[4] = {xr, xl - 1, xr, xl - 1};
+        float *wrows = folds + 12 * nx;     /* [k][j]: the SH9 weights of the row pair */
+        float *cols_all = wrows + 9 * nx;   /* [lens][h][c][j]: column sums of a block row */
+        const float *radp = (const float *)rad.buf, *fixp = (const float *)fix.buf;
+        const Py_ssize_t nb = rad.shape[0];
+        const float inv = (float)inv_step;
+        const float dx0 = (float)(xr - xl + 1) * 0.5f, dy0 = (float)(yb - yt + 1) * 0.5f;
+        Py_ssize_t fq = 0;                  /* the next fix */
+        /* The weight rows the dots take, in their order (grouped by fold), and where each
+         * one's sums go. */
+        const Py_ssize_t KT = 9 + K;
+        Py_ssize_t *order = (Py_ssize_t *)malloc(sizeof(Py_ssize_t) * (size_t)KT);
+        int *fold_of = (int *)malloc(sizeof(int) * (size_t)KT);
+        if (order == NULL || fold_of == NULL) {
+            free(order);
+            free(fold_of);
+            free(buf);
+            free(spills);
+            PyErr_NoMemory();
+            goto fail;
+        }
+        for (Py_ssize_t k = 0; k < KT; k++) {
+            order[k] = k < 9 ? SH_ORDER[k] : k;
+            fold_of[k] = k < 9 ? SH_PARITY[order[k]] : parity[k - 9];
+        }
         const int dir[4] = {1, -1, 1, -1};
+        for (Py_ssize_t q = 0; q < 4 * L; q++) {    /* per lens and half row: */
+            spills[q] = -1;                         /* its block row, */
+            spills[4 * L + q] = 0;                  /* the columns used there, */
+        }
+        for (Py_ssize_t l = 0; l < L; l++)          /* and its first column */
+            for (int h = 0; h < 4; h++) {
+                const Py_ssize_t lxl = l ? others[2 * (l - 1)] : xl;
+                const Py_ssize_t lxr = l ? others[2 * (l - 1) + 1] : xr;
+                spills[8 * L + 4 * l + h] = h % 2 ? lxl - 1 : lxr;
+            }
         const float *t = linear ? NULL : (const float *)tb.buf;
         const int shared = linear || tb.shape[0] == 256;
         const float *tab = (const float *)tabs.buf;
@@ -353,86 +548,113 @@ fold_lens(PyObject *self, PyObject *args)
         float *midp = use_mid ? (float *)mid.buf : NULL;
         const Py_ssize_t mw = use_mid ? W / f : 0;
         Py_BEGIN_ALLOW_THREADS
-        zero(cols, 12 * nx);            /* only the column sums are read before written */
+        zero(cols_all, 12 * L * nx);    /* only the column sums are read before written */
         if (use_mid && clear) {
             zero(midp, (H / f) * mw * 3);
         }
         for (Py_ssize_t i = 0; i < ny; i++) {
             const Py_ssize_t e = extent[i];
-            const char *bottom = (const char *)fr.buf + (yb + i) * fr.strides[0];
-            const char *top = (const char *)fr.buf + (yt - 1 - i) * fr.strides[0];
-            const char *start[4] = {bottom + 3 * item * xr, bottom + 3 * item * (xl - 1),
-                                    top + 3 * item * xr, top + 3 * item * (xl - 1)};
-            for (int h = 0; h < 4; h++) {
-                float *r = half + (3 * h) * nx;
-                if (linear)
-                    split_half((const float *)start[h], h % 2 ? -3 : 3, e, r, r + nx,
-                               r + 2 * nx);
-                else
-                    decode_half((const unsigned char *)start[h], h % 2 ? -3 : 3, e, t, shared,
-                                r, r + nx, r + 2 * nx);
+            if (e > 0)
+                radial_row(radp, nb, inv, dx0, dy0 + (float)i, e, wrows, nx);
+            /* The pixels of this row pair the radial table does not fit: their corrections
+             * (a few hundred a lens, at the circle's edge and a blend's seam). */
+            for (; fq < F && at[fq] < (i + 1) * nx; fq++) {
+                const Py_ssize_t j = at[fq] - i * nx;
+                if (j < e)
+                    for (int k = 0; k < 9; k++)
+                        wrows[k * nx + j] += fixp[9 * fq + k];
             }
-            if (use_mid) {
+            /* Each lens reads its row pair with the same weights. */
+            for (Py_ssize_t l = 0; l < L; l++) {
+                const Py_ssize_t lxl = l ? others[2 * (l - 1)] : xl;
+                const Py_ssize_t lxr = l ? others[2 * (l - 1) + 1] : xr;
+                float *cols = cols_all + 12 * l * nx;
+                Py_ssize_t *block_row = spills + 4 * l, *used = spills + 4 * L + 4 * l;
+                const Py_ssize_t *x0 = spills + 8 * L + 4 * l;
+                double *lout = out + l * KT * 3;
+                const char *bottom = (const char *)fr.buf + (yb + i) * fr.strides[0];
+                const char *top = (const char *)fr.buf + (yt - 1 - i) * fr.strides[0];
+                const char *start[4] = {bottom + 3 * item * lxr, bottom + 3 * item * (lxl - 1),
+                                        top + 3 * item * lxr, top + 3 * item * (lxl - 1)};
                 for (int h = 0; h < 4; h++) {
-                    const Py_ssize_t br = (h < 2 ? yb + i : yt - 1 - i) / f;
-                    float *col = cols + (3 * h) * nx;
-                    if (br != block_row[h]) {
-                        if (block_row[h] >= 0)
-                            spill(col, nx, used[h], x0[h], dir[h], f,
-                                  midp + block_row[h] * mw * 3);
-                        block_row[h] = br;
-                        used[h] = 0;
+                    float *r = half + (3 * h) * nx;
+                    if (linear)
+                        split_half((const float *)start[h], h % 2 ? -3 : 3, e, r, r + nx,
+                                   r + 2 * nx);
+                    else
+                        decode_half((const unsigned char *)start[h], h % 2 ? -3 : 3, e, t,
+                                    shared, r, r + nx, r + 2 * nx);
+                }
+                if (use_mid) {
+                    for (int h = 0; h < 4; h++) {
+                        const Py_ssize_t br = (h < 2 ? yb + i : yt - 1 - i) / f;
+                        float *col = cols + (3 * h) * nx;
+                        if (br != block_row[h]) {
+                            if (block_row[h] >= 0)
+                                spill(col, nx, used[h], x0[h], dir[h], f,
+                                      midp + block_row[h] * mw * 3);
+                            block_row[h] = br;
+                            used[h] = 0;
+                        }
+                        if (e > used[h])
+                            used[h] = e;
                     }
-                    if (e > used[h])
-                        used[h] = e;
                 }
-            }
-            for (int c = 0; c < 3; c++)
-                if (use_mid)
-                    fold_row_sums(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
-                                  half + (9 + c) * nx, folds + c * nx, folds + (3 + c) * nx,
-                                  folds + (6 + c) * nx, folds + (9 + c) * nx, cols + c * nx,
-                                  cols + (3 + c) * nx, cols + (6 + c) * nx,
-                                  cols + (9 + c) * nx, e);
-                else
-                    fold_row(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
-                             half + (9 + c) * nx, folds + c * nx, folds + (3 + c) * nx,
-                             folds + (6 + c) * nx, folds + (9 + c) * nx, e);
-            /* Runs of up to three weights that meet the same fold (the rows are
-             * grouped by fold). */
-            for (Py_ssize_t k = 0; e > 0 && k < K;) {
-                int m = 1;
-                while (m < 3 && k + m < K && parity[k + m] == parity[k])
-                    m++;
-                const float *x = folds + (parity[k] * 3) * nx;
-                const float *w[3];
-                double *o[3];
-                for (int r = 0; r < m; r++) {
-                    w[r] = tab + (k + r) * nx * ny + i * nx;
-                    o[r] = out + 3 * (k + r);
+                for (int c = 0; c < 3; c++)
+                    if (use_mid)
+                        fold_row_sums(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
+                                      half + (9 + c) * nx, folds + c * nx,
+                                      folds + (3 + c) * nx, folds + (6 + c) * nx,
+                                      folds + (9 + c) * nx, cols + c * nx,
+                                      cols + (3 + c) * nx, cols + (6 + c) * nx,
+                                      cols + (9 + c) * nx, e);
+                    else
+                        fold_row(half + c * nx, half + (3 + c) * nx, half + (6 + c) * nx,
+                                 half + (9 + c) * nx, folds + c * nx, folds + (3 + c) * nx,
+                                 folds + (6 + c) * nx, folds + (9 + c) * nx, e);
+                /* Runs of up to three weights that meet the same fold (in their order,
+                 * grouped by fold). */
+                for (Py_ssize_t k = 0; e > 0 && k < KT;) {
+                    int m = 1;
+                    while (m < 3 && k + m < KT && fold_of[k + m] == fold_of[k])
+                        m++;
+                    const float *x = folds + (fold_of[k] * 3) * nx;
+                    const float *w[3];
+                    double *o[3];
+                    for (int r = 0; r < m; r++) {
+                        const Py_ssize_t row = order[k + r];
+                        w[r] = row < 9 ? wrows + row * nx : tab + (row - 9) * nx * ny + i * nx;
+                        o[r] = lout + 3 * row;
+                    }
+                    if (m == 3)
+                        dots(w, 3, x, x + nx, x + 2 * nx, e, o);
+                    else if (m == 2)
+                        dots(w, 2, x, x + nx, x + 2 * nx, e, o);
+                    else
+                        dots(w, 1, x, x + nx, x + 2 * nx, e, o);
+                    k += m;
                 }
-                if (m == 3)
-                    dots(w, 3, x, x + nx, x + 2 * nx, e, o);
-                else if (m == 2)
-                    dots(w, 2, x, x + nx, x + 2 * nx, e, o);
-                else
-                    dots(w, 1, x, x + nx, x + 2 * nx, e, o);
-                k += m;
             }
         }
-        for (int h = 0; use_mid && h < 4; h++)
-            if (block_row[h] >= 0)
-                spill(cols + (3 * h) * nx, nx, used[h], x0[h], dir[h], f,
-                      midp + block_row[h] * mw * 3);
+        for (Py_ssize_t l = 0; use_mid && l < L; l++)
+            for (int h = 0; h < 4; h++) {
+                const Py_ssize_t br = spills[4 * l + h];
+                if (br >= 0)
+                    spill(cols_all + (12 * l + 3 * h) * nx, nx, spills[4 * L + 4 * l + h],
+                          spills[8 * L + 4 * l + h], dir[h], f, midp + br * mw * 3);
+            }
         Py_END_ALLOW_THREADS
+        free(order);
+        free(fold_of);
         free(buf);
+        free(spills);
     }
-    for (int v = 0; v < 7; v++)
+    for (int v = 0; v < NVIEWS; v++)
         if (got[v])
             PyBuffer_Release(&views[v]);
     Py_RETURN_NONE;
 fail:
-    for (int v = 0; v < 7; v++)
+    for (int v = 0; v < NVIEWS; v++)
         if (got[v])
             PyBuffer_Release(&views[v]);
     return NULL;
@@ -440,7 +662,8 @@ fail:
 
 static PyMethodDef methods[] = {
     {"fold_lens", fold_lens, METH_VARARGS,
-     "fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, factor, clear): "
+     "fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes, tables, "
+     "parities, sums, mid, factor, clear): "
      "one lens's folded projection of an 8-bit frame decoded through table (or of a float32 "
      "frame, table None), and its block means into mid."},
     {NULL, NULL, 0, NULL}

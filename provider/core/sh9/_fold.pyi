@@ -6,7 +6,12 @@ def fold_lens(
     frame: npt.NDArray[np.uint8] | npt.NDArray[np.float32],
     table: npt.NDArray[np.float32] | None,
     geometry: tuple[int, int, int, int, int, int],
+    others: npt.NDArray[np.int32],
     extents: npt.NDArray[np.int32],
+    radial: npt.NDArray[np.float32],
+    inv_step: float,
+    fix_at: npt.NDArray[np.int32],
+    fixes: npt.NDArray[np.float32],
     tables: npt.NDArray[np.float32],
     parities: npt.NDArray[np.int32],
     sums: npt.NDArray[np.float64],
@@ -16,8 +21,11 @@ def fold_lens(
     /,
 ) -> None:
     """One lens's folded SH projection of frame (uint8 through table, 256 or 768 float32
-    entries; or linear float32 with table None) added to sums (K, 3); geometry (xl, xr, yt,
-    yb, nx, ny) the square about the lens centre, extents (ny,) the columns read per row
-    pair, tables (K, ny·nx) one quarter table a weight, parities (K,) its fold (0 to 3);
+    entries; or linear float32 with table None) added to sums (1 + M, 9 + K, 3); geometry
+    (xl, xr, yt, yb, nx, ny) the square about the lens centre, others (M, 2) the (xl, xr) of
+    more lenses with the same weights, extents (ny,) the columns read per row pair, radial
+    (B, 20) the SH9 weights as functions of the radius in bins of 1 / inv_step pixels,
+    fix_at (F,) and fixes (F, 9) exact corrections of some quarter pixels' SH9 weights,
+    tables (K, ny·nx) one quarter table an extra weight, parities (K,) its fold (0 to 3);
     mid (H // factor, W // factor, 3): the block sums of the pixels read added to it
     (zeroed first when clear). ValueError for arrays it does not take."""

@@ -16,8 +16,42 @@ import numpy as np
 from ..radiometry.blocks import buffer_view, c_int, contiguous
 
 
-def fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, factor,
-              clear) -> None:
+#: Each lens-frame SH9 weight's fold code (0: x even, y even; 1: x odd; 2: y odd; 3: both)
+#: and the monomial of (dx, dy) it carries beside its radial part (see ``_fold.c``).
+SH_PARITY = (0, 2, 0, 1, 3, 2, 0, 1, 0)
+SH_MONOMIAL = ("1", "dy", "1", "dx", "dx dy", "dy", "1", "dx", "dx2 - dy2")
+#: Columns of a radial table's row (one a bin): values and slopes of weights 0-7, then 8's.
+RADIAL_COLUMNS = 20
+
+
+def radial_weights(radial, inv_step, geometry, ks=range(9)) -> np.ndarray:
+    """(9, ny·nx) float64: the lens-frame SH9 weights of a lens's quarter pixels (i, j) from
+    its radial table, as the kernel computes them: r = √(dx² + dy²) (dx = j + (xr − xl + 1)/2,
+    dy = i + (yb − yt + 1)/2, the pixel centre's distance from the lens centre), bin b =
+    ⌊r·inv_step⌋ (at most the last), weight k = (value + (r·inv_step − b)·slope) × its
+    monomial; r, its bin and the fraction in float32, as the C. ``ks``: those weights only
+    (len(ks), ny·nx)."""
+    xl, xr, yt, yb, nx, ny = geometry
+    rad = np.asarray(radial, np.float32)
+    f32 = np.float32
+    dx = f32((xr - xl + 1) / 2) + np.arange(nx, dtype=f32)
+    dy = f32((yb - yt + 1) / 2) + np.arange(ny, dtype=f32)
+    t = np.sqrt(dx[None, :] * dx[None, :] + dy[:, None] * dy[:, None]) * f32(inv_step)
+    b = np.minimum(t.astype(np.int64), rad.shape[0] - 1)
+    frac = (t - b.astype(f32)).astype(np.float64).reshape(-1)
+    b = b.reshape(-1)
+    X = np.broadcast_to(dx[None, :].astype(np.float64), (ny, nx)).reshape(-1)
+    Y = np.broadcast_to(dy[:, None].astype(np.float64), (ny, nx)).reshape(-1)
+    mono = {"1": 1.0, "dx": X, "dy": Y, "dx dy": X * Y, "dx2 - dy2": X * X - Y * Y}
+    w = np.empty((len(ks), ny * nx))
+    for n, k in enumerate(ks):  # a weight at a time: a table's build holds little more
+        value, slope = (k, 8 + k) if k < 8 else (16, 17)
+        w[n] = (rad[b, value] + frac * rad[b, slope]) * mono[SH_MONOMIAL[k]]
+    return w
+
+
+def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes,
+              tables, parities, sums, mid, factor, clear) -> None:
     """One lens's folded projection of ``frame`` (8-bit through ``table``, or linear
     float32 with ``table`` None) added to ``sums``, and its pixels' block sums to ``mid``:
     see ``_fold.c`` (the arguments) and ``_fold.pyi``."""
@@ -27,10 +61,15 @@ def fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, fact
     fr = buffer_view(frame, False, "f" if linear else "B", 3,
                      "frame (no table: float32)" if linear else "frame (with a table: uint8)")
     tb = None if linear else buffer_view(table, False, "f", 1, "table")
+    oth = buffer_view(others, False, "i", 2, "others")
     ex = buffer_view(extents, False, "i", 1, "extents")
+    rad = buffer_view(radial, False, "f", 2, "radial")
+    inv = float(inv_step)
+    fat = buffer_view(fix_at, False, "i", 1, "fix_at")
+    fx = buffer_view(fixes, False, "f", 2, "fixes")
     tabs = buffer_view(tables, False, "f", 2, "tables")
     par = buffer_view(parities, False, "i", 1, "parities")
-    sm = buffer_view(sums, True, "d", 2, "sums")
+    sm = buffer_view(sums, True, "d", 3, "sums")
     md = buffer_view(mid, True, "f", 3, "mid") if use_mid else None
     H, W = fr.shape[:2]
     K = tabs.shape[0]
@@ -43,27 +82,65 @@ def fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, fact
     elif (nx < 1 or ny < 1 or xl < nx or yt < ny or xr < xl or yb < yt or nx > W - xr
           or ny > H - yb):
         err = "geometry: the square must lie inside the frame"
+    elif not contiguous(oth) or oth.shape[1] != 2:
+        err = "others: (M, 2) contiguous int32"
     elif not contiguous(ex) or ex.shape[0] != ny:
         err = "extents: (ny,) contiguous int32"
+    elif not contiguous(rad) or rad.shape[0] < 1 or rad.shape[1] != RADIAL_COLUMNS:
+        err = "radial: (B, 20) contiguous float32"
+    elif not (0.0 < inv < float("inf")):
+        err = "inv_step: positive and finite"
+    elif (not contiguous(fat) or not contiguous(fx) or fx.shape[0] != fat.shape[0]
+          or fx.shape[1] != 9):
+        err = "fixes: (F,) int32 and (F, 9) float32, contiguous"
     elif not contiguous(tabs) or tabs.shape[1] != nx * ny:
         err = "tables: (K, ny * nx) contiguous float32"
     elif not contiguous(par) or par.shape[0] != K:
         err = "parities: (K,) contiguous int32"
-    elif not contiguous(sm) or sm.shape[0] != K or sm.shape[1] != 3:
-        err = "sums: (K, 3) contiguous float64"
+    elif (not contiguous(sm) or sm.shape[0] != 1 + oth.shape[0] or sm.shape[1] != 9 + K
+          or sm.shape[2] != 3):
+        err = "sums: (1 + M, 9 + K, 3) contiguous float64"
     elif use_mid and (f < 1 or not contiguous(md) or md.shape[0] != H // f
                       or md.shape[1] != W // f or md.shape[2] != 3
                       or nx > (W // f) * f - xr or ny > (H // f) * f - yb):
         err = "mid: (H / f, W / f, 3) float32 holding the square's blocks"
+    lenses = [(xl, xr)]
+    if err is None:
+        lenses += [tuple(int(v) for v in pair) for pair in np.asarray(oth).reshape(-1, 2)]
+    for ol, orr in lenses[1:]:
+        if err is None and (ol < nx or orr - ol != xr - xl or nx > W - orr
+                            or (use_mid and nx > (W // f) * f - orr)):
+            err = "others: (xl, xr) of lenses like the first, inside the frame"
     extent = np.asarray(ex).astype(np.int64)
     parity = np.asarray(par).astype(np.int64)
     if err is None and np.any((extent < 0) | (extent > nx)):
         err = "extents: in [0, nx]"
     if err is None and np.any((parity < 0) | (parity > 3)):
         err = "parities: 0 to 3"
+    at = np.asarray(fat).astype(np.int64)
+    if err is None and (np.any(np.diff(at) <= 0) or np.any((at < 0) | (at >= nx * ny))):
+        err = "fixes: increasing indices in [0, ny * nx)"
     if err is not None:
         raise ValueError(err)
 
+    if use_mid and clear:
+        np.asarray(md)[...] = 0.0
+    # The SH9 weights from the radial table, the exact corrections of the few quarter
+    # pixels it does not fit added; then the per-pixel tables' rows: the same for each lens.
+    sh9 = radial_weights(rad, inv, (xl, xr, yt, yb, nx, ny))
+    sh9[:, at] += np.asarray(fx).astype(np.float64).T
+    weights = np.concatenate([sh9, np.asarray(tabs).astype(np.float64)])
+    parity = np.concatenate([SH_PARITY, parity])
+    for n, (lxl, lxr) in enumerate(lenses):
+        _one_lens(fr, tb, (lxl, lxr, yt, yb, nx, ny), extent, weights, parity,
+                  np.asarray(sm)[n], md, f)
+
+
+def _one_lens(fr, tb, geometry, extent, weights, parity, out, md, f) -> None:
+    """One lens's sums (``out`` (9 + K, 3)) and block sums (``md`` or None) of the frame."""
+    xl, xr, yt, yb, nx, ny = geometry
+    linear = tb is None
+    H, W = fr.shape[:2]
     # The four quarters, each row i and column j counted from the centre: bottom right a,
     # bottom left b, top right c, top left d; a row pair reads columns j < extent[i] only.
     pixels = np.asarray(fr)
@@ -85,14 +162,10 @@ def fold_lens(frame, table, geometry, extents, tables, parities, sums, mid, fact
     a, b, c, d = quarters
     folds = np.stack([(a + b) + (c + d), (a - b) + (c - d), (a + b) - (c + d),
                       (a - b) - (c - d)]).reshape(4, ny * nx, 3)
-    weights = np.asarray(tabs).astype(np.float64)
-    out = np.asarray(sm)
-    for k in range(K):
+    for k in range(weights.shape[0]):
         out[k] += weights[k] @ folds[parity[k]]
-    if use_mid:
+    if md is not None:
         blocks = np.asarray(md)
-        if clear:
-            blocks[...] = 0.0
         mh, mw = H // f, W // f
         at = np.concatenate([((r // f) * mw + c // f)[read] for r, c in zip(rows, cols)])
         values = np.concatenate([q[read] for q in quarters])

@@ -18,6 +18,18 @@ edge) keep their own 9 world weights (a short list). The fold is checked against
 table when it is built: a lens whose weights are not symmetric to 1e-7 (an off-grid centre,
 a skewed calibration) keeps the dense table (:func:`lens_fold` returns None).
 
+The quarter tables themselves are not kept (issue 44: at 36 bytes a quarter pixel they were
+most of a frame's DRAM traffic through a Pi's 512 KB cache): in the lens frame each SH9
+weight of a radially symmetric lens is a function of the pixel's distance r from the centre
+times a monomial of its offset (dx, dy) (1, dx, dy, dx·dy or dx² − dy²), so a lens keeps a
+*radial table* per weight, linear in bins of a quarter pixel (fitted to the dense pixel
+integrals by least squares: 20 floats a bin, 8 bins a pixel, ~200 KB for a Theta S lens, which
+stays in a Pi's cache from frame to frame), and the kernel
+makes each row's weights from it. The few quarter pixels where that form does not hold to
+:data:`RADIAL_TOLERANCE` of the weight's largest (the image circle's edge, where a pixel is
+partly outside; a blend's seam) keep an exact correction (a sparse list). The weights so made
+are checked against the dense ones when the fold is built.
+
 The lens is reached only through the projection's dense weights and its
 :class:`~provider.core.geometry.projections.FisheyeLens` (centre, ``frame``): whatever its
 r(θ) curve, the check decides.
@@ -35,7 +47,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..geometry import sh
+from ..geometry import radial_fit, sh
+from ..geometry.radial_fit import centred_on_grid  # noqa: F401 - the engine's, from here
+from ..geometry.radial_fit import lens_region, on_grid, symmetric_images
+from .fold_twin import RADIAL_COLUMNS, SH_MONOMIAL, SH_PARITY, radial_weights
 from .fold_twin import fold_lens as _fold_twin
 
 try:
@@ -49,26 +64,76 @@ except ImportError:          # built without a C compiler: its Python twin (same
 KERNEL = _fold_kernel is not _fold_twin
 #: The kernel's code of each (x parity, y parity) fold (see ``_fold.c``).
 _PARITY_CODE = {("E", "E"): 0, ("O", "E"): 1, ("E", "O"): 2, ("O", "O"): 3}
+_PARITY_NAME = {code: parity for parity, code in _PARITY_CODE.items()}
 
 #: Largest |mirror weight − sign × weight| accepted, relative to the coefficient's largest
 #: weight: float64 rounding is ~1e-13; float32 tables round at 6e-8.
 SYMMETRY_TOLERANCE = 1e-7
 #: Most pixels left unfolded (residual list), as a share of the pixels that see anything.
 MAX_RESIDUAL_SHARE = 0.1
+#: Radial tables: bins per pixel of radius (linear in each: ~1e-8 of a weight's largest on a
+#: Theta S or Pi lens; half-pixel bins leave 1e-6, and a Theta S lens's blend towards the
+#: other keeps 6061 corrections at 4 bins a pixel, 960 at 8), and the largest error a
+#: quarter pixel's made weights may have, relative to the weight's largest, before it keeps
+#: an exact correction (10× float32's rounding of the old quarter tables: the coefficients
+#: stay within 1e-6 of the dense table's, their tests ask 1e-5).
+RADIAL_BINS_PER_PIXEL = 8
+RADIAL_TOLERANCE = 1e-6
 
 
 @dataclass
 class _FoldedLens:
     """One lens's folded square: centre twice (X, Y, integers), pairs per axis (nx, ny),
-    lens→world SH rotation D (9, 9), parity groups, quarter tables (k, ny·nx) float32."""
+    lens→world SH rotation D (9, 9), the lens-frame SH9 weights as a radial table (B, 20)
+    float32 with its bins' 1 / width and exact corrections of the quarter pixels it does not
+    fit (``fix_at`` (F,) int32, ``fixes`` (F, 9) float32), the extra columns' parity groups
+    of quarter tables (k, ny·nx) float32, and per row pair the columns that carry a weight."""
 
     X: int
     Y: int
     nx: int
     ny: int
     D: np.ndarray
+    radial: np.ndarray
+    inv_step: float
+    fix_at: np.ndarray
+    fixes: np.ndarray
     groups: list            # [(("E"|"O", "E"|"O"), k indices, table (len(k), ny·nx))]:
-    #                         k < 9 a lens-frame SH weight, k ≥ 9 the extra column k − 9
+    #                         k ≥ 9, the extra column k − 9
+    extent: np.ndarray      # (ny,) int32
+
+    @property
+    def geometry(self) -> tuple:
+        """(xl, xr, yt, yb, nx, ny), the kernel's."""
+        xl, yt = self.X // 2, self.Y // 2
+        return xl, self.X - xl, yt, self.Y - yt, self.nx, self.ny
+
+    def sh_quarter(self) -> np.ndarray:
+        """(9, ny·nx) float32: the lens-frame SH9 weight of every quarter pixel (the band by
+        band path's; made on first use, not kept by the table cache)."""
+        q = radial_weights(self.radial, self.inv_step, self.geometry)
+        q[:, self.fix_at] += self.fixes.T
+        q.reshape(9, self.ny, self.nx)[:, np.arange(self.nx) >= self.extent[:, None]] = 0
+        return q.astype(np.float32)
+
+    @functools.cached_property
+    def group_ks(self) -> list:
+        """Parity groups of every weight, SH9 and extras: [(parity, k indices)], the order
+        of the sums the fold hands back."""
+        sh9 = {}
+        for k, code in enumerate(SH_PARITY):
+            sh9.setdefault(_PARITY_NAME[code], []).append(k)
+        return sorted(list(sh9.items()) + [(parity, ks) for parity, ks, _ in self.groups],
+                      key=lambda g: g[0])
+
+    @functools.cached_property
+    def all_groups(self) -> list:
+        """:attr:`group_ks` with each group's quarter tables (len(k), ny·nx) float32, the
+        SH9's made from the radial table: the band by band path's (without the kernel)."""
+        q = self.sh_quarter()
+        extra = {tuple(ks): t for _, ks, t in self.groups}
+        return [(parity, ks, q[ks] if ks[0] < 9 else extra[tuple(ks)])
+                for parity, ks in self.group_ks]
 
     @property
     def rows(self):
@@ -79,18 +144,23 @@ class _FoldedLens:
 
     @functools.cached_property
     def kernel_data(self) -> tuple:
-        """The C kernel's constant arguments (made once): geometry (xl, xr, yt, yb, nx, ny),
-        per row pair the columns to read (up to the last where some weight is non-zero),
-        the stacked quarter tables (K, ny·nx) and each row's fold code."""
-        tables = np.ascontiguousarray(np.concatenate([t for _, _, t in self.groups]),
-                                      np.float32)
+        """The C kernel's constant arguments (made once): geometry, per row pair the columns
+        to read (up to the last where some weight is non-zero), the radial table, its bins'
+        1 / width, the corrections, the extras' stacked quarter tables (K, ny·nx) (K may be
+        0) and each one's fold code."""
+        tables = np.ascontiguousarray(
+            np.concatenate([t for _, _, t in self.groups]) if self.groups
+            else np.zeros((0, self.ny * self.nx)), np.float32)
         codes = np.array([_PARITY_CODE[parity] for parity, k, _ in self.groups for _ in k],
                          np.int32)
-        seen = np.any(tables.reshape(-1, self.ny, self.nx) != 0, axis=0)
-        extent = np.where(seen.any(axis=1), self.nx - np.argmax(seen[:, ::-1], axis=1), 0)
-        xl, yt = self.X // 2, self.Y // 2
-        geometry = (xl, self.X - xl, yt, self.Y - yt, self.nx, self.ny)
-        return geometry, extent.astype(np.int32), tables, codes
+        return (self.geometry, self.extent, self.radial, self.inv_step, self.fix_at,
+                self.fixes, tables, codes)
+
+    @property
+    def table_floats(self) -> int:
+        """Floats (and indices) a frame reads for this lens's weights."""
+        return (self.radial.size + self.fix_at.size + self.fixes.size
+                + sum(t.size for _, _, t in self.groups))
 
     def x_fold(self, rows: np.ndarray, even: np.ndarray, odd: np.ndarray,
                flipped: np.ndarray) -> None:
@@ -130,8 +200,12 @@ class LensFold:
 
     @property
     def table_floats(self) -> int:
-        """Weights read per frame (floats): quarter tables and the residual list."""
-        return sum(t.size for L in self.lenses for _, _, t in L.groups) + self._res_weights.size
+        """Weights read per frame (floats): radial tables and corrections (once where lenses
+        share them), extras' quarter tables and the residual list."""
+        shared = {id(L.radial): L.radial.size + L.fix_at.size + L.fixes.size
+                  for L in self.lenses}
+        return (sum(shared.values()) + self._res_weights.size
+                + sum(t.size for L in self.lenses for _, _, t in L.groups))
 
     def _buffers(self, band_rows: int) -> list:
         """Per lens: x-folded (even, odd) rows (2·ny, nx, 3) float32, the y fold's flipped
@@ -203,17 +277,20 @@ class LensFold:
         item = frame.itemsize
         if frame.strides[2] != item or frame.strides[1] != 3 * item:
             frame = np.ascontiguousarray(frame)
-        sums = []
-        for n, L in enumerate(self.lenses):
-            geometry, extent, tables, codes = L.kernel_data
-            out = np.zeros((tables.shape[0], 3))
-            # The first lens's call zeroes mid: every lens, then the unpaired pixels, add.
-            _fold_kernel(frame, t, geometry, extent, tables, codes, out, mid, factor, n == 0)
-            parts, at = [], 0
-            for _, k, _ in L.groups:
-                parts.append(out[at:at + len(k)].T)
-                at += len(k)
-            sums.append(parts)
+        sums = [None] * len(self.lenses)
+        for n, (first, rest) in enumerate(self._kernel_calls()):
+            L = self.lenses[first]
+            geometry, extent, radial, inv, fix_at, fixes, tables, codes = L.kernel_data
+            others = np.array([self.lenses[m].geometry[:2] for m in rest], np.int32
+                              ).reshape(-1, 2)
+            out = np.zeros((1 + len(rest), 9 + tables.shape[0], 3))
+            # The first call zeroes mid: every lens, then the unpaired pixels, add.
+            _fold_kernel(frame, t, geometry, others, extent, radial, inv, fix_at, fixes,
+                         tables, codes, out, mid, factor, n == 0)
+            # rows: the SH9 weights, then the extras in their groups' order
+            row = dict(zip([k for _, ks, _ in L.groups for k in ks], range(9, out.shape[1])))
+            for lens_out, m in zip(out, (first, *rest)):
+                sums[m] = [lens_out[[row.get(k, k) for k in ks]].T for _, ks in L.group_ks]
         state["sums"] = sums
         if self._res_index.size:           # the unpaired pixels: a gather, a product
             samples = self._ops.get("samples")
@@ -234,6 +311,30 @@ class LensFold:
                     flat[blocks, c] += np.bincount(at, px[:, c], minlength=blocks.size)
         if mid is not None:
             mid *= np.float32(1.0 / (factor * factor))
+
+    def _kernel_calls(self) -> list:
+        """[(lens, [other lenses])]: lenses whose weights are the same (a dual fisheye's two
+        lenses, each the other mirrored in the world, no extra columns: the same lens-frame
+        weights, rows and centre offset) go in one call, which makes each row pair's
+        weights once for both."""
+        calls = self._ops.get("calls")
+        if calls is None:
+            calls = []
+            for n, L in enumerate(self.lenses):
+                for first, rest in calls:
+                    F = self.lenses[first]
+                    if (not L.groups and not F.groups and L.Y == F.Y and L.nx == F.nx
+                            and L.ny == F.ny and L.X % 2 == F.X % 2
+                            and L.inv_step == F.inv_step
+                            and all(np.array_equal(a, b) for a, b in (
+                                (L.radial, F.radial), (L.fix_at, F.fix_at),
+                                (L.fixes, F.fixes), (L.extent, F.extent)))):
+                        rest.append(n)
+                        break
+                else:
+                    calls.append((n, []))
+            self._ops["calls"] = calls
+        return calls
 
     def _residual_blocks(self, mid_width: int, factor: int) -> tuple:
         """The distinct blocks of the unpaired pixels (flat indices in the lights' copy)
@@ -270,19 +371,19 @@ class LensFold:
             return state["sums"]
         buffers = state["buffers"]
         if buffers is None:                     # no rows were added
-            state["sums"] = [[np.zeros((3, len(k))) for _, k, _ in L.groups]
+            state["sums"] = [[np.zeros((3, len(k))) for _, k in L.group_ks]
                              for L in self.lenses]
             return state["sums"]
         sums = []
         for L, buf in zip(self.lenses, buffers):
             ny = L.ny
             halves = {}
-            for name in {parity[0] for parity, _, _ in L.groups}:
+            for name in {parity[0] for parity, _, _ in L.all_groups}:
                 # Top rows by distance from the centre row (flipped), against the bottom's.
                 cv2.flip(buf[name][:ny], 0, dst=buf["top" + name])
                 halves[name] = (buf[name][ny:], buf["top" + name])
             out, folded = [], buf["fold"]
-            for parity, k, table in L.groups:
+            for parity, k, table in L.all_groups:
                 bottom, top = halves[parity[0]]
                 if parity[1] == "E":
                     cv2.add(bottom, top, dst=folded)
@@ -307,7 +408,7 @@ class LensFold:
         out = state["res"].T[:9].astype(np.float64)
         for L, sums in zip(self.lenses, self._reduce(state)):
             local = np.zeros((9 + self.extras, 3))
-            for a, (_, k, _) in zip(sums, L.groups):
+            for a, (_, k) in zip(sums, L.group_ks):
                 local[k] += a.T
             out += L.D @ local[:9]
         return out
@@ -316,62 +417,19 @@ class LensFold:
         """(extras, 3) float64: the frame's sums against the extra weight columns."""
         out = state["res"].T[9:].astype(np.float64)
         for L, sums in zip(self.lenses, self._reduce(state)):
-            for a, (_, k, _) in zip(sums, L.groups):
+            for a, (_, k) in zip(sums, L.group_ks):
                 for j, kk in enumerate(k):
                     if kk >= 9:
                         out[kk - 9] += a[:, j]
         return out
 
 
-@dataclass
-class _DiscAxes:
-    """A light probe's disc (mirror ball, angular map) as a lens: its centre, and the
-    camera's axes (looking along −Z, image right +X, up +Y: the lens frame is the world's)."""
-
-    cx: float
-    cy: float
-    frame: tuple = ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0))   # (axis, right, up)
-
-
-def _lenses(projection) -> tuple:
-    """The radially symmetric images of a projection: its fisheye lenses, or a probe's disc."""
-    lenses = getattr(projection, "lenses", None)
-    if lenses:
-        return tuple(lenses)
-    lens = getattr(projection, "lens", None)
-    if lens is not None:
-        return (lens,)
-    if hasattr(projection, "normalised") and hasattr(projection, "cx"):
-        return (_DiscAxes(projection.cx, projection.cy),)
-    return ()
-
-
-def centred_on_grid(projection) -> bool:
-    """True when ``projection`` has radially symmetric images (lenses, a probe's disc)
-    whose centres all fall on the pixel grid (a pixel's corner or centre): the condition
-    for the fold, checked before any weight is made."""
-    lenses = _lenses(projection)
-    return bool(lenses) and all(_on_grid(lens) for lens in lenses)
-
-
-def _on_grid(lens) -> bool:
-    """The lens's centre on a pixel's corner or centre (twice it an integer, both axes)."""
-    return all(abs(2 * v - round(2 * v)) <= 1e-9 for v in (lens.cx, lens.cy))
-
-
-def _lens_region(projection, i, n):
-    """Columns [a, b) whose weights belong to lens ``i`` of ``n``."""
-    w = projection.width
-    if n == 1:
-        return 0, w
-    return (0, w // 2) if i == 0 else (w - w // 2, w)
-
-
-def _fold_lens(lens, region, weights, height, extra=None):
+def _fold_lens(lens, region, weights, height, extra=None, like=()):
     """A :class:`_FoldedLens` of ``lens`` over columns ``region`` of the (H, W, 9) world
     weights (and the (H, W, E) ``extra`` world-frame columns, split into parity parts), and
-    the mask of the pixels it folds; None where the grid is not symmetric."""
-    if not _on_grid(lens):
+    the mask of the pixels it folds; None where the grid is not symmetric. ``like``: lenses
+    already folded, whose radial tables this one shares where they give its weights."""
+    if not on_grid(lens):
         return None
     X, Y = int(round(2 * lens.cx)), int(round(2 * lens.cy))
     a, b = region
@@ -401,8 +459,10 @@ def _fold_lens(lens, region, weights, height, extra=None):
             sign = (sx if mx < 0 else 1) * (sy if my < 0 else 1)
             if np.max(np.abs(w[..., k] - sign * q[..., k])) > tol:
                 return None
-        groups.setdefault(("E" if sx > 0 else "O", "E" if sy > 0 else "O"), []).append(k)
-    columns = {parity: [q[..., k] for k in ks] for parity, ks in groups.items()}
+        parity = ("E" if sx > 0 else "O", "E" if sy > 0 else "O")
+        if parity != _PARITY_NAME[SH_PARITY[k]] and np.any(q[..., k] != 0):
+            return None       # not a lens frame aligned with the image (kept dense)
+    groups, columns = {}, {}
     if extra is not None:
         ex = extra[:, a:b]
         eq = quadrants(ex)
@@ -418,10 +478,83 @@ def _fold_lens(lens, region, weights, height, extra=None):
     tables = [(parity, ks, np.ascontiguousarray(
                   np.stack(columns[parity]).reshape(len(ks), ny * nx), np.float32))
               for parity, ks in sorted(groups.items())]     # (k, ny·nx): one row a weight
+    seen = np.any(q != 0, axis=-1)
+    for _, _, t in tables:
+        seen |= np.any(t.reshape(-1, ny, nx) != 0, axis=0)
+    extent = np.where(seen.any(axis=1), nx - np.argmax(seen[:, ::-1], axis=1), 0)
+    geometry = (xl, xr, yt, yb, nx, ny)
+    made = None
+    for F in like:      # a lens already made whose weights are these (a dual fisheye's twin)
+        if (F.Y == Y and F.X % 2 == X % 2 and (F.nx, F.ny) == (nx, ny) and not tables
+                and not F.groups and np.array_equal(F.extent, extent)
+                and _gives_back(q, geometry, extent, F.radial, F.inv_step, F.fix_at,
+                                F.fixes)):
+            made = F.radial, F.inv_step, F.fix_at, F.fixes
+            break
+    else:
+        made = _radial_table(q, geometry, extent)
+    if made is None:
+        return None
     mask = np.zeros(weights.shape[:2], bool)
     rows = np.r_[yt - ny:yt, yb:yb + ny]
     mask[np.ix_(rows, np.r_[xl - nx:xl, xr:xr + nx])] = True
-    return _FoldedLens(X, Y, nx, ny, D, tables), mask
+    return _FoldedLens(X, Y, nx, ny, D, *made, tables, extent.astype(np.int32)), mask
+
+
+def _radial_table(q, geometry, extent):
+    """(radial table (B, 20) float32, its bins' 1 / width, fix_at, fixes) of the lens-frame
+    SH9 quarter weights ``q`` (ny, nx, 9) float64 (see ``_fold.c``), fitted to the quarter
+    pixels read (columns j < ``extent[i]``); None where the made weights and their
+    corrections do not give ``q`` back to :data:`RADIAL_TOLERANCE`."""
+    nx, ny = geometry[4], geometry[5]
+    read = np.arange(nx)[None, :] < extent[:, None]
+    inv = float(RADIAL_BINS_PER_PIXEL)
+    if not read.any():
+        return (np.zeros((1, RADIAL_COLUMNS), np.float32), inv, np.zeros(0, np.int32),
+                np.zeros((0, 9), np.float32))
+    dy, dx = np.nonzero(read)
+    dx = dx + (geometry[1] - geometry[0] + 1) / 2
+    dy = dy + (geometry[3] - geometry[2] + 1) / 2
+    monomials = {"1": np.ones_like(dx), "dx": dx, "dy": dy, "dx dy": dx * dy,
+                 "dx2 - dy2": dx * dx - dy * dy}
+    scale = np.maximum(np.maximum(q.max(axis=(0, 1)), -q.min(axis=(0, 1))), 1e-300)
+    R = radial_fit.fit_profiles(np.hypot(dx, dy) * inv, lambda k: q[..., k][read],
+                                [monomials[m] for m in SH_MONOMIAL],
+                                10 * RADIAL_TOLERANCE * scale)
+    radial = np.zeros((R.shape[0] - 1, RADIAL_COLUMNS), np.float32)
+    radial[:, 0:8] = R[:-1, :8]
+    radial[:, 8:16] = R[1:, :8] - R[:-1, :8]
+    radial[:, 16] = R[:-1, 8]
+    radial[:, 17] = R[1:, 8] - R[:-1, 8]
+    # The check: the weights the kernel makes, and exact corrections where they miss.
+    flat = read.reshape(-1)
+    miss = np.zeros(ny * nx, bool)
+    for k in range(9):          # a weight at a time (the build's peak memory)
+        made = radial_weights(radial, inv, geometry, (k,))[0]
+        miss |= flat & (np.abs(q[..., k].reshape(-1) - made) > RADIAL_TOLERANCE * scale[k])
+    fix_at = np.flatnonzero(miss).astype(np.int32)
+    fixes = np.empty((fix_at.size, 9), np.float32)
+    for k in range(9):
+        fixes[:, k] = q[..., k].reshape(-1)[fix_at] - radial_weights(radial, inv, geometry,
+                                                                     (k,))[0, fix_at]
+    if not _gives_back(q, geometry, extent, radial, inv, fix_at, fixes):
+        return None
+    return radial, inv, fix_at, fixes
+
+
+def _gives_back(q, geometry, extent, radial, inv, fix_at, fixes) -> bool:
+    """Whether the weights the kernel makes from ``radial`` with the corrections are the
+    lens-frame SH9 quarter weights ``q`` (ny, nx, 9) to :data:`RADIAL_TOLERANCE` of each
+    weight's largest, on the quarter pixels read."""
+    nx, ny = geometry[4], geometry[5]
+    flat = (np.arange(nx)[None, :] < extent[:, None]).reshape(-1)
+    for k in range(9):
+        made = radial_weights(radial, inv, geometry, (k,))[0]
+        made[fix_at] += fixes[:, k]
+        if not np.all(np.abs(q[..., k].reshape(-1)[flat] - made[flat])
+                      <= RADIAL_TOLERANCE * max(np.abs(q[..., k]).max(), 1e-300)):
+            return False
+    return True
 
 
 def lens_fold(projection, weights: np.ndarray,
@@ -431,7 +564,7 @@ def lens_fold(projection, weights: np.ndarray,
     world weights ``weights`` (H·W, 9) and optional extra world-frame columns ``extra``
     (H·W, E) summed in the same pass (:meth:`LensFold.extra_sums`), or None (not such a
     geometry, a grid not symmetric about a centre, too many unpaired pixels)."""
-    lenses = _lenses(projection)
+    lenses = symmetric_images(projection)
     if not lenses:
         return None
     h, w = projection.height, projection.width
@@ -439,8 +572,8 @@ def lens_fold(projection, weights: np.ndarray,
     ex = None if extra is None else np.asarray(extra, np.float64).reshape(h, w, -1)
     folded, covered = [], np.zeros((h, w), bool)
     for i, lens in enumerate(lenses):
-        region = _lens_region(projection, i, len(lenses))
-        made = _fold_lens(lens, region, dense, h, ex)
+        region = lens_region(projection, i, len(lenses))
+        made = _fold_lens(lens, region, dense, h, ex, folded)
         if made is None:
             return None
         folded.append(made[0])

@@ -4,7 +4,7 @@ fisheye, probes, cube maps): built once per geometry, compactly, and kept on dis
 
 The projection's dense weights (H·W × 10 float64: 74 MB for a Theta S 1280×720 frame) are
 what the tables are made of, never what a frame reads: a lens symmetric about its centre
-keeps its quarter tables (:mod:`.lens_fold`), any other geometry a float32 copy, and the
+keeps its radial tables (:mod:`.lens_fold`), any other geometry a float32 copy, and the
 dense weights are dropped as soon as the tables are made (the projection would rebuild them
 if asked again).
 """
