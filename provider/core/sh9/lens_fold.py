@@ -131,8 +131,10 @@ class _FoldedLens:
         """:attr:`group_ks` with each group's quarter tables (len(k), ny·nx) float32, the
         SH9's made from the radial table: the band by band path's (without the kernel)."""
         q = self.sh_quarter()
-        extra = {tuple(ks): t for _, ks, t in self.groups}
-        return [(parity, ks, q[ks] if ks[0] < 9 else extra[tuple(ks)])
+        # keyed by parity too: one extra column (an up-facing cosine) has a part of each
+        # parity, the same k in two groups
+        extra = {(parity, tuple(ks)): t for parity, ks, t in self.groups}
+        return [(parity, ks, q[ks] if ks[0] < 9 else extra[(parity, tuple(ks))])
                 for parity, ks in self.group_ks]
 
     @property
@@ -287,10 +289,15 @@ class LensFold:
             # The first call zeroes mid: every lens, then the unpaired pixels, add.
             _fold_kernel(frame, t, geometry, others, extent, radial, inv, fix_at, fixes,
                          tables, codes, out, mid, factor, n == 0)
-            # rows: the SH9 weights, then the extras in their groups' order
-            row = dict(zip([k for _, ks, _ in L.groups for k in ks], range(9, out.shape[1])))
+            # rows: the SH9 weights, then the extras in their groups' order (keyed by parity
+            # too: an extra column has a part of each parity, the same k in two groups)
+            rows, at = {}, 9
+            for parity, ks, _ in L.groups:
+                rows[(parity, tuple(ks))] = list(range(at, at + len(ks)))
+                at += len(ks)
             for lens_out, m in zip(out, (first, *rest)):
-                sums[m] = [lens_out[[row.get(k, k) for k in ks]].T for _, ks in L.group_ks]
+                sums[m] = [lens_out[rows.get((parity, tuple(ks)), ks)].T
+                           for parity, ks in L.group_ks]
         state["sums"] = sums
         if self._res_index.size:           # the unpaired pixels: a gather, a product
             samples = self._ops.get("samples")
