@@ -100,3 +100,11 @@ def live_exe(build_dir):
     """tests/csharp/LiveClient.cs with the package's runtime against the Unity stand-in."""
     from unitytools import CORE, CSHARP, RUNTIME, STANDIN, _compile
     return _compile(build_dir / "LiveClient.exe", [*CORE, *RUNTIME, STANDIN, CSHARP / "LiveClient.cs"])
+
+
+@pytest.fixture(scope="session")
+def calibrated(tmp_path_factory):
+    """`shlight calibrate-lens` run once on chessboard photos of one known lens
+    (tests/lensboardtools.py): (folder, lens file as a dict, the finished command)."""
+    from lensboardtools import calibrate
+    return calibrate(tmp_path_factory.mktemp("lens"))

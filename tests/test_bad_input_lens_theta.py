@@ -20,7 +20,7 @@ from fakecams.osc_camera import FakeOscCamera
 from conftest import load_hdri
 from servertools import ROOT, SHLIGHT, ServerThread, poll, run_cli
 from servertools import refused as _refused
-from test_lens_calibration import BOARD, poses, render_board, true_lens
+from lensboardtools import BOARD, poses, render_board, true_lens
 
 from provider.core.errors import InputError
 from provider.core.geometry.checks import ProjectionError

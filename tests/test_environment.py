@@ -267,7 +267,7 @@ def test_light_probe_projections_make_the_same_cube(projection):
     """A chrome ball, an angular map or a cube cross of a scene gives that scene's cube."""
     from provider.core.geometry.projections import make_projection
     from reference import render_equirect
-    from test_projections_probe import render
+    from projectiontools import render_averaged as render
     axis = np.array([0.6, 0.3, -0.74]) / np.linalg.norm([0.6, 0.3, -0.74])
 
     def env(d):

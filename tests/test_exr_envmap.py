@@ -1,6 +1,6 @@
 """OpenEXR's own environment maps (issue 32): a cube and a latlong written by OpenEXR's Python
 bindings with the ``envmap`` header attribute are read in OpenEXR's conventions (ImfEnvmap.cpp,
-written out again here from its source, independently of provider/), by default
+written out again from its source in tests/exrtools.py, independently of provider/), by default
 (``--projection auto``), and give the SH9 of the light they hold."""
 import json
 
@@ -11,6 +11,7 @@ import pytest
 from provider.core.radiometry.images import exr_envmap
 from provider.core.sh9.engine import SH9Projector
 from reference import render_equirect
+from exrtools import cube_directions, latlong_directions
 from servertools import run_cli
 
 AXIS = np.array([0.62, 0.35, 0.70]) / np.linalg.norm([0.62, 0.35, 0.70])
@@ -21,32 +22,6 @@ def light(d):
     lamp = 20 * np.maximum(d @ AXIS, 0) ** 32
     sky = 0.6 * np.maximum(d[..., 1], 0) + 0.05
     return (lamp + sky)[..., None] * np.array([1.0, 0.85, 0.7])
-
-
-def latlong_directions(w, h):
-    """ImfEnvmap.cpp LatLongMap::direction at every pixel centre (x, y) of a w × h window."""
-    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
-    lat = -np.pi * (y / (h - 1) - 0.5)
-    lon = -2 * np.pi * (x / (w - 1) - 0.5)
-    return np.stack([np.sin(lon) * np.cos(lat), np.sin(lat), np.cos(lon) * np.cos(lat)], -1)
-
-
-def cube_directions(n):
-    """ImfEnvmap.cpp CubeMap::direction at the file pixel that CubeMap::pixelPosition gives
-    each positionInFace, for the six faces stacked vertically (+X −X +Y −Y +Z −Z)."""
-    out = np.zeros((6 * n, n, 3))
-    py, px = np.mgrid[0:n, 0:n].astype(np.float64)     # positionInFace (x = px, y = py)
-    a, b = px / (n - 1) * 2 - 1, py / (n - 1) * 2 - 1
-    one = np.ones_like(a)
-    dirs = [(one, a, b), (-one, a, b), (a, one, b), (a, -one, b), (a, b, one), (a, b, -one)]
-    for face, (dx, dy, dz) in enumerate(dirs):
-        top, last = face * n, n - 1
-        pos = {0: (px * 0 + py, top + last - px), 1: (last - py, top + last - px),
-               2: (px, top + last - py), 3: (px, top + py),
-               4: (last - px, top + last - py), 5: (px, top + last - py)}[face]
-        fx, fy = pos[0].astype(int), pos[1].astype(int)
-        out[fy, fx] = np.stack([dx, dy, dz], -1)
-    return out / np.linalg.norm(out, axis=-1, keepdims=True)
 
 
 def write_exr(path, pixels, envmap):

@@ -15,8 +15,8 @@ import pytest
 
 from provider.core.radiometry.images import exr_envmap, exr_layout, read_image
 from provider.core.sh9.engine import SH9Projector
+from exrtools import cube_directions, latlong_directions
 from servertools import ServerThread, coefficients, connect, recv_until, run_cli
-from test_exr_envmap import cube_directions, latlong_directions
 
 DATA = Path(__file__).parent / "data"
 PANORAMA = DATA / "hdri" / "apartment.exr"      # a real room, no pixel below 0

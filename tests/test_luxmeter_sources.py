@@ -256,7 +256,7 @@ def test_mqtts_meter_with_a_password_and_a_private_ca(tmp_path):
     """--lux mqtts://USER:PASS@HOST/TOPIC --lux-ca FILE: the link serve --mqtt uses (TLS,
     a password with characters URLs escape); a wrong password is refused, logged, and the
     meter says nothing rather than something stale."""
-    from test_tls import make_certificate
+    from tlstools import make_certificate
     cert, key = make_certificate(tmp_path)
     with Mosquitto(tmp_path, tls=(cert, key), users={"lamp": "p@ss word"}) as broker:
         url = f"mqtts://lamp:p%40ss%20word@localhost:{broker.port}/garden/lux"

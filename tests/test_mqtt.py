@@ -160,7 +160,7 @@ def test_a_broker_that_stops_reading_delays_nobody(tmp_path):
 
 @pytest.mark.skipif(not os.path.exists(MOSQUITTO_PASSWD), reason="no mosquitto_passwd")
 def test_mqtts_with_a_private_ca_and_a_password(tmp_path):
-    from test_tls import make_certificate
+    from tlstools import make_certificate
     cert, key = make_certificate(tmp_path)
     with Mosquitto(tmp_path, tls=(cert, key), users={"lamp": "p@ss word"}) as broker:
         url = f"mqtts://lamp:p%40ss%20word@localhost:{broker.port}/secure"

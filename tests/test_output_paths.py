@@ -20,7 +20,6 @@ import pytest
 
 from servertools import ROOT, SHLIGHT, run_cli
 from servertools import refused as _refused
-from test_lens_calibration import calibrated  # noqa: F401  (chessboard photos of one lens)
 
 
 # a refusal came before any work: a command that started would have said more ("reading 3

@@ -12,27 +12,13 @@ from provider.core.geometry.projections import (CubeMap, DualFisheye, Equirect, 
                                                 make_projection, ProjectionError)
 
 import reference as ref
-
-LIGHT = np.array([0.4, 0.75, -0.53]) / np.linalg.norm([0.4, 0.75, -0.53])
-
-
-def smooth_env(d):
-    """A smooth, colourful, non-negative environment: sky gradient + a broad warm lobe."""
-    lobe = np.exp(8 * (d @ LIGHT - 1))
-    base = 0.5 + 0.3 * d[..., 1] + 0.1 * d[..., 0]
-    return np.stack([base + 5 * lobe, base + 3 * lobe, 0.8 * base + lobe], axis=-1)
+from projectiontools import equirect_reference, smooth_env
 
 
 def render(projection, env=smooth_env):
     d = projection.directions()
     valid = projection.solid_angle > 0
     return np.where(valid[..., None], env(d), 0).astype(np.float32)
-
-
-def equirect_reference(env=smooth_env, mask=None):
-    img = ref.render_equirect(lambda d: env(d) * (1 if mask is None else mask(d)[..., None]),
-                              1024, 512, supersample=2)
-    return ref.project_equirect(img)
 
 
 @pytest.mark.parametrize("projection", [

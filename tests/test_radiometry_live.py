@@ -22,15 +22,11 @@ from provider.live.wire.message import validate
 from provider.live.sources import Frame, SourceOptions, SourceSpec
 from provider.live.sources.base import Source
 
-from conftest import load_hdri
 from fakecams.osc_camera import FakeOscCamera
+from radiometrytools import sh9, small
 from servertools import ServerThread, connect, poll, recv_json, recv_until, run_cli
 
 FAKES = Path(__file__).resolve().parent / "fakecams"
-
-
-def small(name, size=(128, 64)):
-    return cv2.resize(np.maximum(load_hdri(name), 0), size, interpolation=cv2.INTER_AREA)
 
 
 def camera_file(tmp_path, camera):
@@ -47,10 +43,6 @@ def shape_error(msg, truth):
 
 def absolute_error(msg, truth):
     return sh.irradiance_error(np.array(msg["coefficients"]).reshape(9, 3), truth)
-
-
-def sh9(msg):
-    return msg.get("type") == "sh9" and not msg.get("stale")
 
 
 @pytest.fixture

@@ -14,8 +14,8 @@ from provider.core.sh9.engine import SH9Projector
 from provider.live.wire.message import validate
 
 from fakecams.osc_camera import FakeOscCamera
+from radiometrytools import sh9, small
 from servertools import ServerThread, connect, poll, recv_json, recv_until
-from test_radiometry_live import sh9, small
 
 #: The camera constant written into camera.json (cd/m² per N²·g/(t·ISO/100)).
 C = 0.5
