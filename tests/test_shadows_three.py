@@ -23,15 +23,13 @@ import pytest
 from browsertools import NEEDS_BROWSER, ROOT, browser, page_of, three_version  # noqa: F401
 from envtools import THREE_URL, equirect_directions, png_of
 from servertools import ServeProcess, http_get, poll
+from shadowtools import SUN, SUN_RADIUS_DEG, write_sun_and_sky
 
 pytestmark = NEEDS_BROWSER
 
 #: Catcher alpha in the umbra against the CPU: 8-bit alpha (±0.5/255) and three's PCF noise
 #: (5 Vogel taps rotated per pixel: none inside a full umbra); measured within 0.004.
 UMBRA_TOL = 0.01
-SUN = np.array([0.55, 0.7, -0.45])
-SUN /= np.linalg.norm(SUN)
-SUN_RADIUS_DEG = 3.0
 
 PAGE = """async ([threeUrl, provider]) => {
   const THREE = await import(threeUrl);
@@ -67,15 +65,6 @@ PAGE = """async ([threeUrl, provider]) => {
   window.t = { THREE, a, conn, renderer, scene, camera, sphere, probe, render, onlyCatcher, S };
   return true;
 }"""
-
-
-def write_sun_and_sky(path, h: int = 256) -> None:
-    """A float panorama: a sky of radiance 0.3 above the horizon, 0.05 below, and a sun disc
-    of SUN_RADIUS_DEG toward SUN, radiance 150 (E⊥ ≈ 0.6 π·(radius)²·150 ≈ 1.3)."""
-    d = equirect_directions(h, 2 * h)
-    img = np.where(d[..., 1:2] > 0, 0.3, 0.05).astype(np.float32).repeat(3, axis=-1)
-    img[d @ SUN > np.cos(np.radians(SUN_RADIUS_DEG))] = 150.0
-    assert cv2.imwrite(str(path), img[..., ::-1])
 
 
 def cpu_umbra_ratio(msg: dict, key: int) -> tuple[float, np.ndarray]:
@@ -486,7 +475,7 @@ def test_webxr_page_shadow_from_xr_estimated_light(browser, tmp_path):
     sphere (the page's occluder) hides there, and the rest of the floor that share alone (CPU:
     occluded_ambient with the export's SH)."""
     from provider.core.geometry import sh
-    from test_xr_polyfill import INLINE_LE, START_SESSION, webxr_latest
+    from xrtools import INLINE_LE, START_SESSION, webxr_latest
     from browsertools import REFUSED, canvas_rgba
     pano = tmp_path / "sun.hdr"
     write_sun_and_sky(pano)
@@ -558,7 +547,7 @@ def test_webxr_two_lights_each_cast_their_shadow_with_the_occluder(browser, tmp_
     from provider.core.conventions.formats import light_sh
     from provider.core.geometry import sh
     from provider.core.lights.shadows import sphere_light_visibility
-    from test_xr_polyfill import INLINE_LE, START_SESSION, webxr_latest
+    from xrtools import INLINE_LE, START_SESSION, webxr_latest
     from browsertools import REFUSED, canvas_rgba
     pano = tmp_path / "two.hdr"
     write_sun_lamp_and_sky(pano)
@@ -606,7 +595,7 @@ def test_webxr_two_lights_each_cast_their_shadow_with_the_occluder(browser, tmp_
 def test_xr_shadows_work_once_a_frame(browser, tmp_path):
     """three calls a catcher's onBeforeRender once per view (twice a frame in stereo): xrShadows'
     update runs once a frame (its angular-radius callback is asked once), and again the next frame."""
-    from test_xr_polyfill import INLINE_LE
+    from xrtools import INLINE_LE
     from browsertools import REFUSED
     pano = tmp_path / "sun.hdr"
     write_sun_and_sky(pano)

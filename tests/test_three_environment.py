@@ -20,7 +20,8 @@ import pytest
 from provider.verify.cubemap import sample
 
 from browsertools import NEEDS_BROWSER, ROOT, browser, page_of, three_version  # noqa: F401
-from envtools import SETUP, THREE_URL, json_rows, png_of, served_cube, write_caps
+from envtools import (SETUP, THREE_URL, json_rows, png_of, reflected_directions, relative_error,
+                      served_cube, write_caps)
 from servertools import ServeProcess
 
 pytestmark = NEEDS_BROWSER
@@ -48,14 +49,6 @@ def _start(browser, proc, extra=None):
     return ctx, page
 
 
-def _directions(normal, rough):
-    """Where three looks: normalize(mix(R, N, r⁴)), R = reflect(−V, N), V = +Z (orthographic)."""
-    V = np.array([0, 0, 1.0])
-    R = 2 * (normal @ V)[:, None] * normal - V
-    d = R + (normal - R) * (rough ** 4)[:, None]
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-
 def _three_lod_reference(mips, d, rough):
     """The provider's chain read as three reads its PMREM of it: lod L·r(2 − r) between
     three's mips l, each the chain at roughness 1 − √(1 − l/L)."""
@@ -66,11 +59,6 @@ def _three_lod_reference(mips, d, rough):
     return (1 - w) * at(lo) + w * at(lo + 1)
 
 
-def _rel(shown, ref):
-    err = np.abs(shown - ref).max(axis=1)
-    return err / np.maximum(np.abs(ref).max(axis=1), 0.05 * np.abs(ref).max())
-
-
 def _compare(page, mips, roughness):
     """(relative error against three's reading of the chain, against PF(r) itself, r used)."""
     normals = json_rows(page.evaluate("window.t.render('normal', 0)"))
@@ -79,9 +67,9 @@ def _compare(page, mips, roughness):
     n = normals[inside][:, :3]
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     rough = shown[inside][:, 3]
-    d = _directions(n, rough)
-    rel = _rel(shown[inside][:, :3], _three_lod_reference(mips, d, rough))
-    rel_pf = _rel(shown[inside][:, :3], sample(mips, d, rough * (len(mips) - 1)))
+    d = reflected_directions(n, rough)
+    rel = relative_error(shown[inside][:, :3], _three_lod_reference(mips, d, rough))
+    rel_pf = relative_error(shown[inside][:, :3], sample(mips, d, rough * (len(mips) - 1)))
     print(f"roughness {roughness}: three's reading median {np.median(rel):.4f} "
           f"p95 {np.quantile(rel, 0.95):.4f}; PF(r) median {np.median(rel_pf):.4f} "
           f"p95 {np.quantile(rel_pf, 0.95):.4f}")

@@ -27,7 +27,7 @@ from provider.core.lights.shadows import (occluded_ambient, shadow_ratio, sphere
 from servertools import ServeProcess
 from unitytools import (CORE, CSHARP, S3, S4, _compile, _LiveClient, _mono_tools,  # noqa: F401
                         _serve_help)
-from test_shadows_three import SUN, write_sun_and_sky
+from shadowtools import SUN, write_sun_and_sky
 
 
 def _ratio_cases(rng) -> list[dict]:

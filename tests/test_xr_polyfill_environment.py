@@ -12,12 +12,12 @@ import numpy as np
 
 import consumer_pictures as cp
 from browsertools import NEEDS_BROWSER, ROOT, PageHost, browser, page_of, three_version  # noqa: F401
-from envtools import SPHERE_VIEW, json_rows, served_cube, write_caps
+from envtools import (SPHERE_VIEW, json_rows, reflected_directions, relative_error, served_cube,
+                      write_caps)
 from provider.core.radiometry.images import read_image
 from provider.verify.cubemap import sample
 from servertools import ServeProcess
-from test_three_environment import _directions, _rel
-from test_xr_polyfill import APP_PAGE, STAND_INS
+from xrtools import APP_PAGE, STAND_INS
 
 pytestmark = NEEDS_BROWSER
 
@@ -152,8 +152,8 @@ def test_xr_estimated_light_spheres_read_the_providers_radiance(browser):
                     shown = json_rows(page.evaluate(f"window.x.render('radiance', {roughness})"))
                     rough = shown[inside][:, 3]
                     assert abs(np.median(rough) - roughness) < 0.03
-                    d = _directions(n, rough)
-                    rel = _rel(shown[inside][:, :3], sample(mips, d, rough * (len(mips) - 1)))
+                    d = reflected_directions(n, rough)
+                    rel = relative_error(shown[inside][:, :3], sample(mips, d, rough * (len(mips) - 1)))
                     print(f"roughness {roughness}: three (XREstimatedLight) vs PF median "
                           f"{np.median(rel):.4f} p95 {np.quantile(rel, 0.95):.4f}")
                     assert np.median(rel) < median_tol and np.quantile(rel, 0.95) < p95_tol, \
