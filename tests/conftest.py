@@ -103,6 +103,13 @@ def live_exe(build_dir):
 
 
 @pytest.fixture(scope="session")
+def cube_exe(build_dir):
+    """tests/csharp/CubeTest.cs: the package's reflection-cube bake under Mono."""
+    from unitycubetools import compile_cube_test
+    return compile_cube_test(build_dir / "CubeTest.exe")
+
+
+@pytest.fixture(scope="session")
 def calibrated(tmp_path_factory):
     """`shlight calibrate-lens` run once on chessboard photos of one known lens
     (tests/lensboardtools.py): (folder, lens file as a dict, the finished command)."""

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 from provider.verify.cubemap import CubeSampler, texel_directions, upload_cube
-from test_unity_cube import S3, _environment, bake, cube_exe, unity_level_roughness  # noqa: F401
-from test_unity_shaders import HLSLCC_TYPES, _gl_context, _tool, reflect
+from unitycubetools import S3, _environment, bake, unity_level_roughness
+from unityshadertools import _gl_context, _tool, reflect
 
 ROOT = Path(__file__).resolve().parent.parent
 UNITY_INCLUDES = ROOT / "tests" / "data" / "unity_cgincludes_2019.4"

@@ -1,5 +1,5 @@
 """The Unity package's shadow catchers (issue 30, docs/shadows_consumers.md), compiled as Unity
-compiles them, without Unity, with the harness of tests/test_unity_shaders.py.
+compiles them, without Unity, with the harness of tests/unityshadertools.py.
 
 * Built-in (unity_package/Shaders/SH9ShadowCatcher.shader): every stage and variant (no shadows,
   SHADOWS_SCREEN with screen-space shadows and with UNITY_NO_SCREENSPACE_SHADOWS as on mobile /
@@ -29,9 +29,9 @@ from provider.core.conventions.formats import light_sh
 from provider.core.lights.shadows import (occluded_ambient, shadow_ratio, sphere_light_visibility,
                                           sphere_occluder)
 
-from test_unity_shaders import (API, INCLUDE_SETS, STAGES, STEREO, _gl_context, _tool,
-                                bind_uniform_blocks, compile_pass, entry, keyword_sets,
-                                layer_depends_on_instance_id, parse_shader, reflect)
+from unityshadertools import (API, INCLUDE_SETS, STAGES, STEREO, _gl_context, _tool,
+                              bind_uniform_blocks, compile_pass, entry, keyword_sets,
+                              layer_depends_on_instance_id, parse_shader, reflect)
 
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "unity_package"
