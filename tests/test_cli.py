@@ -98,6 +98,7 @@ def test_message_refuses_non_finite_numbers():
         dumps({"x": float("inf")})
 
 
+@pytest.mark.bench
 def test_bench_quick_writes_a_table_and_a_plot(tmp_path):
     p = shlight("bench", "--quick", "--out", str(tmp_path), "--sections", "speed,edge",
                 timeout=600)
@@ -115,6 +116,7 @@ def test_bench_quick_writes_a_table_and_a_plot(tmp_path):
     assert "[1/2] speed" in p.stderr and "[2/2] edge done in" in p.stderr
 
 
+@pytest.mark.bench
 def test_bench_scenes_reports_ringing_and_the_cost_of_deringing(tmp_path):
     hdri = tmp_path / "hdri"
     hdri.mkdir()

@@ -10,6 +10,7 @@ from provider.core.sh9 import lens_fold
 from provider.core.sh9.engine import SH9Projector
 
 
+@pytest.mark.bench
 @pytest.mark.skipif(shutil.which("valgrind") is None,
                     reason="valgrind is not installed (apt-get install valgrind)")
 def test_instructions_per_frame_are_counted():

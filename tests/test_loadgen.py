@@ -2,9 +2,13 @@
 clients handshake, receive every probe message and measure latency (no timing asserted)."""
 from __future__ import annotations
 
+import pytest
+
 from provider.bench.loadgen import LoadGenerator
 
 from servertools import ServeProcess
+
+pytestmark = pytest.mark.bench
 
 
 def test_load_generator_clients_receive_and_measure():
