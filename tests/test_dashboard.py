@@ -10,6 +10,7 @@ the demo screenshot is also written to docs/dashboard.png (for the README).
 from __future__ import annotations
 
 import base64
+import json
 import os
 import re
 import time
@@ -219,7 +220,8 @@ def test_demo_with_token_and_two_probes(browser, tmp_path):
             page_wait(page, "document.getElementById('s-probe').textContent === 'desk'")
             page.select_option("#probe", "room")
             page_wait(page, "document.getElementById('s-probe').textContent === 'room'")
-            time.sleep(1.2)                                # a fresh thumbnail and rate
+            seq = page.text_content("#s-seq")              # a fresh message of the room's
+            page_wait(page, f"document.getElementById('s-seq').textContent !== {json.dumps(seq)}")
             shot = tmp_path / "dashboard-demo.png"
             page.screenshot(path=str(shot))
             assert shot.stat().st_size > 10_000
@@ -238,7 +240,9 @@ def test_reconnects_after_a_server_restart(browser):
             first_server.close()                                  # the server goes away
             page.wait_for_selector('#conn[data-state="down"]', timeout=20000)
             assert "retrying in" in page.text_content("#conn")
-            time.sleep(1.0)                                       # a refused attempt or two
+            # a refused attempt: the dashboard doubles its wait and says so
+            down = page.text_content("#conn")
+            page_wait(page, f"document.getElementById('conn').textContent !== {json.dumps(down)}")
             with shlight_serve(port=port):
                 page.wait_for_selector('#conn[data-state="live"]', timeout=20000)
                 wait_for(lambda: sphere_drawn(page), 10, "the lit sphere after reconnecting")
