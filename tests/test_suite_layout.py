@@ -47,3 +47,14 @@ def test_no_test_file_is_named_after_an_issue():
     named = [p.name for p in _test_files() if ISSUE_NAME.search(p.stem)]
     assert named == [], "name a test file by what it tests, not by the issue that asked for it"
     assert ISSUE_NAME.search("test_bad_input_33") and not ISSUE_NAME.search("test_bad_input_cli")
+
+
+def test_test_files_have_one_name_each_in_every_folder():
+    """The folders mirror the package and hold no __init__.py: pytest imports each test file
+    by its own name (its folder put first on sys.path, as tests/conftest.py's puts tests/ for
+    the *tools.py helpers), so two files of one name would be one module."""
+    seen: dict[str, list[str]] = {}
+    for p in _test_files():
+        seen.setdefault(p.name, []).append(p.relative_to(TESTS).as_posix())
+    assert {name: where for name, where in seen.items() if len(where) > 1} == {}
+    assert not [p for p in TESTS.rglob("__init__.py") if "node_modules" not in p.parts]
