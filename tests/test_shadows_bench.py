@@ -118,6 +118,7 @@ def test_sh9_alone_misses_the_sun_shadow(hdri):
     assert e["discs"][0] <= bench.TARGET_RMS and e["discs"][1] < 0.6 * e["points"][1]
 
 
+@pytest.mark.bench
 def test_the_bench_section_writes_its_table_and_picture(tmp_path):
     hdri = tmp_path / "hdri"
     hdri.mkdir()
