@@ -64,7 +64,7 @@ def ctx():
 def table_cache_off(tmp_path_factory):
     """The projectors' table cache (provider.core.table_cache) off, and pointed away from the
     user's own: a test builds its tables as before, whatever an earlier test (or a test
-    that changed a module's constant) left on disk. tests/test_table_cache.py turns it on
+    that changed a module's constant) left on disk. tests/core/test_table_cache.py turns it on
     in a folder of its own."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("SHLIGHT_CACHE_DIR", str(tmp_path_factory.mktemp("shlight-cache")))
@@ -75,7 +75,7 @@ def table_cache_off(tmp_path_factory):
 @pytest.fixture(params=["c", "python"])
 def kernels(request, monkeypatch):
     """The test runs twice, as markupsafe runs its suite over its speedups: "c" on the C
-    kernels (skipped where they were not built: tests/test_kernels.py fails there), "python"
+    kernels (skipped where they were not built: tests/core/kernels/test_kernels.py fails there), "python"
     on their Python twins, put where :mod:`provider.core.radiometry.blocks` and
     :mod:`provider.core.sh9.lens_fold` chose the kernel at import; ``KERNEL`` then says
     built, so the products take the same one-pass paths, through the twins."""
@@ -83,7 +83,7 @@ def kernels(request, monkeypatch):
     from provider.core.sh9 import lens_fold
     if request.param == "c":
         if not (blocks.KERNEL and lens_fold.KERNEL):
-            pytest.skip("the C kernels were not built (tests/test_kernels.py says how)")
+            pytest.skip("the C kernels were not built (tests/core/kernels/test_kernels.py says how)")
     else:
         monkeypatch.setattr(blocks, "_decode_blocks", blocks._decode_blocks_py)
         monkeypatch.setattr(blocks, "KERNEL", True)

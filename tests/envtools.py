@@ -1,5 +1,5 @@
-"""Helpers for the reflection-cube browser tests (tests/test_three_environment.py,
-tests/test_xr_polyfill_environment.py): one-sided panoramas, the provider's KTX2 read back in
+"""Helpers for the reflection-cube browser tests (tests/clients/three/test_three_environment.py,
+tests/clients/three/test_xr_polyfill_environment.py): one-sided panoramas, the provider's KTX2 read back in
 Python (docs/contract.md §12, "Transport"), and a page that renders three.js r187 spheres lit
 by client-three.js's connectEnvironment."""
 from __future__ import annotations

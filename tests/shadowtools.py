@@ -1,5 +1,5 @@
-"""The sun-and-sky scene of the shadow tests (tests/test_shadows_three.py,
-tests/test_unity_shadows.py): one small bright sun above a dim sky."""
+"""The sun-and-sky scene of the shadow tests (tests/clients/three/test_shadows_three.py,
+tests/clients/unity/test_unity_shadows.py): one small bright sun above a dim sky."""
 from __future__ import annotations
 
 import cv2

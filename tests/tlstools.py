@@ -1,4 +1,4 @@
-"""A throwaway self-signed certificate for the TLS tests (tests/test_tls.py, the MQTT and lux
+"""A throwaway self-signed certificate for the TLS tests (tests/live/server/test_tls.py, the MQTT and lux
 meter sources over TLS)."""
 from __future__ import annotations
 

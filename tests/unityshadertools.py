@@ -1,5 +1,5 @@
 """The harness that compiles the Unity package's shaders as Unity compiles them, without Unity
-(tests/test_unity_shaders.py says how; the shadow catcher and IBL tests use it too): the
+(tests/clients/unity/test_unity_shaders.py says how; the shadow catcher and IBL tests use it too): the
 .shader file read into passes and variants, each compiled by glslangValidator's HLSL front
 end, reflected by spirv-cross, and run in software OpenGL."""
 from __future__ import annotations

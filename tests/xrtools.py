@@ -1,4 +1,4 @@
-"""The WebXR polyfill tests' pages and scripts (tests/test_xr_polyfill.py and the tests that
+"""The WebXR polyfill tests' pages and scripts (tests/clients/three/test_xr_polyfill.py and the tests that
 run the polyfill beside other clients): a real inline XRSession started as three's
 WebXRManager starts one, an app page on another origin, and stand-ins shaped like Chromium's
 for what needs an XR device."""

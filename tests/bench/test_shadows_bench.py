@@ -18,7 +18,7 @@ from provider.bench import shadows as bench
 
 from conftest import HDRI_DIR
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 GRID = 24
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from pathlib import Path
 import shutil
 
 import cv2
@@ -20,7 +21,7 @@ from provider.core.geometry.sh import rotation_from_euler
 
 from servertools import ServeProcess, health, poll, run_cli
 
-HDRI = os.path.join(os.path.dirname(__file__), "data", "hdri")
+HDRI = os.path.join(str(Path(__file__).resolve().parents[1]), "data", "hdri")
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,7 @@ from provider.core.reflections.environment import EnvironmentProjector
 from provider.core.sh9 import tables
 from provider.core.sh9.engine import SH9Projector
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 FRAME = np.random.default_rng(3).integers(0, 256, (64, 128, 3), dtype=np.uint8)
 FRAME[10:13, 20:23] = 255                # a small lamp: the lights' extractor finds it
 

@@ -38,7 +38,7 @@ if not hasattr(cv2, "aruco") or not hasattr(cv2.aruco, "ArucoDetector"):
     pytest.skip("needs opencv-contrib (cv2.aruco.ArucoDetector): pip install "
                 "opencv-contrib-python-headless", allow_module_level=True)
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
 sys.path.insert(0, str(EXAMPLES))
 

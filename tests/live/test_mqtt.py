@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+from pathlib import Path
 import signal
 
 import jsonschema
@@ -22,7 +23,7 @@ from servertools import (ServeProcess, connect, health, http_get, poll, recv_jso
 pytestmark = pytest.mark.skipif(not os.path.exists(MOSQUITTO),
                                 reason="no mosquitto (apt-get install mosquitto)")
 
-HDRI = os.path.join(os.path.dirname(__file__), "data", "hdri")
+HDRI = os.path.join(str(Path(__file__).resolve().parents[1]), "data", "hdri")
 BRIDGE = os.path.join(HDRI, "bridge.exr")
 VALIDATOR = jsonschema.Draft202012Validator(load_schema())
 
@@ -213,7 +214,7 @@ def test_dashboard_shows_the_mqtt_state(tmp_path):
     dashboard = pytest.importorskip("test_dashboard")
     from browsertools import ARGS
     if dashboard.sync_playwright is None or not os.path.exists(dashboard.CHROMIUM):
-        pytest.skip("needs playwright and chromium (see tests/test_dashboard.py)")
+        pytest.skip("needs playwright and chromium (see tests/live/server/test_dashboard.py)")
     broker = Mosquitto(tmp_path).start()
     try:
         with ServeProcess("--source", "demo", "--reconnect-max", "1",

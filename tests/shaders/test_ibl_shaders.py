@@ -3,7 +3,7 @@ CPU, on a real headless OpenGL context with a real cube texture (all mips, RGBA3
 trilinear, seamless), the HLSL through SPIR-V (provider/verify/ibl.py); the cube layout; the
 picture.
 
-Like tests/test_shaders.py: without EGL these skip with the install hint (SHLIGHT_REQUIRE_GL=1
+Like tests/shaders/test_shaders.py: without EGL these skip with the install hint (SHLIGHT_REQUIRE_GL=1
 makes that a failure), without glslangValidator/spirv-cross the HLSL ones skip
 (SHLIGHT_REQUIRE_HLSL=1).
 """
@@ -24,7 +24,7 @@ from provider.verify.cubemap import GL_TEXTURE_CUBE_MAP_SEAMLESS
 from conftest import HDRI_DIR, load_hdri
 from shadertools import evaluator_or_skip
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 PANORAMAS = sorted(HDRI_DIR.glob("*.exr"))
 U = 2.0 ** -24
 

@@ -2,7 +2,7 @@
 §10) against the CPU, on a real headless OpenGL context, the HLSL through SPIR-V
 (provider/verify/lights.py); the lights cases of the contract vectors; the picture.
 
-Like tests/test_shaders.py: without EGL these skip with the install hint
+Like tests/shaders/test_shaders.py: without EGL these skip with the install hint
 (SHLIGHT_REQUIRE_GL=1 makes that a failure), without glslangValidator/spirv-cross the HLSL
 ones skip (SHLIGHT_REQUIRE_HLSL=1).
 """
@@ -24,7 +24,7 @@ import reference as ref
 from conftest import HDRI_DIR, load_hdri
 from shadertools import evaluator_or_skip
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 PANORAMAS = sorted(HDRI_DIR.glob("*.exr"))
 TOL = harness.FLOAT32_TOLERANCE
 NORMALS = harness.dense_normals(16384)

@@ -27,7 +27,7 @@ import reference as ref
 from conftest import HDRI_DIR, load_hdri
 from shadertools import evaluator_or_skip
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 PANORAMAS = sorted(HDRI_DIR.glob("*.exr"))
 TOL = harness.FLOAT32_TOLERANCE
 #: Fewer dense normals than the CLI's 65 536 keep the file fast: 16 390, about one per
@@ -205,7 +205,7 @@ def test_yaw90_is_an_exact_column_roll():
 EXPECTED_CASE_KEYS = ["name", "coefficients", "matrices", "normals", "irradiance",
                       "unity_matrices", "unity_normals"]
 ROTATION_KEYS = ["rotation", "rotated_matrices", "unity_rotated_matrices"]
-#: Lights cases (docs/contract.md §10; checked in tests/test_lights.py).
+#: Lights cases (docs/contract.md §10; checked in tests/core/lights/test_lights.py).
 LIGHT_KEYS = ["lights", "light_directions", "light_irradiance", "ambient_coefficients",
               "ambient_matrices", "irradiance_with_lights", "unity_ambient_matrices",
               "unity_light_directions"]
@@ -229,7 +229,7 @@ def test_vectors_file_format_and_internal_consistency():
     assert doc["version"] == 1 and doc["frame"] == "rh-y-up"
     assert doc["unity_frame"] == "unity-lh-y-up: (x, y, z) -> (x, y, -z)"
     assert set(doc) == {"version", "frame", "unity_frame", "description", "cases",
-                        "exports_description", "exports"}   # exports: tests/test_export.py
+                        "exports_description", "exports"}   # exports: tests/core/conventions/test_export.py
     names = [c["name"] for c in doc["cases"]]
     for required in ("furnace", "one_sided_+x", "random", "panorama_sky", "panorama_lab_ringing"):
         assert required in names

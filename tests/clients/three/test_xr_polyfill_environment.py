@@ -3,7 +3,7 @@ of ours is a WebGL cube texture of the provider's live cube, 'reflectionchange' 
 new cube, and three.js r187's own XREstimatedLight(renderer, true) shows the room in
 xrLight.environment: a mirror sphere lit by it shows a one-sided scene's caps where three's
 camera sees them. Real ``shlight serve --environment``, real headless Chromium and WebGL 2;
-the XR device (session, frames, binding) is the stand-in of tests/test_xr_polyfill.py.
+the XR device (session, frames, binding) is the stand-in of tests/clients/three/test_xr_polyfill.py.
 """
 from __future__ import annotations
 
@@ -120,7 +120,7 @@ def test_xr_estimated_light_shows_the_providers_cube(browser, tmp_path):
 #: three re-filters the polyfill's cube (level 0 only) into its own PMREM with its own blur
 #: schedule: what its shader reads for a sphere of roughness ρ (getIBLRadiance) against the
 #: provider's prefiltered radiance PF(ρ) toward three's direction, on bridge, |three − PF| /
-#: |PF| (floor 5 % of the largest, tests/test_three_environment.py's measure). Measured
+#: |PF| (floor 5 % of the largest, tests/clients/three/test_three_environment.py's measure). Measured
 #: (median, 95th percentile) on 160² spheres: ρ 0.35: 0.032, 0.212; 0.75: 0.020, 0.105; on
 #: 200²: 0.2: 0.008, 0.176; 0.5: 0.012, 0.052; 1: 0.084, 0.454 (three's roughest mip is wider).
 XR_TOL = {0.35: (0.05, 0.26), 0.75: (0.03, 0.13)}

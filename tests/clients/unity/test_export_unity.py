@@ -1,7 +1,7 @@
 """The `unity` export against Unity's published ShadeSH9 in C# under Mono, and against the Unity
 package's own conversion (tests/csharp/ExportTest.cs on the golden vectors).
 
-Compiled with Mono's mcs like tests/test_unity.py does; skipped (with the apt line) without Mono.
+Compiled with Mono's mcs like tests/clients/unity/test_unity.py does; skipped (with the apt line) without Mono.
 Nothing here runs Unity.
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ import pytest
 
 from provider.verify import contract
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 CORE = sorted((ROOT / "unity_package" / "Runtime" / "Core").glob("*.cs"))
 SOURCES = [ROOT / "tests" / "csharp" / "Checks.cs", ROOT / "tests" / "csharp" / "ExportTest.cs"]
 

@@ -15,9 +15,9 @@
   `shlight serve --tls-cert` when the provider has it).
 * The stand-in rejects what Unity's compiler rejects (properties, struct semantics, constraints).
 * The package's HLSL include equals shaders/sh9_irradiance.hlsl byte for byte (the shader's
-  passes and variants are compiled in tests/test_unity_shaders.py).
+  passes and variants are compiled in tests/clients/unity/test_unity_shaders.py).
 
-Nothing here runs Unity. ``python3 tests/test_unity.py --write-meta`` adds missing .meta files.
+Nothing here runs Unity. ``python3 tests/clients/unity/test_unity.py --write-meta`` adds missing .meta files.
 """
 from __future__ import annotations
 
@@ -958,7 +958,7 @@ def test_hlsl_include_identical_to_shaders_dir(name):
                     f"copy shaders/{name} over it")
 
 
-# The shader's passes, variants, SRP Batcher layout and stereo are tested in tests/test_unity_shaders.py.
+# The shader's passes, variants, SRP Batcher layout and stereo are tested in tests/clients/unity/test_unity_shaders.py.
 
 
 # ---- package layout ----------------------------------------------------------------------------
@@ -1044,7 +1044,7 @@ def test_meta_files_present_and_guids_unique():
     guids = {}
     for p in _package_assets():
         meta = p.with_name(p.name + ".meta")
-        assert meta.exists(), f"{meta.relative_to(ROOT)} missing: run python3 tests/test_unity.py --write-meta"
+        assert meta.exists(), f"{meta.relative_to(ROOT)} missing: run python3 tests/clients/unity/test_unity.py --write-meta"
         text = meta.read_text()
         m = re.search(r"^guid: ([0-9a-f]{32})$", text, re.M)
         assert m, meta

@@ -25,7 +25,7 @@ from provider.verify.cubemap import CubeSampler, texel_directions
 from unitycubetools import LEVELS, S3, _environment, _run, bake, read_unity_cube, unity_level_roughness
 from unitytools import CORE, CSHARP, _compile, _mono_tools
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 HDRI = ROOT / "tests" / "data" / "hdri"
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 PKG = ROOT / "unity_package"
 CORE = sorted((PKG / "Runtime" / "Core").glob("*.cs"))
 RUNTIME = sorted((PKG / "Runtime").glob("*.cs"))

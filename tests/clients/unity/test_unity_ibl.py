@@ -23,7 +23,7 @@ from provider.verify.cubemap import CubeSampler, texel_directions, upload_cube
 from unitycubetools import S3, _environment, bake, unity_level_roughness
 from unityshadertools import _gl_context, _tool, reflect
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 UNITY_INCLUDES = ROOT / "tests" / "data" / "unity_cgincludes_2019.4"
 HDRI = ROOT / "tests" / "data" / "hdri"
 

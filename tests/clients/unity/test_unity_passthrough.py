@@ -26,7 +26,7 @@ from conftest import load_hdri
 from provider.core.passthrough import display_codes, display_lookup
 from replica_unity import replica_codes, sphere_pixels, stops_apart, true_irradiance
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 PKG = ROOT / "unity_package"
 CORE = sorted((PKG / "Runtime" / "Core").glob("*.cs"))
 RUNTIME = sorted((PKG / "Runtime").glob("*.cs"))

@@ -26,7 +26,7 @@ from provider.bench import room
 from provider.core.geometry import sh
 from servertools import ServerThread, http_get
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 RUNTIME = sorted((ROOT / "unity_package" / "Runtime").glob("*.cs"))
 CORE = sorted((ROOT / "unity_package" / "Runtime" / "Core").glob("*.cs"))
 STANDIN = ROOT / "tests" / "unity_stubs" / "UnityEngineStandIn.cs"

@@ -33,7 +33,7 @@ from unityshadertools import (API, INCLUDE_SETS, STAGES, STEREO, _gl_context, _t
                               bind_uniform_blocks, compile_pass, entry, keyword_sets,
                               layer_depends_on_instance_id, parse_shader, reflect)
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 PKG = ROOT / "unity_package"
 CATCHER = PKG / "Shaders" / "SH9ShadowCatcher.shader"
 URP_CATCHER = PKG / "Samples~" / "ShadowCatcher" / "SH9ShadowCatcherURP.shader"

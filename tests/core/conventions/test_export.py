@@ -3,7 +3,7 @@
 For each format: the SH9 of radiance (1, 0.5, 0.25) from the half sphere toward +X, +Y or −Z
 only, exported, then evaluated THE WAY ITS CONSUMER DOES (tests/consumers.py: Unity's
 ShadeSH9, ARCore's Android sample, Babylon.js loading glTF, Godot on OpenXR; three.js's own
-code in tests/test_export_threejs.py; Unity's formula in C# in tests/test_export_unity.py).
+code in tests/clients/three/test_export_threejs.py; Unity's formula in C# in tests/clients/unity/test_export_unity.py).
 The lit side must land on the consumer-frame normal of the light, with E/π = (1 + a·n)/2 ×
 colour: the colour facing the light, half of it sideways, 0 opposite.
 """

@@ -76,7 +76,7 @@ def test_default_fisheye_mount_looks_up_with_image_top_toward_plus_z():
 
 
 def test_dual_fisheye_front_lens_looks_down_minus_z():
-    """The right circle is the front (Ricoh's sample pair, tests/test_theta_front.py)."""
+    """The right circle is the front (Ricoh's sample pair, tests/core/geometry/test_theta_front.py)."""
     p = DualFisheye(1280, 720)
     d = p.directions()
     assert d[319, 959] @ [0, 0, -1] > 0.999   # right circle centre: −Z (panorama front)

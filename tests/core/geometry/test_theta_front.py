@@ -12,7 +12,7 @@ import pytest
 from provider.core.geometry import sh
 from provider.core.geometry.projections import DualFisheye
 
-PAIR = json.loads((Path(__file__).parent / "data" / "ricoh_sample_pair" / "moments.json")
+PAIR = json.loads((Path(__file__).resolve().parents[2] / "data" / "ricoh_sample_pair" / "moments.json")
                   .read_text())
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 

@@ -172,9 +172,9 @@ def test_compute_takes_the_lens_by_name(tmp_path):
         assert len(res.stderr.strip().splitlines()) == 1 and line in res.stderr
 
 
-if __name__ == "__main__":      # the table of docs/cameras.md: PYTHONPATH=. python tests/test_theta_lens.py
+if __name__ == "__main__":      # the table of docs/cameras.md: PYTHONPATH=. python tests/core/geometry/test_theta_lens.py
     import sys
-    sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[2]))
     from conftest import load_hdri
     for scene in "apartment city venice lab bridge dawn forest night sky".split():
         pano = np.maximum(load_hdri(scene), 0)

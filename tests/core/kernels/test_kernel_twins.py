@@ -21,14 +21,14 @@ from provider.core.sh9 import fold_twin, lens_fold
 
 pytestmark = pytest.mark.skipif(
     not (blocks.KERNEL and lens_fold.KERNEL),
-    reason="the C kernels were not built (tests/test_kernels.py says how)")
+    reason="the C kernels were not built (tests/core/kernels/test_kernels.py says how)")
 
 # No deadline: a loaded 2-core machine may take a while for one draw; what is checked is
 # what the two compute, never how fast.
 SETTINGS = settings(max_examples=200, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 EPS32 = 2.0 ** -24          # float32's unit roundoff
-SOURCES = Path(__file__).resolve().parent.parent / "provider" / "core"
+SOURCES = Path(__file__).resolve().parents[3] / "provider" / "core"
 
 
 @pytest.fixture(scope="module")

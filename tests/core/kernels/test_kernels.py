@@ -258,7 +258,7 @@ def test_without_the_c_kernels_the_twins_are_chosen_at_import():
         print(json.dumps(SH9Projector(160, 120, "fisheye").project(frame).coefficients.tolist()))
     """
     frame = _lamp_frame(160, 120, 11)
-    repo = Path(__file__).resolve().parent.parent
+    repo = Path(__file__).resolve().parents[3]
     done = subprocess.run([sys.executable, "-c", script], input=frame.tobytes(),
                           capture_output=True, timeout=300,
                           env={**os.environ, "PYTHONPATH": str(repo)})

@@ -24,7 +24,7 @@ from provider.verify import contract, harness, lights
 from conftest import HDRI_DIR
 from shadertools import evaluator_or_skip
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[3]
 PANORAMAS = sorted(HDRI_DIR.glob("*.exr"))
 NORMALS = harness.dense_normals(8192)
 TOL = harness.FLOAT32_TOLERANCE

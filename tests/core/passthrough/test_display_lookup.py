@@ -1,6 +1,6 @@
 """The display lookup (provider/core/passthrough/display.py, docs/contract.md §15): the 256 entries
 of g⁻¹ every passthrough consumer renders a hologram through, and how they are read. Its
-consumers' tests (tests/test_three_passthrough.py, tests/test_unity_passthrough.py) compare
+consumers' tests (tests/clients/three/test_three_passthrough.py, tests/clients/unity/test_unity_passthrough.py) compare
 three.js's and Unity's lookups with this one; here it is checked against the table itself, on
 the simulated headset's filmic curve (channels that differ, a crushed black: g(0) > 0) and
 on sRGB, 8 and 16 bits.

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -19,7 +20,7 @@ from provider.core.radiometry.response_fit import (CODE_RANGES, calibrate_best, 
 
 from servertools import run_cli
 
-DATA = os.path.join(os.path.dirname(__file__), "data", "bracket_stlouis")
+DATA = os.path.join(str(Path(__file__).resolve().parents[2]), "data", "bracket_stlouis")
 BRACKET = (("ev-4.72.jpg", "1/30"), ("ev-1.82.jpg", "1/4"), ("ev+1.51.jpg", "2.5"),
            ("ev+4.09.jpg", "15"))
 TIMES = [1 / 30, 0.25, 2.5, 15.0]

@@ -18,7 +18,7 @@ from provider.core.sh9.engine import SH9Projector
 from exrtools import cube_directions, latlong_directions
 from servertools import ServerThread, coefficients, connect, recv_until, run_cli
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[2] / "data"
 PANORAMA = DATA / "hdri" / "apartment.exr"      # a real room, no pixel below 0
 ILM = DATA / "exr"                              # ILM's maps, tiled and mipmapped (README)
 

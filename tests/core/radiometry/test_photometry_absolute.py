@@ -261,7 +261,7 @@ def test_threejs_exposure_follows_the_rooms_ev100(calibrated, tmp_path):
     hdr = scene("forest")
     (path,) = write_bracket(tmp_path, "one", hdr, (0,), n=4.0, iso=200, ext="jpg")
     msg = message(shlight("compute", path, "--camera", folder / "camera.json"))
-    client = Path(__file__).resolve().parent.parent / "provider/live/server/static/client-three.js"
+    client = Path(__file__).resolve().parents[3] / "provider/live/server/static/client-three.js"
     script = tmp_path / "exposure.mjs"
     script.write_text(f'import {{ physicalExposure }} from "{client.as_uri()}";\n'
                       f'const m = {json.dumps(msg)};\n'
@@ -300,7 +300,7 @@ def test_unity_core_reads_photometry(calibrated, tmp_path):
     mcs, mono = shutil.which("mcs"), shutil.which("mono")
     if not (mcs and mono):
         pytest.skip("Mono is not installed")
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[3]
     core = sorted((root / "unity_package" / "Runtime" / "Core").glob("*.cs"))
     exe = tmp_path / "PhotometryTest.exe"
     r = subprocess.run([mcs, "-nologo", "-warnaserror+", "-nowarn:618", "-target:exe",

@@ -285,7 +285,7 @@ def test_8bit_frames_decoded_band_by_band_equal_the_whole_frame(projection, w, h
                                                                 monkeypatch):
     """Without the C kernel (an install with no compiler) the integer path linearises and
     shrinks the frame in bands; the result is that of the whole decoded frame (the kernel's
-    one-pass decode: tests/test_cube_update.py)."""
+    one-pass decode: tests/core/reflections/test_cube_update.py)."""
     from provider.core.radiometry import blocks
     monkeypatch.setattr(blocks, "KERNEL", False)
     frame = np.random.default_rng(1).integers(0, 256, (h, w, 3), dtype=np.uint8)

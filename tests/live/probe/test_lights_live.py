@@ -4,6 +4,7 @@ tests/servertools.py; nothing asserts a duration)."""
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import jsonschema
 import numpy as np
@@ -18,7 +19,7 @@ from provider.live.probe.temporal import ChangeGate, LightingFilter, light_model
 import reference as ref
 from servertools import ServerThread, connect, recv_json, recv_until, run_cli
 
-HDRI = os.path.join(os.path.dirname(__file__), "data", "hdri")
+HDRI = os.path.join(str(Path(__file__).resolve().parents[2]), "data", "hdri")
 SKY = os.path.join(HDRI, "sky.exr")
 BRIDGE = os.path.join(HDRI, "bridge.exr")
 VALIDATOR = jsonschema.Draft202012Validator(load_schema())

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+from pathlib import Path
 import time
 
 import jsonschema
@@ -22,7 +23,7 @@ from servertools import (MjpegCamera, ServerThread, ServeProcess, connect, healt
                          jpeg_panorama, metric, poll, run_cli)
 
 VALIDATOR = jsonschema.Draft202012Validator(load_schema())
-BRIDGE = os.path.join(os.path.dirname(__file__), "data", "hdri", "bridge.exr")
+BRIDGE = os.path.join(str(Path(__file__).resolve().parents[2]), "data", "hdri", "bridge.exr")
 
 
 def read(ws, timeout: float = 10.0):

@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+from pathlib import Path
 import re
 import resource
 import struct
@@ -34,7 +35,7 @@ from provider.live.sources.base import Frame, printable
 from servertools import (MjpegCamera, ServeProcess, ServerThread, health, http_get,
                          jpeg_panorama, metric, poll, run_cli)
 
-BRIDGE = os.path.join(os.path.dirname(__file__), "data", "hdri", "bridge.exr")
+BRIDGE = os.path.join(str(Path(__file__).resolve().parents[2]), "data", "hdri", "bridge.exr")
 BIG = (20000, 10000)
 GIB = 1 << 30
 

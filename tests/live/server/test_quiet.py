@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+from pathlib import Path
 import socket
 import subprocess
 import sys
@@ -20,7 +21,7 @@ import pytest
 from servertools import (ROOT, ServeProcess, ServerThread, connect, health, poll, recv_json,
                          recv_until, run_cli)
 
-HDRI = os.path.join(os.path.dirname(__file__), "data", "hdri")
+HDRI = os.path.join(str(Path(__file__).resolve().parents[2]), "data", "hdri")
 BRIDGE = os.path.join(HDRI, "bridge.exr")
 
 _THREADS_AFTER_A_BIG_PRODUCT = (

@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import json
 import os
+from pathlib import Path
 import shutil
 import signal
 import socket
@@ -27,7 +28,7 @@ from servertools import (MjpegCamera, ServeProcess, ServerThread, coefficients, 
                          connect, health, http_get, jpeg_panorama, metric, poll, recv_json,
                          recv_until, run_cli)
 
-HDRI = os.path.join(os.path.dirname(__file__), "data", "hdri")
+HDRI = os.path.join(str(Path(__file__).resolve().parents[2]), "data", "hdri")
 BRIDGE = os.path.join(HDRI, "bridge.exr")
 SKY = os.path.join(HDRI, "sky.exr")
 SCHEMA = load_schema()

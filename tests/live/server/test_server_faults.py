@@ -12,6 +12,7 @@ import asyncio
 import json
 import logging
 import os
+from pathlib import Path
 import resource
 import socket
 import statistics
@@ -26,7 +27,7 @@ from websockets.exceptions import ConnectionClosed
 from servertools import (ServeProcess, ServerThread, connect, health, http_get, metric, poll,
                          recv_json, recv_until)
 
-HDRI = os.path.join(os.path.dirname(__file__), "data", "hdri")
+HDRI = os.path.join(str(Path(__file__).resolve().parents[2]), "data", "hdri")
 BRIDGE = os.path.join(HDRI, "bridge.exr")
 
 

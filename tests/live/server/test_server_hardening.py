@@ -106,7 +106,7 @@ def test_the_example_s_placeholder_token_is_warned_about():
     """examples/edge/shlight-edge.env ships SHLIGHT_TOKEN=change-me for a server on 0.0.0.0
     (issue 33): a server started with it says so."""
     from pathlib import Path
-    env = (Path(__file__).resolve().parent.parent / "examples" / "edge"
+    env = (Path(__file__).resolve().parents[3] / "examples" / "edge"
            / "shlight-edge.env").read_text()
     assert "SHLIGHT_TOKEN=change-me" in env and "REPLACE IT" in env
     with ServeProcess("--source", "demo", "--token", "change-me") as proc:

@@ -16,7 +16,7 @@ import pytest
 from servertools import ServeProcess, connect, poll, recv_until, run_cli
 from tlstools import make_certificate
 
-HDRI = Path(__file__).parent / "data" / "hdri"
+HDRI = Path(__file__).resolve().parents[2] / "data" / "hdri"
 
 
 def wss_lighting(url: str, trust: ssl.SSLContext) -> tuple[dict, dict]:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from pathlib import Path
 import time
 
 import numpy as np
@@ -302,7 +303,7 @@ def test_serve_meter_closes_a_live_bracket(monkeypatch, tmp_path):
     from conftest import load_hdri
     from servertools import ServerThread, connect, recv_json, recv_until
     from photometrytools import relative_rms
-    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parent / "fakecams"))
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[2] / "fakecams"))
     monkeypatch.delitem(sys.modules, "picamera2", raising=False)
     import picamera2
     hdr = cv2.resize(np.maximum(load_hdri("sky"), 0), (128, 64), interpolation=cv2.INTER_AREA)

@@ -26,7 +26,7 @@ from fakecams.osc_camera import FakeOscCamera
 from radiometrytools import sh9, small
 from servertools import ServerThread, connect, poll, recv_json, recv_until, run_cli
 
-FAKES = Path(__file__).resolve().parent / "fakecams"
+FAKES = Path(__file__).resolve().parents[2] / "fakecams"
 
 
 def camera_file(tmp_path, camera):

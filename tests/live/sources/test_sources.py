@@ -8,6 +8,7 @@ import hashlib
 import json
 import re
 import os
+from pathlib import Path
 import shutil
 import threading
 import time
@@ -26,7 +27,7 @@ from fakecams.osc_camera import OscHandler
 from servertools import (MjpegCamera, ServerThread, coefficients, connect, jpeg_panorama,
                          poll, recv_json, recv_until)
 
-HDRI = os.path.join(os.path.dirname(__file__), "data", "hdri")
+HDRI = os.path.join(str(Path(__file__).resolve().parents[2]), "data", "hdri")
 BRIDGE = os.path.join(HDRI, "bridge.exr")
 SKY = os.path.join(HDRI, "sky.exr")
 
