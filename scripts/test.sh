@@ -42,4 +42,7 @@ if [ ! -d tests/node/node_modules/three ] || [ ! -d tests/node/node_modules/ktx-
         echo "WARNING: npm missing (apt-get install npm): the three.js tests will be skipped"
     fi
 fi
-exec .venv/bin/python -m pytest "$@"
+# One pytest-xdist worker a core (PYTEST_XDIST_AUTO_NUM_WORKERS=N for another count; -n 0 after
+# the script's name: one process), each test handed to the worker that is free ("worksteal":
+# the tests' lengths differ a thousandfold). The benches (pytest -m bench) are not in it.
+exec .venv/bin/python -m pytest -n auto --dist worksteal "$@"

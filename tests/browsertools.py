@@ -1,5 +1,5 @@
-"""Helpers for the browser tests (tests/test_js_client.py, tests/test_xr_polyfill.py,
-tests/test_dashboard.py): a
+"""Helpers for the browser tests (tests/clients/three/test_js_client.py, tests/clients/three/test_xr_polyfill.py,
+tests/live/server/test_dashboard.py): a
 real headless Chromium driven by Playwright, three.js from tests/node/node_modules answered
 in place of its CDN, a page host on another origin, and test panoramas.
 

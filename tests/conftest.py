@@ -12,6 +12,18 @@ from provider.cli.threads import limit_blas_threads
 
 limit_blas_threads()
 
+
+def pytest_collection_modifyitems(config, items):
+    """The benches (``@pytest.mark.bench``) measure rather than check: the unit suite leaves
+    them out unless the marker expression names them (``pytest -m bench``, as .ci/run does
+    in a step of its own)."""
+    if "bench" in (config.getoption("markexpr") or ""):
+        return
+    benches = [item for item in items if item.get_closest_marker("bench")]
+    if benches:
+        config.hook.pytest_deselected(items=benches)
+        items[:] = [item for item in items if not item.get_closest_marker("bench")]
+
 DATA = Path(__file__).resolve().parent / "data"
 HDRI_DIR = DATA / "hdri"
 HDRI_NAMES = sorted(p.stem for p in HDRI_DIR.glob("*.exr"))
@@ -52,7 +64,7 @@ def ctx():
 def table_cache_off(tmp_path_factory):
     """The projectors' table cache (provider.core.table_cache) off, and pointed away from the
     user's own: a test builds its tables as before, whatever an earlier test (or a test
-    that changed a module's constant) left on disk. tests/test_table_cache.py turns it on
+    that changed a module's constant) left on disk. tests/core/test_table_cache.py turns it on
     in a folder of its own."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("SHLIGHT_CACHE_DIR", str(tmp_path_factory.mktemp("shlight-cache")))
@@ -63,7 +75,7 @@ def table_cache_off(tmp_path_factory):
 @pytest.fixture(params=["c", "python"])
 def kernels(request, monkeypatch):
     """The test runs twice, as markupsafe runs its suite over its speedups: "c" on the C
-    kernels (skipped where they were not built: tests/test_kernels.py fails there), "python"
+    kernels (skipped where they were not built: tests/core/kernels/test_kernels.py fails there), "python"
     on their Python twins, put where :mod:`provider.core.radiometry.blocks` and
     :mod:`provider.core.sh9.lens_fold` chose the kernel at import; ``KERNEL`` then says
     built, so the products take the same one-pass paths, through the twins."""
@@ -71,7 +83,7 @@ def kernels(request, monkeypatch):
     from provider.core.sh9 import lens_fold
     if request.param == "c":
         if not (blocks.KERNEL and lens_fold.KERNEL):
-            pytest.skip("the C kernels were not built (tests/test_kernels.py says how)")
+            pytest.skip("the C kernels were not built (tests/core/kernels/test_kernels.py says how)")
     else:
         monkeypatch.setattr(blocks, "_decode_blocks", blocks._decode_blocks_py)
         monkeypatch.setattr(blocks, "KERNEL", True)
@@ -109,3 +121,18 @@ def live_exe(build_dir):
     from unitytools import CORE, CSHARP, HARNESS, RUNTIME, STANDIN, _compile
     return _compile(build_dir / "LiveClient.exe",
                     [*CORE, *RUNTIME, STANDIN, HARNESS, CSHARP / "LiveClient.cs"])
+
+
+@pytest.fixture(scope="session")
+def cube_exe(build_dir):
+    """tests/csharp/CubeTest.cs: the package's reflection-cube bake under Mono."""
+    from unitycubetools import compile_cube_test
+    return compile_cube_test(build_dir / "CubeTest.exe")
+
+
+@pytest.fixture(scope="session")
+def calibrated(tmp_path_factory):
+    """`shlight calibrate-lens` run once on chessboard photos of one known lens
+    (tests/lensboardtools.py): (folder, lens file as a dict, the finished command)."""
+    from lensboardtools import calibrate
+    return calibrate(tmp_path_factory.mktemp("lens"))

@@ -13,7 +13,7 @@ is what a white metal with energy compensation (F0 = 1, single + multiple scatte
 three's MeshStandardMaterial) shows; the other consumers' pictures show the radiance they
 read the same way. Display: linear →
 sRGB, clipped at 1, no tone mapping (as the three.js pictures). Written to docs/ only when
-SHLIGHT_DOCS_SCREENSHOT is set (tests/test_three_environment.py's pattern).
+SHLIGHT_DOCS_SCREENSHOT is set (tests/clients/three/test_three_environment.py's pattern).
 
 """
 from __future__ import annotations
@@ -113,7 +113,7 @@ def write(name: str, picture: np.ndarray) -> Path:
 
 def relative_error(shown, reference, mask) -> np.ndarray:
     """Per sphere pixel: max over channels |shown − reference| / max(|reference|, 5 % of its
-    largest value) (tests/test_three_environment.py's measure)."""
+    largest value) (tests/clients/three/test_three_environment.py's measure)."""
     s, r = shown[mask], reference[mask]
     err = np.abs(s - r).max(axis=1)
     return err / np.maximum(np.abs(r).max(axis=1), 0.05 * np.abs(r).max())

@@ -1,5 +1,5 @@
-"""Helpers for the reflection-cube browser tests (tests/test_three_environment.py,
-tests/test_xr_polyfill_environment.py): one-sided panoramas, the provider's KTX2 read back in
+"""Helpers for the reflection-cube browser tests (tests/clients/three/test_three_environment.py,
+tests/clients/three/test_xr_polyfill_environment.py): one-sided panoramas, the provider's KTX2 read back in
 Python (docs/contract.md §12, "Transport"), and a page that renders three.js r187 spheres lit
 by client-three.js's connectEnvironment."""
 from __future__ import annotations
@@ -151,4 +151,19 @@ def json_rows(rows) -> np.ndarray:
 
 
 __all__ = ["CAPS", "SETUP", "THREE_URL", "equirect_directions", "json_rows", "png_of",
-           "read_ktx2_cube", "served_cube", "write_caps", "json"]
+           "read_ktx2_cube", "reflected_directions", "relative_error", "served_cube", "write_caps", "json"]
+
+
+def reflected_directions(normal, rough):
+    """Where three looks: normalize(mix(R, N, r⁴)), R = reflect(−V, N), V = +Z (orthographic)."""
+    V = np.array([0, 0, 1.0])
+    R = 2 * (normal @ V)[:, None] * normal - V
+    d = R + (normal - R) * (rough ** 4)[:, None]
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def relative_error(shown, ref):
+    """Per-pixel error of ``shown`` against ``ref``, relative to the larger of the pixel's
+    value and 5 % of the brightest (a dark pixel is not judged by its own tiny value)."""
+    err = np.abs(shown - ref).max(axis=1)
+    return err / np.maximum(np.abs(ref).max(axis=1), 0.05 * np.abs(ref).max())

@@ -1,6 +1,6 @@
 """A spread of frames through every path of SH9's frame pass, and what each gives: the
 coefficients, the clipping and clean-up counts, the meter's lux, the lights, the cube's work
-image and a bracket slot's projection (tests/test_frame_pass.py compares them with
+image and a bracket slot's projection (tests/core/test_frame_pass.py compares them with
 tests/data/frame_pass_golden.npz).
 
 The golden file was recorded from the code before the frame pass had sinks (commit 253cf49,

@@ -1,4 +1,4 @@
-"""What the photometry tests share (tests/test_photometry_absolute.py,
+"""What the photometry tests share (tests/core/radiometry/test_photometry_absolute.py,
 test_meter_closes_the_sun.py, test_luxmeter_sources.py, test_meter_cost.py,
 test_meter_mqtt_bounds.py, test_unity_exposure.py): the simulated filmic camera's stills
 with EXIF, the scenes, the exact up-facing illuminance, and the absolutely calibrated

@@ -74,7 +74,7 @@ def prefiltered(image, directions, roughness, chunk=8):
 
     With n = v = r, (r·h)² = (1 + r·l)/2 (|r + l|² = 2 + 2 r·l), so D's denominator is
     A + B r·l with A = (1 + α²)/2, B = (α² − 1)/2: one product r·l per pair, then a few
-    float64 passes in chunks that stay in cache (tests/test_environment.py checks the
+    float64 passes in chunks that stay in cache (tests/core/reflections/test_environment.py checks the
     shortcut against :func:`ggx_kernel_explicit`)."""
     h, w = image.shape[:2]
     lt = np.ascontiguousarray(equirect_directions(w, h).reshape(-1, 3).T)

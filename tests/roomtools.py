@@ -1,5 +1,5 @@
 """The analytic room's positioned probes (provider/bench/room.py) as the probe-grid tests serve
-them to engines (tests/test_three_probe_grid.py, tests/test_unity_probe_grid.py): ``shlight
+them to engines (tests/clients/three/test_three_probe_grid.py, tests/clients/unity/test_unity_probe_grid.py): ``shlight
 serve``'s arguments with a token and the room, and ``shlight interpolate``'s light at a point,
 which an engine's light there is held against. The probes file itself is conftest.py's
 ``room_probes`` fixture."""

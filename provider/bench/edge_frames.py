@@ -5,7 +5,7 @@ take (each dot under 1 % of the frame's flux), so "SH9 + lights" counted the det
 never the work of lights found. This frame is :mod:`provider.bench.room`'s analytic room (a
 6 × 3 × 5 m box lit by two ceiling panels and a window) seen from a tripod, resampled
 through the project's own dual-fisheye projection into a 1280×720 8-bit sRGB frame: the
-extractor finds the ceiling panels as lights (``tests/test_edge_frames.py``).
+extractor finds the ceiling panels as lights (``tests/bench/test_edge_frames.py``).
 """
 from __future__ import annotations
 

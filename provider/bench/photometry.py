@@ -188,7 +188,7 @@ def sun_skies(cases=SUN_SKIES):
     """{(elevation, aerosol): (RMS irradiance error of one JPEG closed by an up-facing
     plain lux meter, its ``meter_colour``, the same with a chroma meter's CCT and Duv)}:
     the camera calibrated once on the apartment re-lit (``perturb_panorama``, ±4 EV, f/2,
-    ISO 100), each sky shot at f/8, ISO 200 (the test's rooms: tests/test_sun_colour.py)."""
+    ISO 100), each sky shot at f/8, ISO 200 (the test's rooms: tests/core/radiometry/test_sun_colour.py)."""
     from ..core.sh9.meter import project_with_meter
     from .headset_sim import perturb_panorama
     from .sun_sky import HAZY, sunny_sky

@@ -29,7 +29,7 @@ from .camera_sim import CameraSim
 from .headset_sim import perturb_panorama
 from .photometry import HDRI, HELD_OUT
 
-#: The filmic camera of the measurements (and tests/test_photometry_8bit.py).
+#: The filmic camera of the measurements (and tests/core/radiometry/test_photometry_8bit.py).
 CAMERA = dict(clip_stops=(2.5, 2.45, 2.55), shot=2e-4, read=2e-3)
 CAMERA_K = 1.3 / NOMINAL_CD_M2
 ROOM_CD_M2 = 60.0

@@ -1,5 +1,5 @@
 """An analytic room for the light between probes (``shlight bench --sections points``,
-tests/test_interpolate.py): a box lit by two ceiling panels and a window, its walls'
+tests/core/probes/test_interpolate.py): a box lit by two ceiling panels and a window, its walls'
 radiance known at every point, so the light at any point of the room is exact up to the
 integration's resolution.
 

@@ -7,7 +7,7 @@ then wait for each other: ``SH9Projector.project`` on a 1920×960 8-bit frame to
 beside one CPU hog on 2 cores in an audit, against 25 ms on one thread (here: 71 ms against
 24.6 ms; with this module 24.4 ms). threadpoolctl, the kept library for exactly this, limits
 the pools for the duration of a call (about 20 µs) and restores them after it
-(tests/test_blas_threads.py).
+(tests/core/test_blas_threads.py).
 
 No threads of our own, no I/O: a pool's size is a library setting.
 """

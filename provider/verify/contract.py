@@ -44,7 +44,7 @@ from .render import SHADER_DIR
 
 VECTORS_PATH = SHADER_DIR / "contract_vectors.json"
 #: Significant digits of every number written: far below every check's tolerance (1e-12 of an
-#: array's scale for the derived arrays, tests/test_shaders.py), and above float64's last
+#: array's scale for the derived arrays, tests/shaders/test_shaders.py), and above float64's last
 #: bits, which the same formulas may set apart across numpy builds and CPUs (their SIMD sine
 #: and cosine), so that writing the file again changes nothing. The panorama cases' inputs
 #: come from the engine's float32 sums with BLAS on one thread (provider.core.blas):

@@ -1,6 +1,6 @@
 // What the C# test programs (ContractTest.cs, ExportTest.cs) share: named checks that keep
 // their worst error, the list of failures, and the one-line JSON report that
-// tests/test_unity.py and tests/test_export_unity.py read:
+// tests/clients/unity/test_unity.py and tests/clients/unity/test_export_unity.py read:
 //   {"cases": N, "checks": {name: {"max_abs", "max_rel", "tolerance", "count", "ok"}},
 //    "failures": [...]}
 using System;

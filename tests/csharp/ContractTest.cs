@@ -1,6 +1,6 @@
 // Checks the package's C# core (unity_package/Runtime/Core) against contract test vectors
 // (shaders/contract_vectors.json, or a file in the same format) and against one-sided lights.
-// Built with Mono's mcs by tests/test_unity.py; prints one JSON object and exits 0 if every
+// Built with Mono's mcs by tests/clients/unity/test_unity.py; prints one JSON object and exits 0 if every
 // check passed, 1 otherwise. Nothing here runs Unity: it evaluates, in C#, the formulas that
 // Unity's shaders evaluate (our HLSL include, and UnityCG.cginc's ShadeSH9).
 using System;

@@ -1,5 +1,5 @@
 // The package's reflection-cube core (Runtime/Core: Sh9Ktx2, Sh9UnityCubeBaker) under Mono, for
-// tests/test_unity_cube.py. No UnityEngine, no stand-in.
+// tests/clients/unity/test_unity_cube.py. No UnityEngine, no stand-in.
 //
 //   CubeTest.exe bake CUBE.ktx2 OUT.bin [R00 R01 ... R22]
 //       parses the provider's KTX2, bakes the Unity cube for the probe rotation R (Unity frame,

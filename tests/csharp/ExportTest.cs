@@ -5,7 +5,7 @@
 //   * Unity's published ShadeSH9, written out here from UnityCG.cginc:327-372 (linear colour
 //     space) on constants packed as Unity packs them (SHProperties.cs:31-44), shows what a white
 //     Lambertian surface must show, and a light from +X, +Y or -Z lands on Unity's +X, +Y, +Z.
-// Built with Mono's mcs by tests/test_export_unity.py; prints one JSON object and exits 0 if
+// Built with Mono's mcs by tests/clients/unity/test_export_unity.py; prints one JSON object and exits 0 if
 // every check passed. Nothing here runs Unity.
 using System;
 using System.Collections.Generic;

@@ -1,6 +1,6 @@
 // A Mono program built from the package's code (Runtime/Core + the SH9LightingClient
 // MonoBehaviour) and tests/unity_stubs/UnityEngineStandIn.cs -- a compile-only stand-in for
-// UnityEngine, NOT Unity. tests/test_unity.py runs it against a live `shlight serve`.
+// UnityEngine, NOT Unity. tests/clients/unity/test_unity.py runs it against a live `shlight serve`.
 //
 // It plays the part of Unity's player loop: calls the component's OnEnable, then Update every
 // 20 ms, and prints one JSON line per event on stdout:

@@ -1,5 +1,5 @@
 // A Mono program built from the package's core (and, for "sender", SH9LightingClient, SH9PassthroughSender and
-// the UnityEngine and MRUK stand-ins, -define:SHLIGHT_MRUK) and Harness.cs -- NOT Unity. tests/test_unity_passthrough.py
+// the UnityEngine and MRUK stand-ins, -define:SHLIGHT_MRUK) and Harness.cs -- NOT Unity. tests/clients/unity/test_unity_passthrough.py
 // runs it.
 //
 //   lut     stdin: a camera.json object. Out: {"log2_lo", "log2_hi", "toe_scale", "lut": [256 × 4], "display": [...]} with

@@ -1,6 +1,6 @@
 // A Mono program built from the package's code (Runtime/Core, SH9LightingClient, SH9Reflections,
 // SH9MarkerRegistration) and tests/unity_stubs/UnityEngineStandIn.cs -- a compile-only stand-in for
-// UnityEngine, NOT Unity. tests/test_unity_cube.py runs it against `shlight serve --environment`.
+// UnityEngine, NOT Unity. tests/clients/unity/test_unity_cube.py runs it against `shlight serve --environment`.
 //
 // It plays Unity's player loop for SECONDS: OnEnable, then every 20 ms the components' Update in
 // their execution order (SH9MarkerRegistration at -100 first), each frame bracketed by

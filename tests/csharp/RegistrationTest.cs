@@ -1,6 +1,6 @@
 // The package's registration core (Sh9Registration, Sh9RegistrationMath) and the lighting path it
 // feeds (Sh9Protocol → Sh9Snapshot → Sh9LightingValues, Sh9UnityCubeBaker) under Mono, for
-// tests/test_unity_cube.py. No UnityEngine.
+// tests/clients/unity/test_unity_cube.py. No UnityEngine.
 //
 //   RegistrationTest.exe JOB.json [CUBE.ktx2 OUT.bin]
 // JOB: {"message": "<an sh9 message with \"registration\">",

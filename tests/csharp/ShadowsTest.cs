@@ -1,6 +1,6 @@
 // Checks the package's shadow logic (unity_package/Runtime/Core/Sh9Shadows.cs and the parsing of
 // "light_angular_radius_deg" in Sh9Messages.cs; issue 30) under Mono, against cases that
-// tests/test_unity_shadows.py writes from the Python reference (provider.core.lights.shadows).
+// tests/clients/unity/test_unity_shadows.py writes from the Python reference (provider.core.lights.shadows).
 // Prints Checks' one-line JSON report; exit 0 when every check passed.
 using System;
 using System.Collections.Generic;

@@ -25,7 +25,7 @@ SPEEDS = [1 / 8000, 1 / 6400, 1 / 5000, 1 / 4000, 1 / 3200, 1 / 2500, 1 / 2000, 
 
 
 class OscHandler(BaseHTTPRequestHandler):
-    """What the fake OSC cameras' request handlers share (this one and tests/test_sources.py's
+    """What the fake OSC cameras' request handlers share (this one and tests/live/sources/test_sources.py's
     FakeTheta): JSON answers and the live preview stream."""
     protocol_version = "HTTP/1.1"
 

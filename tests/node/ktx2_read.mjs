@@ -1,4 +1,4 @@
-// Reads a KTX 2.0 file with readers shlight did not write, for tests/test_ktx2.py:
+// Reads a KTX 2.0 file with readers shlight did not write, for tests/live/reflections/test_ktx2.py:
 // the npm package ktx-parse (Khronos container parser) and three.js's KTX2Loader
 // (its raw-texture path, the one a browser app takes for RGBA16F). Prints JSON: the header,
 // the data format descriptor, the key/value data (as text), and every level's bytes as

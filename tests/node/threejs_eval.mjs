@@ -1,5 +1,5 @@
 // Evaluate lighting with three.js's OWN code (npm "three", pinned in package.json), for
-// tests/test_export_threejs.py. Install: npm ci --prefix tests/node (scripts/test.sh does).
+// tests/clients/three/test_export_threejs.py. Install: npm ci --prefix tests/node (scripts/test.sh does).
 // stdin: JSON request; stdout: JSON answer.
 //   {"mode": "sh", "sh": [27 numbers], "normals": [[x,y,z], ...]}
 //     -> SphericalHarmonics3.fromArray(sh).getIrradianceAt / getAt per normal

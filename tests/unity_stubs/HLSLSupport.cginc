@@ -1,5 +1,5 @@
 // STAND-IN FOR Unity's CGIncludes/HLSLSupport.cginc -- NOT UNITY'S FILE.
-// Written for tests/test_unity_shaders.py from a reading of Unity's built-in shader includes
+// Written for tests/clients/unity/test_unity_shaders.py from a reading of Unity's built-in shader includes
 // (2020.3, 2022.3 and 6000.0): only what the package's shaders reach, with Unity's semantics. The
 // test harness puts it (and UnityShaderVariables.cginc) in front of every CGPROGRAM, as Unity does.
 #ifndef HLSL_SUPPORT_INCLUDED

@@ -8,7 +8,7 @@ A pure state machine (no threads, no I/O, no clock): the live layer keeps one
 
 Measured on the demo scene (a moving sun, a lamp switching every 3 s) and a stress version
 where the lamp's gain crosses the sun's: the per-frame greedy choice flips sun→lamp→sun 13
-times in 10 s, the tracker never (tests/test_lights.py holds both).
+times in 10 s, the tracker never (tests/core/lights/test_lights.py holds both).
 """
 from __future__ import annotations
 

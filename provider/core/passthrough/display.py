@@ -18,7 +18,7 @@ consumers' tests compare them to it.
 
 For a table of 8-bit codes the entries are about 0.05 stop apart; reading them gives the
 table's own g⁻¹ within a tenth of a code, half a code within one entry of a channel's own clip
-or floor, a kink the shared entries cut (tests/test_display_lookup.py).
+or floor, a kink the shared entries cut (tests/core/passthrough/test_display_lookup.py).
 """
 from __future__ import annotations
 

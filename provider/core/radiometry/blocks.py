@@ -7,7 +7,7 @@ import, as the ``websockets`` library chooses its ``speedups``: the C kernel
 values as it reads the bytes (about three x86 instructions a sample against ten for the two
 OpenCV calls, issue 34), or where it was not built (no C compiler at install time) its
 Python twin :func:`_decode_blocks_py`: the same signature, the same numbers to float
-rounding, the same errors (``tests/test_kernel_twins.py`` holds them to it).
+rounding, the same errors (``tests/core/kernels/test_kernel_twins.py`` holds them to it).
 :data:`KERNEL` says whether the C kernel is built: the products take the one-pass paths
 only then (without it their band by band passes keep each band's float copy in cache).
 """

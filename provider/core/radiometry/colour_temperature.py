@@ -12,7 +12,7 @@ functions; here the locus is Krystek's (1985) rational approximation of it in (u
 reciprocal temperature (mired), then the distance's parabola through the best three points
 (Ohno's parabolic step). Why not colour-science, the kept library: it pulls
 scipy and many megabytes into what must run on a Raspberry Pi; the core stays on numpy.
-tests/test_colour_temperature.py checks this against colour-science's ``uv_to_CCT_Ohno2013``.
+tests/core/radiometry/test_colour_temperature.py checks this against colour-science's ``uv_to_CCT_Ohno2013``.
 """
 from __future__ import annotations
 

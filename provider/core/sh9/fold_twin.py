@@ -4,7 +4,7 @@ numbers to float rounding, the same errors (no I/O).
 :mod:`.lens_fold` chooses one of the two once, at import, as the ``websockets`` library
 chooses its ``speedups``: the C kernel where ``pip install`` built it, this twin where it
 could not (no C compiler). The tests run the products over both (the ``kernels`` fixture)
-and drive both with random arrays (``tests/test_kernel_twins.py``). Sums in float64 where
+and drive both with random arrays (``tests/core/kernels/test_kernel_twins.py``). Sums in float64 where
 the C sums a row in float32 lanes: they differ by float rounding.
 """
 from __future__ import annotations

@@ -51,7 +51,7 @@ SUN_SPREAD_DEG = 20.0
 ATMOSPHERE = {"surface_pressure": 101325.0, "precipitable_water": 1.42, "ozone": 0.344,
               "aerosol_turbidity_500nm": 0.1, "ground_albedo": 0.2, "dayofyear": 172}
 #: The CIE 1931 2° standard observer's x̄, ȳ, z̄ at 380-780 nm every 10 nm (CIE 015:2018,
-#: as colour-science's MSDS_CMFS tabulates it; tests/test_sun_colour.py checks them). 10 nm
+#: as colour-science's MSDS_CMFS tabulates it; tests/core/radiometry/test_sun_colour.py checks them). 10 nm
 #: is SPECTRL2's own spacing in the visible.
 CMF_10NM = np.array([
     (380, 0.001368, 3.9e-05, 0.00645), (390, 0.004243, 0.00012, 0.02005),

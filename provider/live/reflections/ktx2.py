@@ -4,7 +4,7 @@ container on every transport: docs/contract.md §12, "Transport").
 KTX 2.0 is the Khronos texture container (https://registry.khronos.org/KTX/specs/2.0/
 ktxspec.v2.html). No kept Python library writes it (PyPI has a parser, pyktx2, and Basis
 Universal image converters), so this module writes the small uncompressed subset it needs,
-byte for byte after the specification; tests/test_ktx2.py reads the files back with readers
+byte for byte after the specification; tests/live/reflections/test_ktx2.py reads the files back with readers
 we did not write (the npm package ktx-parse; three.js's KTX2Loader).
 
 What is written, for ``mips[k]`` of shape (6, n_k, n_k, 3) (faces +X −X +Y −Y +Z −Z, row

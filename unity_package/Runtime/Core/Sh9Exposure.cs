@@ -2,7 +2,7 @@
 // pipeline takes: the exposure (a scale on the SH9 and light for URP/built-in, an EV100 for an HDRP
 // physical camera), the drawn light's colour from its colour temperature, and its intensity in the
 // pipeline's units. Plain C#, no UnityEngine: SH9LightingClient applies it, the Mono tests check it
-// (tests/test_unity_exposure.py). Formulas and units: docs/unity.md, "Exposure, colour temperature".
+// (tests/clients/unity/test_unity_exposure.py). Formulas and units: docs/unity.md, "Exposure, colour temperature".
 using System;
 
 namespace Shlight.Lighting

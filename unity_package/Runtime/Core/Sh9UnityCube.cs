@@ -28,7 +28,7 @@
 //   Unity +Z = wire −Z, columns mirrored      Unity −Z = wire +Z, columns mirrored
 // (e.g. Unity +X: sc_U = −z_U, and wire +X has sc = −z = +z_U = −sc_U). The baker does not rely on
 // this table: it computes each Unity texel's direction and samples the wire cube there (the
-// table is what tests/test_unity_cube.py checks with one-sided scenes).
+// table is what tests/clients/unity/test_unity_cube.py checks with one-sided scenes).
 using System;
 
 namespace Shlight.Lighting

@@ -9,7 +9,7 @@
 //   const conn = connectLightProbe("ws://HOST:8765/", probe, { probe: "room" });
 //
 // Convention (three.js r187, checked with a light from one side only in
-// tests/test_js_client.py): SphericalHarmonics3 holds *raw radiance* SH in our order
+// tests/clients/three/test_js_client.py): SphericalHarmonics3 holds *raw radiance* SH in our order
 // (src/math/SphericalHarmonics3.js:84-107 getAt evaluates radiance with the bare basis
 // constants 0.282095, 0.488603 y/z/x, 1.092548 xy/yz/xz, 0.315392 (3z²−1),
 // 0.546274 (x²−y²): the same basis and order as docs/contract.md §1), and getIrradianceAt
@@ -617,7 +617,7 @@ export function shadowCatcher(THREE, { size = 4, segments = 1 } = {}) {
 // The occluder's ambient occlusion on the catcher (docs/shadows.md) and each other light's shadow
 // past it: shRadianceFromMatrix, shOccludedAmbient, shOccludedAmbientOfSphere, shCapSegment,
 // shCapHalfChord, shCapOverlapFraction and shSphereLightVisibility are verbatim copies of shaders/sh9_lights.glsl's
-// (tests/test_shadows_three.py checks the copy); they read the ambient matrices, in the provider's
+// (tests/clients/three/test_shadows_three.py checks the copy); they read the ambient matrices, in the provider's
 // frame, as shIrradianceR/G/B.
 const OCCLUDER_GLSL = `
 uniform mat4 shIrradianceR;

@@ -1,5 +1,5 @@
 // STAND-IN FOR URP's ShaderLibrary/Core.hlsl -- NOT UNITY'S FILE (URP is not in this repository).
-// What tests/test_unity_shadow_catcher.py needs to compile Samples~/ShadowCatcher/SH9ShadowCatcherURP.shader:
+// What tests/clients/unity/test_unity_shadow_catcher.py needs to compile Samples~/ShadowCatcher/SH9ShadowCatcherURP.shader:
 // the functions it calls, with URP's signatures (com.unity.render-pipelines.universal 10-17,
 // ShaderLibrary/ShaderVariablesFunctions.hlsl: GetVertexPositionInputs, VertexPositionInputs;
 // core's SpaceTransforms.hlsl: TransformObjectToWorldNormal, TransformWorldToHClip;

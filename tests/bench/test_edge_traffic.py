@@ -1,0 +1,46 @@
+"""The edge bench's DRAM traffic (provider.bench.edge): cachegrind's last-level misses
+through a Cortex-A53's 512 KB cache, a frame's bytes between cache and DRAM, and the SH9
+fold's own share (issue 44: its weights are radial tables that stay in cache)."""
+import re
+import shutil
+from argparse import Namespace
+
+import pytest
+
+from provider.bench import edge
+from provider.core.sh9 import lens_fold
+from provider.core.sh9.engine import SH9Projector
+
+# cachegrind runs: they measure (.ci/run's bench step), the unit suite leaves them out
+pytestmark = [pytest.mark.bench,
+              pytest.mark.skipif(shutil.which("valgrind") is None,
+                                 reason="valgrind is not installed (apt-get install valgrind)")]
+
+
+def test_the_theta_fold_moves_its_frame_and_little_more():
+    """The Theta S frame's fold (decode and SH9 weights) through A53-like caches: the
+    frame's 2.76 MB must come from DRAM every frame (it is five times the cache), and the
+    weights add their radial tables and corrections (0.69 MB) where the quarter tables they
+    replaced added 5.6 MB. Cachegrind simulates caches deterministically: a count, not a
+    time."""
+    if not lens_fold.KERNEL:
+        pytest.skip("the C kernels were not built (no compiler at install)")
+    what, build, frame = edge.edge_workloads()["theta"]
+    p = build()
+    weights = p._fold.table_floats * 4
+    assert weights < 1e6
+    moved = edge.dram_bytes_per_frame(edge.FoldOnly(p), frame)
+    assert 0.9 * frame.nbytes < moved < frame.nbytes + weights + 0.5e6
+
+
+def test_the_section_and_the_command_report_the_traffic(tmp_path, monkeypatch, capsys):
+    small = {"pi": ("Pi camera 160×120 fisheye, SH9 exact",
+                    lambda: SH9Projector(160, 120, "fisheye"), edge.edge_frame(160, 120))}
+    monkeypatch.setattr(edge, "edge_workloads", lambda: small)
+    edge.bench_edge(None, tmp_path, Namespace(quick=True, instructions=True))
+    text = (tmp_path / "fisheye_edge.md").read_text()
+    assert "DRAM MB/frame (A53 caches)" in text and "--LL=524288,16,64" in text
+    row = next(line for line in text.splitlines() if line.startswith("| Pi camera"))
+    assert re.fullmatch(r"\d+\.\d", row.rstrip(" |").rsplit("|", 1)[1].strip())
+    assert edge.main(["--traffic", "pi"]) == 0
+    assert "MB a frame between a 512 KB last-level cache and DRAM" in capsys.readouterr().out
