@@ -219,7 +219,9 @@ def dram_bytes_per_frame(projector, frame) -> float:
 
 
 def _valgrind_env() -> dict:
-    env = {**os.environ, **SINGLE_CORE_ENV, "PYTHONPATH": str(PACKAGE_ROOT)}
+    # One hash seed: a set's or dict's order, and so the count, varies ±1.5 % with it.
+    env = {**os.environ, **SINGLE_CORE_ENV, "PYTHONPATH": str(PACKAGE_ROOT),
+           "PYTHONHASHSEED": "0"}
     if env.get("OPENBLAS_CORETYPE", "").lower() in AVX512_CORETYPES:
         # valgrind runs no AVX-512: OpenBLAS forced onto such a kernel dies of SIGILL under
         # it; left to itself, it picks a kernel for the CPU valgrind emulates
