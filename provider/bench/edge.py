@@ -81,6 +81,7 @@ def edge_workloads() -> dict:
     from ..core.reflections.environment import EnvironmentProjector
     theta = edge_frame(1280, 720)
     pi = edge_frame(640, 480, seed=1)
+    equirect = edge_frame(1920, 960, seed=2)
     return {
         "theta": ("Theta S 1280×720 dual fisheye, SH9 + lights",
                   lambda: SH9Projector(1280, 720, "dual-fisheye", lights="auto"), theta),
@@ -90,6 +91,8 @@ def edge_workloads() -> dict:
                lambda: SH9Projector(640, 480, "fisheye"), pi),
         "pi-fast": ("Pi camera 640×480 fisheye, SH9 --downsample 2",
                     lambda: SH9Projector(640, 480, "fisheye", downsample=2), pi),
+        "equirect": ("equirect 1920×960, SH9 exact",
+                     lambda: SH9Projector(1920, 960), equirect),
     }
 
 

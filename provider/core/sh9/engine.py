@@ -29,7 +29,7 @@ import numpy as np
 from ..geometry import sh
 from .clipping import ClippedLight
 from .error_estimate import ErrorEstimator
-from . import lens_fold as _lens_fold
+from . import equirect_pass, lens_fold as _lens_fold
 from .lens_fold import centred_on_grid
 from .tables import pixel_tables
 from .result import SH9Result
@@ -283,6 +283,10 @@ class SH9Projector(FrameDecoder):
                     self._fold.decode_project(frame, table, acc, mid, f)
                     return (self._coefficients(acc) * scale, None, mid,
                             self.clipping(frame, table, stats), self._up_sum(acc))
+                if mid is None and work is None:       # the equirect kernel, if it takes it
+                    done = self._equirect_kernel_project(frame, table, acc, stats)
+                    if done is not None:
+                        return done
                 clip = self._clipped.start(frame, table)
                 spans = self._spans if work is None else None    # the cube reads them all
                 buffer = spans.new_buffer() if spans is not None else None
@@ -328,6 +332,17 @@ class SH9Projector(FrameDecoder):
         else:
             self._accumulate(small, 0, acc)
         return self._coefficients(acc) * scale, small, lin, clipped, None
+
+    def _equirect_kernel_project(self, frame, table, acc, stats):
+        """An 8-bit equirect frame in one pass over its bytes (:mod:`.equirect_pass`: the
+        decode, the row weights and the clipped samples), as ``_project_frame`` returns it;
+        None where the kernel does not take it (then the band by band path)."""
+        if (self._fold is not None or self._weights is not None or self._up_dense is not None
+                or not equirect_pass.takes(frame, table)):
+            return None
+        counts = equirect_pass.project(frame, table, self._rows, acc)
+        clipped = self._clipped.counted(counts, frame, table, stats)
+        return self._coefficients(acc), None, None, clipped, self._up_sum(acc)
 
     def _project_float(self, frame: np.ndarray, stats: dict, acc: np.ndarray):
         """Clean (:class:`.float_clean.FloatCleaner`) and project a float frame band by band,
