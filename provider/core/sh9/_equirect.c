@@ -43,8 +43,8 @@
 
 #include "buffer_check.h"
 
-/* Row pairs a band: the pairs' broadcast weights stay in L1 (16 x 8 x 16 bytes). */
-#define BAND 16
+/* Row pairs a band: the pairs' broadcast weights stay in L1 (32 x 8 x 16 bytes). */
+#define BAND 32
 /* The up row's weights of a pair: top and bottom (slots 6 and 7). */
 #define SLOTS 8
 
@@ -73,10 +73,11 @@ gather(const unsigned char *p, const float *const *tl, int s)
     return (v4){tl[0][p[0] * s], tl[1][p[1] * s], tl[2][p[2] * s], tl[3][p[3] * s]};
 }
 
-/* Folded samples [j, j + 4) of the band's n pairs added to acc's K rows. up: the 7th row
- * (constant after inlining, as s). */
+/* Folded samples [j, j + 4) of the band's np pairs added to acc's K rows: the pairs' top
+ * rows from top (step apart, downwards), their bottom rows from bot (upwards). up: the 7th
+ * row (constant after inlining, as s). */
 KERNEL_INLINE void
-strip(const unsigned char *const *top, const unsigned char *const *bot, int np,
+strip(const unsigned char *top, const unsigned char *bot, Py_ssize_t step, int np,
       Py_ssize_t j, Py_ssize_t half, const float *t, int s, const v4 (*w)[SLOTS], int up,
       float *const *acc)
 {
@@ -86,20 +87,23 @@ strip(const unsigned char *const *top, const unsigned char *const *bot, int np,
     v4 a0 = load4(acc[0] + j), a1 = load4(acc[1] + j), a2 = load4(acc[2] + j);
     v4 a3 = load4(acc[3] + j), a4 = load4(acc[4] + j), a5 = load4(acc[5] + j);
     v4 a6 = up ? load4(acc[6] + j) : (v4){0, 0, 0, 0};
-    for (int i = 0; i < np; i++) {
-        const unsigned char *pt = top[i] + j, *pb = bot[i] + j;
+    const unsigned char *pt = top + j, *pb = bot + j;
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC unroll 2
+#endif
+    for (const v4 (*wi)[SLOTS] = w; wi < w + np; wi++, pt += step, pb -= step) {
         const v4 t1 = gather(pt, tl, s), t2 = gather(pt + half, tl, s);
         const v4 b1 = gather(pb, tl, s), b2 = gather(pb + half, tl, s);
         const v4 ptop = t1 + t2, qtop = t1 - t2, pbot = b1 + b2, qbot = b1 - b2;
         const v4 pp = ptop + pbot, pd = ptop - pbot, qp = qtop + qbot, qd = qtop - qbot;
-        a0 += w[i][0] * pp;
-        a1 += w[i][1] * pd;
-        a2 += w[i][2] * qp;
-        a3 += w[i][3] * pp;
-        a4 += w[i][4] * qd;
-        a5 += w[i][5] * pp;
+        a0 += (*wi)[0] * pp;
+        a1 += (*wi)[1] * pd;
+        a2 += (*wi)[2] * qp;
+        a3 += (*wi)[3] * pp;
+        a4 += (*wi)[4] * qd;
+        a5 += (*wi)[5] * pp;
         if (up)
-            a6 += w[i][6] * ptop + w[i][7] * pbot;
+            a6 += (*wi)[6] * ptop + (*wi)[7] * pbot;
     }
     store4(acc[0] + j, a0); store4(acc[1] + j, a1); store4(acc[2] + j, a2);
     store4(acc[3] + j, a3); store4(acc[4] + j, a4); store4(acc[5] + j, a5);
@@ -140,16 +144,34 @@ strip_scalar(const unsigned char *const *top, const unsigned char *const *bot, i
     }
 }
 
-/* Samples at code 255 of a row of n pixels, per channel, into out[3]; the max first (GCC
- * vectorises it: a compare of 16 bytes at once), the count only where a sample clips. */
+/* Samples at code 255 of a row of n pixels, per channel, into out[3]: first whether any
+ * sample clips, 64 bytes a turn (16-byte compares where vectors are at hand), then the
+ * count only where one does. */
 static void
 count_top(const unsigned char *restrict p, Py_ssize_t n, int *restrict out)
 {
-    unsigned char m = 0;
-    for (Py_ssize_t i = 0; i < 3 * n; i++)
-        m = p[i] > m ? p[i] : m;
+    Py_ssize_t i = 0;
+    int any = 0;
+#if KERNEL_VECTOR
+    typedef unsigned char u16 __attribute__((vector_size(16)));
+    u16 hit = {0};
+    for (; i + 64 <= 3 * n; i += 64) {
+        u16 v0, v1, v2, v3;
+        memcpy(&v0, p + i, 16);
+        memcpy(&v1, p + i + 16, 16);
+        memcpy(&v2, p + i + 32, 16);
+        memcpy(&v3, p + i + 48, 16);
+        /* (hit = hit | ..., not |=: GCC compiles the latter as a select) */
+        hit = hit | (u16)((v0 == 255) | (v1 == 255) | (v2 == 255) | (v3 == 255));
+    }
+    long long lanes[2];
+    memcpy(lanes, &hit, sizeof lanes);
+    any = (lanes[0] | lanes[1]) != 0;
+#endif
+    for (; !any && i < 3 * n; i++)
+        any = p[i] == 255;
     out[0] = out[1] = out[2] = 0;
-    if (m != 255)
+    if (!any)
         return;
     for (Py_ssize_t x = 0; x < n; x++)
         for (int c = 0; c < 3; c++)
@@ -243,15 +265,17 @@ equirect_rows(PyObject *self, PyObject *args)
             }
             Py_ssize_t j = 0;
 #if KERNEL_VECTOR
+            const v4 (*wl)[SLOTS] = (const v4 (*)[SLOTS])wv;
+            const Py_ssize_t step = fr.strides[0];
             for (; j + 4 <= half; j += 4) {
                 if (s == 1 && !k7)
-                    strip(top, bot, np, j, half, t, 1, (const v4 (*)[SLOTS])wv, 0, acc);
+                    strip(top[0], bot[0], step, np, j, half, t, 1, wl, 0, acc);
                 else if (s == 1)
-                    strip(top, bot, np, j, half, t, 1, (const v4 (*)[SLOTS])wv, 1, acc);
+                    strip(top[0], bot[0], step, np, j, half, t, 1, wl, 1, acc);
                 else if (!k7)
-                    strip(top, bot, np, j, half, t, 3, (const v4 (*)[SLOTS])wv, 0, acc);
+                    strip(top[0], bot[0], step, np, j, half, t, 3, wl, 0, acc);
                 else
-                    strip(top, bot, np, j, half, t, 3, (const v4 (*)[SLOTS])wv, 1, acc);
+                    strip(top[0], bot[0], step, np, j, half, t, 3, wl, 1, acc);
             }
 #endif
             strip_scalar(top, bot, np, j, half, t, s, (const float (*)[SLOTS])w, (int)K, acc);

@@ -242,7 +242,7 @@ class SH9Projector(FrameDecoder):
             return acc.T[:9].astype(np.float64)
         w = self.projection.width
         rowsum = acc[:6].reshape(6, w, 3).astype(np.float64)
-        partial = np.einsum("rwc,kw->rkc", rowsum, self._cols)  # (6 row fns, 6 col fns, 3)
+        partial = np.matmul(self._cols, rowsum)   # (6 row fns, 6 col fns, 3): BLAS, not einsum
         out = np.zeros((9, 3))
         with np.errstate(over="ignore", invalid="ignore"):     # as in _accumulate
             for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
