@@ -5,6 +5,8 @@ path gives, on the bundled panoramas encoded as a camera would and on hard frame
 ``kernels`` fixture, tests/conftest.py, runs each test over the C kernel and its twin)."""
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 import pytest
 
@@ -172,3 +174,18 @@ def test_without_the_c_kernel_the_equirect_twin_is_chosen_at_import():
     got = np.array(json.loads(done.stdout))
     want = SH9Projector(256, 128).project(frame).coefficients
     np.testing.assert_allclose(got, want, atol=ATOL * np.abs(want).max())
+
+
+@pytest.mark.skipif(shutil.which("valgrind") is None,
+                    reason="valgrind is not installed (apt-get install valgrind)")
+def test_the_edge_bench_counts_an_equirect_frame_against_a_plain_read():
+    """``shlight bench --sections edge`` counts the 1920×960 8-bit equirect frame, and each
+    workload against reading its frame once (``cv2.sumElems``, counted the same way)."""
+    from provider.bench import edge
+    from provider.core.sh9.engine import SH9Projector
+    what, _, frame = edge.edge_workloads()["equirect"]
+    assert "equirect" in what and frame.shape == (960, 1920, 3) and frame.dtype == np.uint8
+    small = edge.edge_frame(256, 128)
+    read = edge.instructions_per_frame(edge.PlainRead(), small)
+    projection = edge.instructions_per_frame(SH9Projector(256, 128), small)
+    assert 0 < read < projection
