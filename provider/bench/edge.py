@@ -72,6 +72,13 @@ class PlainRead:
         return cv2.sumElems(frame)
 
 
+def plain_read() -> PlainRead:
+    """A :class:`PlainRead` of the importable module: under ``python -m`` this file runs as
+    ``__main__``, whose classes the counted process could not unpickle."""
+    from .edge import PlainRead as importable
+    return importable()
+
+
 def edge_frame(width: int, height: int, seed: int = 0):
     """A deterministic 8-bit test frame: smooth walls, noise and one small clipped lamp per
     lens (what makes the lights' extractor do its work)."""
@@ -241,7 +248,7 @@ def bench_edge(hdri, out: Path, args):
             _progress(f"bench edge {name}: callgrind ({FRAMES_LONG} and {FRAMES_SHORT} frames)")
             per = instructions_per_frame(projector, frame)
             if frame.shape not in reads:
-                reads[frame.shape] = instructions_per_frame(PlainRead(), frame)
+                reads[frame.shape] = instructions_per_frame(plain_read(), frame)
             ins, fps = f"{per / 1e6:.1f} M", f"~{EDGE_IPS / per:.0f}"
             read = f"{per / reads[frame.shape]:.1f}"
         elif missing:
@@ -310,7 +317,7 @@ def main(argv=None) -> int:
     for name in names:
         what, build, frame = workloads[name]
         per = instructions_per_frame(build(), frame)
-        read = instructions_per_frame(PlainRead(), frame)
+        read = instructions_per_frame(plain_read(), frame)
         print(f"{name}: {what}: {per / 1e6:.1f} M instructions/frame "
               f"({per / read:.1f}× a plain read of the frame, {read / 1e6:.2f} M), "
               f"~{EDGE_IPS / per:.0f} fps at 1 GHz (estimate)", flush=True)
