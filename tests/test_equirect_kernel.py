@@ -118,6 +118,20 @@ def test_equirect_kernel_reads_a_camera_table_and_sums_the_up_facing_light(monke
     assert got.stats["illuminance_lux"] > 0
 
 
+def test_equirect_kernel_counts_the_clipped_samples_of_wide_overexposed_rows(kernels):
+    """Rows mostly at 255 (an overexposed sky), wider than the kernel's byte counters hold
+    (255 turns of 48 bytes), one channel more clipped than the others: the counts per row
+    and channel."""
+    from provider.core.sh9 import equirect_pass
+    rng = np.random.default_rng(12)
+    frame = np.where(rng.random((3, 4400, 3)) < (0.9, 0.95, 0.5), 255,
+                     rng.integers(0, 255, (3, 4400, 3))).astype(np.uint8)
+    acc = np.zeros((6, 4400 * 3), np.float32)
+    counts = equirect_pass.project(frame, np.linspace(0, 1, 256, dtype=np.float32),
+                                   np.ones((6, 3), np.float32), acc)
+    np.testing.assert_array_equal(counts, (frame == 255).sum(axis=1))
+
+
 @pytest.mark.parametrize("bad", ["float frame", "odd width", "short table", "8 rows",
                                  "acc too narrow", "counts too short"])
 def test_equirect_kernel_refuses_bad_arrays_with_a_message(bad, kernels):

@@ -145,8 +145,9 @@ strip_scalar(const unsigned char *const *top, const unsigned char *const *bot, i
 }
 
 /* Samples at code 255 of a row of n pixels, per channel, into out[3]: first whether any
- * sample clips, 64 bytes a turn (16-byte compares where vectors are at hand), then the
- * count only where one does. */
+ * sample clips, 64 bytes a turn (16-byte compares where vectors are at hand), then, where
+ * one does, the count, 48 bytes a turn (an overexposed sky costs a compare a sample, not
+ * a scalar loop). */
 static void
 count_top(const unsigned char *restrict p, Py_ssize_t n, int *restrict out)
 {
@@ -173,9 +174,30 @@ count_top(const unsigned char *restrict p, Py_ssize_t n, int *restrict out)
     out[0] = out[1] = out[2] = 0;
     if (!any)
         return;
-    for (Py_ssize_t x = 0; x < n; x++)
-        for (int c = 0; c < 3; c++)
-            out[c] += p[3 * x + c] == 255;
+    i = 0;
+#if KERNEL_VECTOR
+    /* Lane l of the k-th 16 bytes holds channel (k + l) % 3; byte counters (a compare's
+     * -1 subtracted), emptied every 255 turns, before they wrap. */
+    while (i + 48 <= 3 * n) {
+        u16 c0 = {0}, c1 = {0}, c2 = {0};
+        for (int turn = 0; turn < 255 && i + 48 <= 3 * n; turn++, i += 48) {
+            u16 v0, v1, v2;
+            memcpy(&v0, p + i, 16);
+            memcpy(&v1, p + i + 16, 16);
+            memcpy(&v2, p + i + 32, 16);
+            c0 = c0 - (u16)(v0 == 255);
+            c1 = c1 - (u16)(v1 == 255);
+            c2 = c2 - (u16)(v2 == 255);
+        }
+        for (int l = 0; l < 16; l++) {
+            out[l % 3] += c0[l];
+            out[(l + 1) % 3] += c1[l];
+            out[(l + 2) % 3] += c2[l];
+        }
+    }
+#endif
+    for (; i < 3 * n; i++)          /* i is a whole number of pixels here */
+        out[i % 3] += p[i] == 255;
 }
 
 /* C-contiguous, dimensions of length 0 or 1 aside. */
