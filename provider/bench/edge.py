@@ -8,7 +8,11 @@ by 3 — the steady-state instructions of one frame:
   dual fisheye, 8-bit) of a lit room, whose ceiling panels the extractor takes as lights
   (:mod:`provider.bench.edge_frames`);
 * **cube**: a 32² reflection cube update of the same frame (its own decode);
-* **pi**: SH9 of a Raspberry Pi camera's 640×480 fisheye frame (8-bit), exact and fast.
+* **pi**: SH9 of a Raspberry Pi camera's 640×480 fisheye frame (8-bit), exact and fast;
+* **equirect**: SH9 of a 1920×960 equirect frame (8-bit; issue 44's one-pass kernel).
+
+Each count is also given against reading the same frame once (``cv2.sumElems``, counted the
+same way: :class:`PlainRead`), the floor any pass over its bytes stands on.
 
 A 1 GHz in-order core (Cortex-A53: Pi Zero 2 W, Pi 3) retires roughly one instruction a
 cycle on such code, so the frames per second it means is ``1e9 / instructions``: an
@@ -68,6 +72,22 @@ for _ in range(n):
 """
 
 
+class PlainRead:
+    """The floor a frame's projection is measured against: reading its bytes once
+    (``cv2.sumElems``), counted by callgrind as the workloads are."""
+
+    def project(self, frame):
+        import cv2
+        return cv2.sumElems(frame)
+
+
+def plain_read() -> PlainRead:
+    """A :class:`PlainRead` of the importable module: under ``python -m`` this file runs as
+    ``__main__``, whose classes the counted process could not unpickle."""
+    from .edge import PlainRead as importable
+    return importable()
+
+
 def edge_frame(width: int, height: int, seed: int = 0):
     """A deterministic 8-bit test frame: smooth walls, noise and one small clipped lamp per
     lens (what makes the lights' extractor do its work)."""
@@ -107,6 +127,7 @@ def edge_workloads() -> dict:
     from .edge_frames import lit_theta_frame
     theta = lit_theta_frame(1280, 720)
     pi = edge_frame(640, 480, seed=1)
+    equirect = edge_frame(1920, 960, seed=2)
     return {
         "theta": ("Theta S 1280×720 dual fisheye, SH9 + lights",
                   lambda: SH9Projector(1280, 720, "dual-fisheye", lights="auto"), theta),
@@ -116,6 +137,8 @@ def edge_workloads() -> dict:
                lambda: SH9Projector(640, 480, "fisheye"), pi),
         "pi-fast": ("Pi camera 640×480 fisheye, SH9 --downsample 2",
                     lambda: SH9Projector(640, 480, "fisheye", downsample=2), pi),
+        "equirect": ("equirect 1920×960, SH9 exact",
+                     lambda: SH9Projector(1920, 960), equirect),
     }
 
 
@@ -294,8 +317,9 @@ def bench_edge(hdri, out: Path, args):
              "an **estimate**: 10⁹ / instructions per frame (x86-64 instructions with SIMD "
              "counted by callgrind; ARM's NEON is narrower and its memory slower).", "",
              "| workload | ms/frame (this machine) | × floor | instructions/frame | "
-             "est. fps at 1 GHz | DRAM MB/frame (A53 caches) |",
-             "|---|---:|---:|---:|---:|---:|"]
+             "× read | est. fps at 1 GHz | DRAM MB/frame (A53 caches) |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    reads = {}                      # frame shape -> instructions of one plain read
     for name, (what, build, frame) in workloads.items():
         _progress(f"bench edge {name}")
         projector = build()
@@ -304,19 +328,24 @@ def bench_edge(hdri, out: Path, args):
         if count:
             _progress(f"bench edge {name}: callgrind ({FRAMES_LONG} and {FRAMES_SHORT} frames)")
             per = counted[name] = instructions_per_frame(projector, frame)
+            if frame.shape not in reads:
+                reads[frame.shape] = instructions_per_frame(plain_read(), frame)
             ins, fps = f"{per / 1e6:.1f} M", f"~{EDGE_IPS / per:.0f}"
+            read = f"{per / reads[frame.shape]:.1f}"
             _progress(f"bench edge {name}: cachegrind, A53 caches")
             traffic[name] = dram_bytes_per_frame(projector, frame)
             dram = f"{traffic[name] / 1e6:.1f}"
         elif missing:
-            ins, fps, dram = "n/a (valgrind not installed)", "n/a", "n/a"
+            ins, read, fps, dram = "n/a (valgrind not installed)", "n/a", "n/a", "n/a"
         else:
-            ins, fps, dram = "not counted (--instructions counts them)", "n/a", "n/a"
-        lines.append(f"| {what} | {ms:.2f} | {ms / floor:.1f} | {ins} | {fps} | {dram} |")
+            ins, read, fps, dram = ("not counted (--instructions counts them)", "n/a", "n/a",
+                                    "n/a")
+        lines.append(f"| {what} | {ms:.2f} | {ms / floor:.1f} | {ins} | {read} | {fps} | {dram} |")
     lines += ["", "Instructions: `valgrind --tool=callgrind`, the difference between "
               f"{FRAMES_LONG} frames and {FRAMES_SHORT} frame divided by "
               f"{FRAMES_LONG - FRAMES_SHORT} (start-up cancels out). × floor: time over "
-              "`cv2.sumElems` of the same frame (reading it once), measured in the same run."]
+              "`cv2.sumElems` of the same frame (reading it once), measured in the same run; × "
+              "read: instructions over those of that read, counted the same way."]
     if traffic:
         lines += ["", "DRAM traffic: `valgrind --tool=cachegrind` with a Cortex-A53's caches (" +
                   ", ".join(A53_CACHES) + "), last-level misses × 64 B, the same difference "
@@ -407,7 +436,9 @@ def main(argv=None) -> int:
                   f"cache and DRAM (the frame: {frame.nbytes / 1e6:.2f} MB)", flush=True)
             continue
         per = instructions_per_frame(build(), frame)
-        print(f"{name}: {what}: {per / 1e6:.1f} M instructions/frame, "
+        read = instructions_per_frame(plain_read(), frame)
+        print(f"{name}: {what}: {per / 1e6:.1f} M instructions/frame "
+              f"({per / read:.1f}× a plain read of the frame, {read / 1e6:.2f} M), "
               f"~{EDGE_IPS / per:.0f} fps at 1 GHz (estimate)", flush=True)
     return 0
 

@@ -6,8 +6,9 @@ bound of the light that was never measured: the sun is a few samples and half th
 :class:`ClippedLight` computes both for an :class:`~.engine.SH9Projector` at little cost:
 
 * equirect: a SIMD compare of each band of rows while the engine's band loop has it in
-  cache, then per-row counts against the row's L00 weight (the weights are separable);
-  nothing more when nothing clips;
+  cache (or the equirect kernel's per-row counts, :mod:`.equirect_pass`), then per-row
+  counts against the row's L00 weight (the weights are separable); nothing more when
+  nothing clips;
 * dense weights (fisheye, dual fisheye, cubemap): the mask against a per-pixel map of L00
   weights (with downsampling, each block's weight shared by its pixels), on the rows that
   clip only.
@@ -64,6 +65,18 @@ class ClippedLight:
             clip["l00"] += sum(float(value[c] * (rows @ cv2.reduce(
                 planes[c], 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).reshape(hb)))
                 for c in range(3)) / 255.0
+
+    def counted(self, counts: np.ndarray, frame: np.ndarray, lut: np.ndarray,
+                stats: dict) -> float:
+        """Equirect: ``stats["clipped_fraction"]`` from ``counts`` (H, 3), the samples at the
+        top code per row and channel (counted by the equirect kernel on its way), and the
+        clipped L00 summed over the channels, as :meth:`band` gives it."""
+        clip = self.start(frame, lut)
+        stats["clipped_fraction"] = int(counts.sum()) / frame.size
+        if not stats["clipped_fraction"]:
+            return 0.0
+        per_row = counts @ np.broadcast_to(clip["value"], (3,))
+        return float(self._l00 @ per_row)
 
     def _dense(self, mask: np.ndarray, clip: dict) -> float:
         h, w = mask.shape[:2]
@@ -123,6 +136,13 @@ class ClipCount(Sink):
         if self.tally is not None:
             self.clipped.band(raw, r0, self.tally)
             self.rows += raw.shape[0]
+
+    def counted(self, counts: np.ndarray, stats: dict) -> None:
+        """A fused pass's tally instead of the bands (the equirect kernel's samples at the
+        top code, (H, 3) per row and channel): the result, and nothing left for
+        :meth:`finish`."""
+        self.l00 = self.clipped.counted(counts, self.frame, self.table, stats)
+        self.frame = self.table = None
 
     def finish(self, stats):
         frame, self.frame = self.frame, None

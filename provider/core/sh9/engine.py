@@ -29,7 +29,7 @@ import numpy as np
 from ..geometry import sh
 from .clipping import ClipCount, ClippedLight
 from .error_estimate import ErrorEstimator
-from . import lens_fold as _lens_fold
+from . import equirect_pass, lens_fold as _lens_fold
 from .lens_fold import centred_on_grid
 from .tables import pixel_tables
 from .result import SH9Result
@@ -216,8 +216,12 @@ class SH9Projector(FrameDecoder):
             p = self.projection
             return [BlockMeans(self.downsample, self._block, (p.width, p.height),
                                getattr(self, "_block_spans", None), self._spans)]
+        bands = LutBands(self._spans)
         fused = [FoldDecode(self._fold)] if self._fold is not None else []
-        return fused + [LutBands(self._spans), FloatBands()]
+        if (self._fold is None and self._weights is None and self._up_dense is None
+                and equirect_pass.KERNEL):
+            fused.append(equirect_pass.EquirectRows(self._rows, bands))
+        return fused + [bands, FloatBands()]
 
     def _sinks(self, frame: np.ndarray, lut, work, small: bool) -> "SH9Sinks":
         """The sinks of the products ``frame`` feeds, in the order they are fed: the SH9
@@ -516,7 +520,7 @@ class SH9Sums(Sink):
             return acc.T[:9].astype(np.float64) * self.scale
         w = p.projection.width
         rowsum = acc[:6].reshape(6, w, 3).astype(np.float64)
-        partial = np.einsum("rwc,kw->rkc", rowsum, p._cols)  # (6 row fns, 6 col fns, 3)
+        partial = np.matmul(p._cols, rowsum)   # (6 row fns, 6 col fns, 3): BLAS, not einsum
         out = np.zeros((9, 3))
         with np.errstate(over="ignore", invalid="ignore"):     # as in band
             for k, const, ri, ci in Equirect.SEPARABLE_TERMS:

@@ -3,7 +3,7 @@ rounding) or the same error.
 
 Random shapes, strides (negative ones, pixels that are not contiguous), block factors
 (larger than the frame too), spans, lens geometries (squares reaching past the frame),
-tables, extents and parities, some of them wrong on purpose: for every draw either both
+tables, extents and parities, equirect row weights, some of them wrong on purpose: for every draw either both
 refuse it with the same exception and message, or both write the same arrays. The arrays'
 values come from a drawn seed (numpy fills them), so that hypothesis draws the structure."""
 from __future__ import annotations
@@ -17,10 +17,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from provider.core.radiometry import blocks
-from provider.core.sh9 import fold_twin, lens_fold
+from provider.core.sh9 import equirect_pass, fold_twin, lens_fold
 
 pytestmark = pytest.mark.skipif(
-    not (blocks.KERNEL and lens_fold.KERNEL),
+    not (blocks.KERNEL and lens_fold.KERNEL and equirect_pass.KERNEL),
     reason="the C kernels were not built (tests/core/kernels/test_kernels.py says how)")
 
 # No deadline: a loaded 2-core machine may take a while for one draw; what is checked is
@@ -33,18 +33,19 @@ SOURCES = Path(__file__).resolve().parents[3] / "provider" / "core"
 
 @pytest.fixture(scope="module")
 def c_kernels(tmp_path_factory):
-    """build -> (decode_blocks, fold_lens) in C: "vector", as installed (GCC's vector
-    extension), and "scalar", compiled here with SHLIGHT_SCALAR_KERNELS (the portable loops
-    a compiler without the extension, MSVC, takes)."""
+    """build -> (decode_blocks, fold_lens, equirect_rows) in C: "vector", as installed
+    (GCC's vector extension), and "scalar", compiled here with SHLIGHT_SCALAR_KERNELS (the
+    portable loops a compiler without the extension, MSVC, takes)."""
     from setuptools import Distribution, Extension
     from setuptools.command.build_ext import build_ext
 
     from provider.core.radiometry import _blocks
-    from provider.core.sh9 import _fold
+    from provider.core.sh9 import _equirect, _fold
     out = tmp_path_factory.mktemp("scalar_kernels")
     exts = [Extension(name, [str(SOURCES / source)], include_dirs=[str(SOURCES / "_kernels")],
                       define_macros=[("SHLIGHT_SCALAR_KERNELS", "1")])
-            for name, source in (("_blocks", "radiometry/_blocks.c"), ("_fold", "sh9/_fold.c"))]
+            for name, source in (("_blocks", "radiometry/_blocks.c"), ("_fold", "sh9/_fold.c"),
+                                 ("_equirect", "sh9/_equirect.c"))]
     cmd = build_ext(Distribution({"ext_modules": exts}))
     cmd.build_lib, cmd.build_temp = str(out), str(out / "tmp")
     cmd.ensure_finalized()
@@ -55,8 +56,9 @@ def c_kernels(tmp_path_factory):
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
         scalar[ext.name] = module
-    return {"vector": (_blocks.decode_blocks, _fold.fold_lens),
-            "scalar": (scalar["_blocks"].decode_blocks, scalar["_fold"].fold_lens)}
+    return {"vector": (_blocks.decode_blocks, _fold.fold_lens, _equirect.equirect_rows),
+            "scalar": (scalar["_blocks"].decode_blocks, scalar["_fold"].fold_lens,
+                       scalar["_equirect"].equirect_rows)}
 
 
 def _copy(a):
@@ -262,3 +264,69 @@ def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
         held = 0.0 if clear else np.abs(start_mid).max(initial=0)
         tol = (f * f + 2) * EPS32 * (held + f * f * values) * 2
         np.testing.assert_allclose(mid, want_mid, rtol=0, atol=tol + 1e-30)
+
+
+EQUIRECT_FAULTS = ["odd width", "float frame", "4 channels", "pixels not contiguous",
+                   "short table", "float64 table", "5 row functions", "rows a row long",
+                   "acc a column wrong", "acc rows strided", "counts a row short"]
+
+
+@st.composite
+def equirect_calls(draw):
+    """equirect_rows's arguments (frame, table, rows, acc, counts): half of them right,
+    half with one fault; odd heights (a middle row) and empty frames among them."""
+    fault = draw(st.sampled_from(EQUIRECT_FAULTS)) if draw(st.booleans()) else None
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    H, W = draw(st.integers(0, 13)), 2 * draw(st.integers(0, 11)) + (fault == "odd width")
+    C = 4 if fault == "4 channels" else 3
+    row_step = draw(st.sampled_from([1, -1, 2, -2]))
+    col_step = draw(st.sampled_from([-1, 2])) if fault == "pixels not contiguous" else 1
+    shape = (H * abs(row_step), W * abs(col_step), C)
+    base = rng.integers(0, 256, shape, dtype=np.uint8)
+    base[rng.random(shape) < 0.1] = 255                        # clipped samples to count
+    if fault == "float frame":
+        base = base.astype(np.float32)
+    frame = _strided(base, row_step, col_step, False)
+    entries = 100 if fault == "short table" else draw(st.sampled_from([256, 768]))
+    table = (rng.standard_normal(entries) * 2).astype(
+        np.float64 if fault == "float64 table" else np.float32)
+    K = 5 if fault == "5 row functions" else draw(st.sampled_from([6, 7]))
+    rows = rng.standard_normal((K, H + (fault == "rows a row long"))).astype(np.float32)
+    n = 3 * W + ((-1 if W else 1) if fault == "acc a column wrong" else 0)
+    acc = rng.standard_normal((K, n)).astype(np.float32)
+    if fault == "acc rows strided":                              # a window of a wider one
+        acc = np.zeros((K, n + 1), np.float32)[:, :n]
+    counts = None
+    if draw(st.booleans()) or fault == "counts a row short":
+        counts = np.full((max(H - (fault == "counts a row short"), 0), 3), -1, np.int32)
+    return frame, table, rows, acc, counts
+
+
+@pytest.mark.parametrize("build", ["vector", "scalar"])
+@SETTINGS
+@given(call=equirect_calls())
+def test_equirect_rows_and_its_twin_agree(c_kernels, build, call):
+    both = _same(c_kernels[build][2], equirect_pass._equirect_rows_py, call, (3, 4))
+    if both is None:
+        return
+    (acc, counts), (want_acc, want_counts) = both
+    frame, table, rows, start, _ = call
+    if counts is not None:
+        np.testing.assert_array_equal(counts, want_counts)
+    # The second half of each row of acc is not touched.
+    half = acc.shape[1] // 2
+    np.testing.assert_array_equal(acc[:, half:], start[:, half:])
+    # The C folds four samples (two adds), multiplies once and adds a column's row pairs in
+    # float32, the twin in float64: they differ by at most (pairs + 4)·2⁻²⁴ of the sum of
+    # the products' magnitudes and the value acc held (H + 8 covers it).
+    H = rows.shape[1]
+    lin = np.abs(table.astype(np.float64)[np.asarray(frame, np.intp)]) if table.size == 256 \
+        else np.abs(table.astype(np.float64).reshape(256, 3)[np.asarray(frame, np.intp),
+                                                            np.arange(3)])
+    lin = lin.reshape(H, 2 * half)
+    folded = lin[:, :half] + lin[:, half:]
+    weights = np.abs(rows.astype(np.float64))
+    pairs = H // 2
+    weights[:6, H - pairs:] = weights[:6, :pairs][:, ::-1]   # the mirrored rows' weights
+    bound = (H + 8) * EPS32 * (weights @ folded + np.abs(start[:, :half]))
+    assert np.all(np.abs(acc[:, :half] - want_acc[:, :half]) <= bound + 1e-30)

@@ -17,8 +17,8 @@ BUILD_HINT = ("the C kernels were not built: install a C compiler and Python's h
 
 
 def test_kernels_are_built():
-    from provider.core.sh9 import lens_fold
-    assert blocks.KERNEL and lens_fold.KERNEL, BUILD_HINT
+    from provider.core.sh9 import equirect_pass, lens_fold
+    assert blocks.KERNEL and lens_fold.KERNEL and equirect_pass.KERNEL, BUILD_HINT
 
 
 def _tables():
