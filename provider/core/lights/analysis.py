@@ -227,7 +227,7 @@ def measure(directions, excess, omega, footprint2, part=None, count: int = 1):
     first = P @ np.column_stack([w, w[:, None] * dirs])               # (count, 4)
     total, v = first[:, 0], first[:, 1:]
     d = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
-    cos = np.clip(np.einsum("ij,ij->i", dirs, d[part]), -1.0, 1.0)
+    cos = np.clip(np.einsum("ij,ij->i", dirs, np.take(d, part, axis=0)), -1.0, 1.0)
     ang = np.arccos(cos)
     ang2 = ang * ang
     exom = ex * om[:, None]

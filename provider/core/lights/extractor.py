@@ -58,6 +58,7 @@ import cv2
 import numpy as np
 
 from ..framepass.sinks import Sink
+from .caps import excess_irradiance, touching_pairs
 from ..geometry import sh
 from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
                        chain_count, elongation, measure, model_irradiance)
@@ -135,7 +136,7 @@ class LightExtractor:
         self._pixel_angle = float(np.sqrt(omega.max()))              # largest pixel, rad
         self._touch_cos = math.cos(1.6 * self._pixel_angle)
         self._seam = self._seam_pixels(dirs.reshape(h, w, 3), omega.reshape(h, w) > 0)
-        self._seam_pairs = self._touching_pairs(self._seam)
+        self._seam_pairs = touching_pairs(dirs, self._seam, self._touch_cos)   # once
         py, px = np.mgrid[0:h, 0:w] + 0.5
         self._footprint2 = pixel_footprint2(self.mid, px, py).reshape(-1)   # (P,) rad²
 
@@ -193,24 +194,6 @@ class LightExtractor:
                 seam[yd, xd] |= ~nb_valid | (cosang < far)
         return np.flatnonzero(seam & valid)
 
-    def _touching_pairs(self, seam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(a, b): flat indices of the seam pixels' pairs (a before b in ``seam``) whose
-        directions are within ``1.6 ×`` the largest pixel's angle: where two regions may
-        touch across a seam. Pixel-independent, so found once (a frame then only compares
-        the labels of a few thousand pairs); in blocks of rows, so the build's peak stays
-        small."""
-        sd = self._dirs[seam]
-        a, b = [], []
-        for r0 in range(0, len(seam), 256):
-            close = (sd[r0:r0 + 256] @ sd.T) >= self._touch_cos
-            ii, jj = np.nonzero(close)
-            upper = jj > ii + r0
-            a.append(seam[ii[upper] + r0])
-            b.append(seam[jj[upper]])
-        if not a:
-            return np.zeros(0, np.intp), np.zeros(0, np.intp)
-        return np.concatenate(a), np.concatenate(b)
-
     def _prefill(self):
         """What a fisheye's fill model (the unseen cap) adds to brute-force irradiance."""
         self._fill = None
@@ -245,40 +228,15 @@ class LightExtractor:
 
     def _excess_irradiance(self, pix, excess, region) -> np.ndarray:
         """(N, 3) brute-force irradiance at the normals of ``excess`` (n, 3) float32 radiance
-        on the mid pixels ``pix``, grouped in ``region`` s (their level-0 groups):
-        ``Σ_i max(0, n·d_i) ω_i e_i`` per normal.
-
-        Without the (N × n) kernel where the sum is linear: a normal more than 90° + ρ from
-        a region's centre (ρ: its pixels' largest angle from it) sees none of it, one less
-        than 90° − ρ sees all of it, ``n · Σ_i d_i ω_i e_i`` (the region's 3 × 3 moment).
-        Only the normals whose horizon cuts a region take the per-pixel sum (about half of
-        them for the lit Theta room's 25° panels, a fifth for a 10° lamp): the whole kernel
-        was 17 M of the frame's 38 M instructions of lights (callgrind)."""
+        on the mid pixels ``pix`` in ``region`` s (their level-0 groups), by caps
+        (:func:`~provider.core.lights.caps.excess_irradiance`: the full kernel was 17 M
+        of the lit Theta room's 38 M instructions of lights a frame, callgrind)."""
+        omega = np.take(self._omega32.reshape(-1), pix)
         if self._fill is not None:          # the fill's mirror term is no cap: the kernel
-            return self._brute_kernel(self._dirs32[pix], self._omega32.reshape(-1)[pix],
+            return self._brute_kernel(self._dirs32[pix], omega,
                                       self._normals32).astype(np.float64) @ excess
-        flux = excess * self._omega32.reshape(-1)[pix][:, None]            # (n, 3) float32
-        out = np.zeros((len(self.normals), 3))
-        order = np.argsort(region, kind="stable")
-        cuts = np.flatnonzero(np.diff(region[order])) + 1
-        for sel in np.split(order, cuts):
-            p, f = pix[sel], flux[sel]
-            d = self._dirs[p]
-            centre = d.sum(axis=0)
-            centre /= max(float(np.linalg.norm(centre)), 1e-300)
-            cos_rho = float((d @ centre).min())
-            margin = (math.sqrt(max(0.0, 1.0 - cos_rho * cos_rho)) if cos_rho > 0 else 2.0
-                      ) + 1e-6                  # float32 directions below: their rounding
-            nc = self.normals @ centre
-            whole = nc > margin
-            out[whole] += self.normals[whole] @ (d.T @ f.astype(np.float64))
-            cut = np.flatnonzero(np.abs(nc) <= margin)
-            if len(cut):
-                K = self._normals32[cut] @ self._dirs32[p].T                  # (k, n)
-                # cv2's threshold: numpy's maximum against a scalar is 4× slower here
-                cv2.threshold(K, 0.0, 0.0, cv2.THRESH_TOZERO, dst=K)
-                out[cut] += K @ f
-        return out
+        return excess_irradiance(self.normals, self._normals32, self._dirs, self._dirs32,
+                                 excess * omega[:, None], pix, region)
 
     def _residual(self, d: np.ndarray) -> np.ndarray:
         """g(n) = max(0, n·d) − SH9 irradiance of a unit directional light d, at the normals:
@@ -371,7 +329,8 @@ class LightExtractor:
             # Everything below works on the pixels above the lowest level only (a few %).
             flat = small.reshape(-1, 3)
             Y0 = Yf[idx0].astype(np.float64)
-            L0 = flat[idx0].astype(np.float64)
+            # np.take: a row gather at a tenth of fancy indexing's instructions
+            L0 = np.take(flat, idx0, axis=0).astype(np.float64)
             top = float(Y0.max())
             for level, t in enumerate(self.thresholds):
                 if top <= t * mu:
@@ -390,10 +349,11 @@ class LightExtractor:
                 inside[c.local] = True
             ul = np.flatnonzero(inside)
             union = idx0[ul]
-            exc = (L0[ul] * (1.0 - self.thresholds[0] * mu / Y0[ul])[:, None]).astype(
-                np.float32)
+            exc = (np.take(L0, ul, axis=0) * (1.0 - self.thresholds[0] * mu / Y0[ul])[:, None]
+                   ).astype(np.float32)
             rest = flat.copy()
-            rest[union] -= exc
+            at = (union[:, None] * 3 + np.arange(3)).reshape(-1)     # flat, as above
+            rest.reshape(-1)[at] -= exc.reshape(-1)
             rest = rest.reshape(h, w, 3)
             extra = self._excess_irradiance(union, exc, groups[0][ul])
         if self.coarse_factor > 1:
@@ -445,7 +405,7 @@ class LightExtractor:
         g = glocal[loc]
         pix_all = idx0[loc]
         keep = 1.0 - level_value / Y0[loc]                        # excess fraction
-        ex = L0[loc] * keep[:, None]                              # (m, 3) excess radiance
+        ex = np.take(L0, loc, axis=0) * keep[:, None]             # (m, 3) excess radiance
         om = self._omega[pix_all]
         wgt = (ex @ LUMA) * om                                    # excess luminance flux
         fluxY = np.bincount(g, wgt, minlength=n)
@@ -455,8 +415,8 @@ class LightExtractor:
         out = []
         for k in order:
             sel = np.flatnonzero(g == k)
-            pix, exm = pix_all[sel], ex[sel]
-            dk = self._dirs[pix]
+            pix, exm = pix_all[sel], np.take(ex, sel, axis=0)
+            dk = np.take(self._dirs, pix, axis=0)
             (whole,), ang = measure(dk, exm, om[sel], self._footprint2[pix])
             out.append(Candidate(whole.direction, whole.flux, whole.irradiance,
                                  whole.spread_deg, math.degrees(float(ang.max())), level, k,
