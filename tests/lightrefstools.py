@@ -78,6 +78,10 @@ def cases():
         "equirect-sun": (equirect(1024, 512), [sun_sky()]),
         "equirect-flat": (equirect(512, 256), [np.ones((256, 512, 3), np.float32)]),
     }
+    pi = np.full((480, 640, 3), 0.3, np.float32)        # a Pi camera's fisheye (ground fill)
+    pi[200:215, 300:315] = 400.0                           # a lamp
+    pi[100:104, 100:140] = 150.0                           # a tube
+    out["fisheye-pi-lamps"] = (lambda: SH9Projector(640, 480, "fisheye", lights="auto"), [pi])
     for name in ("sky", "lab", "apartment", "bridge", "city", "night"):
         out[f"equirect-{name}"] = (equirect(512, 256), [_hdri(name)])
     return out

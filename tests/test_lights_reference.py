@@ -1,7 +1,8 @@
 """The lights a frame yields stay what they were when the per-frame path was made cheaper
 (tests/data/lights_reference.npz, recorded by tests/lightrefstools.py before that work):
 the lit Theta room through a tracker, bundled panoramas through equirect and through the
-Theta fold (float and 8-bit), a sun 10⁴ × its sky, and frames with no light."""
+Theta fold (float and 8-bit), a sun 10⁴ × its sky, a Pi camera's fisheye with its ground fill,
+and frames with no light."""
 import numpy as np
 import pytest
 
