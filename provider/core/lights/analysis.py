@@ -220,6 +220,18 @@ def measure(directions, excess, omega, footprint2, part=None, count: int = 1):
     dirs = np.asarray(directions, np.float64)
     ex, om = np.asarray(excess, np.float64), np.asarray(omega, np.float64)
     w = (ex @ LUMA) * om                                              # excess luminance flux
+    if part is None:           # one part (every candidate, every frame): plain sums
+        v = w @ dirs
+        d = (v / max(float(np.linalg.norm(v)), 1e-300))[None]
+        cos = np.clip(dirs @ d[0], -1.0, 1.0)
+        ang = np.arccos(cos)
+        ang2 = ang * ang
+        exom = ex * om[:, None]
+        wa = w * ang2
+        total = np.array([w.sum()])
+        sums = np.concatenate([cos @ exom, exom.sum(axis=0),
+                               [wa.sum(), wa.sum() - w @ np.asarray(footprint2, np.float64)]])
+        return _segments(d, total, sums[None]), ang
     # Per-part sums as products with the (count, n) membership matrix (a few parts).
     P = (np.ones((1, len(w))) if part is None
          else (np.arange(count)[:, None] == np.asarray(part)[None, :]).astype(np.float64))
@@ -227,17 +239,21 @@ def measure(directions, excess, omega, footprint2, part=None, count: int = 1):
     first = P @ np.column_stack([w, w[:, None] * dirs])               # (count, 4)
     total, v = first[:, 0], first[:, 1:]
     d = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
-    cos = np.clip(np.einsum("ij,ij->i", dirs, d[part]), -1.0, 1.0)
+    cos = np.clip(np.einsum("ij,ij->i", dirs, np.take(d, part, axis=0)), -1.0, 1.0)
     ang = np.arccos(cos)
     ang2 = ang * ang
     exom = ex * om[:, None]
     sums = P @ np.column_stack([exom * cos[:, None], exom, w * ang2,
                                 w * (ang2 - np.asarray(footprint2, np.float64))])  # (count, 8)
-    segments = [Segment(d[s], np.maximum(sums[s, 0:3], 0.0), sums[s, 3:6],
-                        math.degrees(math.sqrt(sums[s, 6] / total[s])),
-                        _disc_radius_deg(sums[s, 7], total[s]))
-                for s in range(len(total)) if total[s] > 0]
-    return segments, ang
+    return _segments(d, total, sums), ang
+
+
+def _segments(d, total, sums) -> list:
+    """:func:`measure`'s segments from each part's direction, flux and sums (count, 8)."""
+    return [Segment(d[s], np.maximum(sums[s, 0:3], 0.0), sums[s, 3:6],
+                    math.degrees(math.sqrt(sums[s, 6] / total[s])),
+                    _disc_radius_deg(sums[s, 7], total[s]))
+            for s in range(len(total)) if total[s] > 0]
 
 
 #: A region whose flux-weighted RMS extent along its major axis is at least this many times

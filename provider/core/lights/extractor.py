@@ -58,6 +58,7 @@ import cv2
 import numpy as np
 
 from ..framepass.sinks import Sink
+from .caps import excess_irradiance, touching_pairs
 from ..geometry import sh
 from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
                        chain_count, elongation, measure, model_irradiance)
@@ -135,6 +136,7 @@ class LightExtractor:
         self._pixel_angle = float(np.sqrt(omega.max()))              # largest pixel, rad
         self._touch_cos = math.cos(1.6 * self._pixel_angle)
         self._seam = self._seam_pixels(dirs.reshape(h, w, 3), omega.reshape(h, w) > 0)
+        self._seam_pairs = touching_pairs(dirs, self._seam, self._touch_cos)   # once
         py, px = np.mgrid[0:h, 0:w] + 0.5
         self._footprint2 = pixel_footprint2(self.mid, px, py).reshape(-1)   # (P,) rad²
 
@@ -223,6 +225,18 @@ class LightExtractor:
                 refl = dirs - 2 * cos_axis[:, None] * axis
                 K = K + albedo * np.maximum(normals @ refl.T, 0.0) * (omega * into)
         return K
+
+    def _excess_irradiance(self, pix, excess, region) -> np.ndarray:
+        """(N, 3) brute-force irradiance at the normals of ``excess`` (n, 3) float32 radiance
+        on the mid pixels ``pix`` in ``region`` s (their level-0 groups), by caps
+        (:func:`~provider.core.lights.caps.excess_irradiance`: the full kernel was 17 M
+        of the lit Theta room's 38 M instructions of lights a frame, callgrind)."""
+        omega = np.take(self._omega32.reshape(-1), pix)
+        if self._fill is not None:          # the fill's mirror term is no cap: the kernel
+            return self._brute_kernel(self._dirs32[pix], omega,
+                                      self._normals32).astype(np.float64) @ excess
+        return excess_irradiance(self.normals, self._normals32, self._dirs, self._dirs32,
+                                 excess * omega[:, None], pix, region)
 
     def _residual(self, d: np.ndarray) -> np.ndarray:
         """g(n) = max(0, n·d) − SH9 irradiance of a unit directional light d, at the normals:
@@ -315,7 +329,8 @@ class LightExtractor:
             # Everything below works on the pixels above the lowest level only (a few %).
             flat = small.reshape(-1, 3)
             Y0 = Yf[idx0].astype(np.float64)
-            L0 = flat[idx0].astype(np.float64)
+            # np.take: a row gather at a tenth of fancy indexing's instructions
+            L0 = np.take(flat, idx0, axis=0).astype(np.float64)
             top = float(Y0.max())
             for level, t in enumerate(self.thresholds):
                 if top <= t * mu:
@@ -334,12 +349,13 @@ class LightExtractor:
                 inside[c.local] = True
             ul = np.flatnonzero(inside)
             union = idx0[ul]
-            exc = L0[ul] * (1.0 - self.thresholds[0] * mu / Y0[ul])[:, None]
+            exc = (np.take(L0, ul, axis=0) * (1.0 - self.thresholds[0] * mu / Y0[ul])[:, None]
+                   ).astype(np.float32)
             rest = flat.copy()
-            rest[union] -= exc.astype(np.float32)
+            at = (union[:, None] * 3 + np.arange(3)).reshape(-1)     # flat, as above
+            rest.reshape(-1)[at] -= exc.reshape(-1)
             rest = rest.reshape(h, w, 3)
-            extra = self._brute_kernel(self._dirs32[union], self._omega32.reshape(-1)[union],
-                                       self._normals32) @ exc.astype(np.float32)
+            extra = self._excess_irradiance(union, exc, groups[0][ul])
         if self.coarse_factor > 1:
             bw, bh = self._coarse_crop
             # Area means (halvings where the factor is a power of two: a third of the
@@ -361,17 +377,15 @@ class LightExtractor:
         candidates and the group id (0: none) of each of those pixels at this level."""
         if n <= 1:
             return [], np.zeros(idx0.size, np.int32)
-        # Merge components that touch across a seam (union-find on seam pixels).
+        # Merge components that touch across a seam (union-find on the seam's pairs of
+        # touching pixels, found once: _touching_pairs).
         root = np.arange(n)
-        s = self._seam
-        sl = labels[s]
-        on = sl > 0
-        if np.count_nonzero(on) > 1 and len(np.unique(sl[on])) > 1:
-            sp, sl = s[on], sl[on]
-            close = (self._dirs[sp] @ self._dirs[sp].T) >= self._touch_cos
-            ii, jj = np.nonzero(np.triu(close, 1) & (sl[:, None] != sl[None, :]))
-            if len(ii):
-                lo, hi = np.minimum(sl[ii], sl[jj]), np.maximum(sl[ii], sl[jj])
+        if len(self._seam_pairs[0]):
+            la, lb = labels[self._seam_pairs[0]], labels[self._seam_pairs[1]]
+            differ = np.flatnonzero((la != lb) & (la > 0) & (lb > 0))
+            if len(differ):
+                la, lb = la[differ], lb[differ]
+                lo, hi = np.minimum(la, lb), np.maximum(la, lb)
                 code = np.unique(lo.astype(np.int64) * n + hi)
                 pairs = np.stack([code // n, code % n], 1)
 
@@ -391,7 +405,7 @@ class LightExtractor:
         g = glocal[loc]
         pix_all = idx0[loc]
         keep = 1.0 - level_value / Y0[loc]                        # excess fraction
-        ex = L0[loc] * keep[:, None]                              # (m, 3) excess radiance
+        ex = np.take(L0, loc, axis=0) * keep[:, None]             # (m, 3) excess radiance
         om = self._omega[pix_all]
         wgt = (ex @ LUMA) * om                                    # excess luminance flux
         fluxY = np.bincount(g, wgt, minlength=n)
@@ -401,8 +415,8 @@ class LightExtractor:
         out = []
         for k in order:
             sel = np.flatnonzero(g == k)
-            pix, exm = pix_all[sel], ex[sel]
-            dk = self._dirs[pix]
+            pix, exm = pix_all[sel], np.take(ex, sel, axis=0)
+            dk = np.take(self._dirs, pix, axis=0)
             (whole,), ang = measure(dk, exm, om[sel], self._footprint2[pix])
             out.append(Candidate(whole.direction, whole.flux, whole.irradiance,
                                  whole.spread_deg, math.degrees(float(ang.max())), level, k,
