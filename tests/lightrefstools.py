@@ -1,4 +1,4 @@
-"""The lights' reference outputs (tests/test_lights_reference.py): what the lights of a spread
+"""The lights' reference outputs (tests/core/lights/test_lights_reference.py): what the lights of a spread
 of frames were before the per-frame path was made cheaper, so that a faster path is held to
 finding the same lights.
 
