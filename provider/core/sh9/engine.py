@@ -520,9 +520,9 @@ class SH9Sums(Sink):
             return acc.T[:9].astype(np.float64) * self.scale
         w = p.projection.width
         rowsum = acc[:6].reshape(6, w, 3).astype(np.float64)
-        partial = np.matmul(p._cols, rowsum)   # (6 row fns, 6 col fns, 3): BLAS, not einsum
         out = np.zeros((9, 3))
         with np.errstate(over="ignore", invalid="ignore"):     # as in band
+            partial = np.matmul(p._cols, rowsum)   # (6 row fns, 6 col fns, 3): BLAS
             for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
                 out[k] += const * partial[ri, ci]
         return out * self.scale
