@@ -37,6 +37,9 @@ def test_the_section_and_the_command_report_the_traffic(tmp_path, monkeypatch, c
     small = {"pi": ("Pi camera 160×120 fisheye, SH9 exact",
                     lambda: SH9Projector(160, 120, "fisheye"), edge.edge_frame(160, 120))}
     monkeypatch.setattr(edge, "edge_workloads", lambda: small)
+    # the page's start-up section counts whole Theta S start-ups (minutes under callgrind):
+    # tests/bench/test_edge_startup.py holds it
+    monkeypatch.setattr(edge, "_startup_and_boards", lambda counted, memory: [])
     edge.bench_edge(None, tmp_path, Namespace(quick=True, instructions=True))
     text = (tmp_path / "fisheye_edge.md").read_text()
     assert "DRAM MB/frame (A53 caches)" in text and "--LL=524288,16,64" in text
