@@ -42,7 +42,10 @@ if [ ! -d tests/node/node_modules/three ] || [ ! -d tests/node/node_modules/ktx-
         echo "WARNING: npm missing (apt-get install npm): the three.js tests will be skipped"
     fi
 fi
-# One pytest-xdist worker a core (PYTEST_XDIST_AUTO_NUM_WORKERS=N for another count; -n 0 after
-# the script's name: one process), each test handed to the worker that is free ("worksteal":
-# the tests' lengths differ a thousandfold). The benches (pytest -m bench) are not in it.
-exec .venv/bin/python -m pytest -n auto --dist worksteal "$@"
+# pytest-xdist: one worker a core and one more, since many tests wait on servers, browsers and
+# Mono processes of their own (2 quiet cores: 10 min 33 s with two workers, 9 min 41 s with
+# three, 2026-11-29); -n N after the script's name for another count, -n 0 for one process.
+# Each test goes to the worker that is free ("worksteal": the tests' lengths differ a
+# thousandfold). The benches (pytest -m bench) are not in it.
+workers=$(( $(nproc 2>/dev/null || echo 1) + 1 ))
+exec .venv/bin/python -m pytest -n "$workers" --dist worksteal "$@"
