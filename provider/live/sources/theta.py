@@ -161,9 +161,11 @@ class ThetaSource(Source):
         return self.exposure.read()
 
     # -- the camera's settings and state (issue 32) ------------------------------------------
-    def _apply_settings(self, why: str = "") -> None:
+    def _apply_settings(self, why: str = "", lost: bool = False) -> None:
         """``camera.setOptions`` with the settings asked for (before the preview starts, so
-        that previewFormat holds); says in the log whether this is a re-application."""
+        that previewFormat holds); says in the log whether this is a re-application.
+        ``lost``: the check found them lost; counted in the same update as the reason, so
+        that /healthz (read from another thread) never shows the count without its why."""
         if not self.settings:
             return
         try:
@@ -173,16 +175,22 @@ class ThetaSource(Source):
                 raise                   # the API itself (e.g. 2.0 wants a session): not here
             log.warning("%s: the Theta refused its settings %s (%s): left as they are",
                         self.base, self._shown(), exc)
-            self.status["settings_error"] = str(exc)
+            update = {"settings_error": str(exc)}
+            if lost:
+                update["settings_lost"] = self.status.get("settings_lost", 0) + 1
+            self.status.update(update)
             return
         with _APPLIED_LOCK:
             n = _APPLIED[self.base] = _APPLIED.get(self.base, 0) + 1
         why = why or ("after a reconnection (sleep, power cycle or Wi-Fi)" if n > 1 else "")
         log.info("%s: %s Theta settings %s%s", self.base, "re-applied" if n > 1 else "applied",
                  self._shown(), f" {why}" if why else "")
-        self.status.update(settings=dict(self.settings), settings_applied=n,
-                           settings_applied_at=round(time.time(), 3),
-                           settings_reason=why or "first connection")
+        update = dict(settings=dict(self.settings), settings_applied=n,
+                      settings_applied_at=round(time.time(), 3),
+                      settings_reason=why or "first connection")
+        if lost:
+            update["settings_lost"] = self.status.get("settings_lost", 0) + 1
+        self.status.update(update)   # one update: a reader sees all of it or none
         self.status.pop("settings_error", None)
 
     def _shown(self) -> str:
@@ -213,10 +221,9 @@ class ThetaSource(Source):
         now = (reply.get("results") or {}).get("options") or {}
         lost = {k: now.get(k) for k, v in self.settings.items() if now.get(k) != v}
         if lost:
-            self.status["settings_lost"] = self.status.get("settings_lost", 0) + 1
             self._apply_settings("after the camera lost them (" + ", ".join(
                 f"{k} was {json.dumps(v)}" for k, v in lost.items()) + "; it slept or was "
-                "power-cycled)")
+                "power-cycled)", lost=True)
 
     def _state(self) -> dict:
         req = urllib.request.Request(self.base + "/osc/state", data=b"", method="POST", headers={

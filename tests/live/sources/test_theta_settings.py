@@ -91,3 +91,44 @@ def test_theta_options_that_cannot_work_are_one_line(argv, line):
     res = run_cli("serve", "--port", "0", *argv)
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert res.stderr.strip().splitlines()[-1].endswith(line), res.stderr
+
+
+def test_healthz_never_shows_a_loss_without_its_reason():
+    """/healthz reads the Theta's status from the HTTP thread while the capture thread sets
+    the settings again: every snapshot that counts a loss carries that loss's reason (the
+    count and the reason are one update). CI once read the count before the reason."""
+    import sys
+    import threading
+
+    from provider.live.sources import SourceOptions, parse_source
+
+    theta = FakeOscCamera(load_hdri("apartment"))
+    source = parse_source(theta.spec, SourceOptions(
+        theta_settings=(("whiteBalance", "daylight"),))).make()
+    seen, done = [], threading.Event()
+
+    def snapshots():
+        while not done.is_set():
+            seen.append(source.health())
+
+    switch = sys.getswitchinterval()
+    try:
+        source.open()
+        sys.setswitchinterval(1e-6)    # hand the GIL over as often as CPython allows
+        reader = threading.Thread(target=snapshots)
+        reader.start()
+        for _ in range(40):
+            theta.forget()
+            source._check()
+        done.set()
+        reader.join()
+    finally:
+        sys.setswitchinterval(switch)
+        done.set()
+        source.close()
+        theta.close()
+    assert source.health()["settings_lost"] == 40
+    lost = [s for s in seen if s.get("settings_lost")]
+    assert lost, "the reader never ran while the settings were set again"
+    assert all("after the camera lost them" in s["settings_reason"] for s in lost), [
+        s["settings_reason"] for s in lost if "lost them" not in s["settings_reason"]][:3]
