@@ -145,13 +145,29 @@ class LightExtractor:
         self.coarse_factor = fc
         self.coarse = self.mid if fc == 1 else self.mid.scaled(fc)
         self._coarse_crop = self.mid.scaled_source_size(fc)
+        # the coarse pixels are whole blocks of fc × fc mid pixels (else INTER_AREA's
+        # fractional weights): the candidates' excess can then come off the coarse copy
+        self._coarse_blocks = fc > 1 and self._coarse_crop == (self.coarse.width * fc,
+                                                               self.coarse.height * fc)
         self.normals = sh.fibonacci_sphere(normals)                    # (N, 3)
         self._normals32 = self.normals.astype(np.float32)
         self._irr_basis = sh.sh_basis(self.normals) * sh.A_HAT_PER_COEFF  # (N, 9)
         self._prefill()
         cd = self.coarse.directions().reshape(-1, 3)
         co = self.coarse.solid_angle.reshape(-1)
-        self._kernel = self._brute_kernel(cd, co).astype(np.float32)   # (N, Pc)
+        # Only the coarse pixels that see something (a Theta's two circles: 68 % of its
+        # 80×45 grid) carry kernel columns: the kernel is read from DRAM every frame.
+        self._kernel_pixels = np.flatnonzero(co > 0)
+        kernel = self._brute_kernel(cd[self._kernel_pixels], co[self._kernel_pixels]
+                                    ).astype(np.float32)                 # (N, Pc seeing)
+        # Blocks of normals (zero rows pad the last) small enough that the three channels'
+        # products read each from a 512 KB cache, not DRAM: see _truth.
+        # (a multiple of 4 rows: BLAS's matrix-vector kernels take 4 rows at a time)
+        rows = min(len(kernel),
+                   max(4, self.TRUTH_BLOCK_BYTES // max(1, 4 * kernel.shape[1]) // 4 * 4))
+        blocks = -(-len(kernel) // rows)
+        self._kernel = np.zeros((blocks, rows, kernel.shape[1]), np.float32)
+        self._kernel.reshape(-1, kernel.shape[1])[:len(kernel)] = kernel
 
     # -- precomputation -------------------------------------------------------------------------
     #: Rows per band of the engine's integer path (SH9Projector.BAND_ROWS): a mid factor
@@ -245,14 +261,18 @@ class LightExtractor:
         return np.maximum(self.normals @ d.T, 0.0) - self._irr_basis @ sh.sh_basis(d).T
 
     # -- per frame ------------------------------------------------------------------------------
-    def reduce(self, frame: np.ndarray) -> np.ndarray:
+    def reduce(self, frame: np.ndarray, clean: bool = False) -> np.ndarray:
         """The mid copy (h, w, 3) float32 of a linear frame given at full or at mid size.
 
         Area averaging (cv2.INTER_AREA) of *linear* radiance keeps every source's flux and
         centroid, however small it is. Negatives (resampling ringing) are clamped to 0.
+        ``clean``: ``frame`` is a mid copy that holds no negative or non-finite sample (a
+        table's block means, :class:`DetectionCopy`): returned as it is.
         """
         f = frame if frame.dtype == np.float32 else frame.astype(np.float32)
         if f.shape[:2] == (self.mid.height, self.mid.width):
+            if clean:
+                return f
             small = f
         else:
             bw, bh = self._mid_crop
@@ -308,14 +328,16 @@ class LightExtractor:
             mid[r0 // f:r0 // f + h, a // f:b // f] = cv2.resize(
                 rows.reshape(h, b - a, 3), ((b - a) // f, h), interpolation=cv2.INTER_AREA)
 
-    def analyse(self, frame: np.ndarray, coefficients: np.ndarray) -> Analysis:
+    def analyse(self, frame: np.ndarray, coefficients: np.ndarray,
+                clean: bool = False) -> Analysis:
         """Candidates and truth of one frame.
 
         frame : (H, W, 3) linear float32 radiance at full size, or its mid copy
-            (``mid.height × mid.width``, see :meth:`reduce`).
+            (``mid.height × mid.width``, see :meth:`reduce`; ``clean``: a mid copy with no
+            negative or non-finite sample).
         coefficients : (9, 3) the exact SH9 of the full frame (what the engine serves).
         """
-        small = self.reduce(frame)
+        small = self.reduce(frame, clean)
         h, w = small.shape[:2]
         Y = cv2.transform(small, LUMA[None].astype(np.float32)).reshape(h, w)
         total = float(cv2.sumElems(cv2.multiply(Y, self._omega32))[0])
@@ -328,15 +350,21 @@ class LightExtractor:
         if idx0.size:
             # Everything below works on the pixels above the lowest level only (a few %).
             flat = small.reshape(-1, 3)
-            Y0 = Yf[idx0].astype(np.float64)
+            Y0_32 = Yf[idx0]
+            Y0 = Y0_32.astype(np.float64)
             # np.take: a row gather at a tenth of fancy indexing's instructions
             L0 = np.take(flat, idx0, axis=0).astype(np.float64)
             top = float(Y0.max())
+            mask = np.zeros((h, w), np.uint8)
             for level, t in enumerate(self.thresholds):
                 if top <= t * mu:
                     break                    # no pixel above this level (nor any higher)
-                mask = (Y > t * mu).astype(np.uint8)
-                n, labels = cv2.connectedComponents(mask, connectivity=8)
+                # Every pixel above a level is one of idx0: its mask is set from them, not
+                # from another pass over Y (the same float32 comparison); 16-bit labels
+                # (57,600 mid pixels hold fewer components). Each pass over the mid copy's
+                # planes goes to DRAM on a 512 KB cache (issue 44).
+                mask.reshape(-1)[idx0] = Y0_32 > t * mu
+                n, labels = cv2.connectedComponents(mask, connectivity=8, ltype=cv2.CV_16U)
                 found, group_local = self._level(idx0, Y0, L0, labels.reshape(-1), n, t * mu,
                                                  total, level)
                 candidates += found
@@ -351,25 +379,59 @@ class LightExtractor:
             union = idx0[ul]
             exc = (np.take(L0, ul, axis=0) * (1.0 - self.thresholds[0] * mu / Y0[ul])[:, None]
                    ).astype(np.float32)
-            rest = flat.copy()
-            at = (union[:, None] * 3 + np.arange(3)).reshape(-1)     # flat, as above
-            rest.reshape(-1)[at] -= exc.reshape(-1)
-            rest = rest.reshape(h, w, 3)
             extra = self._excess_irradiance(union, exc, groups[0][ul])
-        if self.coarse_factor > 1:
-            bw, bh = self._coarse_crop
-            # Area means (halvings where the factor is a power of two: a third of the
-            # instructions of INTER_AREA, issue 34).
-            rest = shrink(rest[:bh, :bw], (self.coarse.width, self.coarse.height))
-        # One matrix-vector product a channel: a product with the 3 interleaved channels
-        # packs the whole (normals × pixels) kernel every frame (3.4 M instructions against
-        # 0.8 M for a 256 × 3600 kernel, callgrind; issue 34).
-        rest = rest.reshape(-1, 3)
-        truth = np.stack([self._kernel @ np.ascontiguousarray(rest[:, c]) for c in range(3)],
-                         axis=1).astype(np.float64)
+            if self._coarse_blocks:
+                rest = self._coarse_rest(small, union, exc)
+            else:
+                rest = flat.copy()
+                at = (union[:, None] * 3 + np.arange(3)).reshape(-1)     # flat, as above
+                rest.reshape(-1)[at] -= exc.reshape(-1)
+                rest = rest.reshape(h, w, 3)
+        if self.coarse_factor > 1 and rest.shape[:2] == (h, w):     # still at mid size
+            rest = self._coarse_rest(rest)
+        truth = self._truth(np.take(rest.reshape(-1, 3), self._kernel_pixels, axis=0))
         if extra is not None:
             truth += extra
         return Analysis(self, coefficients, candidates, truth, groups, mu)
+
+    def _coarse_rest(self, small: np.ndarray, union=None, excess=None) -> np.ndarray:
+        """The coarse copy (area means) of the mid copy ``small`` less ``excess`` (n, 3)
+        float32 on the mid pixels ``union``: block means are linear, so the excess is
+        taken off the coarse blocks (its sums over each block / the block's area), not
+        off a copy of the whole mid frame (where the blocks are whole: ``_coarse_blocks``;
+        else the excess must already be off ``small``): one pass over the frame fewer, 1.4 MB of DRAM
+        traffic a Theta frame (issue 44); the same to float32 rounding."""
+        bw, bh = self._coarse_crop
+        # Area means (halvings where the factor is a power of two: a third of the
+        # instructions of INTER_AREA, issue 34).
+        rest = shrink(small[:bh, :bw], (self.coarse.width, self.coarse.height))
+        if union is None or not len(union):
+            return rest
+        fc, cw = self.coarse_factor, self.coarse.width
+        y, x = np.divmod(union, self.mid.width)
+        seen = (y < bh) & (x < bw)
+        cell = (y[seen] // fc) * cw + x[seen] // fc
+        drop = np.stack([np.bincount(cell, excess[seen, c], minlength=rest.shape[0] * cw)
+                         for c in range(3)], axis=1) * (1.0 / (fc * fc))
+        return rest - drop.astype(np.float32).reshape(rest.shape)
+
+    #: Kernel bytes a block of normals: three channels' products read the block from a
+    #: 512 KB cache, not DRAM (a Cortex-A53's last level; issue 44).
+    TRUTH_BLOCK_BYTES = 128 << 10
+
+    def _truth(self, rest: np.ndarray) -> np.ndarray:
+        """(N, 3) float64 irradiance at the normals of ``rest`` ((Pc seeing, 3) float32
+        radiance of the coarse pixels that see something): one matrix-vector product a
+        channel and block of normals (a product with the 3 interleaved channels packs the
+        whole kernel every frame: 3.4 M instructions against 0.8 M, callgrind; issue 34).
+        One stacked matmul runs them block by block, the three channels of a block one
+        after the other, so the kernel crosses the memory bus once a frame, not three
+        times (cachegrind: 11 → 2.7 MB a Theta frame; issue 44). Each normal's sum is the
+        same dot product whatever the blocks: the result does not depend on them."""
+        x = np.ascontiguousarray(rest.T)[None, :, :, None]            # (1, 3, Pc, 1)
+        out = np.matmul(self._kernel[:, None], x)                     # (B, 3, rows, 1)
+        n = len(self.normals)
+        return out[..., 0].transpose(1, 0, 2).reshape(3, -1)[:, :n].T.astype(np.float64)
 
     def _level(self, idx0, Y0, L0, labels, n, level_value, total, level):
         """Candidates of one threshold level. ``idx0`` are the flat indices of the pixels
@@ -483,7 +545,7 @@ class LightExtractor:
                             result.candidates)
 
     def extract(self, frame, coefficients, *, tracker=None, full=None,
-                process=None) -> LightsResult:
+                process=None, clean: bool = False) -> LightsResult:
         """The lights of one frame, as the engine serves them.
 
         frame : linear float32 radiance at full size or the mid copy (see :meth:`analyse`).
@@ -494,8 +556,10 @@ class LightExtractor:
             :meth:`refine` compact lights on, or None.
         process : a function applied to the ambient (9, 3), e.g. the engine's deringing and
             order truncation; ``light_error`` then measures the processed ambient.
+        clean : ``frame`` is a mid copy with no negative or non-finite sample (see
+            :meth:`analyse`).
         """
-        a = self.analyse(frame, coefficients)
+        a = self.analyse(frame, coefficients, clean)
         if tracker is None:
             a.rank()
             r = a.result(a.greedy())
@@ -549,6 +613,14 @@ class DetectionCopy(Sink):
     def __init__(self, extractor: LightExtractor):
         self.extractor, self.factor = extractor, extractor.mid_factor
         self.image = extractor.new_mid()
+        self.clean = False
+
+    def start(self, frame, table, stats):
+        # Block means of a table's values hold no negative or non-finite sample where the
+        # table holds none: the lights then skip their clamp, a whole pass over the copy
+        # (issue 44). A 16-bit table is not scanned every frame.
+        self.clean = (table is not None and table.size <= 4096
+                      and bool(np.isfinite(table).all()) and float(table.min()) >= 0.0)
 
     def band(self, lin, r0, raw, columns):
         self.extractor.reduce_band(lin, r0, self.image, columns)

@@ -1,0 +1,87 @@
+"""The lights' per-frame sums taken in cache-sized pieces (issue 44: a Cortex-A53's 512 KB
+cache) are the sums they replace: the truth at the normals by blocks of normals against
+the whole kernel's product, the coarse rest with the candidates' excess taken off its
+blocks against the coarse copy of the rest, and a clean detection copy (a table's block
+means) left unclamped only where nothing is there to clamp."""
+import numpy as np
+import pytest
+
+from provider.core.geometry.projections import DualFisheye, Equirect, Fisheye
+from provider.core.lights.extractor import DetectionCopy, LightExtractor
+from provider.core.radiometry.blocks import shrink
+from provider.core.sh9.engine import SH9Projector
+
+PROJECTIONS = {
+    "theta": lambda: DualFisheye(1280, 720),
+    "equirect": lambda: Equirect(512, 256),
+    "fisheye-ground": lambda: Fisheye(640, 480, fill="ground", albedo=0.3),
+    "fisheye-mirror": lambda: Fisheye(640, 480, fill="mirror", albedo=0.3),
+}
+
+
+@pytest.mark.parametrize("name", PROJECTIONS)
+def test_the_truth_by_blocks_is_the_whole_kernels_product(name):
+    x = LightExtractor(PROJECTIONS[name](), max_lights=3)
+    seeing = x._kernel_pixels
+    dirs = x.coarse.directions().reshape(-1, 3)[seeing]
+    omega = x.coarse.solid_angle.reshape(-1)[seeing]
+    whole = x._brute_kernel(dirs, omega)                  # float64, fill terms included
+    rest = np.random.default_rng(1).random((len(seeing), 3), dtype=np.float32)
+    got = x._truth(rest)
+    assert got.shape == (len(x.normals), 3)
+    # float32 kernel and sums of ≤ 3,600 non-negative terms: at most n·2⁻²⁴ (2e-4) of each
+    # sum apart from the float64 product, about √n·2⁻²⁴ in practice
+    np.testing.assert_allclose(got, whole @ rest.astype(np.float64), rtol=2e-4, atol=0)
+    # the blocks change nothing: the same float32 product of the kernel's rows, unblocked
+    rows = x._kernel.reshape(-1, x._kernel.shape[2])[:len(x.normals)]
+    unblocked = np.stack([rows @ np.ascontiguousarray(rest[:, c]) for c in range(3)], 1)
+    np.testing.assert_allclose(got, unblocked, rtol=1e-6)
+
+
+def test_the_excess_comes_off_the_coarse_blocks():
+    x = LightExtractor(DualFisheye(1280, 720), max_lights=3)
+    assert x._coarse_blocks and x.coarse_factor == 4
+    rng = np.random.default_rng(2)
+    h, w = x.mid.height, x.mid.width
+    small = (rng.random((h, w, 3)) * 10).astype(np.float32)
+    union = np.sort(rng.choice(h * w, 4000, replace=False))
+    excess = (small.reshape(-1, 3)[union] * rng.random((4000, 1))).astype(np.float32)
+    copy = small.copy()
+    copy.reshape(-1, 3)[union] -= excess
+    bw, bh = x._coarse_crop
+    expected = shrink(copy[:bh, :bw], (x.coarse.width, x.coarse.height))
+    got = x._coarse_rest(small, union, excess)
+    assert got.shape == expected.shape and got.dtype == np.float32
+    # block means of values ≤ 10 in another order: float32 rounding of the block sums
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-5)
+    np.testing.assert_array_equal(x._coarse_rest(small), shrink(small[:bh, :bw],
+                                  (x.coarse.width, x.coarse.height)))
+
+
+def test_a_clean_copy_is_only_one_with_nothing_to_clamp():
+    x = LightExtractor(DualFisheye(1280, 720), max_lights=3)
+    sink = DetectionCopy(x)
+    srgb = SH9Projector(1280, 720, "dual-fisheye")._lut(np.uint8)
+    for table, clean in ((srgb, True), (srgb - np.float32(0.01), False),
+                         (np.where(np.arange(256) == 7, np.nan, srgb).astype(np.float32), False),
+                         (np.linspace(0, 1, 65536, dtype=np.float32), False), (None, False)):
+        sink.start(None, table, {})
+        assert sink.clean is clean
+    mid = np.random.default_rng(3).random((x.mid.height, x.mid.width, 3), np.float32)
+    mid[:4] = -1.0                                      # ringing: clamped unless clean
+    assert x.reduce(mid, clean=True) is mid
+    assert x.reduce(mid).min() == 0.0 and x.reduce(mid)[4:].tolist() == mid[4:].tolist()
+
+
+def test_the_lights_of_a_clean_copy_are_those_of_the_clamped_one():
+    from provider.bench.edge_frames import lit_theta_frame
+    p = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
+    frame = lit_theta_frame(1280, 720)
+    served = p.project(frame)
+    assert served.lights
+    x = p._extractor
+    mid = x.reduce(p._linearise(frame))
+    a = x.analyse(mid, served.coefficients, clean=True)
+    b = x.analyse(mid, served.coefficients)
+    np.testing.assert_array_equal(a.truth, b.truth)
+    assert [c.pixels.tolist() for c in a.candidates] == [c.pixels.tolist() for c in b.candidates]
