@@ -59,11 +59,11 @@ import numpy as np
 
 from ..framepass.sinks import Sink
 from .caps import excess_irradiance, touching_pairs
+from .coarse_truth import CoarseTruth
 from ..geometry import sh
 from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
                        chain_count, elongation, measure, model_irradiance)
 from ..geometry.projections import Fisheye, Projection
-from ..radiometry.blocks import shrink
 
 __all__ = ["LightExtractor", "Analysis", "Candidate", "Light", "LightsResult", "LUMA",
            "model_irradiance", "LinearView"]
@@ -142,32 +142,12 @@ class LightExtractor:
 
         # Coarse copy and brute-force kernel at the normals.
         fc = max(1, math.ceil(math.sqrt(w * h / coarse_pixels)))
-        self.coarse_factor = fc
-        self.coarse = self.mid if fc == 1 else self.mid.scaled(fc)
-        self._coarse_crop = self.mid.scaled_source_size(fc)
-        # the coarse pixels are whole blocks of fc × fc mid pixels (else INTER_AREA's
-        # fractional weights): the candidates' excess can then come off the coarse copy
-        self._coarse_blocks = fc > 1 and self._coarse_crop == (self.coarse.width * fc,
-                                                               self.coarse.height * fc)
         self.normals = sh.fibonacci_sphere(normals)                    # (N, 3)
         self._normals32 = self.normals.astype(np.float32)
         self._irr_basis = sh.sh_basis(self.normals) * sh.A_HAT_PER_COEFF  # (N, 9)
         self._prefill()
-        cd = self.coarse.directions().reshape(-1, 3)
-        co = self.coarse.solid_angle.reshape(-1)
-        # Only the coarse pixels that see something (a Theta's two circles: 68 % of its
-        # 80×45 grid) carry kernel columns: the kernel is read from DRAM every frame.
-        self._kernel_pixels = np.flatnonzero(co > 0)
-        kernel = self._brute_kernel(cd[self._kernel_pixels], co[self._kernel_pixels]
-                                    ).astype(np.float32)                 # (N, Pc seeing)
-        # Blocks of normals (zero rows pad the last) small enough that the three channels'
-        # products read each from a 512 KB cache, not DRAM: see _truth.
-        # (a multiple of 4 rows: BLAS's matrix-vector kernels take 4 rows at a time)
-        rows = min(len(kernel),
-                   max(4, self.TRUTH_BLOCK_BYTES // max(1, 4 * kernel.shape[1]) // 4 * 4))
-        blocks = -(-len(kernel) // rows)
-        self._kernel = np.zeros((blocks, rows, kernel.shape[1]), np.float32)
-        self._kernel.reshape(-1, kernel.shape[1])[:len(kernel)] = kernel
+        self.coarse_truth = CoarseTruth(self.mid, fc, self._brute_kernel, len(self.normals))
+        self.coarse_factor, self.coarse = fc, self.coarse_truth.coarse
 
     # -- precomputation -------------------------------------------------------------------------
     #: Rows per band of the engine's integer path (SH9Projector.BAND_ROWS): a mid factor
@@ -380,58 +360,19 @@ class LightExtractor:
             exc = (np.take(L0, ul, axis=0) * (1.0 - self.thresholds[0] * mu / Y0[ul])[:, None]
                    ).astype(np.float32)
             extra = self._excess_irradiance(union, exc, groups[0][ul])
-            if self._coarse_blocks:
-                rest = self._coarse_rest(small, union, exc)
+            if self.coarse_truth.blocks:
+                rest = self.coarse_truth.rest(small, union, exc)
             else:
                 rest = flat.copy()
                 at = (union[:, None] * 3 + np.arange(3)).reshape(-1)     # flat, as above
                 rest.reshape(-1)[at] -= exc.reshape(-1)
                 rest = rest.reshape(h, w, 3)
         if self.coarse_factor > 1 and rest.shape[:2] == (h, w):     # still at mid size
-            rest = self._coarse_rest(rest)
-        truth = self._truth(np.take(rest.reshape(-1, 3), self._kernel_pixels, axis=0))
+            rest = self.coarse_truth.rest(rest)
+        truth = self.coarse_truth(rest)
         if extra is not None:
             truth += extra
         return Analysis(self, coefficients, candidates, truth, groups, mu)
-
-    def _coarse_rest(self, small: np.ndarray, union=None, excess=None) -> np.ndarray:
-        """The coarse copy (area means) of the mid copy ``small`` less ``excess`` (n, 3)
-        float32 on the mid pixels ``union``: block means are linear, so the excess is
-        taken off the coarse blocks (its sums over each block / the block's area), not
-        off a copy of the whole mid frame (where the blocks are whole: ``_coarse_blocks``;
-        else the excess must already be off ``small``): one pass over the frame fewer, 1.4 MB of DRAM
-        traffic a Theta frame (issue 44); the same to float32 rounding."""
-        bw, bh = self._coarse_crop
-        # Area means (halvings where the factor is a power of two: a third of the
-        # instructions of INTER_AREA, issue 34).
-        rest = shrink(small[:bh, :bw], (self.coarse.width, self.coarse.height))
-        if union is None or not len(union):
-            return rest
-        fc, cw = self.coarse_factor, self.coarse.width
-        y, x = np.divmod(union, self.mid.width)
-        seen = (y < bh) & (x < bw)
-        cell = (y[seen] // fc) * cw + x[seen] // fc
-        drop = np.stack([np.bincount(cell, excess[seen, c], minlength=rest.shape[0] * cw)
-                         for c in range(3)], axis=1) * (1.0 / (fc * fc))
-        return rest - drop.astype(np.float32).reshape(rest.shape)
-
-    #: Kernel bytes a block of normals: three channels' products read the block from a
-    #: 512 KB cache, not DRAM (a Cortex-A53's last level; issue 44).
-    TRUTH_BLOCK_BYTES = 128 << 10
-
-    def _truth(self, rest: np.ndarray) -> np.ndarray:
-        """(N, 3) float64 irradiance at the normals of ``rest`` ((Pc seeing, 3) float32
-        radiance of the coarse pixels that see something): one matrix-vector product a
-        channel and block of normals (a product with the 3 interleaved channels packs the
-        whole kernel every frame: 3.4 M instructions against 0.8 M, callgrind; issue 34).
-        One stacked matmul runs them block by block, the three channels of a block one
-        after the other, so the kernel crosses the memory bus once a frame, not three
-        times (cachegrind: 11 → 2.7 MB a Theta frame; issue 44). Each normal's sum is the
-        same dot product whatever the blocks: the result does not depend on them."""
-        x = np.ascontiguousarray(rest.T)[None, :, :, None]            # (1, 3, Pc, 1)
-        out = np.matmul(self._kernel[:, None], x)                     # (B, 3, rows, 1)
-        n = len(self.normals)
-        return out[..., 0].transpose(1, 0, 2).reshape(3, -1)[:, :n].T.astype(np.float64)
 
     def _level(self, idx0, Y0, L0, labels, n, level_value, total, level):
         """Candidates of one threshold level. ``idx0`` are the flat indices of the pixels

@@ -22,25 +22,28 @@ PROJECTIONS = {
 @pytest.mark.parametrize("name", PROJECTIONS)
 def test_the_truth_by_blocks_is_the_whole_kernels_product(name):
     x = LightExtractor(PROJECTIONS[name](), max_lights=3)
-    seeing = x._kernel_pixels
-    dirs = x.coarse.directions().reshape(-1, 3)[seeing]
-    omega = x.coarse.solid_angle.reshape(-1)[seeing]
+    t = x.coarse_truth
+    dirs = t.coarse.directions().reshape(-1, 3)[t.pixels]
+    omega = t.coarse.solid_angle.reshape(-1)[t.pixels]
     whole = x._brute_kernel(dirs, omega)                  # float64, fill terms included
-    rest = np.random.default_rng(1).random((len(seeing), 3), dtype=np.float32)
-    got = x._truth(rest)
+    coarse = np.random.default_rng(1).random((t.coarse.height, t.coarse.width, 3),
+                                             dtype=np.float32)
+    rest = coarse.reshape(-1, 3)[t.pixels]
+    got = t(coarse)
     assert got.shape == (len(x.normals), 3)
     # float32 kernel and sums of ≤ 3,600 non-negative terms: at most n·2⁻²⁴ (2e-4) of each
     # sum apart from the float64 product, about √n·2⁻²⁴ in practice
     np.testing.assert_allclose(got, whole @ rest.astype(np.float64), rtol=2e-4, atol=0)
     # the blocks change nothing: the same float32 product of the kernel's rows, unblocked
-    rows = x._kernel.reshape(-1, x._kernel.shape[2])[:len(x.normals)]
+    rows = t.kernel.reshape(-1, t.kernel.shape[2])[:len(x.normals)]
     unblocked = np.stack([rows @ np.ascontiguousarray(rest[:, c]) for c in range(3)], 1)
     np.testing.assert_allclose(got, unblocked, rtol=1e-6)
 
 
 def test_the_excess_comes_off_the_coarse_blocks():
     x = LightExtractor(DualFisheye(1280, 720), max_lights=3)
-    assert x._coarse_blocks and x.coarse_factor == 4
+    t = x.coarse_truth
+    assert t.blocks and t.factor == 4
     rng = np.random.default_rng(2)
     h, w = x.mid.height, x.mid.width
     small = (rng.random((h, w, 3)) * 10).astype(np.float32)
@@ -48,13 +51,13 @@ def test_the_excess_comes_off_the_coarse_blocks():
     excess = (small.reshape(-1, 3)[union] * rng.random((4000, 1))).astype(np.float32)
     copy = small.copy()
     copy.reshape(-1, 3)[union] -= excess
-    bw, bh = x._coarse_crop
+    bw, bh = t.crop
     expected = shrink(copy[:bh, :bw], (x.coarse.width, x.coarse.height))
-    got = x._coarse_rest(small, union, excess)
+    got = t.rest(small, union, excess)
     assert got.shape == expected.shape and got.dtype == np.float32
     # block means of values ≤ 10 in another order: float32 rounding of the block sums
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-5)
-    np.testing.assert_array_equal(x._coarse_rest(small), shrink(small[:bh, :bw],
+    np.testing.assert_array_equal(t.rest(small), shrink(small[:bh, :bw],
                                   (x.coarse.width, x.coarse.height)))
 
 
