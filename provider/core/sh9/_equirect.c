@@ -16,23 +16,31 @@
  *   as it is (0 in the engine): the column contraction gives the same coefficients.
  *
  * Each weight then multiplies the sum of the four samples that share it: 6 products per 4
- * samples instead of 24. Up to float rounding (the same float32 samples and weights, added
- * in another order) the coefficients are the numpy path's.
+ * samples instead of 24, 5 with row 0 not read (sin θ = sin θ cos² θ + sin θ sin² θ: its
+ * sums are rows 3's and 5's added). Up to float rounding (the same float32 samples and
+ * weights, added in another order; rows 3 and 5 added in float32, both non-negative)
+ * the coefficients are the numpy path's.
  *
  * equirect_rows(frame, table, rows, acc, counts)
  * (its Python twin, the same signature, numbers and errors: equirect_pass.py)
  *   frame   uint8 (H, W, 3), W even, pixels contiguous (rows may be strided, negative too)
  *   table   float32, 256 entries (one curve) or 768 (per channel, entry v*3 + c)
  *   rows    float32 (K, H) contiguous, K = 6 or 7: the six row functions' weights in the
- *           order above (rows y >= H/2 of the six are not read: the symmetry gives them),
- *           and the up-facing cosine row (every row read; folded as a sum)
+ *           order above (rows y >= H/2 of the six are not read: the symmetry gives them;
+ *           row 0 not read: rows 3 and 5 added), and the up-facing cosine row (every row
+ *           read; folded as a sum)
  *   acc     float32 (K, W*3) contiguous: acc[k][i] for i < W*3/2 added to, the rest unread
  *   counts  None, or int32 (H, 3) contiguous: written, the samples at code 255 per row and
  *           channel
  *
- * The frame is read in bands of row pairs (y, H-1-y); within a band, four floats of the
- * folded row at a time down all of its pairs, so that the K sums stay in registers and
- * each sample is a byte load, a table load and a share of the adds. Vectors: GCC's and
+ * The frame is read in bands of row pairs (y, H-1-y); within a band, a strip of the folded
+ * row at a time down all of its pairs, so that its sums stay in registers. Without the up
+ * row (K = 6, strip_pairs) each byte is looked up in a pair table that holds its value
+ * twice, (v, v) or (v, -v), 8 bytes an entry: two columns a vector, the fold is two adds
+ * and a butterfly, and each sample costs a byte load and one 8-byte load (x86-64: movq or
+ * movhps; aarch64: ldr d, half of them then inserted) instead of a 4-byte load and its
+ * insertion into a vector. With it (K = 7, strip) four floats of the folded row a vector,
+ * each sample a byte load and a table load. Vectors: GCC's and
  * Clang's vector extension (SSE on x86-64, NEON on 64-bit ARM; buffer_check.h's
  * KERNEL_VECTOR), else the scalar loop. No Python object is touched inside the loops, so
  * the GIL is released there. */
@@ -145,14 +153,16 @@ two(const char *e, unsigned a, const char *f, unsigned b)
 KERNEL_INLINE void
 strip_pairs(const unsigned char *top, const unsigned char *bot, Py_ssize_t step, int np,
             Py_ssize_t j, Py_ssize_t half, const float *pairs, int s, const v4 (*w)[3],
-            v4 *sums)
+            v4 *sums, int first)
 {
     const char *pt[4], *tb[4];
     for (int c = 0; c < 4; c++) {
         pt[c] = (const char *)(pairs + (s == 1 ? 0 : (j + c) % 3) * 1024);
         tb[c] = pt[c] + 2048;
     }
-    v4 sa0 = sums[0], sb0 = sums[1], sh0 = sums[2], sa1 = sums[3], sb1 = sums[4], sh1 = sums[5];
+    const v4 zero = {0, 0, 0, 0};      /* the first band starts the sums */
+    v4 sa0 = first ? zero : sums[0], sb0 = first ? zero : sums[1], sh0 = first ? zero : sums[2];
+    v4 sa1 = first ? zero : sums[3], sb1 = first ? zero : sums[4], sh1 = first ? zero : sums[5];
     const unsigned char *p = top + j, *q = bot + j;
 #define FOLD(p, q, w, c, sa, sb, sh)                                                 \
     do {                                                                             \
@@ -378,8 +388,6 @@ equirect_rows(PyObject *self, PyObject *args)
 #endif
         Py_BEGIN_ALLOW_THREADS
 #if KERNEL_VECTOR
-        for (Py_ssize_t k = 0; k < strips * 6; k++)
-            sums[k] = (v4){0, 0, 0, 0};
         for (int c = 0; strips && c < s; c++)
             for (int v = 0; v < 256; v++) {
                 const float x = t[v * s + c];
@@ -423,9 +431,11 @@ equirect_rows(PyObject *self, PyObject *args)
             const Py_ssize_t step = fr.strides[0];
             for (; strips && j + 4 <= half; j += 4) {
                 if (s == 1)
-                    strip_pairs(top[0], bot[0], step, np, j, half, pair_t, 1, wq, sums + j / 4 * 6);
+                    strip_pairs(top[0], bot[0], step, np, j, half, pair_t, 1, wq, sums + j / 4 * 6,
+                                i0 == 0);
                 else
-                    strip_pairs(top[0], bot[0], step, np, j, half, pair_t, 3, wq, sums + j / 4 * 6);
+                    strip_pairs(top[0], bot[0], step, np, j, half, pair_t, 3, wq, sums + j / 4 * 6,
+                                i0 == 0);
             }
             for (; !strips && j + 4 <= half; j += 4) {
                 if (s == 1 && !k7)
