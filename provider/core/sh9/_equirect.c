@@ -16,32 +16,47 @@
  *   as it is (0 in the engine): the column contraction gives the same coefficients.
  *
  * Each weight then multiplies the sum of the four samples that share it: 6 products per 4
- * samples instead of 24. Up to float rounding (the same float32 samples and weights, added
- * in another order) the coefficients are the numpy path's.
+ * samples instead of 24, 5 with row 0 not read (sin θ = sin θ cos² θ + sin θ sin² θ: its
+ * sums are rows 3's and 5's added). Up to float rounding (the same float32 samples and
+ * weights, added in another order; rows 3 and 5 added in float32, both non-negative)
+ * the coefficients are the numpy path's.
  *
  * equirect_rows(frame, table, rows, acc, counts)
  * (its Python twin, the same signature, numbers and errors: equirect_pass.py)
  *   frame   uint8 (H, W, 3), W even, pixels contiguous (rows may be strided, negative too)
  *   table   float32, 256 entries (one curve) or 768 (per channel, entry v*3 + c)
  *   rows    float32 (K, H) contiguous, K = 6 or 7: the six row functions' weights in the
- *           order above (rows y >= H/2 of the six are not read: the symmetry gives them),
- *           and the up-facing cosine row (every row read; folded as a sum)
+ *           order above (rows y >= H/2 of the six are not read: the symmetry gives them;
+ *           row 0 not read: rows 3 and 5 added), and the up-facing cosine row (every row
+ *           read; folded as a sum)
  *   acc     float32 (K, W*3) contiguous: acc[k][i] for i < W*3/2 added to, the rest unread
  *   counts  None, or int32 (H, 3) contiguous: written, the samples at code 255 per row and
  *           channel
  *
- * The frame is read in bands of row pairs (y, H-1-y); within a band, four floats of the
- * folded row at a time down all of its pairs, so that the K sums stay in registers and
- * each sample is a byte load, a table load and a share of the adds. Vectors: GCC's and
+ * The frame is read in bands of row pairs (y, H-1-y); within a band, a strip of the folded
+ * row at a time down all of its pairs, so that its sums stay in registers. Without the up
+ * row (K = 6, strip_pairs) each byte is looked up in a pair table that holds its value
+ * twice, (v, v) or (v, -v), 8 bytes an entry: two columns a vector, the fold is two adds
+ * and a butterfly, and each sample costs a byte load and one 8-byte load (x86-64: movq or
+ * movhps; aarch64: ldr d, half of them then inserted) instead of a 4-byte load and its
+ * insertion into a vector. With it (K = 7, strip) four floats of the folded row a vector,
+ * each sample a byte load and a table load. Vectors: GCC's and
  * Clang's vector extension (SSE on x86-64, NEON on 64-bit ARM; buffer_check.h's
  * KERNEL_VECTOR), else the scalar loop. No Python object is touched inside the loops, so
  * the GIL is released there. */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "buffer_check.h"
+
+#if KERNEL_VECTOR && defined(__SSE2__)
+#include <emmintrin.h>
+#elif KERNEL_VECTOR && defined(__ARM_NEON)
+#include <arm_neon.h>
+#endif
 
 /* Row pairs a band: the pairs' broadcast weights stay in L1 (32 x 8 x 16 bytes). */
 #define BAND 32
@@ -75,7 +90,8 @@ gather(const unsigned char *p, const float *const *tl, int s)
 
 /* Folded samples [j, j + 4) of the band's np pairs added to acc's K rows: the pairs' top
  * rows from top (step apart, downwards), their bottom rows from bot (upwards). up: the 7th
- * row (constant after inlining, as s). */
+ * row (constant after inlining, as s). The path of K = 7 (row 0's weights w[0] those of
+ * rows 3 and 5 added, as in strip_pairs). */
 KERNEL_INLINE void
 strip(const unsigned char *top, const unsigned char *bot, Py_ssize_t step, int np,
       Py_ssize_t j, Py_ssize_t half, const float *t, int s, const v4 (*w)[SLOTS], int up,
@@ -109,6 +125,71 @@ strip(const unsigned char *top, const unsigned char *bot, Py_ssize_t step, int n
     store4(acc[3] + j, a3); store4(acc[4] + j, a4); store4(acc[5] + j, a5);
     if (up)
         store4(acc[6] + j, a6);
+}
+
+/* Two folded columns' entries of a pair table in one vector: entry a of table e in lanes
+ * 0 and 1, entry b of table f in lanes 2 and 3 (8 bytes an entry); two 8-byte loads, movq
+ * and movhps on x86-64, ldr d and ins on aarch64. */
+KERNEL_INLINE v4
+two(const char *e, unsigned a, const char *f, unsigned b)
+{
+    double d[2];
+    memcpy(&d[0], e + (size_t)a * 8, 8);
+    memcpy(&d[1], f + (size_t)b * 8, 8);
+    typedef double v2d __attribute__((vector_size(16)));
+    return (v4)(v2d){d[0], d[1]};
+}
+
+/* The path of K = 6: folded columns [j, j + 4) of the band's np pairs, two columns a
+ * vector. Each byte is looked up in a pair table, its decoded value v twice: (v, v) for a
+ * top row's samples (pt: t1, t2), (v, -v) for a bottom row's (tb: b1, b2), so that
+ *   s1 = t1 + b1, s2 = t2 + b2: lo = s1 + s2 = (pp, pd), hi = s1 - s2 = (qp, qd)
+ * per column (pp = t1 + t2 + b1 + b2, pd = t1 + t2 - b1 - b2, qp = t1 - t2 + b1 - b2,
+ * qd = t1 - t2 - b1 + b2): the fold is two adds and a butterfly per two columns, and its
+ * four results are each one lane, weighed by one vector: lo by (w3, w1) into sa, by
+ * (w5, 0) into sb, hi by (w2, w4) into sh. The sums per column and lane are kept in sums
+ * (6 vectors a strip of four columns) from band to band; row 0 is rows 3 and 5 added at
+ * the end (sin θ = sin θ cos² θ + sin θ sin² θ). s: 1, or 3 (a table a channel). */
+KERNEL_INLINE void
+strip_pairs(const unsigned char *top, const unsigned char *bot, Py_ssize_t step, int np,
+            Py_ssize_t j, Py_ssize_t half, const float *pairs, int s, const v4 (*w)[3],
+            v4 *sums, int first)
+{
+    const char *pt[4], *tb[4];
+    for (int c = 0; c < 4; c++) {
+        pt[c] = (const char *)(pairs + (s == 1 ? 0 : (j + c) % 3) * 1024);
+        tb[c] = pt[c] + 2048;
+    }
+    const v4 zero = {0, 0, 0, 0};      /* the first band starts the sums */
+    v4 sa0 = first ? zero : sums[0], sb0 = first ? zero : sums[1], sh0 = first ? zero : sums[2];
+    v4 sa1 = first ? zero : sums[3], sb1 = first ? zero : sums[4], sh1 = first ? zero : sums[5];
+    const unsigned char *p = top + j, *q = bot + j;
+#define FOLD(p, q, w, c, sa, sb, sh)                                                 \
+    do {                                                                             \
+        const v4 s1 = two(pt[c], p[c], pt[c + 1], p[c + 1])                          \
+            + two(tb[c], q[c], tb[c + 1], q[c + 1]);                                 \
+        const v4 s2 = two(pt[c], p[half + c], pt[c + 1], p[half + c + 1])            \
+            + two(tb[c], q[half + c], tb[c + 1], q[half + c + 1]);                   \
+        const v4 lo = s1 + s2, hi = s1 - s2;                                         \
+        sa += (w)[0] * lo;                                                           \
+        sb += (w)[1] * lo;                                                           \
+        sh += (w)[2] * hi;                                                           \
+    } while (0)
+    /* two pairs a turn, the second's rows a step from the first's (indexed loads) */
+    const v4 (*wi)[3] = w;
+    for (; wi + 2 <= w + np; wi += 2, p += 2 * step, q -= 2 * step) {
+        const unsigned char *p1 = p + step, *q1 = q - step;
+        FOLD(p, q, wi[0], 0, sa0, sb0, sh0);
+        FOLD(p, q, wi[0], 2, sa1, sb1, sh1);
+        FOLD(p1, q1, wi[1], 0, sa0, sb0, sh0);
+        FOLD(p1, q1, wi[1], 2, sa1, sb1, sh1);
+    }
+    if (wi < w + np) {
+        FOLD(p, q, wi[0], 0, sa0, sb0, sh0);
+        FOLD(p, q, wi[0], 2, sa1, sb1, sh1);
+    }
+#undef FOLD
+    sums[0] = sa0; sums[1] = sb0; sums[2] = sh0; sums[3] = sa1; sums[4] = sb1; sums[5] = sh1;
 }
 #endif
 
@@ -155,6 +236,32 @@ count_top(const unsigned char *restrict p, Py_ssize_t n, int *restrict out)
     int any = 0;
 #if KERNEL_VECTOR
     typedef unsigned char u16 __attribute__((vector_size(16)));
+#if defined(__SSE2__) || defined(__ARM_NEON)
+    /* The bytes' maximum, 128 a turn: a load and a max for 16 bytes (pmaxub, umax). */
+#if defined(__SSE2__)
+    typedef __m128i bytes;
+#define LOAD(q) _mm_loadu_si128((const __m128i *)(q))
+#define MAX(a, b) _mm_max_epu8(a, b)
+    bytes m = _mm_setzero_si128();
+#else
+    typedef uint8x16_t bytes;
+#define LOAD(q) vld1q_u8(q)
+#define MAX(a, b) vmaxq_u8(a, b)
+    bytes m = vdupq_n_u8(0);
+#endif
+    for (; i + 128 <= 3 * n; i += 128) {
+        const unsigned char *q = p + i;
+        const bytes a = MAX(LOAD(q), LOAD(q + 16)), b = MAX(LOAD(q + 32), LOAD(q + 48));
+        const bytes c = MAX(LOAD(q + 64), LOAD(q + 80)), d = MAX(LOAD(q + 96), LOAD(q + 112));
+        m = MAX(m, MAX(MAX(a, b), MAX(c, d)));
+    }
+#undef LOAD
+#undef MAX
+    unsigned char top[16];
+    memcpy(top, &m, 16);
+    for (int l = 0; l < 16; l++)
+        any |= top[l] == 255;
+#else
     u16 hit = {0};
     for (; i + 64 <= 3 * n; i += 64) {
         u16 v0, v1, v2, v3;
@@ -168,6 +275,7 @@ count_top(const unsigned char *restrict p, Py_ssize_t n, int *restrict out)
     long long lanes[2];
     memcpy(lanes, &hit, sizeof lanes);
     any = (lanes[0] | lanes[1]) != 0;
+#endif
 #endif
     for (; !any && i < 3 * n; i++)
         any = p[i] == 255;
@@ -260,25 +368,56 @@ equirect_rows(PyObject *self, PyObject *args)
         int *cnt = use_counts ? (int *)ct.buf : NULL;
         const char *base = (const char *)fr.buf;
         const Py_ssize_t pairs = H / 2;
+#if KERNEL_VECTOR
+        /* K = 6: the pair tables (1024 floats a channel: (v, v) then (v, -v) per code) and
+         * the sums of each strip of four columns (6 vectors), 16-byte aligned. */
+        const Py_ssize_t strips = k7 || pairs == 0 ? 0 : half / 4;
+        void *scratch = NULL;
+        float *pair_t = NULL;
+        v4 *sums = NULL;
+        if (strips) {
+            const size_t n = (size_t)s * 1024 * sizeof(float) + (size_t)strips * 6 * sizeof(v4);
+            scratch = malloc(n + 16);
+            if (!scratch) {
+                PyErr_NoMemory();
+                goto fail;
+            }
+            pair_t = (float *)(((uintptr_t)scratch + 15) & ~(uintptr_t)15);
+            sums = (v4 *)(pair_t + s * 1024);
+        }
+#endif
         Py_BEGIN_ALLOW_THREADS
+#if KERNEL_VECTOR
+        for (int c = 0; strips && c < s; c++)
+            for (int v = 0; v < 256; v++) {
+                const float x = t[v * s + c];
+                float *e = pair_t + c * 1024 + 2 * v;
+                e[0] = e[1] = e[512] = x;
+                e[513] = -x;
+            }
+#endif
         for (Py_ssize_t i0 = 0; i0 < pairs; i0 += BAND) {
             const int np = (int)(pairs - i0 < BAND ? pairs - i0 : BAND);
             const unsigned char *top[BAND], *bot[BAND];
             float w[BAND][SLOTS];
 #if KERNEL_VECTOR
-            v4 wv[BAND][SLOTS];
+            v4 wv[BAND][SLOTS], wp[BAND][3];
 #endif
             for (int i = 0; i < np; i++) {
                 const Py_ssize_t y = i0 + i, b = H - 1 - y;
                 top[i] = (const unsigned char *)(base + y * fr.strides[0]);
                 bot[i] = (const unsigned char *)(base + b * fr.strides[0]);
-                for (int k = 0; k < 6; k++)
+                for (int k = 1; k < 6; k++)
                     w[i][k] = r[k * H + y];
+                w[i][0] = w[i][3] + w[i][5];   /* sin θ = sin θ (cos² θ + sin² θ) */
                 w[i][6] = k7 ? r[6 * H + y] : 0.0f;
                 w[i][7] = k7 ? r[6 * H + b] : 0.0f;
 #if KERNEL_VECTOR
                 for (int k = 0; k < SLOTS; k++)
                     wv[i][k] = (v4){w[i][k], w[i][k], w[i][k], w[i][k]};
+                wp[i][0] = (v4){w[i][3], w[i][1], w[i][3], w[i][1]};
+                wp[i][1] = (v4){w[i][5], 0.0f, w[i][5], 0.0f};
+                wp[i][2] = (v4){w[i][2], w[i][4], w[i][2], w[i][4]};
 #endif
                 if (cnt) {
                     count_top(top[i], W, cnt + 3 * y);
@@ -288,8 +427,17 @@ equirect_rows(PyObject *self, PyObject *args)
             Py_ssize_t j = 0;
 #if KERNEL_VECTOR
             const v4 (*wl)[SLOTS] = (const v4 (*)[SLOTS])wv;
+            const v4 (*wq)[3] = (const v4 (*)[3])wp;
             const Py_ssize_t step = fr.strides[0];
-            for (; j + 4 <= half; j += 4) {
+            for (; strips && j + 4 <= half; j += 4) {
+                if (s == 1)
+                    strip_pairs(top[0], bot[0], step, np, j, half, pair_t, 1, wq, sums + j / 4 * 6,
+                                i0 == 0);
+                else
+                    strip_pairs(top[0], bot[0], step, np, j, half, pair_t, 3, wq, sums + j / 4 * 6,
+                                i0 == 0);
+            }
+            for (; !strips && j + 4 <= half; j += 4) {
                 if (s == 1 && !k7)
                     strip(top[0], bot[0], step, np, j, half, t, 1, wl, 0, acc);
                 else if (s == 1)
@@ -307,15 +455,35 @@ equirect_rows(PyObject *self, PyObject *args)
             const unsigned char *top[1] = {(const unsigned char *)(base + y * fr.strides[0])};
             const unsigned char *bot[1] = {NULL};
             float w[1][SLOTS];
-            for (int k = 0; k < 6; k++)
+            for (int k = 1; k < 6; k++)
                 w[0][k] = r[k * H + y];
+            w[0][0] = w[0][3] + w[0][5];
             w[0][6] = k7 ? r[6 * H + y] : 0.0f;
             w[0][7] = 0.0f;
             if (cnt)
                 count_top(top[0], W, cnt + 3 * y);
             strip_scalar(top, bot, 1, 0, half, t, s, (const float (*)[SLOTS])w, (int)K, acc);
         }
+#if KERNEL_VECTOR
+        /* The strips' sums into acc: lanes (2e, 2e + 1) of a vector are column j's. */
+        for (Py_ssize_t m = 0; m < strips; m++)
+            for (int g = 0; g < 2; g++)
+                for (int e = 0; e < 2; e++) {
+                    const Py_ssize_t j = 4 * m + 2 * g + e;
+                    const v4 sa = sums[6 * m + 3 * g], sb = sums[6 * m + 3 * g + 1];
+                    const v4 sh = sums[6 * m + 3 * g + 2];
+                    acc[0][j] += sa[2 * e] + sb[2 * e];
+                    acc[1][j] += sa[2 * e + 1];
+                    acc[2][j] += sh[2 * e];
+                    acc[3][j] += sa[2 * e];
+                    acc[4][j] += sh[2 * e + 1];
+                    acc[5][j] += sb[2 * e];
+                }
+#endif
         Py_END_ALLOW_THREADS
+#if KERNEL_VECTOR
+        free(scratch);
+#endif
     }
     for (int v = 0; v < 5; v++)
         if (got[v])

@@ -470,6 +470,12 @@ class SH9Projector(FrameDecoder):
         return sh.truncate_order(out, order)
 
 
+#: Equirect.SEPARABLE_TERMS as arrays (coefficient, constant, row, column function): one
+#: numpy call a frame adds them, in their order (the same sums as a loop of 11).
+_TERM_K, _TERM_CONST, _TERM_ROW, _TERM_COL = (np.array(c) for c in
+                                              zip(*Equirect.SEPARABLE_TERMS))
+
+
 class SH9Sums(Sink):
     """SH9's sink in the frame pass: a frame's sums against the projection's weights (the
     separable rows and columns of an equirect frame, a lens's fold, or dense tables), the
@@ -479,6 +485,8 @@ class SH9Sums(Sink):
 
     at_projection = True
     scale = 1.0
+    #: Set by the equirect pass: acc's columns folded into their first half (a half turn)
+    folded = False
 
     def __init__(self, projector: SH9Projector):
         self.p = p = projector
@@ -520,13 +528,13 @@ class SH9Sums(Sink):
             return p._fold.coefficients(acc) * self.scale
         if p._weights is not None:
             return acc.T[:9].astype(np.float64) * self.scale
-        w = p.projection.width
-        rowsum = acc[:6].reshape(6, w, 3).astype(np.float64)
+        # folded (equirect_pass): the columns' second half holds nothing
+        w = p.projection.width // 2 if self.folded else p.projection.width
+        rowsum = acc[:6, :w * 3].reshape(6, w, 3).astype(np.float64)
         out = np.zeros((9, 3))
         with np.errstate(over="ignore", invalid="ignore"):     # as in band
-            partial = np.matmul(p._cols, rowsum)   # (6 row fns, 6 col fns, 3): BLAS
-            for k, const, ri, ci in Equirect.SEPARABLE_TERMS:
-                out[k] += const * partial[ri, ci]
+            partial = np.matmul(p._cols[:, :w], rowsum)   # (6 row fns, 6 col fns, 3): BLAS
+            np.add.at(out, _TERM_K, _TERM_CONST[:, None] * partial[_TERM_ROW, _TERM_COL])
         return out * self.scale
 
     def extra_sum(self) -> np.ndarray:

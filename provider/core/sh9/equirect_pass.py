@@ -32,8 +32,8 @@ def _equirect_rows_py(frame, table, rows, acc, counts) -> None:
     """The Python twin of the C kernel ``_equirect.equirect_rows`` (its signature and
     checks, see ``_equirect.c`` and ``_equirect.pyi``): ``acc[k, :3W/2]`` gets the folded
     sums of the frame decoded through ``table`` against row ``k``'s weights, ``counts`` the
-    samples at code 255 per row and channel. Sums in float64 (the C in float32: they differ
-    by float rounding)."""
+    samples at code 255 per row and channel; row 0's weights are not read (rows 3 and 5
+    added). Sums in float64 (the C in float32: they differ by float rounding)."""
     fr = buffer_view(frame, False, "B", 3, "frame")
     tb = buffer_view(table, False, "f", 1, "table")
     rw = buffer_view(rows, False, "f", 2, "rows")
@@ -66,6 +66,9 @@ def _equirect_rows_py(frame, table, rows, acc, counts) -> None:
     pairs = H // 2
     for k, sign in enumerate(ROW_SIGNS):
         weights[k, H - pairs:] = sign * weights[k, :pairs][::-1]
+    # Row 0 is not read: sin θ = sin θ cos² θ + sin θ sin² θ, rows 3 and 5 added (the C
+    # kernel weighs each folded sample by rows 3 and 5 only).
+    weights[0] = weights[3] + weights[5]
     out = np.asarray(ac)
     for k in range(K):
         out[k, :half] += weights[k] @ folded[HALF_TURN[k]]
@@ -131,6 +134,7 @@ class EquirectRows:
         if not takes(frame, table):
             return self.bands.run(fp, decoder, frame, table, lut, sinks, stats)
         counts = project(frame, table, self.rows, sinks.sh9.acc)
+        sinks.sh9.folded = True        # its column contraction reads the first half only
         if sinks.clip is not None:
             sinks.clip.counted(counts, stats)
         for s in sinks.all:

@@ -206,3 +206,18 @@ def test_the_edge_bench_counts_an_equirect_frame_against_a_plain_read():
     read = edge.instructions_per_frame(edge.PlainRead(), small)
     projection = edge.instructions_per_frame(SH9Projector(256, 128), small)
     assert 0 < read < projection
+
+
+def test_equirect_kernel_reads_a_curve_per_channel_across_bands(monkeypatch, kernels):
+    """A camera's three curves without an absolute scale (no up row: the pair tables, one
+    set a channel) on a frame of many bands of row pairs (1024×512: 256 pairs, 8 bands of
+    32), its strips' sums carried from band to band: the band path's coefficients."""
+    from provider.core.radiometry.response import CameraResponse
+    from provider.core.sh9.engine import SH9Projector
+    v = np.arange(256) / 255.0
+    response = CameraResponse(np.stack([v ** 2.0, v ** 2.2, v ** 2.4], axis=1), method="table")
+    frame = _hard_frame("a sun", 1024, 512)
+    got, want = _both_paths(monkeypatch, lambda: SH9Projector(1024, 512, response=response),
+                            frame)
+    _assert_same(got, want)
+    assert np.abs(got.coefficients[0]).min() > 0
