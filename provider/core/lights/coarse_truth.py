@@ -49,18 +49,19 @@ class CoarseTruth:
         self.kernel = np.zeros((-(-len(kernel) // rows), rows, kernel.shape[1]), np.float32)
         self.kernel.reshape(-1, kernel.shape[1])[:len(kernel)] = kernel
 
-    def rest(self, small: np.ndarray, union=None, excess=None) -> np.ndarray:
+    def rest(self, small: np.ndarray, union=None, excess=None, coarse=None) -> np.ndarray:
         """The coarse copy (area means) of the mid copy ``small`` (h, w, 3) float32 less
         ``excess`` (n, 3) float32 on the mid pixels ``union`` (flat indices). Block means
         are linear, so where the blocks are whole (:attr:`blocks`) the excess comes off
         them (its sums over each block / the block's area), not off a copy of the whole
         mid frame: one pass over the frame fewer, 1.4 MB of DRAM traffic a Theta frame;
         the same to float32 rounding. Elsewhere give ``small`` with the excess already
-        off and no ``union``."""
+        off and no ``union``. ``coarse``: ``small``'s coarse copy where already made."""
         bw, bh = self.crop
         # Area means (halvings where the factor is a power of two: a third of the
         # instructions of INTER_AREA, issue 34).
-        rest = shrink(small[:bh, :bw], (self.coarse.width, self.coarse.height))
+        rest = (shrink(small[:bh, :bw], (self.coarse.width, self.coarse.height))
+                if coarse is None else coarse)
         if union is None or not len(union):
             return rest
         if not self.blocks:

@@ -39,7 +39,8 @@ from ..blas import one_blas_thread
 from ..errors import InputError
 from ..framepass.sinks import Sink, Sinks, SmallFrame, WholeFrame
 from ..framepass.traversal import BlockMeans, FloatBands, FramePass, LutBands
-from ..lights.extractor import DetectionCopy, LightExtractor, LinearView
+from ..lights.extractor import LightExtractor
+from ..lights.views import DetectionCopy, LinearView
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
 from ..geometry import projections_probe  # noqa: F401  (registers mirrorball, angular, cross)
 from ..geometry import projections_exr  # registers exr-latlong, exr-cube; the cube's rules

@@ -3,11 +3,14 @@ cache) are the sums they replace: the truth at the normals by blocks of normals 
 the whole kernel's product, the coarse rest with the candidates' excess taken off its
 blocks against the coarse copy of the rest, and a clean detection copy (a table's block
 means) left unclamped only where nothing is there to clamp."""
+import cv2
 import numpy as np
 import pytest
 
 from provider.core.geometry.projections import DualFisheye, Equirect, Fisheye
-from provider.core.lights.extractor import DetectionCopy, LightExtractor
+from provider.core.lights.analysis import LUMA
+from provider.core.lights.extractor import LightExtractor
+from provider.core.lights.views import DetectionCopy
 from provider.core.radiometry.blocks import shrink
 from provider.core.sh9.engine import SH9Projector
 
@@ -88,3 +91,26 @@ def test_the_lights_of_a_clean_copy_are_those_of_the_clamped_one():
     b = x.analyse(mid, served.coefficients)
     np.testing.assert_array_equal(a.truth, b.truth)
     assert [c.pixels.tolist() for c in a.candidates] == [c.pixels.tolist() for c in b.candidates]
+
+
+@pytest.mark.parametrize("name", ["theta", "equirect"])
+def test_the_first_pass_by_bands_is_the_whole_frames(name):
+    """Luminance, flux and coarse copy of the mid copy a band of rows at a time: Y and the
+    coarse means bit for bit the whole frame's (each a function of its own pixels or 2×2
+    blocks, bands a multiple of the coarse factor), the flux the same products summed by
+    band (double sums: 1e-12 holds)."""
+    x = LightExtractor(PROJECTIONS[name](), max_lights=3)
+    mid = (np.random.default_rng(4).random((x.mid.height, x.mid.width, 3)) * 5
+           ).astype(np.float32)
+    Y, total, coarse = x._first_pass(mid)
+    whole = cv2.transform(mid, LUMA[None].astype(np.float32)).reshape(Y.shape)
+    np.testing.assert_array_equal(Y, whole)
+    assert total == pytest.approx(float(cv2.sumElems(cv2.multiply(whole, x._omega32))[0]),
+                                  rel=1e-12)
+    t = x.coarse_truth
+    if not t.blocks:                                    # INTER_AREA's fractional weights
+        assert coarse is None
+        return
+    bw, bh = t.crop
+    np.testing.assert_array_equal(coarse, shrink(mid[:bh, :bw],
+                                                 (t.coarse.width, t.coarse.height)))
