@@ -11,8 +11,9 @@ import math
 import sys
 from pathlib import Path
 
-import cv2
 import numpy as np
+
+from provider.bench.edge_frames import to_dual_fisheye
 
 HERE = Path(__file__).resolve().parent
 REFERENCE = HERE / "data" / "lights_reference.npz"
@@ -21,23 +22,6 @@ REFERENCE = HERE / "data" / "lights_reference.npz"
 def _hdri(name):
     from provider.core.radiometry.images import read_image
     return read_image(HERE / "data" / "hdri" / f"{name}.exr")
-
-
-def to_dual_fisheye(panorama, width=1280, height=720):
-    """An equirect panorama resampled into a Theta S frame (float32, black outside the
-    image circles), as provider.bench.edge_frames does for the lit room."""
-    from provider.core.geometry.projections import DualFisheye
-    ph, pw = panorama.shape[:2]
-    py, px = np.mgrid[0:height, 0:width].astype(np.float32) + 0.5
-    d, valid = DualFisheye(width, height).pixel_to_direction(px, py)
-    theta = np.arccos(np.clip(d[..., 1], -1, 1))
-    phi = np.arctan2(d[..., 0], -d[..., 2])
-    mapx = ((phi / (2 * np.pi) + 0.5) * pw - 0.5).astype(np.float32)
-    mapy = (theta / np.pi * ph - 0.5).astype(np.float32)
-    out = cv2.remap(np.ascontiguousarray(panorama, np.float32), mapx, mapy, cv2.INTER_LINEAR,
-                    borderMode=cv2.BORDER_WRAP)
-    out[~valid] = 0
-    return out
 
 
 def sun_sky(width=1024, height=512):

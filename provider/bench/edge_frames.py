@@ -22,12 +22,22 @@ EXPOSURE_STOPS = -2.0
 def lit_theta_frame(width: int = 1280, height: int = 720):
     """The lit room as a Ricoh Theta S live frame: (height, width, 3) uint8 sRGB, black
     outside the two image circles; read-only (cached: the bench and its callers share one)."""
-    import cv2
-    import numpy as np
-    from ..core.geometry.projections import DualFisheye
     from . import room
     from .common import _auto_exposure, _to_srgb8
     panorama = room.panorama(THETA_AT, height=max(64, height // 2), supersample=2)
+    fisheye = to_dual_fisheye(panorama, width, height)
+    frame = _to_srgb8(fisheye, _auto_exposure(panorama) * 2.0 ** EXPOSURE_STOPS)
+    frame.setflags(write=False)
+    return frame
+
+
+def to_dual_fisheye(panorama, width: int = 1280, height: int = 720):
+    """An equirect ``panorama`` (h, w, 3) resampled through the project's dual-fisheye
+    projection into a (height, width, 3) float32 Theta S frame, black outside the two image
+    circles (bilinear, wrapping at the panorama's seam)."""
+    import cv2
+    import numpy as np
+    from ..core.geometry.projections import DualFisheye
     ph, pw = panorama.shape[:2]
     py, px = np.mgrid[0:height, 0:width].astype(np.float32) + 0.5
     d, valid = DualFisheye(width, height).pixel_to_direction(px, py)
@@ -36,8 +46,7 @@ def lit_theta_frame(width: int = 1280, height: int = 720):
     phi = np.arctan2(d[..., 0], -d[..., 2])
     mapx = ((phi / (2 * np.pi) + 0.5) * pw - 0.5).astype(np.float32)
     mapy = (theta / np.pi * ph - 0.5).astype(np.float32)
-    fisheye = cv2.remap(panorama, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
-    fisheye[~valid] = 0
-    frame = _to_srgb8(fisheye, _auto_exposure(panorama) * 2.0 ** EXPOSURE_STOPS)
-    frame.setflags(write=False)
-    return frame
+    out = cv2.remap(np.ascontiguousarray(panorama, np.float32), mapx, mapy, cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_WRAP)
+    out[~valid] = 0
+    return out
