@@ -9,12 +9,19 @@ bound of the light that was never measured: the sun is a few samples and half th
   cache (or the equirect kernel's per-row counts, :mod:`.equirect_pass`), then per-row
   counts against the row's L00 weight (the weights are separable); nothing more when
   nothing clips;
-* dense weights (fisheye, dual fisheye, cubemap): the mask against a per-pixel map of L00
-  weights (with downsampling, each block's weight shared by its pixels), on the rows that
-  clip only.
+* a lens fold's 8-bit frame: the fold's C kernel counts the samples at the top code in its
+  lenses' squares and sums their pixels' L00 weight on its way over the bytes
+  (:meth:`.lens_fold.LensFold.decode_project`); the few rectangles outside the squares
+  (margins, a centre row and column through pixel centres) are compared here, in chunks
+  that stay in cache: the frame is read once (issue 44: the whole frame's compare and its
+  mask were 9 MB of DRAM traffic a Theta S frame through a Pi's 512 KB cache);
+* other dense weights (cubemap, a lens not folded, 16-bit frames, downsampling): the mask
+  against a per-pixel map of L00 weights (with downsampling, each block's weight shared by
+  its pixels), on the rows that clip only.
 """
 from __future__ import annotations
 
+import itertools
 import weakref
 
 import cv2
@@ -23,6 +30,9 @@ import numpy as np
 from ..framepass.sinks import Sink
 from ..geometry import sh
 from ..geometry.projections import Equirect
+
+#: Bytes of the outside rectangles compared at a time: the mask stays in a 32 KB L1 cache.
+CHUNK_BYTES = 16384
 
 
 class ClippedLight:
@@ -33,6 +43,8 @@ class ClippedLight:
         # leave an evicted projector (tens of MB of weights) to the cyclic collector.
         self.p = weakref.proxy(projector)
         self._l00 = None        # equirect: L00 weight per row; dense: per pixel (H, W)
+        self._outside = {}      # a lens fold's (H, W) -> the chunks outside its squares
+        self._mask = None       # their compare's mask (CHUNK_BYTES)
 
     def start(self, frame: np.ndarray, lut: np.ndarray) -> dict:
         """A tally for one frame decoded through ``lut``."""
@@ -78,6 +90,28 @@ class ClippedLight:
         per_row = counts @ np.broadcast_to(clip["value"], (3,))
         return float(self._l00 @ per_row)
 
+    def folded(self, tally: np.ndarray, frame: np.ndarray, lut: np.ndarray,
+               stats: dict) -> float:
+        """A lens fold's 8-bit frame: ``stats["clipped_fraction"]`` and the clipped L00
+        (as :meth:`whole` gives them) from the fold's ``tally`` (4,) (the samples at the top
+        code in its lenses' squares, each channel's clipped L00 weight:
+        :meth:`.lens_fold.LensFold.decode_project`) and the samples outside the squares,
+        counted here."""
+        clip = self.start(frame, lut)
+        h, w = frame.shape[:2]
+        chunks = self._outside.get((h, w))
+        if chunks is None:
+            chunks = self._outside[(h, w)] = _outside_squares(self.p._fold.lenses, h, w)
+            self._mask = np.empty(CHUNK_BYTES, np.uint8)
+        n = int(tally[0])
+        for r0, r1, a, b in chunks:
+            part = frame[r0:r1, a:b].reshape(r1 - r0, 3 * (b - a))
+            mask = self._mask[:part.size].reshape(part.shape)
+            cv2.compare(part, clip["top"], cv2.CMP_EQ, dst=mask)
+            n += cv2.countNonZero(mask)
+        stats["clipped_fraction"] = n / frame.size
+        return float(np.broadcast_to(clip["value"], (3,)) @ tally[1:])
+
     def _dense(self, mask: np.ndarray, clip: dict) -> float:
         h, w = mask.shape[:2]
         p = self.p
@@ -114,11 +148,33 @@ class ClippedLight:
         return clip["l00"]
 
 
+def _outside_squares(lenses, h: int, w: int) -> list:
+    """[(r0, r1, a, b)]: the pixel rectangles of an (h, w) frame outside the lens fold's
+    squares (what its kernel reads: ``_fold.c``), each of at most :data:`CHUNK_BYTES`.
+    The squares do not overlap: each lies in its lens's own columns (``lens_region``)."""
+    outside = np.ones((h, w), bool)
+    for L in lenses:
+        xl, xr, yt, yb, nx, ny = L.geometry
+        for rows in (slice(yt - ny, yt), slice(yb, yb + ny)):
+            outside[rows, xl - nx:xl] = outside[rows, xr:xr + nx] = False
+    edges = (tuple(np.flatnonzero(np.diff(np.r_[0, row.astype(np.int8), 0])))
+             for row in outside)         # each row's runs of outside columns: a, b, a, b...
+    chunks, y = [], 0
+    for runs, rows in itertools.groupby(edges):    # rows alike: a rectangle a run
+        r1 = y + len(list(rows))
+        for a, b in zip(runs[::2], runs[1::2]):
+            step = max(1, CHUNK_BYTES // (3 * int(b - a)))
+            chunks += [(r, min(r + step, r1), int(a), int(b)) for r in range(y, r1, step)]
+        y = r1
+    return chunks
+
+
 class ClipCount(Sink):
     """The clip counter's sink in the frame pass: ``stats["clipped_fraction"]`` and ``l00``
     (the clipped samples' L00, summed over the channels) of one frame. Equirect: each raw
-    band tallied while in cache; dense weights, or a pass that fed no band (a fused kernel),
-    the whole 8/16-bit frame at the end. A float frame clips nothing."""
+    band tallied while in cache; a fused kernel's tally (the equirect kernel's, a lens
+    fold's); dense weights, or a pass that fed no band and counted nothing, the whole
+    8/16-bit frame at the end. A float frame clips nothing."""
 
     needs_bands = False
 
@@ -136,6 +192,12 @@ class ClipCount(Sink):
         if self.tally is not None:
             self.clipped.band(raw, r0, self.tally)
             self.rows += raw.shape[0]
+
+    def folded(self, tally: np.ndarray, stats: dict) -> None:
+        """A lens fold's tally instead of the whole frame's compare (see
+        :meth:`ClippedLight.folded`): the result, and nothing left for :meth:`finish`."""
+        self.l00 = self.clipped.folded(tally, self.frame, self.table, stats)
+        self.frame = self.table = None
 
     def counted(self, counts: np.ndarray, stats: dict) -> None:
         """A fused pass's tally instead of the bands (the equirect kernel's samples at the

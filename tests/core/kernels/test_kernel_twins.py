@@ -156,7 +156,8 @@ FOLD_FAULTS = ["square off the frame", "right half left of the left", "float fra
                "extent past the square", "short extents", "parity 4", "sums short",
                "mid too small", "factor 0 with mid", "radial of 19 columns", "no radial bins",
                "step 0", "fixes out of order", "fix past the square", "fixes of 8 weights",
-               "another lens off the frame", "another lens's centre offset"]
+               "another lens off the frame", "another lens's centre offset", "clip of 3",
+               "clip of a float frame"]
 
 
 @st.composite
@@ -191,6 +192,8 @@ def fold_calls(draw):
     floats = linear != (fault in ("float frame with a table", "uint8 frame without a table"))
     base = (rng.standard_normal(shape).astype(np.float32) * 3 if floats
             else rng.integers(0, 256, shape, dtype=np.uint8))
+    if not floats:                     # clipped samples to count: none, a few, most
+        base[rng.random(shape) < draw(st.sampled_from([0.0, 0.05, 0.6]))] = 255
     frame = _strided(base, row_step, col_step, False)
     entries = 100 if fault == "short table" else draw(st.sampled_from([256, 768]))
     table = None if linear else (rng.random(entries) * 4).astype(np.float32)
@@ -228,20 +231,28 @@ def fold_calls(draw):
         f = max(factor, 1)
         mid = rng.standard_normal((H // f - (fault == "mid too small"), W // f, 3)
                                   ).astype(np.float32)
-    return (frame, table, (xl, xr, yt, yb, nx, ny), others, extents, radial, inv_step, fix_at,
+    clip = None          # the clip tally (8-bit frames), added to what it holds
+    faulty = fault in ("clip of 3", "clip of a float frame")
+    if (not linear and draw(st.integers(0, 3))) or faulty:
+        clip = np.array([7.0, *rng.random(3)])[:3 if fault == "clip of 3" else 4]
+        if fault == "clip of a float frame" and not linear:
+            frame, table = base.astype(np.float32)[::row_step], None
+    call = (frame, table, (xl, xr, yt, yb, nx, ny), others, extents, radial, inv_step, fix_at,
             fixes, tables, parities, sums, mid, factor, draw(st.booleans()))
+    return call if clip is None and draw(st.booleans()) else call + (clip,)
 
 
 @pytest.mark.parametrize("build", ["vector", "scalar"])
 @SETTINGS
 @given(call=fold_calls())
 def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
-    both = _same(c_kernels[build][1], fold_twin.fold_lens, call, (11, 12))
+    both = _same(c_kernels[build][1], fold_twin.fold_lens, call,
+                 (11, 12) + ((15,) if len(call) > 15 else ()))
     if both is None:
         return
-    (sums, mid), (want_sums, want_mid) = both
+    (sums, mid, *clip), (want_sums, want_mid, *want_clip) = both
     (frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes, tables,
-     parities, start, start_mid, factor, clear) = call
+     parities, start, start_mid, factor, clear, *start_clip) = call
     nx = geometry[4]
     values = np.abs(np.asarray(frame, np.float64) if table is None else table).max(initial=0)
     # The weights' magnitudes: the radial ones as the C makes them in float32 (a value, a
@@ -264,6 +275,16 @@ def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
         held = 0.0 if clear else np.abs(start_mid).max(initial=0)
         tol = (f * f + 2) * EPS32 * (held + f * f * values) * 2
         np.testing.assert_allclose(mid, want_mid, rtol=0, atol=tol + 1e-30)
+    if clip and clip[0] is not None:
+        (clip,), (want_clip,) = clip, want_clip
+        # the samples at 255 in the squares: a count, the same
+        assert clip[0] == want_clip[0]
+        # each clipped pixel's L00 weight as the C makes it in float32 (within 5·2⁻²⁴ of its
+        # terms' magnitudes: made[0]), summed in float64 by both: at most every read pixel
+        # of every quarter and lens clipped
+        bound = 5 * EPS32 * made[0].sum() * 4 * (1 + len(others))
+        assert np.all(np.abs(clip[1:] - want_clip[1:])
+                      <= bound + 1e-12 * np.abs(start_clip[0][1:]))
 
 
 EQUIRECT_FAULTS = ["odd width", "float frame", "4 channels", "pixels not contiguous",
