@@ -14,7 +14,7 @@ bound of the light that was never measured: the sun is a few samples and half th
   (:meth:`.lens_fold.LensFold.decode_project`); the few rectangles outside the squares
   (margins, a centre row and column through pixel centres) are compared here, in chunks
   that stay in cache: the frame is read once (issue 44: the whole frame's compare and its
-  mask were 9 MB of DRAM traffic a Theta S frame through a Pi's 512 KB cache);
+  mask were 7 MB of DRAM traffic a Theta S frame through a Pi's 512 KB cache);
 * other dense weights (cubemap, a lens not folded, 16-bit frames, downsampling): the mask
   against a per-pixel map of L00 weights (with downsampling, each block's weight shared by
   its pixels), on the rows that clip only.
@@ -43,7 +43,7 @@ class ClippedLight:
         # leave an evicted projector (tens of MB of weights) to the cyclic collector.
         self.p = weakref.proxy(projector)
         self._l00 = None        # equirect: L00 weight per row; dense: per pixel (H, W)
-        self._outside = {}      # a lens fold's (H, W) -> the chunks outside its squares
+        self._outside = None    # (a lens fold, (H, W), the chunks outside its squares)
         self._mask = None       # their compare's mask (CHUNK_BYTES)
 
     def start(self, frame: np.ndarray, lut: np.ndarray) -> dict:
@@ -98,13 +98,13 @@ class ClippedLight:
         :meth:`.lens_fold.LensFold.decode_project`) and the samples outside the squares,
         counted here."""
         clip = self.start(frame, lut)
-        h, w = frame.shape[:2]
-        chunks = self._outside.get((h, w))
-        if chunks is None:
-            chunks = self._outside[(h, w)] = _outside_squares(self.p._fold.lenses, h, w)
+        fold, size = self.p._fold, frame.shape[:2]
+        made = self._outside
+        if made is None or made[0] is not fold or made[1] != size:   # (a test swaps folds)
+            made = self._outside = (fold, size, _outside_squares(fold.lenses, *size))
             self._mask = np.empty(CHUNK_BYTES, np.uint8)
         n = int(tally[0])
-        for r0, r1, a, b in chunks:
+        for r0, r1, a, b in made[2]:
             part = frame[r0:r1, a:b].reshape(r1 - r0, 3 * (b - a))
             mask = self._mask[:part.size].reshape(part.shape)
             cv2.compare(part, clip["top"], cv2.CMP_EQ, dst=mask)
