@@ -171,6 +171,12 @@ any_top(const unsigned char *restrict p, Py_ssize_t n)
         memcpy(&v, p + i, 16);
         hit = hit | (u16)(v == 255);
     }
+    if (i < n && n >= 16) {     /* the last 16 bytes, overlapping: no scalar tail */
+        u16 v;
+        memcpy(&v, p + n - 16, 16);
+        hit = hit | (u16)(v == 255);
+        i = n;
+    }
     long long lanes[2];
     memcpy(lanes, &hit, sizeof lanes);
     if (lanes[0] | lanes[1])
@@ -180,6 +186,30 @@ any_top(const unsigned char *restrict p, Py_ssize_t n)
         if (p[i] == 255)
             return 1;
     return 0;
+}
+
+/* The bytes at 255 among n: 16 a turn in byte counters (a compare's -1 subtracted),
+ * emptied every 255 turns, before they wrap. */
+static Py_ssize_t
+count_255(const unsigned char *restrict p, Py_ssize_t n)
+{
+    Py_ssize_t i = 0, total = 0;
+#if KERNEL_VECTOR
+    typedef unsigned char u16 __attribute__((vector_size(16)));
+    while (i + 16 <= n) {
+        u16 c = {0};
+        for (int turn = 0; turn < 255 && i + 16 <= n; turn++, i += 16) {
+            u16 v;
+            memcpy(&v, p + i, 16);
+            c = c - (u16)(v == 255);
+        }
+        for (int l = 0; l < 16; l++)
+            total += c[l];
+    }
+#endif
+    for (; i < n; i++)
+        total += p[i] == 255;
+    return total;
 }
 
 /* The clip counter's share of a half row of n pixels (p and step as decode_half's): its
@@ -743,6 +773,56 @@ fail:
     return NULL;
 }
 
+/* count_top(frame, rects): the samples at code 255 of an 8-bit frame (H, W, 3), pixels
+ * contiguous, in the rectangles rects, int32 (R, 4) of (r0, r1, a, b): rows r0 <= y < r1,
+ * columns a <= x < b, 0 <= r0 <= r1 <= H, 0 <= a <= b <= W (the frame outside a fold's
+ * squares, which fold_lens's clip counts: the clip counter's rest, without a mask). */
+static PyObject *
+count_top(PyObject *self, PyObject *args)
+{
+    PyObject *frame_obj, *rects_obj;
+    if (!PyArg_ParseTuple(args, "OO", &frame_obj, &rects_obj))
+        return NULL;
+    Py_buffer fr, rc;
+    if (get_view(frame_obj, &fr, 0, "B", 3, "frame") < 0)
+        return NULL;
+    if (get_view(rects_obj, &rc, 0, "i", 2, "rects") < 0) {
+        PyBuffer_Release(&fr);
+        return NULL;
+    }
+    const Py_ssize_t H = fr.shape[0], W = fr.shape[1];
+    const char *err = NULL;
+    if (fr.shape[2] != 3 || fr.strides[2] != 1 || fr.strides[1] != 3)
+        err = "frame: (H, W, 3) with contiguous pixels";
+    else if (!contiguous(&rc) || rc.shape[1] != 4)
+        err = "rects: (R, 4) contiguous int32";
+    const int *r = (const int *)rc.buf;
+    for (Py_ssize_t q = 0; !err && q < rc.shape[0]; q++, r += 4)
+        if (r[0] < 0 || r[0] > r[1] || r[1] > H || r[2] < 0 || r[2] > r[3] || r[3] > W)
+            err = "rects: (r0, r1, a, b) with 0 <= r0 <= r1 <= H and 0 <= a <= b <= W";
+    if (err) {
+        PyErr_SetString(PyExc_ValueError, err);
+        PyBuffer_Release(&fr);
+        PyBuffer_Release(&rc);
+        return NULL;
+    }
+    Py_ssize_t total = 0;
+    Py_BEGIN_ALLOW_THREADS
+    r = (const int *)rc.buf;
+    for (Py_ssize_t q = 0; q < rc.shape[0]; q++, r += 4)
+        for (Py_ssize_t y = r[0]; y < r[1]; y++) {
+            const unsigned char *p = (const unsigned char *)fr.buf + y * fr.strides[0]
+                                     + 3 * (Py_ssize_t)r[2];
+            const Py_ssize_t n = 3 * (Py_ssize_t)(r[3] - r[2]);
+            if (any_top(p, n))
+                total += count_255(p, n);
+        }
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&fr);
+    PyBuffer_Release(&rc);
+    return PyLong_FromSsize_t(total);
+}
+
 static PyMethodDef methods[] = {
     {"fold_lens", fold_lens, METH_VARARGS,
      "fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes, tables, "
@@ -750,6 +830,9 @@ static PyMethodDef methods[] = {
      "one lens's folded projection of an 8-bit frame decoded through table (or of a float32 "
      "frame, table None), its block means into mid, and its samples at code 255 and their "
      "L00 weight into clip."},
+    {"count_top", count_top, METH_VARARGS,
+     "count_top(frame, rects): the samples at code 255 of an 8-bit frame in the rectangles "
+     "(R, 4) int32 (r0, r1, a, b)."},
     {NULL, NULL, 0, NULL}
 };
 

@@ -32,3 +32,9 @@ def fold_lens(
     (zeroed first when clear); clip (4,) (8-bit frames only): the samples at code 255 in the
     lenses' squares added to clip[0], the L00 weight of the pixels whose channel c is at 255
     (those read) to clip[1 + c]. ValueError for arrays it does not take."""
+
+def count_top(frame: npt.NDArray[np.uint8], rects: npt.NDArray[np.int32], /) -> int:
+    """The samples at code 255 of frame (H, W, 3) in the rectangles rects (R, 4) of
+    (r0, r1, a, b): rows r0 <= y < r1, columns a <= x < b, inside the frame (the frame
+    outside a fold's squares: the clip counter's rest). ValueError for arrays it does not
+    take."""

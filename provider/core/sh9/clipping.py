@@ -11,10 +11,10 @@ bound of the light that was never measured: the sun is a few samples and half th
   nothing clips;
 * a lens fold's 8-bit frame: the fold's C kernel counts the samples at the top code in its
   lenses' squares and sums their pixels' L00 weight on its way over the bytes
-  (:meth:`.lens_fold.LensFold.decode_project`); the few rectangles outside the squares
-  (margins, a centre row and column through pixel centres) are compared here, in chunks
-  that stay in cache: the frame is read once (issue 44: the whole frame's compare and its
-  mask were 7 MB of DRAM traffic a Theta S frame through a Pi's 512 KB cache);
+  (:meth:`.lens_fold.LensFold.decode_project`), and its ``count_top`` the few rectangles
+  outside the squares (margins, a centre row and column through pixel centres): the frame
+  is read once, no mask (issue 44: the whole frame's compare and its mask were 7 MB of
+  DRAM traffic a Theta S frame through a Pi's 512 KB cache);
 * other dense weights (cubemap, a lens not folded, 16-bit frames, downsampling): the mask
   against a per-pixel map of L00 weights (with downsampling, each block's weight shared by
   its pixels), on the rows that clip only.
@@ -30,9 +30,12 @@ import numpy as np
 from ..framepass.sinks import Sink
 from ..geometry import sh
 from ..geometry.projections import Equirect
+from .fold_twin import count_top as _count_top_twin
 
-#: Bytes of the outside rectangles compared at a time: the mask stays in a 32 KB L1 cache.
-CHUNK_BYTES = 16384
+try:
+    from ._fold import count_top as _count_top
+except ImportError:          # built without a C compiler: its Python twin (same signature)
+    _count_top = _count_top_twin
 
 
 class ClippedLight:
@@ -43,8 +46,7 @@ class ClippedLight:
         # leave an evicted projector (tens of MB of weights) to the cyclic collector.
         self.p = weakref.proxy(projector)
         self._l00 = None        # equirect: L00 weight per row; dense: per pixel (H, W)
-        self._outside = None    # (a lens fold, (H, W), the chunks outside its squares)
-        self._mask = None       # their compare's mask (CHUNK_BYTES)
+        self._outside = None    # (a lens fold, (H, W), the rectangles outside its squares)
 
     def start(self, frame: np.ndarray, lut: np.ndarray) -> dict:
         """A tally for one frame decoded through ``lut``."""
@@ -95,20 +97,16 @@ class ClippedLight:
         """A lens fold's 8-bit frame: ``stats["clipped_fraction"]`` and the clipped L00
         (as :meth:`whole` gives them) from the fold's ``tally`` (4,) (the samples at the top
         code in its lenses' squares, each channel's clipped L00 weight:
-        :meth:`.lens_fold.LensFold.decode_project`) and the samples outside the squares,
-        counted here."""
+        :meth:`.lens_fold.LensFold.decode_project`) and the samples outside the squares
+        (the kernel's ``count_top``)."""
         clip = self.start(frame, lut)
         fold, size = self.p._fold, frame.shape[:2]
         made = self._outside
         if made is None or made[0] is not fold or made[1] != size:   # (a test swaps folds)
             made = self._outside = (fold, size, _outside_squares(fold.lenses, *size))
-            self._mask = np.empty(CHUNK_BYTES, np.uint8)
-        n = int(tally[0])
-        for r0, r1, a, b in made[2]:
-            part = frame[r0:r1, a:b].reshape(r1 - r0, 3 * (b - a))
-            mask = self._mask[:part.size].reshape(part.shape)
-            cv2.compare(part, clip["top"], cv2.CMP_EQ, dst=mask)
-            n += cv2.countNonZero(mask)
+        if frame.strides[2] != 1 or frame.strides[1] != 3:
+            frame = np.ascontiguousarray(frame)
+        n = int(tally[0]) + _count_top(frame, made[2])
         stats["clipped_fraction"] = n / frame.size
         return float(np.broadcast_to(clip["value"], (3,)) @ tally[1:])
 
@@ -148,10 +146,10 @@ class ClippedLight:
         return clip["l00"]
 
 
-def _outside_squares(lenses, h: int, w: int) -> list:
-    """[(r0, r1, a, b)]: the pixel rectangles of an (h, w) frame outside the lens fold's
-    squares (what its kernel reads: ``_fold.c``), each of at most :data:`CHUNK_BYTES`.
-    The squares do not overlap: each lies in its lens's own columns (``lens_region``)."""
+def _outside_squares(lenses, h: int, w: int) -> np.ndarray:
+    """(R, 4) int32 (r0, r1, a, b): the pixel rectangles of an (h, w) frame outside the
+    lens fold's squares (what its kernel reads: ``_fold.c``). The squares do not overlap:
+    each lies in its lens's own columns (``lens_region``)."""
     outside = np.ones((h, w), bool)
     for L in lenses:
         xl, xr, yt, yb, nx, ny = L.geometry
@@ -159,14 +157,12 @@ def _outside_squares(lenses, h: int, w: int) -> list:
             outside[rows, xl - nx:xl] = outside[rows, xr:xr + nx] = False
     edges = (tuple(np.flatnonzero(np.diff(np.r_[0, row.astype(np.int8), 0])))
              for row in outside)         # each row's runs of outside columns: a, b, a, b...
-    chunks, y = [], 0
+    rects, y = [], 0
     for runs, rows in itertools.groupby(edges):    # rows alike: a rectangle a run
         r1 = y + len(list(rows))
-        for a, b in zip(runs[::2], runs[1::2]):
-            step = max(1, CHUNK_BYTES // (3 * int(b - a)))
-            chunks += [(r, min(r + step, r1), int(a), int(b)) for r in range(y, r1, step)]
+        rects += [(y, r1, a, b) for a, b in zip(runs[::2], runs[1::2])]
         y = r1
-    return chunks
+    return np.array(rects, np.int32).reshape(-1, 4)
 
 
 class ClipCount(Sink):

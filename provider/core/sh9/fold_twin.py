@@ -188,6 +188,27 @@ def _one_lens(fr, tb, geometry, extent, weights, parity, out, md, f, tally=None)
             blocks[..., ch] += added.reshape(mh, mw).astype(np.float32)
 
 
+def count_top(frame, rects) -> int:
+    """The samples at code 255 of an 8-bit ``frame`` in the rectangles ``rects`` (R, 4)
+    int32 (r0, r1, a, b): see ``_fold.c``."""
+    fr = buffer_view(frame, False, "B", 3, "frame")
+    rc = buffer_view(rects, False, "i", 2, "rects")
+    H, W = fr.shape[:2]
+    err = None
+    if fr.shape[2] != 3 or fr.strides[2] != 1 or fr.strides[1] != 3:
+        err = "frame: (H, W, 3) with contiguous pixels"
+    elif not contiguous(rc) or rc.shape[1] != 4:
+        err = "rects: (R, 4) contiguous int32"
+    boxes = np.asarray(rc).astype(np.int64).reshape(-1, 4) if err is None else ()
+    for r0, r1, a, b in boxes:
+        if err is None and not (0 <= r0 <= r1 <= H and 0 <= a <= b <= W):
+            err = "rects: (r0, r1, a, b) with 0 <= r0 <= r1 <= H and 0 <= a <= b <= W"
+    if err is not None:
+        raise ValueError(err)
+    pixels = np.asarray(fr)
+    return sum(int(np.count_nonzero(pixels[r0:r1, a:b] == 255)) for r0, r1, a, b in boxes)
+
+
 def _six(geometry) -> tuple:
     """``geometry`` unpacked as ``PyArg_ParseTuple``'s "(nnnnnn)" does (a sequence of 6)."""
     try:

@@ -33,8 +33,8 @@ SOURCES = Path(__file__).resolve().parents[3] / "provider" / "core"
 
 @pytest.fixture(scope="module")
 def c_kernels(tmp_path_factory):
-    """build -> (decode_blocks, fold_lens, equirect_rows) in C: "vector", as installed
-    (GCC's vector extension), and "scalar", compiled here with SHLIGHT_SCALAR_KERNELS (the
+    """build -> (decode_blocks, fold_lens, equirect_rows, count_top) in C: "vector", as
+    installed (GCC's vector extension), and "scalar", compiled here with SHLIGHT_SCALAR_KERNELS (the
     portable loops a compiler without the extension, MSVC, takes)."""
     from setuptools import Distribution, Extension
     from setuptools.command.build_ext import build_ext
@@ -56,9 +56,10 @@ def c_kernels(tmp_path_factory):
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
         scalar[ext.name] = module
-    return {"vector": (_blocks.decode_blocks, _fold.fold_lens, _equirect.equirect_rows),
+    return {"vector": (_blocks.decode_blocks, _fold.fold_lens, _equirect.equirect_rows,
+                       _fold.count_top),
             "scalar": (scalar["_blocks"].decode_blocks, scalar["_fold"].fold_lens,
-                       scalar["_equirect"].equirect_rows)}
+                       scalar["_equirect"].equirect_rows, scalar["_fold"].count_top)}
 
 
 def _copy(a):
@@ -285,6 +286,48 @@ def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
         bound = 5 * EPS32 * made[0].sum() * 4 * (1 + len(others))
         assert np.all(np.abs(clip[1:] - want_clip[1:])
                       <= bound + 1e-12 * np.abs(start_clip[0][1:]))
+
+
+COUNT_FAULTS = ["float frame", "pixels not contiguous", "rects of 3", "rects of int64",
+                "a rect past the frame", "a rect upside down"]
+
+
+@st.composite
+def count_calls(draw):
+    """count_top's arguments (frame, rects): half of them right, half with one fault; rows
+    long enough for the 16-byte compares, samples at 255 from none to most."""
+    fault = draw(st.sampled_from(COUNT_FAULTS)) if draw(st.booleans()) else None
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    H, W = draw(st.integers(0, 12)), draw(st.integers(0, 40))
+    row_step = draw(st.sampled_from([1, -1, 2]))
+    col_step = -1 if fault == "pixels not contiguous" else 1
+    shape = (H * abs(row_step), W, 3)
+    base = rng.integers(0, 256, shape, dtype=np.uint8)
+    base[rng.random(shape) < draw(st.sampled_from([0.0, 0.02, 0.7]))] = 255
+    if fault == "float frame":
+        base = base.astype(np.float32)
+    frame = _strided(base, row_step, col_step, False)
+    R = draw(st.integers(0, 5))
+    r = np.sort(rng.integers(0, H + 1, (R, 2)), axis=1)
+    c = np.sort(rng.integers(0, W + 1, (R, 2)), axis=1)
+    rects = np.concatenate([r, c], axis=1)
+    if fault == "a rect past the frame":
+        rects = np.vstack([rects, [0, H, 0, W + 1]])
+    elif fault == "a rect upside down":
+        rects = np.vstack([rects, [1, 0, 0, W]])
+    rects = rects[:, :3] if fault == "rects of 3" else rects
+    return frame, rects.astype(np.int64 if fault == "rects of int64" else np.int32)
+
+
+@pytest.mark.parametrize("build", ["vector", "scalar"])
+@SETTINGS
+@given(call=count_calls())
+def test_count_top_and_its_twin_agree(c_kernels, build, call):
+    if _same(c_kernels[build][3], fold_twin.count_top, call, ()) is None:
+        return                                  # both refused it, with the same error
+    frame, rects = call
+    want = sum(int((np.asarray(frame)[r0:r1, a:b] == 255).sum()) for r0, r1, a, b in rects)
+    assert c_kernels[build][3](frame, rects) == fold_twin.count_top(frame, rects) == want
 
 
 EQUIRECT_FAULTS = ["odd width", "float frame", "4 channels", "pixels not contiguous",
