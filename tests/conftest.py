@@ -77,11 +77,12 @@ def kernels(request, monkeypatch):
     """The test runs twice, as markupsafe runs its suite over its speedups: "c" on the C
     kernels (skipped where they were not built: tests/core/kernels/test_kernels.py fails there), "python"
     on their Python twins, put where :mod:`provider.core.radiometry.blocks`,
-    :mod:`provider.core.sh9.lens_fold` and :mod:`provider.core.sh9.equirect_pass` chose the
-    kernel at import; ``KERNEL`` then says built, so the products take the same one-pass
+    :mod:`provider.core.sh9.lens_fold`, :mod:`provider.core.sh9.clipping` (the fold's
+    ``count_top``) and :mod:`provider.core.sh9.equirect_pass` chose the kernel at import;
+    ``KERNEL`` then says built, so the products take the same one-pass
     paths, through the twins."""
     from provider.core.radiometry import blocks
-    from provider.core.sh9 import equirect_pass, lens_fold
+    from provider.core.sh9 import clipping, equirect_pass, lens_fold
     if request.param == "c":
         if not (blocks.KERNEL and lens_fold.KERNEL and equirect_pass.KERNEL):
             pytest.skip("the C kernels were not built (tests/core/kernels/test_kernels.py says how)")
@@ -89,6 +90,7 @@ def kernels(request, monkeypatch):
         monkeypatch.setattr(blocks, "_decode_blocks", blocks._decode_blocks_py)
         monkeypatch.setattr(blocks, "KERNEL", True)
         monkeypatch.setattr(lens_fold, "_fold_kernel", lens_fold._fold_twin)
+        monkeypatch.setattr(clipping, "_count_top", clipping._count_top_twin)
         monkeypatch.setattr(lens_fold, "KERNEL", True)
         monkeypatch.setattr(equirect_pass, "_equirect_rows", equirect_pass._equirect_rows_py)
         monkeypatch.setattr(equirect_pass, "KERNEL", True)

@@ -58,7 +58,7 @@ FRAMES_LONG, FRAMES_SHORT = 4, 1
 EDGE_IPS = 1e9
 
 _CALLGRIND_SNIPPET = r"""
-import pickle, sys, weakref
+import gc, pickle, sys, weakref
 import cv2
 cv2.setNumThreads(1)
 with open(sys.argv[1], "rb") as fh:
@@ -67,6 +67,10 @@ if hasattr(work, "_clipped"):      # its weak proxy to the projector unpickles a
     work._clipped.p = weakref.proxy(work)
 n = int(sys.argv[2])
 work.project(frame)                      # the first frame: lazy tables, caches
+# A collection now, not one during the counted frames: where the import's garbage crosses
+# the collector's threshold shifts with any module's size (a 1-frame run cost 63 k
+# instructions more than a 4-frame one, a 256×128 plain read a third of that).
+gc.collect()
 for _ in range(n):
     work.project(frame)
 """

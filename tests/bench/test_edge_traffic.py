@@ -33,6 +33,23 @@ def test_the_theta_fold_moves_its_frame_and_little_more():
     assert 0.9 * frame.nbytes < moved < frame.nbytes + weights + 0.5e6
 
 
+def test_the_theta_frame_without_lights_moves_its_frame_once():
+    """The Theta S frame's SH9 without lights, the clip counter with it: the fold kernel
+    counts the clipped samples on its way over the bytes and the few rectangles outside its
+    squares are compared in cache-sized chunks, so the frame comes from DRAM once (the
+    compare of the whole frame and its mask took it to 12.3 MB a frame). Beside the frame
+    and the fold's tables, the frame's own path moves ~2 MB (cachegrind by function, x86-64
+    at 2026-11-29: 5.1 MB in all): its code fetched again after the frame evicted it (0.7 MB),
+    the result's sphere grids and numpy's small temporaries, the unpaired pixels' gather."""
+    if not lens_fold.KERNEL:
+        pytest.skip("the C kernels were not built (no compiler at install)")
+    _, _, frame = edge.edge_workloads()["theta"]
+    p = SH9Projector(1280, 720, "dual-fisheye")
+    weights = p._fold.table_floats * 4
+    moved = edge.dram_bytes_per_frame(p, frame)
+    assert moved < frame.nbytes + weights + 2.5e6
+
+
 def test_the_section_and_the_command_report_the_traffic(tmp_path, monkeypatch, capsys):
     small = {"pi": ("Pi camera 160×120 fisheye, SH9 exact",
                     lambda: SH9Projector(160, 120, "fisheye"), edge.edge_frame(160, 120))}

@@ -12,7 +12,7 @@
  *   parity 2 (x even, y odd):  (a + b) - (c + d)    parity 3 (x odd, y odd):  (a - b) - (c - d)
  *
  * fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, tables,
- *           parities, sums, mid, factor, clear)
+ *           parities, sums, mid, factor, clear[, clip])
  * (its Python twin, the same signature, numbers and errors: fold_twin.py)
  *   frame     uint8 (H, W, 3), pixels contiguous (rows may be strided); or, without a
  *             table, linear float32 (H, W, 3) (the fast path's block means, a float frame)
@@ -45,6 +45,11 @@
  *             the lights' block copy, black where nothing was read)
  *   factor    f >= 1 (ignored without mid)
  *   clear     true: mid is zeroed first (the first lens's call)
+ *   clip      None, or float64 (4,) added to (8-bit frames only): clip[0] the samples at
+ *             code 255 in the lenses' squares (every column j < nx, whatever the extents:
+ *             the clip counter's clipped_fraction counts the whole frame), clip[1 + c] the
+ *             L00 weight (weight 0, the same in the lens frame and the world's) of the
+ *             pixels whose channel c is at 255, over the pixels read (j < extents[i])
  *
  * Per row pair: the four half rows decoded into planar float rows (a byte load and a table
  * load a sample: the only scalar loop), then plain loops over j that the compiler
@@ -67,7 +72,7 @@
 #include <arm_neon.h>
 #endif
 
-#define NVIEWS 11
+#define NVIEWS 12
 
 #if KERNEL_VECTOR
 /* Four floats: GCC's and Clang's vector extension, SSE on x86-64 and NEON on 64-bit ARM.
@@ -140,6 +145,97 @@ split_half(const float *restrict p, Py_ssize_t step, Py_ssize_t n, float *restri
         r[j] = p[0];
         g[j] = p[1];
         b[j] = p[2];
+    }
+}
+
+/* Whether any of n bytes is 255: 64 bytes a turn (16-byte compares where vectors are at
+ * hand), then 16. */
+static inline int
+any_top(const unsigned char *restrict p, Py_ssize_t n)
+{
+    Py_ssize_t i = 0;
+#if KERNEL_VECTOR
+    typedef unsigned char u16 __attribute__((vector_size(16)));
+    u16 hit = {0};
+    for (; i + 64 <= n; i += 64) {
+        u16 v0, v1, v2, v3;
+        memcpy(&v0, p + i, 16);
+        memcpy(&v1, p + i + 16, 16);
+        memcpy(&v2, p + i + 32, 16);
+        memcpy(&v3, p + i + 48, 16);
+        /* (hit = hit | ..., not |=: GCC compiles the latter as a select) */
+        hit = hit | (u16)((v0 == 255) | (v1 == 255) | (v2 == 255) | (v3 == 255));
+    }
+    for (; i + 16 <= n; i += 16) {
+        u16 v;
+        memcpy(&v, p + i, 16);
+        hit = hit | (u16)(v == 255);
+    }
+    if (i < n && n >= 16) {     /* the last 16 bytes, overlapping: no scalar tail */
+        u16 v;
+        memcpy(&v, p + n - 16, 16);
+        hit = hit | (u16)(v == 255);
+        i = n;
+    }
+    long long lanes[2];
+    memcpy(lanes, &hit, sizeof lanes);
+    if (lanes[0] | lanes[1])
+        return 1;
+#endif
+    for (; i < n; i++)
+        if (p[i] == 255)
+            return 1;
+    return 0;
+}
+
+/* The bytes at 255 among n: 16 a turn in byte counters (a compare's -1 subtracted),
+ * emptied every 255 turns, before they wrap. */
+static Py_ssize_t
+count_255(const unsigned char *restrict p, Py_ssize_t n)
+{
+    Py_ssize_t i = 0, total = 0;
+#if KERNEL_VECTOR
+    typedef unsigned char u16 __attribute__((vector_size(16)));
+    while (i + 16 <= n) {
+        u16 c = {0};
+        for (int turn = 0; turn < 255 && i + 16 <= n; turn++, i += 16) {
+            u16 v;
+            memcpy(&v, p + i, 16);
+            c = c - (u16)(v == 255);
+        }
+        for (int l = 0; l < 16; l++)
+            total += c[l];
+    }
+#endif
+    for (; i < n; i++)
+        total += p[i] == 255;
+    return total;
+}
+
+/* The clip counter's share of a half row of n pixels (p and step as decode_half's): its
+ * samples at code 255 added to *count, and the weight w[j] of each one's pixel, for the
+ * first e pixels (the others weigh nothing), to its channel's l00[c]. The half row's bytes
+ * are checked at once, then, where one clips, 16 pixels at a time: a frame with no clipped
+ * sample costs a compare per 16 bytes, a lamp a few scalar turns. */
+static void
+clip_half(const unsigned char *restrict p, Py_ssize_t step, Py_ssize_t n, Py_ssize_t e,
+          const float *restrict w, Py_ssize_t *restrict count, double *restrict l00)
+{
+    if (!any_top(step > 0 ? p : p - 3 * (n - 1), 3 * n))
+        return;
+    for (Py_ssize_t j0 = 0; j0 < n; j0 += 16) {
+        const Py_ssize_t j1 = j0 + 16 < n ? j0 + 16 : n;
+        if (!any_top(step > 0 ? p + 3 * j0 : p - 3 * (j1 - 1), 3 * (j1 - j0)))
+            continue;
+        for (Py_ssize_t j = j0; j < j1; j++) {
+            const unsigned char *q = p + step * j;
+            for (int c = 0; c < 3; c++)
+                if (q[c] == 255) {
+                    (*count)++;
+                    if (j < e)
+                        l00[c] += w[j];
+                }
+        }
     }
 }
 
@@ -398,19 +494,20 @@ static PyObject *
 fold_lens(PyObject *self, PyObject *args)
 {
     PyObject *frame_obj, *table_obj, *ext_obj, *tab_obj, *par_obj, *sums_obj, *mid_obj;
-    PyObject *rad_obj, *fat_obj, *fix_obj, *oth_obj;
+    PyObject *rad_obj, *fat_obj, *fix_obj, *oth_obj, *clip_obj = Py_None;
     Py_ssize_t xl, xr, yt, yb, nx, ny;
     double inv_step;
     int f, clear;
-    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOOdOOOOOOip", &frame_obj, &table_obj, &xl, &xr,
+    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOOdOOOOOOip|O", &frame_obj, &table_obj, &xl, &xr,
                           &yt, &yb, &nx, &ny, &oth_obj, &ext_obj, &rad_obj, &inv_step,
                           &fat_obj, &fix_obj, &tab_obj, &par_obj, &sums_obj, &mid_obj, &f,
-                          &clear))
+                          &clear, &clip_obj))
         return NULL;
     Py_buffer views[NVIEWS];
     memset(views, 0, sizeof views);
     int got[NVIEWS] = {0};
     int use_mid = mid_obj != Py_None, linear = table_obj == Py_None;
+    const int use_clip = clip_obj != Py_None;
     const char *err = NULL;
 #define VIEW(n, obj, w, fmt, nd, name) \
     do { if (get_view(obj, &views[n], w, fmt, nd, name) < 0) goto fail; got[n] = 1; } while (0)
@@ -428,10 +525,12 @@ fold_lens(PyObject *self, PyObject *args)
     VIEW(5, sums_obj, 1, "d", 3, "sums");
     if (use_mid)
         VIEW(6, mid_obj, 1, "f", 3, "mid");
+    if (use_clip)
+        VIEW(11, clip_obj, 1, "d", 1, "clip");
 #undef VIEW
     Py_buffer fr = views[0], tb = views[1], ex = views[2], tabs = views[3], par = views[4];
     Py_buffer sums = views[5], mid = views[6], rad = views[7], fat = views[8], fix = views[9];
-    Py_buffer oth = views[10];
+    Py_buffer oth = views[10], cl = views[11];
     const Py_ssize_t L = 1 + oth.shape[0];
     Py_ssize_t H = fr.shape[0], W = fr.shape[1], K = tabs.shape[0];
     const Py_ssize_t item = linear ? 4 : 1;
@@ -466,6 +565,8 @@ fold_lens(PyObject *self, PyObject *args)
                          || mid.shape[1] != W / f || mid.shape[2] != 3
                          || nx > (W / f) * f - xr || ny > (H / f) * f - yb))
         err = "mid: (H / f, W / f, 3) float32 holding the square's blocks";
+    else if (use_clip && (linear || !contiguous(&cl) || cl.shape[0] != 4))
+        err = "clip: (4,) contiguous float64, with a table (an 8-bit frame)";
     /* The other lenses: their columns as the first's (the same centre offset: the same
      * weights), inside the frame and mid's blocks. */
     const int *others = err ? NULL : (const int *)oth.buf;
@@ -547,6 +648,8 @@ fold_lens(PyObject *self, PyObject *args)
         double *out = (double *)sums.buf;
         float *midp = use_mid ? (float *)mid.buf : NULL;
         const Py_ssize_t mw = use_mid ? W / f : 0;
+        Py_ssize_t clipped = 0;             /* the clip counter's tally (clip) */
+        double clipped_l00[3] = {0.0, 0.0, 0.0};
         Py_BEGIN_ALLOW_THREADS
         zero(cols_all, 12 * L * nx);    /* only the column sums are read before written */
         if (use_mid && clear) {
@@ -585,6 +688,10 @@ fold_lens(PyObject *self, PyObject *args)
                         decode_half((const unsigned char *)start[h], h % 2 ? -3 : 3, e, t,
                                     shared, r, r + nx, r + 2 * nx);
                 }
+                if (use_clip)       /* the bytes just read, still in cache */
+                    for (int h = 0; h < 4; h++)
+                        clip_half((const unsigned char *)start[h], h % 2 ? -3 : 3, nx, e,
+                                  wrows, &clipped, clipped_l00);
                 if (use_mid) {
                     for (int h = 0; h < 4; h++) {
                         const Py_ssize_t br = (h < 2 ? yb + i : yt - 1 - i) / f;
@@ -643,6 +750,12 @@ fold_lens(PyObject *self, PyObject *args)
                     spill(cols_all + (12 * l + 3 * h) * nx, nx, spills[4 * L + 4 * l + h],
                           spills[8 * L + 4 * l + h], dir[h], f, midp + br * mw * 3);
             }
+        if (use_clip) {
+            double *clip = (double *)cl.buf;
+            clip[0] += (double)clipped;
+            for (int c = 0; c < 3; c++)
+                clip[1 + c] += clipped_l00[c];
+        }
         Py_END_ALLOW_THREADS
         free(order);
         free(fold_of);
@@ -660,12 +773,66 @@ fail:
     return NULL;
 }
 
+/* count_top(frame, rects): the samples at code 255 of an 8-bit frame (H, W, 3), pixels
+ * contiguous, in the rectangles rects, int32 (R, 4) of (r0, r1, a, b): rows r0 <= y < r1,
+ * columns a <= x < b, 0 <= r0 <= r1 <= H, 0 <= a <= b <= W (the frame outside a fold's
+ * squares, which fold_lens's clip counts: the clip counter's rest, without a mask). */
+static PyObject *
+count_top(PyObject *self, PyObject *args)
+{
+    PyObject *frame_obj, *rects_obj;
+    if (!PyArg_ParseTuple(args, "OO", &frame_obj, &rects_obj))
+        return NULL;
+    Py_buffer fr, rc;
+    if (get_view(frame_obj, &fr, 0, "B", 3, "frame") < 0)
+        return NULL;
+    if (get_view(rects_obj, &rc, 0, "i", 2, "rects") < 0) {
+        PyBuffer_Release(&fr);
+        return NULL;
+    }
+    const Py_ssize_t H = fr.shape[0], W = fr.shape[1];
+    const char *err = NULL;
+    if (fr.shape[2] != 3 || fr.strides[2] != 1 || fr.strides[1] != 3)
+        err = "frame: (H, W, 3) with contiguous pixels";
+    else if (!contiguous(&rc) || rc.shape[1] != 4)
+        err = "rects: (R, 4) contiguous int32";
+    const int *r = (const int *)rc.buf;
+    for (Py_ssize_t q = 0; !err && q < rc.shape[0]; q++, r += 4)
+        if (r[0] < 0 || r[0] > r[1] || r[1] > H || r[2] < 0 || r[2] > r[3] || r[3] > W)
+            err = "rects: (r0, r1, a, b) with 0 <= r0 <= r1 <= H and 0 <= a <= b <= W";
+    if (err) {
+        PyErr_SetString(PyExc_ValueError, err);
+        PyBuffer_Release(&fr);
+        PyBuffer_Release(&rc);
+        return NULL;
+    }
+    Py_ssize_t total = 0;
+    Py_BEGIN_ALLOW_THREADS
+    r = (const int *)rc.buf;
+    for (Py_ssize_t q = 0; q < rc.shape[0]; q++, r += 4)
+        for (Py_ssize_t y = r[0]; y < r[1]; y++) {
+            const unsigned char *p = (const unsigned char *)fr.buf + y * fr.strides[0]
+                                     + 3 * (Py_ssize_t)r[2];
+            const Py_ssize_t n = 3 * (Py_ssize_t)(r[3] - r[2]);
+            if (any_top(p, n))
+                total += count_255(p, n);
+        }
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&fr);
+    PyBuffer_Release(&rc);
+    return PyLong_FromSsize_t(total);
+}
+
 static PyMethodDef methods[] = {
     {"fold_lens", fold_lens, METH_VARARGS,
      "fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes, tables, "
-     "parities, sums, mid, factor, clear): "
+     "parities, sums, mid, factor, clear[, clip]): "
      "one lens's folded projection of an 8-bit frame decoded through table (or of a float32 "
-     "frame, table None), and its block means into mid."},
+     "frame, table None), its block means into mid, and its samples at code 255 and their "
+     "L00 weight into clip."},
+    {"count_top", count_top, METH_VARARGS,
+     "count_top(frame, rects): the samples at code 255 of an 8-bit frame in the rectangles "
+     "(R, 4) int32 (r0, r1, a, b)."},
     {NULL, NULL, 0, NULL}
 };
 

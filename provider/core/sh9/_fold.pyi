@@ -18,6 +18,7 @@ def fold_lens(
     mid: npt.NDArray[np.float32] | None,
     factor: int,
     clear: bool,
+    clip: npt.NDArray[np.float64] | None = None,
     /,
 ) -> None:
     """One lens's folded SH projection of frame (uint8 through table, 256 or 768 float32
@@ -28,4 +29,12 @@ def fold_lens(
     fix_at (F,) and fixes (F, 9) exact corrections of some quarter pixels' SH9 weights,
     tables (K, ny·nx) one quarter table an extra weight, parities (K,) its fold (0 to 3);
     mid (H // factor, W // factor, 3): the block sums of the pixels read added to it
-    (zeroed first when clear). ValueError for arrays it does not take."""
+    (zeroed first when clear); clip (4,) (8-bit frames only): the samples at code 255 in the
+    lenses' squares added to clip[0], the L00 weight of the pixels whose channel c is at 255
+    (those read) to clip[1 + c]. ValueError for arrays it does not take."""
+
+def count_top(frame: npt.NDArray[np.uint8], rects: npt.NDArray[np.int32], /) -> int:
+    """The samples at code 255 of frame (H, W, 3) in the rectangles rects (R, 4) of
+    (r0, r1, a, b): rows r0 <= y < r1, columns a <= x < b, inside the frame (the frame
+    outside a fold's squares: the clip counter's rest). ValueError for arrays it does not
+    take."""

@@ -9,12 +9,19 @@ bound of the light that was never measured: the sun is a few samples and half th
   cache (or the equirect kernel's per-row counts, :mod:`.equirect_pass`), then per-row
   counts against the row's L00 weight (the weights are separable); nothing more when
   nothing clips;
-* dense weights (fisheye, dual fisheye, cubemap): the mask against a per-pixel map of L00
-  weights (with downsampling, each block's weight shared by its pixels), on the rows that
-  clip only.
+* a lens fold's 8-bit frame: the fold's C kernel counts the samples at the top code in its
+  lenses' squares and sums their pixels' L00 weight on its way over the bytes
+  (:meth:`.lens_fold.LensFold.decode_project`), and its ``count_top`` the few rectangles
+  outside the squares (margins, a centre row and column through pixel centres): the frame
+  is read once, no mask (issue 44: the whole frame's compare and its mask were 7 MB of
+  DRAM traffic a Theta S frame through a Pi's 512 KB cache);
+* other dense weights (cubemap, a lens not folded, 16-bit frames, downsampling): the mask
+  against a per-pixel map of L00 weights (with downsampling, each block's weight shared by
+  its pixels), on the rows that clip only.
 """
 from __future__ import annotations
 
+import itertools
 import weakref
 
 import cv2
@@ -23,6 +30,12 @@ import numpy as np
 from ..framepass.sinks import Sink
 from ..geometry import sh
 from ..geometry.projections import Equirect
+from .fold_twin import count_top as _count_top_twin
+
+try:
+    from ._fold import count_top as _count_top
+except ImportError:          # built without a C compiler: its Python twin (same signature)
+    _count_top = _count_top_twin
 
 
 class ClippedLight:
@@ -33,6 +46,7 @@ class ClippedLight:
         # leave an evicted projector (tens of MB of weights) to the cyclic collector.
         self.p = weakref.proxy(projector)
         self._l00 = None        # equirect: L00 weight per row; dense: per pixel (H, W)
+        self._outside = None    # (a lens fold, (H, W), the rectangles outside its squares)
 
     def start(self, frame: np.ndarray, lut: np.ndarray) -> dict:
         """A tally for one frame decoded through ``lut``."""
@@ -78,6 +92,24 @@ class ClippedLight:
         per_row = counts @ np.broadcast_to(clip["value"], (3,))
         return float(self._l00 @ per_row)
 
+    def folded(self, tally: np.ndarray, frame: np.ndarray, lut: np.ndarray,
+               stats: dict) -> float:
+        """A lens fold's 8-bit frame: ``stats["clipped_fraction"]`` and the clipped L00
+        (as :meth:`whole` gives them) from the fold's ``tally`` (4,) (the samples at the top
+        code in its lenses' squares, each channel's clipped L00 weight:
+        :meth:`.lens_fold.LensFold.decode_project`) and the samples outside the squares
+        (the kernel's ``count_top``)."""
+        clip = self.start(frame, lut)
+        fold, size = self.p._fold, frame.shape[:2]
+        made = self._outside
+        if made is None or made[0] is not fold or made[1] != size:   # (a test swaps folds)
+            made = self._outside = (fold, size, _outside_squares(fold.lenses, *size))
+        if frame.strides[2] != 1 or frame.strides[1] != 3:
+            frame = np.ascontiguousarray(frame)
+        n = int(tally[0]) + _count_top(frame, made[2])
+        stats["clipped_fraction"] = n / frame.size
+        return float(np.broadcast_to(clip["value"], (3,)) @ tally[1:])
+
     def _dense(self, mask: np.ndarray, clip: dict) -> float:
         h, w = mask.shape[:2]
         p = self.p
@@ -114,11 +146,31 @@ class ClippedLight:
         return clip["l00"]
 
 
+def _outside_squares(lenses, h: int, w: int) -> np.ndarray:
+    """(R, 4) int32 (r0, r1, a, b): the pixel rectangles of an (h, w) frame outside the
+    lens fold's squares (what its kernel reads: ``_fold.c``). The squares do not overlap:
+    each lies in its lens's own columns (``lens_region``)."""
+    outside = np.ones((h, w), bool)
+    for L in lenses:
+        xl, xr, yt, yb, nx, ny = L.geometry
+        for rows in (slice(yt - ny, yt), slice(yb, yb + ny)):
+            outside[rows, xl - nx:xl] = outside[rows, xr:xr + nx] = False
+    edges = (tuple(np.flatnonzero(np.diff(np.r_[0, row.astype(np.int8), 0])))
+             for row in outside)         # each row's runs of outside columns: a, b, a, b...
+    rects, y = [], 0
+    for runs, rows in itertools.groupby(edges):    # rows alike: a rectangle a run
+        r1 = y + len(list(rows))
+        rects += [(y, r1, a, b) for a, b in zip(runs[::2], runs[1::2])]
+        y = r1
+    return np.array(rects, np.int32).reshape(-1, 4)
+
+
 class ClipCount(Sink):
     """The clip counter's sink in the frame pass: ``stats["clipped_fraction"]`` and ``l00``
     (the clipped samples' L00, summed over the channels) of one frame. Equirect: each raw
-    band tallied while in cache; dense weights, or a pass that fed no band (a fused kernel),
-    the whole 8/16-bit frame at the end. A float frame clips nothing."""
+    band tallied while in cache; a fused kernel's tally (the equirect kernel's, a lens
+    fold's); dense weights, or a pass that fed no band and counted nothing, the whole
+    8/16-bit frame at the end. A float frame clips nothing."""
 
     needs_bands = False
 
@@ -136,6 +188,12 @@ class ClipCount(Sink):
         if self.tally is not None:
             self.clipped.band(raw, r0, self.tally)
             self.rows += raw.shape[0]
+
+    def folded(self, tally: np.ndarray, stats: dict) -> None:
+        """A lens fold's tally instead of the whole frame's compare (see
+        :meth:`ClippedLight.folded`): the result, and nothing left for :meth:`finish`."""
+        self.l00 = self.clipped.folded(tally, self.frame, self.table, stats)
+        self.frame = self.table = None
 
     def counted(self, counts: np.ndarray, stats: dict) -> None:
         """A fused pass's tally instead of the bands (the equirect kernel's samples at the

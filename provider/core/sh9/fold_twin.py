@@ -51,10 +51,11 @@ def radial_weights(radial, inv_step, geometry, ks=range(9)) -> np.ndarray:
 
 
 def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes,
-              tables, parities, sums, mid, factor, clear) -> None:
+              tables, parities, sums, mid, factor, clear, clip=None) -> None:
     """One lens's folded projection of ``frame`` (8-bit through ``table``, or linear
-    float32 with ``table`` None) added to ``sums``, and its pixels' block sums to ``mid``:
-    see ``_fold.c`` (the arguments) and ``_fold.pyi``."""
+    float32 with ``table`` None) added to ``sums``, its pixels' block sums to ``mid``, and
+    its samples at code 255 with their L00 weight to ``clip``: see ``_fold.c`` (the
+    arguments) and ``_fold.pyi``."""
     xl, xr, yt, yb, nx, ny = (operator.index(v) for v in _six(geometry))
     f, clear = c_int(factor), bool(clear)
     use_mid, linear = mid is not None, table is None
@@ -71,6 +72,7 @@ def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at,
     par = buffer_view(parities, False, "i", 1, "parities")
     sm = buffer_view(sums, True, "d", 3, "sums")
     md = buffer_view(mid, True, "f", 3, "mid") if use_mid else None
+    cl = buffer_view(clip, True, "d", 1, "clip") if clip is not None else None
     H, W = fr.shape[:2]
     K = tabs.shape[0]
     item = 4 if linear else 1
@@ -104,6 +106,8 @@ def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at,
                       or md.shape[1] != W // f or md.shape[2] != 3
                       or nx > (W // f) * f - xr or ny > (H // f) * f - yb):
         err = "mid: (H / f, W / f, 3) float32 holding the square's blocks"
+    elif cl is not None and (linear or not contiguous(cl) or cl.shape[0] != 4):
+        err = "clip: (4,) contiguous float64, with a table (an 8-bit frame)"
     lenses = [(xl, xr)]
     if err is None:
         lenses += [tuple(int(v) for v in pair) for pair in np.asarray(oth).reshape(-1, 2)]
@@ -131,13 +135,17 @@ def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at,
     sh9[:, at] += np.asarray(fx).astype(np.float64).T
     weights = np.concatenate([sh9, np.asarray(tabs).astype(np.float64)])
     parity = np.concatenate([SH_PARITY, parity])
+    tally = np.zeros(4) if cl is not None else None
     for n, (lxl, lxr) in enumerate(lenses):
         _one_lens(fr, tb, (lxl, lxr, yt, yb, nx, ny), extent, weights, parity,
-                  np.asarray(sm)[n], md, f)
+                  np.asarray(sm)[n], md, f, tally)
+    if tally is not None:         # added once, as the C adds its tally after every lens
+        np.asarray(cl)[...] += tally
 
 
-def _one_lens(fr, tb, geometry, extent, weights, parity, out, md, f) -> None:
-    """One lens's sums (``out`` (9 + K, 3)) and block sums (``md`` or None) of the frame."""
+def _one_lens(fr, tb, geometry, extent, weights, parity, out, md, f, tally=None) -> None:
+    """One lens's sums (``out`` (9 + K, 3)), block sums (``md`` or None) and clip tally
+    (``tally`` (4,) float64 or None) of the frame."""
     xl, xr, yt, yb, nx, ny = geometry
     linear = tb is None
     H, W = fr.shape[:2]
@@ -159,6 +167,12 @@ def _one_lens(fr, tb, geometry, extent, weights, parity, out, md, f) -> None:
         else:
             q = t.reshape(256, 3)[q, np.arange(3)]
         quarters.append(np.where(read[..., None], q, 0.0))
+    if tally is not None:
+        # every column of the square counted, the L00 weight (weight 0) where read
+        top = np.stack([pixels[r, c] == 255 for r, c in zip(rows, cols)])   # (4, ny, nx, 3)
+        tally[0] += np.count_nonzero(top)
+        tally[1:] += np.einsum("qijc,ij->c", top & read[..., None],
+                               weights[0].reshape(ny, nx))
     a, b, c, d = quarters
     folds = np.stack([(a + b) + (c + d), (a - b) + (c - d), (a + b) - (c + d),
                       (a - b) - (c - d)]).reshape(4, ny * nx, 3)
@@ -172,6 +186,27 @@ def _one_lens(fr, tb, geometry, extent, weights, parity, out, md, f) -> None:
         for ch in range(3):
             added = np.bincount(at, values[:, ch], minlength=mh * mw)
             blocks[..., ch] += added.reshape(mh, mw).astype(np.float32)
+
+
+def count_top(frame, rects) -> int:
+    """The samples at code 255 of an 8-bit ``frame`` in the rectangles ``rects`` (R, 4)
+    int32 (r0, r1, a, b): see ``_fold.c``."""
+    fr = buffer_view(frame, False, "B", 3, "frame")
+    rc = buffer_view(rects, False, "i", 2, "rects")
+    H, W = fr.shape[:2]
+    err = None
+    if fr.shape[2] != 3 or fr.strides[2] != 1 or fr.strides[1] != 3:
+        err = "frame: (H, W, 3) with contiguous pixels"
+    elif not contiguous(rc) or rc.shape[1] != 4:
+        err = "rects: (R, 4) contiguous int32"
+    boxes = np.asarray(rc).astype(np.int64).reshape(-1, 4) if err is None else ()
+    for r0, r1, a, b in boxes:
+        if err is None and not (0 <= r0 <= r1 <= H and 0 <= a <= b <= W):
+            err = "rects: (r0, r1, a, b) with 0 <= r0 <= r1 <= H and 0 <= a <= b <= W"
+    if err is not None:
+        raise ValueError(err)
+    pixels = np.asarray(fr)
+    return sum(int(np.count_nonzero(pixels[r0:r1, a:b] == 255)) for r0, r1, a, b in boxes)
 
 
 def _six(geometry) -> tuple:

@@ -58,9 +58,8 @@ try:
 except ImportError:          # built without a C compiler: its Python twin (same signature)
     _fold_kernel = _fold_twin
 
-#: True when the C kernel that decodes an 8-bit frame inside the fold is built (setup.py):
-#: the projectors then take :meth:`LensFold.decode_project`; without it the band by band
-#: fold below is faster than the twin.
+#: True when the C kernel (an 8-bit frame decoded inside the fold) is built (setup.py): the
+#: projectors take :meth:`LensFold.decode_project`; else the band fold (faster than the twin).
 KERNEL = _fold_kernel is not _fold_twin
 #: The kernel's code of each (x parity, y parity) fold (see ``_fold.c``).
 _PARITY_CODE = {("E", "E"): 0, ("O", "E"): 1, ("E", "O"): 2, ("O", "O"): 3}
@@ -211,8 +210,8 @@ class LensFold:
 
     def _buffers(self, band_rows: int) -> list:
         """Per lens: x-folded (even, odd) rows (2·ny, nx, 3) float32, the y fold's flipped
-        top halves and its output (ny, nx, 3), and a band's flip scratch; reused across frames (one set a frame in
-        flight): allocating them a frame costs page faults."""
+        top halves and its output (ny, nx, 3), and a band's flip scratch; reused across
+        frames (one set a frame in flight): allocating them a frame costs page faults."""
         try:
             return self._pool.pop()
         except IndexError:
@@ -269,12 +268,14 @@ class LensFold:
                                      and tuple(mid_shape) == (h // factor, w // factor))
 
     def decode_project(self, frame: np.ndarray, table: np.ndarray | None, state: dict,
-                       mid: np.ndarray | None = None, factor: int = 1) -> None:
+                       mid: np.ndarray | None = None, factor: int = 1,
+                       clip: np.ndarray | None = None) -> None:
         """The whole 8-bit ``frame`` decoded through ``table`` inside the fold (the C
         kernel, one call a lens: no float copy of the frame), into ``state`` as :meth:`add`
         of every row would; ``table`` None: ``frame`` is linear float32 already. ``mid``
         (see :meth:`decodes`) gets the block means of the pixels that carry a weight, the
-        others counted as black (as a lens's surround)."""
+        others counted as black (as a lens's surround). ``clip`` (4,) float64: the kernel's
+        clip tally of the lenses' squares (``_fold.c``), the unpaired pixels' L00 added."""
         t = None if table is None else np.ascontiguousarray(table, np.float32).reshape(-1)
         item = frame.itemsize
         if frame.strides[2] != item or frame.strides[1] != 3 * item:
@@ -288,7 +289,7 @@ class LensFold:
             out = np.zeros((1 + len(rest), 9 + tables.shape[0], 3))
             # The first call zeroes mid: every lens, then the unpaired pixels, add.
             _fold_kernel(frame, t, geometry, others, extent, radial, inv, fix_at, fixes,
-                         tables, codes, out, mid, factor, n == 0)
+                         tables, codes, out, mid, factor, n == 0, clip)
             # rows: the SH9 weights, then the extras in their groups' order (keyed by parity
             # too: an extra column has a part of each parity, the same k in two groups)
             rows, at = {}, 9
@@ -311,6 +312,8 @@ class LensFold:
             px = (codes if t is None else t[codes] if t.size == 256
                   else t.reshape(256, 3)[codes, np.arange(3)])
             state["res"] += px.T @ self._res_weights
+            if clip is not None:                     # their L00 (column 0) where clipped
+                clip[1:] += (codes == 255).T.astype(np.float64) @ self._res_weights[:, 0]
             if mid is not None:
                 blocks, at = self._residual_blocks(mid.shape[1], factor)
                 flat = mid.reshape(-1, 3)

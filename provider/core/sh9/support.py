@@ -151,11 +151,11 @@ class DownsampledSpans:
 class FoldDecode:
     """The frame pass's fused strategy for a lens's fold: an 8-bit frame decoded inside the
     fold's C kernel, one pass over the bytes that fills the SH9 sums and the lights'
-    detection copy (no float copy of the frame). The other sinks get no band: the clip
-    counter reads the 8-bit frame, a cube's work image stays incomplete (its own
-    decode_blocks costs less than a float copy shared by both)."""
+    detection copy (no float copy of the frame) and counts the clipped samples. The other
+    sinks get no band: a cube's work image stays incomplete (its own decode_blocks costs
+    less than a float copy shared by both)."""
 
-    serves = frozenset({"sh9", "lights"})
+    serves = frozenset({"sh9", "lights", "clip"})
 
     def __init__(self, fold):
         self.fold = fold
@@ -172,9 +172,12 @@ class FoldDecode:
         return True
 
     def run(self, fp, decoder, frame, table, lut, sinks, stats):
-        lights = sinks.lights
+        lights, clip = sinks.lights, sinks.clip
+        tally = None if clip is None else np.zeros(4)
         self.fold.decode_project(frame, table, sinks.sh9.acc,
                                  None if lights is None else lights.image,
-                                 1 if lights is None else lights.factor)
+                                 1 if lights is None else lights.factor, tally)
+        if clip is not None:
+            clip.folded(tally, stats)
         for s in sinks.all:
             s.finish(stats)

@@ -33,8 +33,8 @@ SOURCES = Path(__file__).resolve().parents[3] / "provider" / "core"
 
 @pytest.fixture(scope="module")
 def c_kernels(tmp_path_factory):
-    """build -> (decode_blocks, fold_lens, equirect_rows) in C: "vector", as installed
-    (GCC's vector extension), and "scalar", compiled here with SHLIGHT_SCALAR_KERNELS (the
+    """build -> (decode_blocks, fold_lens, equirect_rows, count_top) in C: "vector", as
+    installed (GCC's vector extension), and "scalar", compiled here with SHLIGHT_SCALAR_KERNELS (the
     portable loops a compiler without the extension, MSVC, takes)."""
     from setuptools import Distribution, Extension
     from setuptools.command.build_ext import build_ext
@@ -56,9 +56,10 @@ def c_kernels(tmp_path_factory):
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
         scalar[ext.name] = module
-    return {"vector": (_blocks.decode_blocks, _fold.fold_lens, _equirect.equirect_rows),
+    return {"vector": (_blocks.decode_blocks, _fold.fold_lens, _equirect.equirect_rows,
+                       _fold.count_top),
             "scalar": (scalar["_blocks"].decode_blocks, scalar["_fold"].fold_lens,
-                       scalar["_equirect"].equirect_rows)}
+                       scalar["_equirect"].equirect_rows, scalar["_fold"].count_top)}
 
 
 def _copy(a):
@@ -156,7 +157,8 @@ FOLD_FAULTS = ["square off the frame", "right half left of the left", "float fra
                "extent past the square", "short extents", "parity 4", "sums short",
                "mid too small", "factor 0 with mid", "radial of 19 columns", "no radial bins",
                "step 0", "fixes out of order", "fix past the square", "fixes of 8 weights",
-               "another lens off the frame", "another lens's centre offset"]
+               "another lens off the frame", "another lens's centre offset", "clip of 3",
+               "clip of a float frame"]
 
 
 @st.composite
@@ -191,6 +193,8 @@ def fold_calls(draw):
     floats = linear != (fault in ("float frame with a table", "uint8 frame without a table"))
     base = (rng.standard_normal(shape).astype(np.float32) * 3 if floats
             else rng.integers(0, 256, shape, dtype=np.uint8))
+    if not floats:                     # clipped samples to count: none, a few, most
+        base[rng.random(shape) < draw(st.sampled_from([0.0, 0.05, 0.6]))] = 255
     frame = _strided(base, row_step, col_step, False)
     entries = 100 if fault == "short table" else draw(st.sampled_from([256, 768]))
     table = None if linear else (rng.random(entries) * 4).astype(np.float32)
@@ -228,20 +232,28 @@ def fold_calls(draw):
         f = max(factor, 1)
         mid = rng.standard_normal((H // f - (fault == "mid too small"), W // f, 3)
                                   ).astype(np.float32)
-    return (frame, table, (xl, xr, yt, yb, nx, ny), others, extents, radial, inv_step, fix_at,
+    clip = None          # the clip tally (8-bit frames), added to what it holds
+    faulty = fault in ("clip of 3", "clip of a float frame")
+    if (not linear and draw(st.integers(0, 3))) or faulty:
+        clip = np.array([7.0, *rng.random(3)])[:3 if fault == "clip of 3" else 4]
+        if fault == "clip of a float frame" and not linear:
+            frame, table = base.astype(np.float32)[::row_step], None
+    call = (frame, table, (xl, xr, yt, yb, nx, ny), others, extents, radial, inv_step, fix_at,
             fixes, tables, parities, sums, mid, factor, draw(st.booleans()))
+    return call if clip is None and draw(st.booleans()) else call + (clip,)
 
 
 @pytest.mark.parametrize("build", ["vector", "scalar"])
 @SETTINGS
 @given(call=fold_calls())
 def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
-    both = _same(c_kernels[build][1], fold_twin.fold_lens, call, (11, 12))
+    both = _same(c_kernels[build][1], fold_twin.fold_lens, call,
+                 (11, 12) + ((15,) if len(call) > 15 else ()))
     if both is None:
         return
-    (sums, mid), (want_sums, want_mid) = both
+    (sums, mid, *clip), (want_sums, want_mid, *want_clip) = both
     (frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes, tables,
-     parities, start, start_mid, factor, clear) = call
+     parities, start, start_mid, factor, clear, *start_clip) = call
     nx = geometry[4]
     values = np.abs(np.asarray(frame, np.float64) if table is None else table).max(initial=0)
     # The weights' magnitudes: the radial ones as the C makes them in float32 (a value, a
@@ -264,6 +276,58 @@ def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
         held = 0.0 if clear else np.abs(start_mid).max(initial=0)
         tol = (f * f + 2) * EPS32 * (held + f * f * values) * 2
         np.testing.assert_allclose(mid, want_mid, rtol=0, atol=tol + 1e-30)
+    if clip and clip[0] is not None:
+        (clip,), (want_clip,) = clip, want_clip
+        # the samples at 255 in the squares: a count, the same
+        assert clip[0] == want_clip[0]
+        # each clipped pixel's L00 weight as the C makes it in float32 (within 5·2⁻²⁴ of its
+        # terms' magnitudes: made[0]), summed in float64 by both: at most every read pixel
+        # of every quarter and lens clipped
+        bound = 5 * EPS32 * made[0].sum() * 4 * (1 + len(others))
+        assert np.all(np.abs(clip[1:] - want_clip[1:])
+                      <= bound + 1e-12 * np.abs(start_clip[0][1:]))
+
+
+COUNT_FAULTS = ["float frame", "pixels not contiguous", "rects of 3", "rects of int64",
+                "a rect past the frame", "a rect upside down"]
+
+
+@st.composite
+def count_calls(draw):
+    """count_top's arguments (frame, rects): half of them right, half with one fault; rows
+    long enough for the 16-byte compares, samples at 255 from none to most."""
+    fault = draw(st.sampled_from(COUNT_FAULTS)) if draw(st.booleans()) else None
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    H, W = draw(st.integers(0, 12)), draw(st.integers(0, 40))
+    row_step = draw(st.sampled_from([1, -1, 2]))
+    col_step = -1 if fault == "pixels not contiguous" else 1
+    shape = (H * abs(row_step), W, 3)
+    base = rng.integers(0, 256, shape, dtype=np.uint8)
+    base[rng.random(shape) < draw(st.sampled_from([0.0, 0.02, 0.7]))] = 255
+    if fault == "float frame":
+        base = base.astype(np.float32)
+    frame = _strided(base, row_step, col_step, False)
+    R = draw(st.integers(0, 5))
+    r = np.sort(rng.integers(0, H + 1, (R, 2)), axis=1)
+    c = np.sort(rng.integers(0, W + 1, (R, 2)), axis=1)
+    rects = np.concatenate([r, c], axis=1)
+    if fault == "a rect past the frame":
+        rects = np.vstack([rects, [0, H, 0, W + 1]])
+    elif fault == "a rect upside down":
+        rects = np.vstack([rects, [1, 0, 0, W]])
+    rects = rects[:, :3] if fault == "rects of 3" else rects
+    return frame, rects.astype(np.int64 if fault == "rects of int64" else np.int32)
+
+
+@pytest.mark.parametrize("build", ["vector", "scalar"])
+@SETTINGS
+@given(call=count_calls())
+def test_count_top_and_its_twin_agree(c_kernels, build, call):
+    if _same(c_kernels[build][3], fold_twin.count_top, call, ()) is None:
+        return                                  # both refused it, with the same error
+    frame, rects = call
+    want = sum(int((np.asarray(frame)[r0:r1, a:b] == 255).sum()) for r0, r1, a, b in rects)
+    assert c_kernels[build][3](frame, rects) == fold_twin.count_top(frame, rects) == want
 
 
 EQUIRECT_FAULTS = ["odd width", "float frame", "4 channels", "pixels not contiguous",
