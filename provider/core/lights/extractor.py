@@ -310,17 +310,18 @@ class LightExtractor:
                 rows.reshape(h, b - a, 3), ((b - a) // f, h), interpolation=cv2.INTER_AREA)
 
     def analyse(self, frame: np.ndarray, coefficients: np.ndarray,
-                clean: bool = False) -> Analysis:
+                clean: bool = False, mean_scale: float = 1.0) -> Analysis:
         """Candidates and truth of one frame.
 
         frame : (H, W, 3) linear float32 radiance at full size, or its mid copy
             (``mid.height × mid.width``, see :meth:`reduce`; ``clean``: a mid copy with no
-            negative or non-finite sample).
+            negative or non-finite sample; ``mean_scale``: what makes a mid copy of block sums
+            the block means, applied in place).
         coefficients : (9, 3) the exact SH9 of the full frame (what the engine serves).
         """
         small = self.reduce(frame, clean)
         h, w = small.shape[:2]
-        Y, total, coarse = self._first_pass(small)
+        Y, total, coarse = self._first_pass(small, mean_scale)
         mu = total / self._coverage if self._coverage > 0 else 0.0
         candidates, groups = [], []
         rest, extra = small, None
@@ -380,11 +381,12 @@ class LightExtractor:
     #: mid copy, in cache for its three reads).
     FIRST_PASS_ROWS = 32
 
-    def _first_pass(self, small: np.ndarray):
+    def _first_pass(self, small: np.ndarray, mean_scale: float = 1.0):
         """(Y, total, coarse) of the mid copy ``small`` (h, w, 3): its luminance (h, w)
         float32, Σ Y ω, and its coarse copy where the coarse pixels are whole blocks (else
         None), a band of rows at a time, so that the copy crosses the memory bus once,
-        not three times (cachegrind: 2.6 → 1.1 MB a Theta frame; issue 44). Y and the
+        not three times (cachegrind: 2.6 → 1.1 MB a Theta frame; issue 44); ``mean_scale``
+        (block sums to means: the fold kernel's copy) applied there, in place. Y and the
         coarse means are the whole frame's, bit for bit; the total sums the same
         products band by band."""
         h, w = small.shape[:2]
@@ -399,6 +401,8 @@ class LightExtractor:
         total = 0.0
         for r0 in range(0, h, rows):
             band = small[r0:r0 + rows]
+            if mean_scale != 1.0:
+                band *= np.float32(mean_scale)
             y = Y[r0:r0 + rows]
             y[...] = cv2.transform(band, self._luma32).reshape(y.shape)
             total += cv2.sumElems(cv2.multiply(y, self._omega32[r0:r0 + rows]))[0]
@@ -520,7 +524,8 @@ class LightExtractor:
                             result.candidates)
 
     def extract(self, frame, coefficients, *, tracker=None, full=None,
-                process=None, clean: bool = False) -> LightsResult:
+                process=None, clean: bool = False, mean_scale: float = 1.0
+                ) -> LightsResult:
         """The lights of one frame, as the engine serves them.
 
         frame : linear float32 radiance at full size or the mid copy (see :meth:`analyse`).
@@ -531,10 +536,10 @@ class LightExtractor:
             :meth:`refine` compact lights on, or None.
         process : a function applied to the ambient (9, 3), e.g. the engine's deringing and
             order truncation; ``light_error`` then measures the processed ambient.
-        clean : ``frame`` is a mid copy with no negative or non-finite sample (see
-            :meth:`analyse`).
+        clean, mean_scale : ``frame`` is a mid copy with no negative or non-finite sample; what
+            makes it block means (see :meth:`analyse`).
         """
-        a = self.analyse(frame, coefficients, clean)
+        a = self.analyse(frame, coefficients, clean, mean_scale)
         if tracker is None:
             a.rank()
             r = a.result(a.greedy())

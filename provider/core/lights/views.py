@@ -18,7 +18,9 @@ class DetectionCopy(Sink):
     def __init__(self, extractor: LightExtractor):
         self.extractor, self.factor = extractor, extractor.mid_factor
         self.image = extractor.new_mid()
-        self.clean = False
+        #: ``clean``: no negative or non-finite sample (a table's block means); ``scale``:
+        #: what makes ``image`` the block means (a fused kernel may leave block sums)
+        self.clean, self.scale = False, 1.0
 
     def start(self, frame, table, stats):
         # Block means of a table's values hold no negative or non-finite sample where the

@@ -30,9 +30,8 @@ makes each row's weights from it. The few quarter pixels where that form does no
 partly outside; a blend's seam) keep an exact correction (a sparse list). The weights so made
 are checked against the dense ones when the fold is built.
 
-The lens is reached only through the projection's dense weights and its
-:class:`~provider.core.geometry.projections.FisheyeLens` (centre, ``frame``): whatever its
-r(θ) curve, the check decides.
+The lens is reached only through the projection's dense weights and its lens (centre,
+``frame``; :class:`~provider.core.geometry.projections.FisheyeLens`): any r(θ), the check decides.
 
 Extra weight columns (world-frame scalars such as an up-facing meter's cosine, summed in the
 same pass as the SH9) need no symmetry: any weight on a symmetric grid is the sum of its four
@@ -269,13 +268,14 @@ class LensFold:
 
     def decode_project(self, frame: np.ndarray, table: np.ndarray | None, state: dict,
                        mid: np.ndarray | None = None, factor: int = 1,
-                       clip: np.ndarray | None = None) -> None:
+                       clip: np.ndarray | None = None, mean: bool = True) -> None:
         """The whole 8-bit ``frame`` decoded through ``table`` inside the fold (the C
         kernel, one call a lens: no float copy of the frame), into ``state`` as :meth:`add`
         of every row would; ``table`` None: ``frame`` is linear float32 already. ``mid``
         (see :meth:`decodes`) gets the block means of the pixels that carry a weight, the
         others counted as black (as a lens's surround). ``clip`` (4,) float64: the kernel's
-        clip tally of the lenses' squares (``_fold.c``), the unpaired pixels' L00 added."""
+        clip tally of the lenses' squares (``_fold.c``), the unpaired pixels' L00 added.
+        ``mean`` False: ``mid`` is left as block sums (its reader scales them in cache)."""
         t = None if table is None else np.ascontiguousarray(table, np.float32).reshape(-1)
         item = frame.itemsize
         if frame.strides[2] != item or frame.strides[1] != 3 * item:
@@ -319,7 +319,7 @@ class LensFold:
                 flat = mid.reshape(-1, 3)
                 for c in range(3):
                     flat[blocks, c] += np.bincount(at, px[:, c], minlength=blocks.size)
-        if mid is not None:
+        if mid is not None and mean:
             mid *= np.float32(1.0 / (factor * factor))
 
     def _kernel_calls(self) -> list:

@@ -176,7 +176,9 @@ class FoldDecode:
         tally = None if clip is None else np.zeros(4)
         self.fold.decode_project(frame, table, sinks.sh9.acc,
                                  None if lights is None else lights.image,
-                                 1 if lights is None else lights.factor, tally)
+                                 1 if lights is None else lights.factor, tally, mean=False)
+        if lights is not None:    # block sums: the lights' first pass scales them in cache
+            lights.scale = 1.0 / (lights.factor * lights.factor)
         if clip is not None:
             clip.folded(tally, stats)
         for s in sinks.all:
