@@ -196,6 +196,10 @@ def test_latest_json_and_mqtt_pass_the_radius_through(tmp_path):
                          "--mqtt", f"mqtt://127.0.0.1:{broker.port}/site") as proc:
         poll(lambda: http_get(f"{proc.http}/latest.json?probe=sky")[0] == 200, timeout=30,
              what="the sky probe's lighting")
+        # /latest.json can answer before the publisher's first message reaches the broker;
+        # a subscription made before it gets it live (retain flag 0), one after, retained
+        with Subscriber(broker.port, "site/#") as early:            # the broker has it now
+            early.first("site/sky")
         with Subscriber(broker.port, "site/#") as sub:
             payload = json.loads(sub.retained("site/sky"))
         status, _, body = http_get(f"{proc.http}/latest.json?probe=sky")
