@@ -235,14 +235,21 @@ def dram_bytes_per_frame(projector, frame) -> float:
     Cortex-A53-like 512 KB last-level cache and DRAM: cachegrind's last-level misses of
     FRAMES_LONG frames minus FRAMES_SHORT, over the difference, × 64 B a line (fills only:
     write-backs of dirty lines are not simulated)."""
+    return LINE_BYTES * _per_frame(_cachegrind_misses, projector, frame)
+
+
+def _per_frame(count, projector, frame) -> float:
+    """``count(pickled work, frames, folder)`` of FRAMES_LONG frames minus FRAMES_SHORT,
+    over the difference: the steady state of one frame, start-up and the first frame
+    cancelled out."""
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         pickled = tmp / "work.pickle"
         with open(pickled, "wb") as fh:
             pickle.dump((projector, frame), fh, protocol=pickle.HIGHEST_PROTOCOL)
-        long = _cachegrind_misses(pickled, FRAMES_LONG, tmp)
-        short = _cachegrind_misses(pickled, FRAMES_SHORT, tmp)
-    return LINE_BYTES * (long - short) / (FRAMES_LONG - FRAMES_SHORT)
+        long = count(pickled, FRAMES_LONG, tmp)
+        short = count(pickled, FRAMES_SHORT, tmp)
+    return (long - short) / (FRAMES_LONG - FRAMES_SHORT)
 
 
 def _valgrind_env() -> dict:
@@ -259,14 +266,7 @@ def _valgrind_env() -> dict:
 def instructions_per_frame(projector, frame) -> float:
     """Steady-state x86-64 instructions of ``projector.project(frame)``: callgrind's count
     of FRAMES_LONG frames minus FRAMES_SHORT, over the difference."""
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        pickled = tmp / "work.pickle"
-        with open(pickled, "wb") as fh:
-            pickle.dump((projector, frame), fh, protocol=pickle.HIGHEST_PROTOCOL)
-        long = _callgrind_total(pickled, FRAMES_LONG, tmp)
-        short = _callgrind_total(pickled, FRAMES_SHORT, tmp)
-    return (long - short) / (FRAMES_LONG - FRAMES_SHORT)
+    return _per_frame(_callgrind_total, projector, frame)
 
 
 def calls_per_frame(projector, frame) -> tuple[Counter, Counter]:
