@@ -38,6 +38,8 @@ def test_the_truth_by_blocks_is_the_whole_kernels_product(name):
     # sum apart from the float64 product, about √n·2⁻²⁴ in practice
     np.testing.assert_allclose(got, whole @ rest.astype(np.float64), rtol=2e-4, atol=0)
     # the blocks change nothing: the same float32 product of the kernel's rows, unblocked
+    # (each normal's sum one BLAS matrix-vector kernel, blocks of a multiple of its 4 rows:
+    # 1e-6 leaves room for a BLAS that sums a short last block in another order)
     rows = t.kernel.reshape(-1, t.kernel.shape[2])[:len(x.normals)]
     unblocked = np.stack([rows @ np.ascontiguousarray(rest[:, c]) for c in range(3)], 1)
     np.testing.assert_allclose(got, unblocked, rtol=1e-6)
@@ -89,6 +91,8 @@ def test_the_lights_of_a_clean_copy_are_those_of_the_clamped_one():
     mid = x.reduce(p._linearise(frame))
     a = x.analyse(mid, served.coefficients, clean=True)
     b = x.analyse(mid, served.coefficients)
+    # a clean copy skips only cv2.max(copy, 0) on a copy with nothing below 0: the same
+    # floats go into the same operations, on any CPU
     np.testing.assert_array_equal(a.truth, b.truth)
     assert [c.pixels.tolist() for c in a.candidates] == [c.pixels.tolist() for c in b.candidates]
 
@@ -104,6 +108,8 @@ def test_the_first_pass_by_bands_is_the_whole_frames(name):
            ).astype(np.float32)
     Y, total, coarse = x._first_pass(mid)
     whole = cv2.transform(mid, LUMA[None].astype(np.float32)).reshape(Y.shape)
+    # per pixel, the same operations; the bands' lengths (rows × a width of 256 or 320)
+    # are multiples of any SIMD width, so no pixel moves to a scalar tail
     np.testing.assert_array_equal(Y, whole)
     assert total == pytest.approx(float(cv2.sumElems(cv2.multiply(whole, x._omega32))[0]),
                                   rel=1e-12)
