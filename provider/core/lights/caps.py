@@ -21,8 +21,11 @@ import numpy as np
 
 
 #: Bytes of a block of the (normals × pixels) kernel that :func:`excess_irradiance` makes
-#: and reads at once: well inside a Cortex-A53's 512 KB last-level cache.
-BLOCK_BYTES = 192 << 10
+#: and reads at once: well inside a Cortex-A53's 512 KB last-level cache. Smaller blocks
+#: move less but cost more BLAS calls (the lit Theta room, one kept buffer, cachegrind /
+#: callgrind: 192 KB 20.9 MB and 47.8 M instructions a frame, 128 KB 20.1 MB and 48.6 M,
+#: 64 KB 19.2 MB and 50.3 M; issue 44).
+BLOCK_BYTES = 128 << 10
 
 
 def touching_pairs(dirs: np.ndarray, seam: np.ndarray, touch_cos: float):
@@ -39,13 +42,20 @@ def touching_pairs(dirs: np.ndarray, seam: np.ndarray, touch_cos: float):
     return np.concatenate(a), np.concatenate(b)
 
 
-def excess_irradiance(normals, normals32, dirs, dirs32, flux, pix, region) -> np.ndarray:
+def excess_irradiance(normals, normals32, dirs, dirs32, flux, pix, region,
+                      scratch=None) -> np.ndarray:
     """(N, 3) ``Σ_i max(0, n·d_i) f_i`` at the ``normals`` (N, 3) (``normals32`` the same
     in float32) over the pixels ``pix`` of the mid copy, whose directions are ``dirs`` /
     ``dirs32`` (P, 3, all pixels; 0 where unseen) and whose ``flux`` (n, 3) float32 is
     excess radiance × solid angle, grouped by ``region`` (n,) (compact regions: the
-    frame's level-0 groups). The same sum as the full kernel's, in another order."""
+    frame's level-0 groups). The same sum as the full kernel's, in another order.
+    ``scratch``: a contiguous float32 array of at least ``BLOCK_BYTES / 4`` elements that
+    holds the kernel's blocks (a caller's own, kept from frame to frame; else one is made):
+    one buffer written over and over stays in cache, where a new one a region or a frame
+    is fresh memory, each of its first writes a miss to DRAM."""
     out = np.zeros((len(normals), 3))
+    if scratch is None or scratch.size < BLOCK_BYTES // 4:
+        scratch = np.empty(BLOCK_BYTES // 4, np.float32)
     order = np.argsort(region, kind="stable")
     cuts = np.flatnonzero(np.diff(region[order])) + 1
     for sel in np.split(order, cuts):
@@ -71,9 +81,10 @@ def excess_irradiance(normals, normals32, dirs, dirs32, flux, pix, region) -> np
             # numpy's small loops; issue 44). Each normal's row is the same products
             # whatever the block.
             step = max(4, BLOCK_BYTES // (4 * len(p)))
-            # one block buffer for all: a new array a block would be fresh pages from
-            # the allocator each time, every write of it a miss to DRAM
-            block = np.empty((min(step, len(cut)), len(p)), np.float32)
+            rows_max = min(step, len(cut))
+            block = (scratch[:rows_max * len(p)].reshape(rows_max, len(p))
+                     if rows_max * len(p) <= scratch.size
+                     else np.empty((rows_max, len(p)), np.float32))   # > BLOCK_BYTES / 16 pixels
             for r0 in range(0, len(cut), step):
                 rows = cut[r0:r0 + step]
                 K = np.matmul(np.take(normals32, rows, axis=0), dt,
