@@ -4,9 +4,11 @@ or none of a region) against the full (normals × pixels) kernel, on regions of 
 the extractor meets (a compact lamp, a wide panel, a region around a pole or across a
 lens's edge, pixels scattered over the whole sphere)."""
 import math
+import threading
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_limits
 
 from provider.core.geometry.projections import DualFisheye, Equirect
 from provider.core.lights.extractor import LightExtractor
@@ -47,3 +49,39 @@ def test_excess_irradiance_by_regions_is_the_brute_force_sum(projection):
     # float32 directions and products in the per-pixel part (as the kernel was before):
     # a few 1e-7 relative a term, summed over ~10⁴ pixels
     np.testing.assert_allclose(got, want, rtol=0, atol=2e-5 * np.abs(want).max())
+
+
+def test_frames_in_flight_each_get_their_own_caps_buffer():
+    """The caps' kernel blocks go through a buffer the extractor keeps from frame to frame
+    (issue 44: a new one a frame is fresh memory, every write a miss); two frames analysed
+    at once on one extractor (threads: BLAS lets go of the GIL) each get their own, so
+    each gets the sums it gets alone, bit for bit (the same products in the same order, on
+    one BLAS thread as the engine runs them: provider.core.blas)."""
+    with threadpool_limits(limits=1, user_api="blas"):
+        _two_frames_in_flight()
+
+
+def _two_frames_in_flight():
+    x = LightExtractor(DualFisheye(1280, 720))
+    rng = np.random.default_rng(5)
+    pix, region = _regions(x, rng)
+    inputs = [rng.uniform(0.0, 1e4, (len(pix), 3)).astype(np.float32) for _ in range(2)]
+    alone = [x._excess_irradiance(pix, e, region) for e in inputs]
+    start = threading.Barrier(2)
+    got = [[], []]
+
+    def work(k):
+        start.wait()
+        for _ in range(20):
+            got[k].append(x._excess_irradiance(pix, inputs[k], region))
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for k in range(2):
+        assert len(got[k]) == 20
+        for g in got[k]:
+            np.testing.assert_array_equal(g, alone[k])
+    assert 1 <= len(x._caps_scratch) <= 2                # kept for the next frames
