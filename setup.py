@@ -27,7 +27,8 @@ KERNELS = [
               extra_compile_args=FLAGS, optional=BUILD != "yes")
     for name, source in (("provider.core.radiometry._blocks", "provider/core/radiometry/_blocks.c"),
                          ("provider.core.sh9._fold", "provider/core/sh9/_fold.c"),
-                         ("provider.core.sh9._equirect", "provider/core/sh9/_equirect.c"))
+                         ("provider.core.sh9._equirect", "provider/core/sh9/_equirect.c"),
+                         ("provider.core.lights._truth", "provider/core/lights/_truth.c"))
 ]
 
 setup(ext_modules=[] if BUILD == "no" else KERNELS)

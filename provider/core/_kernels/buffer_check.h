@@ -1,5 +1,6 @@
-/* What the C kernels share (radiometry/_blocks.c, sh9/_fold.c): the check of each array
- * argument, the portability macros, and the module's declared use of the GIL.
+/* What the C kernels share (radiometry/_blocks.c, sh9/_fold.c, sh9/_equirect.c,
+ * lights/_truth.c): the check of each array argument, the portability macros, and the
+ * module's declared use of the GIL.
  *
  * Shipped in the sdist (setup.py's depends, MANIFEST.in): the kernels compile from it. */
 #ifndef SHLIGHT_BUFFER_CHECK_H

@@ -10,10 +10,17 @@ candidates' excess taken off the coarse blocks rather than off a copy of the mid
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..geometry.projections import Projection
 from ..radiometry.blocks import shrink
+
+try:
+    from ._truth import truth_caps as _truth_kernel
+except ImportError:          # no compiler at install: its twin (below) takes its place
+    _truth_kernel = None
 
 
 class CoarseTruth:
@@ -27,8 +34,16 @@ class CoarseTruth:
 
     #: Kernel bytes a block of normals: the three channels' products read it from cache.
     BLOCK_BYTES = 128 << 10
+    #: Normals a cap of the split kernel (:class:`SplitKernel`).
+    CAP_NORMALS = 8
 
-    def __init__(self, mid: Projection, factor: int, brute_kernel, normals: int):
+    def __init__(self, mid: Projection, factor: int, brute_kernel, normals,
+                 linear: bool = False):
+        """``normals``: (N, 3) unit normals, or their count N (the dense kernel);
+        ``linear``: the kernel is ``max(0, n·d) ω`` alone (no fill terms), so it is split
+        by caps of normals (:class:`SplitKernel`)."""
+        dirs_n = None if np.ndim(normals) == 0 else np.asarray(normals, np.float64)
+        normals = len(dirs_n) if dirs_n is not None else int(normals)
         self.mid, self.factor, self.normals = mid, factor, normals
         self.coarse = mid if factor == 1 else mid.scaled(factor)
         self.crop = mid.scaled_source_size(factor)
@@ -41,6 +56,12 @@ class CoarseTruth:
         # Only the coarse pixels that see something (a Theta's two circles: 68 % of its
         # 80×45 grid) carry kernel columns: the kernel is read from DRAM every frame.
         self.pixels = np.flatnonzero(co > 0)
+        self.split = None
+        if linear and dirs_n is not None and len(self.pixels):
+            self.split = SplitKernel(dirs_n, cd[self.pixels], co[self.pixels], brute_kernel,
+                                     self.CAP_NORMALS)
+            self.kernel = None
+            return
         kernel = brute_kernel(cd[self.pixels], co[self.pixels]).astype(np.float32)
         # Blocks of normals (zero rows pad the last), a multiple of 4 rows (BLAS's
         # matrix-vector kernels take 4 rows at a time).
@@ -85,7 +106,113 @@ class CoarseTruth:
         Theta frame; issue 44). Each normal's sum is the same dot product whatever the
         blocks."""
         seeing = np.take(rest.reshape(-1, 3), self.pixels, axis=0)
+        if self.split is not None:
+            return self.split(seeing)
         x = np.ascontiguousarray(seeing.T)[None, :, :, None]          # (1, 3, Pc, 1)
         out = np.matmul(self.kernel[:, None], x)                      # (B, 3, rows, 1)
         return (out[..., 0].transpose(1, 0, 2).reshape(3, -1)[:, :self.normals]
                 .T.astype(np.float64))
+
+
+class SplitKernel:
+    """The truth's kernel ``max(0, n·d) ω`` by caps of normals (issue 44: the dense one,
+    2.7 MB for a Theta S, crossed the memory bus every frame; split, 1.1 MB).
+
+    The normals are cut into caps of at most ``cap_normals`` (halves across the widest
+    axis, again and again). A cap of centre c and radius ρ sees each pixel with d·c > sin ρ
+    at a positive cosine from each of its normals, so there ``Σ max(0, n·d) ω x = n · Σ d ω
+    xᵀ``: its *core*, one 3 × 3 sum a cap; and none with d·c < −sin ρ. Only the pixels
+    between, its horizon band, keep kernel entries: 41 % of the dense kernel's for the
+    Theta's 256 normals in caps of 8 (4 a cap: 26 %, but twice the caps' sums). One call of
+    the C kernel (``_truth.c``) a frame; :func:`truth_caps_twin` is its twin."""
+
+    def __init__(self, normals, dirs, omega, brute_kernel, cap_normals):
+        caps = [np.arange(len(normals))]
+        while any(len(c) > cap_normals for c in caps):
+            wide = max(caps, key=len)
+            caps = [c for c in caps if c is not wide]
+            pts = normals[wide]
+            axis = np.linalg.svd(pts - pts.mean(axis=0))[2][0]
+            order = wide[np.argsort(pts @ axis, kind="stable")]
+            caps += [order[:len(order) // 2], order[len(order) // 2:]]
+        caps.sort(key=lambda c: int(c.min()))
+        k = max(len(c) for c in caps)
+        self.normals = np.zeros((len(caps), k, 3))        # zero rows pad a short cap
+        self.slot = np.empty(len(normals), np.intp)       # a normal's row of (caps × k)
+        core, band, kernel = [], [], []
+        for i, cap in enumerate(caps):
+            self.normals[i, :len(cap)] = normals[cap]
+            self.slot[cap] = i * k + np.arange(len(cap))
+            centre = normals[cap].sum(axis=0)
+            centre /= np.linalg.norm(centre)
+            # a pixel within float32 rounding of the horizon goes to the band, where
+            # max(0, ·) takes it exactly
+            margin = math.sqrt(max(0.0, 1.0 - float((normals[cap] @ centre).min()) ** 2)
+                               ) + 1e-6
+            dc = dirs @ centre
+            core.append(np.flatnonzero(dc > margin))
+            band.append(np.flatnonzero(np.abs(dc) <= margin))
+            rows = np.zeros((k, len(band[-1])), np.float32)
+            rows[:len(cap)] = brute_kernel(dirs[band[-1]], omega[band[-1]], normals[cap])
+            kernel.append(rows.reshape(-1))
+        self.core, self.core_at = _joined(core)
+        self.band, self.band_at = _joined(band)
+        self.kernel = np.concatenate(kernel)
+        self.dw = (dirs * omega[:, None]).astype(np.float32)             # (Pc, 3)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """(N, 3) float64 at the normals of the seeing pixels' ``x`` (Pc, 3) float32."""
+        out = np.empty(self.normals.shape)
+        _truth_kernel(np.ascontiguousarray(x, np.float32), self.dw, self.core, self.core_at,
+                      self.band, self.band_at, self.kernel, self.normals, out)
+        return out.reshape(-1, 3)[self.slot]
+
+
+def _joined(parts):
+    """Index lists joined, int32, with their offsets (0 first)."""
+    at = np.zeros(len(parts) + 1, np.int32)
+    at[1:] = np.cumsum([len(p) for p in parts])
+    return np.concatenate(parts).astype(np.int32), at
+
+
+def truth_caps_twin(x, dw, core, core_at, band, band_at, kernel, normals, out) -> None:
+    """The C kernel ``_truth.truth_caps`` in numpy: the same arguments, numbers (to float
+    rounding) and errors (``_truth.c`` says what each argument is)."""
+    arrays = (x, dw, core, core_at, band, band_at, kernel, normals, out)
+    names = ("x", "dw", "core", "core_at", "band", "band_at", "kernel", "normals", "out")
+    kinds = ("f", "f", "i", "i", "i", "i", "f", "d", "d")
+    dims = (2, 2, 1, 1, 1, 1, 1, 3, 3)
+    for a, name, kind, nd in zip(arrays, names, kinds, dims):
+        a = np.asarray(a)
+        if a.ndim != nd or a.dtype != {"f": np.float32, "i": np.int32, "d": np.float64}[kind]:
+            raise ValueError(f"{name}: expected a {nd}-d array of format '{kind}'")
+    if not all(np.asarray(a).flags.c_contiguous for a in arrays):
+        raise ValueError("every array: C-contiguous")
+    P, (caps, k) = x.shape[0], normals.shape[:2]
+    if x.shape[1] != 3 or dw.shape != (P, 3):
+        raise ValueError("x, dw: (P, 3) float32")
+    if normals.shape[2] != 3 or out.shape != normals.shape:
+        raise ValueError("normals, out: (caps, k, 3) float64")
+    if core_at.shape != (caps + 1,) or band_at.shape != (caps + 1,):
+        raise ValueError("core_at, band_at: (caps + 1,) int32")
+    for at, idx in ((core_at, core), (band_at, band)):
+        if at[0] != 0 or at[-1] != len(idx) or (np.diff(at) < 0).any():
+            raise ValueError("core_at, band_at: 0, non-decreasing, ending at the indices' "
+                             "length")
+    for idx in (core, band):
+        if len(idx) and (idx.min() < 0 or idx.max() >= P):
+            raise ValueError("core, band: pixel indices in [0, P)")
+    if kernel.shape != (k * len(band),):
+        raise ValueError("kernel: (k * len(band),) float32")
+    for i in range(caps):
+        c = core[core_at[i]:core_at[i + 1]]
+        S = (dw[c].T @ x[c]).astype(np.float64)                            # (3, 3)
+        b0, m = band_at[i], band_at[i + 1] - band_at[i]
+        rows = kernel[k * b0:k * (b0 + m)].reshape(k, m)
+        out[i] = normals[i] @ S + (rows @ x[band[b0:b0 + m]]).astype(np.float64)
+
+
+if _truth_kernel is None:
+    _truth_kernel = truth_caps_twin
+#: Whether the split truth's C kernel is built (else its twin, :func:`truth_caps_twin`).
+KERNEL = _truth_kernel is not truth_caps_twin

@@ -150,7 +150,8 @@ class LightExtractor:
         self._luma32 = LUMA[None].astype(np.float32)
         self._irr_basis = sh.sh_basis(self.normals) * sh.A_HAT_PER_COEFF  # (N, 9)
         self._prefill()
-        self.coarse_truth = CoarseTruth(self.mid, fc, self._brute_kernel, len(self.normals))
+        self.coarse_truth = CoarseTruth(self.mid, fc, self._brute_kernel, self.normals,
+                                        linear=self._fill is None)
         self.coarse_factor, self.coarse = fc, self.coarse_truth.coarse
 
     # -- precomputation -------------------------------------------------------------------------

@@ -1,0 +1,151 @@
+"""The lights' truth by caps of normals (provider/core/lights/_truth.c, issue 44) and its
+Python twin (coarse_truth.truth_caps_twin), driven with random caps, some of them wrong on
+purpose: for every draw either both refuse it with the same exception and message, or both
+write the same sums to float32 rounding. The vector build (as installed) and the portable
+scalar loops (SHLIGHT_SCALAR_KERNELS, what a compiler without GCC's vector extension takes)
+both; on aarch64 too (scripts/arm64.sh)."""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from provider.core.lights import coarse_truth
+from provider.core.lights.coarse_truth import truth_caps_twin
+
+pytestmark = pytest.mark.skipif(
+    not coarse_truth.KERNEL,
+    reason="the C kernels were not built (tests/core/kernels/test_kernels.py says how)")
+
+SETTINGS = settings(max_examples=150, deadline=None,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+EPS32 = 2.0 ** -24
+SOURCE = Path(__file__).resolve().parents[3] / "provider" / "core"
+
+
+@pytest.fixture(scope="module")
+def builds(tmp_path_factory):
+    """build -> truth_caps: "vector" as installed, "scalar" compiled here."""
+    from setuptools import Distribution, Extension
+    from setuptools.command.build_ext import build_ext
+
+    from provider.core.lights import _truth
+    out = tmp_path_factory.mktemp("scalar_truth")
+    ext = Extension("_truth", [str(SOURCE / "lights" / "_truth.c")],
+                    include_dirs=[str(SOURCE / "_kernels")],
+                    define_macros=[("SHLIGHT_SCALAR_KERNELS", "1")])
+    cmd = build_ext(Distribution({"ext_modules": [ext]}))
+    cmd.build_lib, cmd.build_temp = str(out), str(out / "tmp")
+    cmd.ensure_finalized()
+    cmd.run()
+    spec = importlib.util.spec_from_file_location("_truth", cmd.get_ext_fullpath("_truth"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return {"vector": _truth.truth_caps, "scalar": module.truth_caps}
+
+
+FAULTS = ["index past P", "negative index", "offsets end short", "offsets decrease",
+          "offsets start at 1", "kernel short", "x of 4 channels", "dw a row short",
+          "out of k + 1 rows", "float64 x", "x not contiguous", "short core_at"]
+
+
+@st.composite
+def calls(draw):
+    """The nine arguments: half of them right, half with one fault."""
+    fault = draw(st.sampled_from(FAULTS)) if draw(st.booleans()) else None
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    P, caps, k = draw(st.integers(1, 300)), draw(st.integers(1, 6)), draw(st.integers(1, 9))
+    x = rng.random((P, 4 if fault == "x of 4 channels" else 3), dtype=np.float32)
+    if fault == "float64 x":
+        x = x.astype(np.float64)
+    elif fault == "x not contiguous":
+        x = np.repeat(x, 2, axis=0)[::2]
+    dw = rng.standard_normal((P - (fault == "dw a row short"), 3)).astype(np.float32)
+    lists = []
+    for name in ("core", "band"):
+        sizes = rng.integers(0, 2 * P + 1, caps)      # repeats and empty caps allowed
+        idx = rng.integers(0, P, int(sizes.sum())).astype(np.int32)
+        at = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int32)
+        lists.append([idx, at])
+    (core, core_at), (band, band_at) = lists
+    if fault == "index past P" and band.size:
+        band[-1] = P
+    elif fault == "negative index" and core.size:
+        core[0] = -1
+    elif fault == "offsets end short":
+        band_at[-1] += 1
+    elif fault == "offsets decrease" and caps > 1:
+        core_at[1] = core_at[2] + 1 if core_at[2] < core_at[-1] else -1
+    elif fault == "offsets start at 1":
+        core_at[0] = 1
+    elif fault == "short core_at":
+        core_at = core_at[:-1]
+    kernel = rng.random(k * band.size - (fault == "kernel short"), dtype=np.float32)
+    normals = rng.standard_normal((caps, k, 3))
+    out = np.full((caps, k + (fault == "out of k + 1 rows"), 3), np.nan)
+    return x, dw, core, core_at, band, band_at, kernel, normals, out
+
+
+def _run(kernel, args):
+    args = list(args)
+    args[8] = args[8].copy()
+    try:
+        kernel(*args)
+    except (ValueError, TypeError) as exc:
+        return exc, None
+    return None, args[8]
+
+
+@pytest.mark.parametrize("build", ["vector", "scalar"])
+@SETTINGS
+@given(args=calls())
+def test_truth_caps_and_its_twin_agree(builds, build, args):
+    c_err, got = _run(builds[build], args)
+    t_err, want = _run(truth_caps_twin, args)
+    if c_err is not None or t_err is not None:
+        assert (type(c_err), str(c_err)) == (type(t_err), str(t_err)), (c_err, t_err)
+        return
+    x, dw, core, core_at, band, band_at, kernel, normals, _ = args
+    k = normals.shape[1]
+    # Float32 sums in other orders (the C's four lanes, the twin's BLAS): each sum within
+    # n·2⁻²⁴ of its terms' magnitudes on either side; the normals' products in float64.
+    bound = np.zeros(want.shape)
+    for i in range(len(core_at) - 1):
+        c = core[core_at[i]:core_at[i + 1]]
+        mag = np.abs(dw[c]).T.astype(np.float64) @ np.abs(x[c])               # (3, 3)
+        b0, m = band_at[i], band_at[i + 1] - band_at[i]
+        rows = np.abs(kernel[k * b0:k * (b0 + m)].reshape(k, m)).astype(np.float64)
+        bound[i] = (len(c) + 2) * EPS32 * (np.abs(normals[i]) @ mag) \
+            + (m + 2) * EPS32 * (rows @ np.abs(x[band[b0:b0 + m]]))
+    assert np.isfinite(got).all()
+    assert (np.abs(got - want) <= 2 * bound + 1e-300).all()
+
+
+def test_the_split_truth_is_the_dense_kernels_sum():
+    """The caps of a Theta S's 256 normals: a uniform sky and a single bright pixel in each
+    cap's core, band and back (the three cases the split tells apart) give the dense
+    kernel's irradiance."""
+    from provider.core.geometry.projections import DualFisheye
+    from provider.core.lights.extractor import LightExtractor
+    x = LightExtractor(DualFisheye(1280, 720))
+    t = x.coarse_truth
+    sp = t.split
+    assert sp is not None and sp.normals.shape == (32, 8, 3)
+    # the band keeps 41 % of the dense kernel's entries (the cache traffic it saves)
+    assert 0.3 < sp.kernel.size / (256 * len(t.pixels)) < 0.5
+    dirs = t.coarse.directions().reshape(-1, 3)[t.pixels]
+    omega = t.coarse.solid_angle.reshape(-1)[t.pixels]
+    dense = x._brute_kernel(dirs, omega)                                     # float64
+    seeing = np.zeros((len(t.pixels), 3), np.float32)
+    for p in (sp.core[0], sp.band[0], int(np.argmin(dirs @ sp.normals[0].sum(axis=0)))):
+        seeing[:] = 0.01
+        seeing[p] = (1000.0, 500.0, 250.0)
+        got = sp(seeing)
+        want = dense @ seeing.astype(np.float64)
+        # float32 sums of ≤ 2,556 non-negative terms (a core's: signed, one term ×10⁵
+        # the rest): within 1e-5 of the largest irradiance
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-5 * np.abs(want).max())
