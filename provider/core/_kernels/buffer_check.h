@@ -1,6 +1,6 @@
 /* What the C kernels share (radiometry/_blocks.c, sh9/_fold.c, sh9/_equirect.c,
- * lights/_truth.c): the check of each array argument, the portability macros, and the
- * module's declared use of the GIL.
+ * lights/_truth.c): the check of each array argument and of its contiguity, the
+ * portability macros, and the module's declared use of the GIL.
  *
  * Shipped in the sdist (setup.py's depends, MANIFEST.in): the kernels compile from it. */
 #ifndef SHLIGHT_BUFFER_CHECK_H
@@ -52,6 +52,20 @@ get_view(PyObject *obj, Py_buffer *view, int writable, const char *fmt, int ndim
         return -1;
     }
     return 0;
+}
+
+/* C-contiguous, dimensions of length 0 or 1 aside (inline: a kernel that takes none of
+ * its arrays whole does not warn of it unused). */
+static inline int
+contiguous(const Py_buffer *v)
+{
+    Py_ssize_t step = v->itemsize;
+    for (int d = v->ndim - 1; d >= 0; d--) {
+        if (v->shape[d] > 1 && v->strides[d] != step)
+            return 0;
+        step *= v->shape[d];
+    }
+    return 1;
 }
 
 /* The kernels keep no state and touch no Python object while their loops run (the GIL is

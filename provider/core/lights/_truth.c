@@ -34,18 +34,6 @@
 typedef float v4 __attribute__((vector_size(16)));
 #endif
 
-static int
-contiguous(const Py_buffer *v)
-{
-    Py_ssize_t step = v->itemsize;
-    for (int d = v->ndim - 1; d >= 0; d--) {
-        if (v->shape[d] > 1 && v->strides[d] != step)
-            return 0;
-        step *= v->shape[d];
-    }
-    return 1;
-}
-
 /* offsets: 0 first, non-decreasing, n last */
 static int
 offsets_ok(const int *at, Py_ssize_t caps, Py_ssize_t n)
@@ -175,8 +163,9 @@ truth_caps(PyObject *self, PyObject *args)
     if (got == 9 && err)
         PyErr_SetString(PyExc_ValueError, err);
     float *planes = NULL;
+    Py_ssize_t widest = 1;
     if (got == 9 && !err) {
-        const Py_ssize_t widest = widest_of((const int *)v[5].buf, caps);
+        widest = widest_of((const int *)v[5].buf, caps);
         /* the band's planes, then x padded to 4 floats a pixel (the cores' vector loads) */
         planes = (float *)malloc(sizeof(float) * (size_t)(3 * widest + 4 * P + 4));
         if (planes == NULL) {
@@ -196,7 +185,7 @@ truth_caps(PyObject *self, PyObject *args)
     const double *normals = (const double *)v[7].buf;
     double *out = (double *)v[8].buf;
     Py_BEGIN_ALLOW_THREADS
-    float *x4 = planes + 3 * widest_of(band_at, caps);
+    float *x4 = planes + 3 * widest;
     for (Py_ssize_t p = 0; p < P; p++) {
         x4[4 * p] = x[3 * p];
         x4[4 * p + 1] = x[3 * p + 1];

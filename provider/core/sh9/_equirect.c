@@ -308,19 +308,6 @@ count_top(const unsigned char *restrict p, Py_ssize_t n, int *restrict out)
         out[i % 3] += p[i] == 255;
 }
 
-/* C-contiguous, dimensions of length 0 or 1 aside. */
-static int
-contiguous(const Py_buffer *v)
-{
-    Py_ssize_t step = v->itemsize;
-    for (int d = v->ndim - 1; d >= 0; d--) {
-        if (v->shape[d] > 1 && v->strides[d] != step)
-            return 0;
-        step *= v->shape[d];
-    }
-    return 1;
-}
-
 static PyObject *
 equirect_rows(PyObject *self, PyObject *args)
 {

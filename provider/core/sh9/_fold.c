@@ -95,19 +95,6 @@ store4(float *p, v4 v)
 }
 #endif
 
-/* C-contiguous, dimensions of length 0 or 1 aside. */
-static int
-contiguous(const Py_buffer *v)
-{
-    Py_ssize_t step = v->itemsize;
-    for (int d = v->ndim - 1; d >= 0; d--) {
-        if (v->shape[d] > 1 && v->strides[d] != step)
-            return 0;
-        step *= v->shape[d];
-    }
-    return 1;
-}
-
 /* A half row of n pixels decoded into three planar rows; step = +3 (rightwards from p) or
  * -3 (leftwards: p is the pixel next to the centre). */
 static inline void
@@ -620,14 +607,23 @@ fold_lens(PyObject *self, PyObject *args)
         const Py_ssize_t KT = 9 + K;
         Py_ssize_t *order = (Py_ssize_t *)malloc(sizeof(Py_ssize_t) * (size_t)KT);
         int *fold_of = (int *)malloc(sizeof(int) * (size_t)KT);
-        if (order == NULL || fold_of == NULL) {
+        /* clear: each row of mid is zeroed when its first block sums come (a flag a row),
+         * not all of mid before the pass: a Theta's mid copy (675 KB) is past a 512 KB
+         * cache by then, so zeroing it first cost its bytes from DRAM twice (cachegrind:
+         * 1.2 -> 0.7 MB a frame; issue 44); the rows no lens reaches are zeroed at the end. */
+        unsigned char *fresh = use_mid && clear ? (unsigned char *)malloc((size_t)(H / f) + 1)
+                                                : NULL;
+        if (order == NULL || fold_of == NULL || (use_mid && clear && fresh == NULL)) {
             free(order);
             free(fold_of);
+            free(fresh);
             free(buf);
             free(spills);
             PyErr_NoMemory();
             goto fail;
         }
+        if (fresh)
+            memset(fresh, 1, (size_t)(H / f) + 1);
         for (Py_ssize_t k = 0; k < KT; k++) {
             order[k] = k < 9 ? SH_ORDER[k] : k;
             fold_of[k] = k < 9 ? SH_PARITY[order[k]] : parity[k - 9];
@@ -651,23 +647,6 @@ fold_lens(PyObject *self, PyObject *args)
         const Py_ssize_t mw = use_mid ? W / f : 0;
         Py_ssize_t clipped = 0;             /* the clip counter's tally (clip) */
         double clipped_l00[3] = {0.0, 0.0, 0.0};
-        /* clear: each row of mid is zeroed when its first block sums come, not all of mid
-         * before the pass: a Theta's mid copy (675 KB) is past a 512 KB cache by then, so
-         * zeroing it first cost its bytes from DRAM twice (cachegrind: 1.2 -> 0.7 MB a
-         * frame; issue 44); the rows no lens reaches are zeroed at the end. */
-        unsigned char *fresh = NULL;
-        if (use_mid && clear) {
-            fresh = (unsigned char *)malloc((size_t)(H / f) + 1);
-            if (fresh == NULL) {
-                free(order);
-                free(fold_of);
-                free(buf);
-                free(spills);
-                PyErr_NoMemory();
-                goto fail;
-            }
-            memset(fresh, 1, (size_t)(H / f) + 1);
-        }
 #define MID_ROW(br) (fresh && fresh[br] ? (zero(midp + (br) * mw * 3, mw * 3), fresh[br] = 0, \
                                            midp + (br) * mw * 3) : midp + (br) * mw * 3)
         Py_BEGIN_ALLOW_THREADS
