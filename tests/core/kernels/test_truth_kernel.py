@@ -49,7 +49,7 @@ def builds(tmp_path_factory):
 
 
 FAULTS = ["index past P", "negative index", "offsets end short", "offsets decrease",
-          "offsets start at 1", "kernel short", "x of 4 channels", "dw a row short",
+          "offsets start at 1", "kernel a float off", "x of 4 channels", "dw a row short",
           "out of k + 1 rows", "float64 x", "x not contiguous", "short core_at"]
 
 
@@ -84,7 +84,10 @@ def calls(draw):
         core_at[0] = 1
     elif fault == "short core_at":
         core_at = core_at[:-1]
-    kernel = rng.random(k * band.size - (fault == "kernel short"), dtype=np.float32)
+    size = k * band.size
+    if fault == "kernel a float off":          # one short, or one over where there is none
+        size = size - 1 if size else 1
+    kernel = rng.random(size, dtype=np.float32)
     normals = rng.standard_normal((caps, k, 3))
     out = np.full((caps, k + (fault == "out of k + 1 rows"), 3), np.nan)
     return x, dw, core, core_at, band, band_at, kernel, normals, out
