@@ -1,4 +1,5 @@
-# The C kernel _truth.c (its Python twin: coarse_truth.truth_caps_twin, the same signature).
+# The C kernel _truth.c (its Python twins: coarse_truth.truth_caps_twin and
+# caps.excess_rows_twin, the same signatures).
 import numpy as np
 import numpy.typing as npt
 
@@ -11,5 +12,13 @@ def truth_caps(
     band_at: npt.NDArray[np.int32],
     kernel: npt.NDArray[np.float32],
     normals: npt.NDArray[np.float64],
+    out: npt.NDArray[np.float64],
+) -> None: ...
+
+def excess_rows(
+    dirs: npt.NDArray[np.float32],
+    flux: npt.NDArray[np.float32],
+    normals: npt.NDArray[np.float32],
+    rows: npt.NDArray[np.int32],
     out: npt.NDArray[np.float64],
 ) -> None: ...

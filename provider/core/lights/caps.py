@@ -20,11 +20,13 @@ import cv2
 import numpy as np
 
 
-#: Bytes of a block of the (normals × pixels) kernel that :func:`excess_irradiance` makes
-#: and reads at once: well inside a Cortex-A53's 512 KB last-level cache. Smaller blocks
-#: move less but cost more BLAS calls (the lit Theta room, one kept buffer, cachegrind /
-#: callgrind: 192 KB 20.9 MB and 47.8 M instructions a frame, 128 KB 20.1 MB and 48.6 M,
-#: 64 KB 19.2 MB and 50.3 M; issue 44).
+try:
+    from ._truth import excess_rows as _excess_kernel
+except ImportError:          # no compiler at install: its twin (below) takes its place
+    _excess_kernel = None
+
+#: Bytes of a block of the (normals × pixels) kernel that :func:`excess_rows_twin` makes
+#: and reads at once: well inside a Cortex-A53's 512 KB last-level cache.
 BLOCK_BYTES = 128 << 10
 
 
@@ -42,26 +44,20 @@ def touching_pairs(dirs: np.ndarray, seam: np.ndarray, touch_cos: float):
     return np.concatenate(a), np.concatenate(b)
 
 
-def excess_irradiance(normals, normals32, dirs, dirs32, flux, pix, region,
-                      scratch=None) -> np.ndarray:
+def excess_irradiance(normals, normals32, dirs, dirs32, flux, pix, region) -> np.ndarray:
     """(N, 3) ``Σ_i max(0, n·d_i) f_i`` at the ``normals`` (N, 3) (``normals32`` the same
     in float32) over the pixels ``pix`` of the mid copy, whose directions are ``dirs`` /
     ``dirs32`` (P, 3, all pixels; 0 where unseen) and whose ``flux`` (n, 3) float32 is
     excess radiance × solid angle, grouped by ``region`` (n,) (compact regions: the
-    frame's level-0 groups). The same sum as the full kernel's, in another order.
-    ``scratch``: a contiguous float32 array of at least ``BLOCK_BYTES / 4`` elements that
-    holds the kernel's blocks (a caller's own, kept from frame to frame; else one is made):
-    one buffer written over and over stays in cache, where a new one a region or a frame
-    is fresh memory, each of its first writes a miss to DRAM."""
+    frame's level-0 groups). The same sum as the full kernel's, in another order: the
+    normals that a region's horizon cuts take one call of the C kernel
+    (``_truth.excess_rows``; :func:`excess_rows_twin` where no compiler built it)."""
     out = np.zeros((len(normals), 3))
-    if scratch is None or scratch.size < BLOCK_BYTES // 4:
-        scratch = np.empty(BLOCK_BYTES // 4, np.float32)
     order = np.argsort(region, kind="stable")
     cuts = np.flatnonzero(np.diff(region[order])) + 1
     for sel in np.split(order, cuts):
         # np.take: a row gather at a tenth of fancy indexing's instructions
         p, f = pix[sel], np.take(flux, sel, axis=0)
-        ft = np.ascontiguousarray(f.T)
         d = np.take(dirs, p, axis=0)
         centre = d.sum(axis=0)
         centre /= max(float(np.linalg.norm(centre)), 1e-300)
@@ -71,28 +67,50 @@ def excess_irradiance(normals, normals32, dirs, dirs32, flux, pix, region,
         nc = normals @ centre
         whole = nc > margin
         out[whole] += normals[whole] @ (d.T @ f.astype(np.float64))
-        cut = np.flatnonzero(np.abs(nc) <= margin)
+        cut = np.flatnonzero(np.abs(nc) <= margin).astype(np.int32)
         if len(cut):
-            dt = np.take(dirs32, p, axis=0).T
-            # K (k, n) a block of normals at a time, small enough to stay in a 512 KB
-            # cache while its three channels read it: the whole K went to DRAM and back
-            # (the lit Theta room's four regions: 7.7 → 2.3 MB, 6.7 → 7.5 M instructions,
-            # cachegrind; tiles of pixels instead, a tenth of the products, took 18 M in
-            # numpy's small loops; issue 44). Each normal's row is the same products
-            # whatever the block.
-            step = max(4, BLOCK_BYTES // (4 * len(p)))
-            rows_max = min(step, len(cut))
-            block = (scratch[:rows_max * len(p)].reshape(rows_max, len(p))
-                     if rows_max * len(p) <= scratch.size
-                     else np.empty((rows_max, len(p)), np.float32))   # > BLOCK_BYTES / 16 pixels
-            for r0 in range(0, len(cut), step):
-                rows = cut[r0:r0 + step]
-                K = np.matmul(np.take(normals32, rows, axis=0), dt,
-                              out=block[:len(rows)])                       # (rows, n)
-                # cv2's threshold: numpy's maximum against a scalar costs 4× more here
-                cv2.threshold(K, 0.0, 0.0, cv2.THRESH_TOZERO, dst=K)
-                # a matrix-vector product a channel: a product with f's 3 columns packs
-                # all of K first (1.6 M instructions a frame for the lit Theta room
-                # against 0.45 M, callgrind)
-                out[rows] += np.stack([K @ fc for fc in ft], axis=1)
+            _excess_kernel(np.take(dirs32, p, axis=0), np.ascontiguousarray(f, np.float32),
+                           normals32, cut, out)
     return out
+
+
+def excess_rows_twin(dirs, flux, normals, rows, out) -> None:
+    """The C kernel ``_truth.excess_rows`` in numpy: the same arguments, numbers (to float
+    rounding) and errors (``_truth.c`` says what each argument is). A (rows × n) float32
+    kernel block at a time, small enough to stay in a 512 KB cache while its three
+    channels read it (the whole kernel went to DRAM and back); each normal's row is the
+    same products whatever the block."""
+    arrays = (dirs, flux, normals, rows, out)
+    names = ("dirs", "flux", "normals", "rows", "out")
+    kinds = ("f", "f", "f", "i", "d")
+    dims = (2, 2, 2, 1, 2)
+    for a, name, kind, nd in zip(arrays, names, kinds, dims):
+        a = np.asarray(a)
+        if a is out and not a.flags.writeable:
+            raise ValueError("buffer source array is read-only")       # numpy's words
+        if a.ndim != nd or a.dtype != {"f": np.float32, "i": np.int32, "d": np.float64}[kind]:
+            raise ValueError(f"{name}: expected a {nd}-d array of format '{kind}'")
+    if not all(np.asarray(a).flags.c_contiguous for a in arrays):
+        raise ValueError("every array: C-contiguous")
+    m, N = dirs.shape[0], normals.shape[0]
+    if dirs.shape[1] != 3 or flux.shape != (m, 3):
+        raise ValueError("dirs, flux: (n, 3) float32")
+    if normals.shape[1] != 3 or out.shape != (N, 3):
+        raise ValueError("normals (N, 3) float32, out (N, 3) float64")
+    if len(rows) and (rows.min() < 0 or rows.max() >= N):
+        raise ValueError("rows: normal indices in [0, N)")
+    dt, ft = dirs.T, np.ascontiguousarray(flux.T)
+    step = max(4, BLOCK_BYTES // (4 * max(1, m)))
+    for r0 in range(0, len(rows), step):
+        at = rows[r0:r0 + step]
+        K = np.take(normals, at, axis=0) @ dt                              # (rows, n)
+        # cv2's threshold: numpy's maximum against a scalar costs 4× more here
+        cv2.threshold(K, 0.0, 0.0, cv2.THRESH_TOZERO, dst=K)
+        # a matrix-vector product a channel (a product with f's 3 columns packs all of K)
+        np.add.at(out, at, np.stack([K @ fc for fc in ft], axis=1))
+
+
+if _excess_kernel is None:
+    _excess_kernel = excess_rows_twin
+#: Whether the excess's C kernel is built (else its twin, :func:`excess_rows_twin`).
+KERNEL = _excess_kernel is not excess_rows_twin

@@ -57,7 +57,7 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
-from .caps import BLOCK_BYTES as CAPS_BLOCK_BYTES, excess_irradiance, touching_pairs
+from .caps import excess_irradiance, touching_pairs
 from .coarse_truth import CoarseTruth
 from ..radiometry.blocks import shrink
 from ..geometry import sh
@@ -144,9 +144,6 @@ class LightExtractor:
         fc = max(1, math.ceil(math.sqrt(w * h / coarse_pixels)))
         self.normals = sh.fibonacci_sphere(normals)                    # (N, 3)
         self._normals32 = self.normals.astype(np.float32)
-        # the caps' kernel blocks, kept from frame to frame (caps.excess_irradiance): a
-        # pool, one buffer a frame in flight, as the fold's
-        self._caps_scratch = []
         self._luma32 = LUMA[None].astype(np.float32)
         self._irr_basis = sh.sh_basis(self.normals) * sh.A_HAT_PER_COEFF  # (N, 9)
         self._prefill()
@@ -236,13 +233,8 @@ class LightExtractor:
         if self._fill is not None:          # the fill's mirror term is no cap: the kernel
             return self._brute_kernel(self._dirs32[pix], omega,
                                       self._normals32).astype(np.float64) @ excess
-        pool = self._caps_scratch
-        scratch = pool.pop() if pool else np.empty(CAPS_BLOCK_BYTES // 4, np.float32)
-        try:
-            return excess_irradiance(self.normals, self._normals32, self._dirs, self._dirs32,
-                                     excess * omega[:, None], pix, region, scratch)
-        finally:
-            pool.append(scratch)
+        return excess_irradiance(self.normals, self._normals32, self._dirs, self._dirs32,
+                                 excess * omega[:, None], pix, region)
 
     def _residual(self, d: np.ndarray) -> np.ndarray:
         """g(n) = max(0, n·d) − SH9 irradiance of a unit directional light d, at the normals:

@@ -1,7 +1,8 @@
 """The lights' truth by caps of normals (provider/core/lights/_truth.c, issue 44) and its
 Python twin (coarse_truth.truth_caps_twin), driven with random caps, some of them wrong on
 purpose: for every draw either both refuse it with the same exception and message, or both
-write the same sums to float32 rounding. The vector build (as installed) and the portable
+write the same sums to float32 rounding. The same for the candidates' excess at the normals
+their horizon cuts (``excess_rows``, its twin caps.excess_rows_twin). The vector build (as installed) and the portable
 scalar loops (SHLIGHT_SCALAR_KERNELS, what a compiler without GCC's vector extension takes)
 both; on aarch64 too (scripts/arm64.sh)."""
 from __future__ import annotations
@@ -14,7 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from provider.core.lights import coarse_truth
+from provider.core.lights import caps, coarse_truth
 from provider.core.lights.coarse_truth import truth_caps_twin
 
 pytestmark = pytest.mark.skipif(
@@ -45,7 +46,7 @@ def builds(tmp_path_factory):
     spec = importlib.util.spec_from_file_location("_truth", cmd.get_ext_fullpath("_truth"))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return {"vector": _truth.truth_caps, "scalar": module.truth_caps}
+    return {"vector": _truth, "scalar": module}
 
 
 FAULTS = ["index past P", "negative index", "offsets end short", "offsets decrease",
@@ -107,7 +108,7 @@ def _run(kernel, args):
 @SETTINGS
 @given(args=calls())
 def test_truth_caps_and_its_twin_agree(builds, build, args):
-    c_err, got = _run(builds[build], args)
+    c_err, got = _run(builds[build].truth_caps, args)
     t_err, want = _run(truth_caps_twin, args)
     if c_err is not None or t_err is not None:
         assert (type(c_err), str(c_err)) == (type(t_err), str(t_err)), (c_err, t_err)
@@ -152,3 +153,73 @@ def test_the_split_truth_is_the_dense_kernels_sum():
         # float32 sums of ≤ 2,556 non-negative terms (a core's: signed, one term ×10⁵
         # the rest): within 1e-5 of the largest irradiance
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-5 * np.abs(want).max())
+
+
+EXCESS_FAULTS = ["row past N", "negative row", "flux a row short", "dirs of 4 channels",
+                 "float64 normals", "out of N + 1 rows", "int64 rows", "dirs not contiguous",
+                 "out read-only"]
+
+
+@st.composite
+def excess_calls(draw):
+    """excess_rows' five arguments: half of them right, half with one fault; directions
+    of any length (the kernel takes them as given), repeated rows (each adds again)."""
+    fault = draw(st.sampled_from(EXCESS_FAULTS)) if draw(st.booleans()) else None
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    n, N, k = draw(st.integers(0, 200)), draw(st.integers(1, 40)), draw(st.integers(0, 60))
+    dirs = rng.standard_normal((n, 4 if fault == "dirs of 4 channels" else 3)
+                               ).astype(np.float32)
+    if fault == "dirs not contiguous":
+        dirs = np.repeat(dirs, 2, axis=0)[::2]
+    flux = rng.uniform(0, 1e3, (n - (fault == "flux a row short" and n > 0), 3)
+                       ).astype(np.float32)
+    if fault == "flux a row short" and n == 0:
+        flux = np.zeros((1, 3), np.float32)
+    normals = rng.standard_normal((N, 3))
+    normals = (normals / np.linalg.norm(normals, axis=1, keepdims=True)).astype(
+        np.float64 if fault == "float64 normals" else np.float32)
+    rows = rng.integers(0, N, k).astype(np.int64 if fault == "int64 rows" else np.int32)
+    if fault == "row past N":
+        rows = np.append(rows, N).astype(rows.dtype)
+    elif fault == "negative row":
+        rows = np.insert(rows, 0, -1).astype(rows.dtype)
+    out = rng.standard_normal((N + (fault == "out of N + 1 rows"), 3))
+    if fault == "out read-only":
+        out.flags.writeable = False
+    return dirs, flux, normals, rows, out
+
+
+def _run_excess(kernel, args):
+    args = list(args)
+    out = args[4].copy()
+    out.flags.writeable = args[4].flags.writeable
+    args[4] = out
+    try:
+        kernel(*args)
+    except (ValueError, TypeError) as exc:
+        return exc, None
+    return None, out
+
+
+@pytest.mark.parametrize("build", ["vector", "scalar"])
+@SETTINGS
+@given(args=excess_calls())
+def test_excess_rows_and_its_twin_agree(builds, build, args):
+    c_err, got = _run_excess(builds[build].excess_rows, args)
+    t_err, want = _run_excess(caps.excess_rows_twin, args)
+    if c_err is not None or t_err is not None:
+        assert (type(c_err), str(c_err)) == (type(t_err), str(t_err)), (c_err, t_err)
+        return
+    dirs, flux, normals, rows, out = args
+    # Float32 sums of n terms in other orders (the C's four lanes, the twin's BLAS) and a
+    # float32 cosine either side: within (n + 4)·2⁻²⁴ of the terms' magnitudes, twice.
+    mag = np.abs(normals.astype(np.float64)) @ np.abs(dirs.astype(np.float64)).T  # (N, n)
+    bound = np.zeros(out.shape)
+    np.add.at(bound, rows, (len(dirs) + 4) * EPS32 * (mag[rows] @ np.abs(flux)))
+    assert np.isfinite(got).all()
+    assert (np.abs(got - want) <= 2 * bound + 1e-300).all()
+    # and the sums are the products they stand for (float64, the same rows)
+    exact = out.copy()
+    np.add.at(exact, rows, np.maximum(normals.astype(np.float64) @ dirs.T.astype(np.float64),
+                                      0.0)[rows] @ flux.astype(np.float64))
+    assert (np.abs(got - exact) <= 2 * bound + 1e-9 * np.abs(exact)).all()

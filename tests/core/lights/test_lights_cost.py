@@ -11,6 +11,7 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 from provider.core.geometry.projections import DualFisheye, Equirect
+from provider.core.lights import caps
 from provider.core.lights.extractor import LightExtractor
 
 
@@ -37,9 +38,16 @@ def _regions(x: LightExtractor, rng):
     return pix[first], lab[first]
 
 
+@pytest.mark.parametrize("kernel", ["built", "twin"])
 @pytest.mark.parametrize("projection", [DualFisheye(1280, 720), Equirect(512, 256)],
                          ids=["dual-fisheye", "equirect"])
-def test_excess_irradiance_by_regions_is_the_brute_force_sum(projection):
+def test_excess_irradiance_by_regions_is_the_brute_force_sum(projection, kernel, monkeypatch):
+    """The caps' sums, through the C kernel (``_truth.excess_rows``) and its numpy twin,
+    against the dense float64 kernel."""
+    if kernel == "twin":
+        monkeypatch.setattr(caps, "_excess_kernel", caps.excess_rows_twin)
+    elif not caps.KERNEL:
+        pytest.skip("the C kernels were not built (tests/core/kernels/test_kernels.py)")
     x = LightExtractor(projection)
     rng = np.random.default_rng(3)
     pix, region = _regions(x, rng)
@@ -51,12 +59,11 @@ def test_excess_irradiance_by_regions_is_the_brute_force_sum(projection):
     np.testing.assert_allclose(got, want, rtol=0, atol=2e-5 * np.abs(want).max())
 
 
-def test_frames_in_flight_each_get_their_own_caps_buffer():
-    """The caps' kernel blocks go through a buffer the extractor keeps from frame to frame
-    (issue 44: a new one a frame is fresh memory, every write a miss); two frames analysed
-    at once on one extractor (threads: BLAS lets go of the GIL) each get their own, so
-    each gets the sums it gets alone, bit for bit (the same products in the same order, on
-    one BLAS thread as the engine runs them: provider.core.blas)."""
+def test_frames_in_flight_get_the_sums_they_get_alone():
+    """Two frames analysed at once on one extractor (threads: the C kernel and BLAS let go
+    of the GIL) each get the sums they get alone, bit for bit (the same products in the
+    same order, on one BLAS thread as the engine runs them: provider.core.blas): the
+    kernel's planes are its call's own, nothing is shared between frames in flight."""
     with threadpool_limits(limits=1, user_api="blas"):
         _two_frames_in_flight()
 
@@ -84,4 +91,3 @@ def _two_frames_in_flight():
         assert len(got[k]) == 20
         for g in got[k]:
             np.testing.assert_array_equal(g, alone[k])
-    assert 1 <= len(x._caps_scratch) <= 2                # kept for the next frames
