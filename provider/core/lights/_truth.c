@@ -1,29 +1,29 @@
 /* The lights' truth at their normals from the coarse rest, by caps of normals, and the
  * candidates' excess irradiance at the normals their horizon cuts (issue 44).
  *
- * truth_caps(x, dw, core, core_at, band, band_at, kernel, normals, out)
+ * truth_caps(x, dw, core, core_at, band, band_at, normals, out)
  *   x        float32 (P, 3) contiguous: each seeing coarse pixel's radiance (the rest)
  *   dw       float32 (P, 3) contiguous: its direction times its solid angle, d w
  *   core     int32 (Nc,): the pixels of each cap's core, cap i's at core_at[i]..core_at[i+1]
  *   core_at  int32 (caps + 1,): 0, then non-decreasing, the last Nc
  *   band     int32 (Nb,): the pixels of each cap's horizon band, cap i's at band_at[i]..
  *   band_at  int32 (caps + 1,): 0, then non-decreasing, the last Nb
- *   kernel   float32 (k * Nb,): cap i's k rows of m = band_at[i+1] - band_at[i] entries,
- *            row r at k * band_at[i] + r * m: max(0, n.d) w of the cap's normal r at its
- *            band's pixel j (0 for a padding row)
  *   normals  float64 (caps, k, 3): each cap's normals (zero rows pad a short cap)
  *   out      float64 (caps, k, 3), written: sum_p max(0, n.d_p) w_p x_p at each normal
  *
  * A cap of normals sees every pixel of its core at a positive cosine from each of its
  * normals, so there the sum is linear, n . (sum of d w x^T over the core): one 3 x 3 sum a
- * cap; and none of the pixels behind its horizon band. Only the band keeps kernel
- * entries: for the Theta S's 256 normals in caps of 8, 41 % of the dense kernel's, read
- * once a frame (provider/core/lights/coarse_truth.py says how the caps are cut). The dense
- * kernel crossed the memory bus every frame: 2.7 MB of a Cortex-A53's DRAM traffic.
+ * cap; and none of the pixels behind its horizon band. Only the band takes a product a
+ * normal and pixel: for the Theta S's 256 normals in caps of 8, 41 % of the dense
+ * kernel's (provider/core/lights/coarse_truth.py says how the caps are cut). Its entries,
+ * max(0, n . d w) (w > 0), are made in registers from the band's d w, not read: a stored
+ * band kernel (1.1 MB for a Theta S; the dense one 2.7 MB) crossed the memory bus every
+ * frame on a Cortex-A53's 512 KB cache.
  *
  * Its Python twin, the same signature, numbers (to float rounding) and errors:
- * coarse_truth.truth_caps_twin. Sums in float32 (a cap's core and each band row), the
- * products with the normals in float64.
+ * coarse_truth.truth_caps_twin. Sums in float32 (a cap's core and each band row, the
+ * band's cosines from the normals rounded to float32), the products with the normals in
+ * float64.
  *
  * excess_rows(dirs, flux, normals, rows, out)
  *   dirs     float32 (n, 3) contiguous: a bright region's pixel directions
@@ -95,167 +95,6 @@ widest_of(const int *at, Py_ssize_t caps)
     return widest;
 }
 
-/* The 3 channels' dot products of one kernel row with the band's planar radiance. */
-static inline void
-row_dots(const float *restrict K, const float *restrict b0, const float *restrict b1,
-         const float *restrict b2, Py_ssize_t m, float *s)
-{
-    Py_ssize_t j = 0;
-    float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f;
-#if KERNEL_VECTOR
-    v4 a0 = {0, 0, 0, 0}, a1 = a0, a2 = a0;
-    for (; j + 4 <= m; j += 4) {
-        v4 k, x0, x1, x2;
-        memcpy(&k, K + j, sizeof k);
-        memcpy(&x0, b0 + j, sizeof x0);
-        memcpy(&x1, b1 + j, sizeof x1);
-        memcpy(&x2, b2 + j, sizeof x2);
-        a0 += k * x0;
-        a1 += k * x1;
-        a2 += k * x2;
-    }
-    s0 = (a0[0] + a0[1]) + (a0[2] + a0[3]);
-    s1 = (a1[0] + a1[1]) + (a1[2] + a1[3]);
-    s2 = (a2[0] + a2[1]) + (a2[2] + a2[3]);
-#endif
-    for (; j < m; j++) {
-        s0 += K[j] * b0[j];
-        s1 += K[j] * b1[j];
-        s2 += K[j] * b2[j];
-    }
-    s[0] = s0;
-    s[1] = s1;
-    s[2] = s2;
-}
-
-static PyObject *
-truth_caps(PyObject *self, PyObject *args)
-{
-    PyObject *obj[9];
-    if (!PyArg_ParseTuple(args, "OOOOOOOOO", &obj[0], &obj[1], &obj[2], &obj[3], &obj[4],
-                          &obj[5], &obj[6], &obj[7], &obj[8]))
-        return NULL;
-    static const char *fmt[9] = {"f", "f", "i", "i", "i", "i", "f", "d", "d"};
-    static const int nd[9] = {2, 2, 1, 1, 1, 1, 1, 3, 3};
-    static const char *name[9] = {"x", "dw", "core", "core_at", "band", "band_at", "kernel",
-                                  "normals", "out"};
-    Py_buffer v[9];
-    int got = 0;
-    for (; got < 9; got++)
-        if (get_view(obj[got], &v[got], got == 8, fmt[got], nd[got], name[got]) < 0)
-            break;
-    const char *err = NULL;
-    if (got == 9) {
-        for (int i = 0; i < 9 && !err; i++)
-            if (!contiguous(&v[i]))
-                err = "every array: C-contiguous";
-    }
-    Py_ssize_t P = 0, caps = 0, k = 0, Nc = 0, Nb = 0;
-    if (got == 9 && !err) {
-        P = v[0].shape[0];
-        caps = v[7].shape[0];
-        k = v[7].shape[1];
-        Nc = v[2].shape[0];
-        Nb = v[4].shape[0];
-        if (v[0].shape[1] != 3 || v[1].shape[0] != P || v[1].shape[1] != 3)
-            err = "x, dw: (P, 3) float32";
-        else if (P > 2147483647)
-            err = "x: fewer than 2^31 pixels";
-        else if (v[7].shape[2] != 3 || v[8].shape[0] != caps || v[8].shape[1] != k
-                 || v[8].shape[2] != 3)
-            err = "normals, out: (caps, k, 3) float64";
-        else if (v[3].shape[0] != caps + 1 || v[5].shape[0] != caps + 1)
-            err = "core_at, band_at: (caps + 1,) int32";
-        else if (!offsets_ok((const int *)v[3].buf, caps, Nc)
-                 || !offsets_ok((const int *)v[5].buf, caps, Nb))
-            err = "core_at, band_at: 0, non-decreasing, ending at the indices' length";
-        else if (!indices_ok((const int *)v[2].buf, Nc, P)
-                 || !indices_ok((const int *)v[4].buf, Nb, P))
-            err = "core, band: pixel indices in [0, P)";
-        else if (v[6].shape[0] != k * Nb)
-            err = "kernel: (k * len(band),) float32";
-    }
-    if (got == 9 && err)
-        PyErr_SetString(PyExc_ValueError, err);
-    float *planes = NULL;
-    Py_ssize_t widest = 1;
-    if (got == 9 && !err) {
-        widest = widest_of((const int *)v[5].buf, caps);
-        /* the band's planes, then x padded to 4 floats a pixel (the cores' vector loads) */
-        planes = (float *)malloc(sizeof(float) * (size_t)(3 * widest + 4 * P + 4));
-        if (planes == NULL) {
-            PyErr_NoMemory();
-            err = "memory";
-        }
-    }
-    if (got < 9 || err) {
-        for (int i = 0; i < got; i++)
-            PyBuffer_Release(&v[i]);
-        return NULL;
-    }
-    const float *x = (const float *)v[0].buf, *dw = (const float *)v[1].buf;
-    const int *core = (const int *)v[2].buf, *core_at = (const int *)v[3].buf;
-    const int *band = (const int *)v[4].buf, *band_at = (const int *)v[5].buf;
-    const float *kernel = (const float *)v[6].buf;
-    const double *normals = (const double *)v[7].buf;
-    double *out = (double *)v[8].buf;
-    Py_BEGIN_ALLOW_THREADS
-    float *x4 = planes + 3 * widest;
-    for (Py_ssize_t p = 0; p < P; p++) {
-        x4[4 * p] = x[3 * p];
-        x4[4 * p + 1] = x[3 * p + 1];
-        x4[4 * p + 2] = x[3 * p + 2];
-        x4[4 * p + 3] = 0.0f;
-    }
-    for (Py_ssize_t i = 0; i < caps; i++) {
-        /* the core: sum of d w x^T, S[a][c] */
-        float S[3][4];
-#if KERNEL_VECTOR
-        v4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
-        for (Py_ssize_t q = core_at[i]; q < core_at[i + 1]; q++) {
-            const Py_ssize_t p = core[q];
-            v4 r;
-            memcpy(&r, x4 + 4 * p, sizeof r);
-            s0 += dw[3 * p] * r;
-            s1 += dw[3 * p + 1] * r;
-            s2 += dw[3 * p + 2] * r;
-        }
-        memcpy(S[0], &s0, sizeof s0);
-        memcpy(S[1], &s1, sizeof s1);
-        memcpy(S[2], &s2, sizeof s2);
-#else
-        memset(S, 0, sizeof S);
-        for (Py_ssize_t q = core_at[i]; q < core_at[i + 1]; q++) {
-            const float *d = dw + 3 * (Py_ssize_t)core[q], *r = x4 + 4 * (Py_ssize_t)core[q];
-            for (int a = 0; a < 3; a++)
-                for (int c = 0; c < 3; c++)
-                    S[a][c] += d[a] * r[c];
-        }
-#endif
-        /* the band's radiance gathered into planes, then each row's dot products */
-        const Py_ssize_t b0 = band_at[i], m = band_at[i + 1] - b0;
-        for (Py_ssize_t j = 0; j < m; j++) {
-            const float *r = x4 + 4 * (Py_ssize_t)band[b0 + j];
-            planes[j] = r[0];
-            planes[m + j] = r[1];
-            planes[2 * m + j] = r[2];
-        }
-        for (Py_ssize_t r = 0; r < k; r++) {
-            float s[3];
-            row_dots(kernel + k * b0 + r * m, planes, planes + m, planes + 2 * m, m, s);
-            const double *n = normals + 3 * (i * k + r);
-            double *o = out + 3 * (i * k + r);
-            for (int c = 0; c < 3; c++)
-                o[c] = (n[0] * S[0][c] + n[1] * S[1][c] + n[2] * S[2][c]) + (double)s[c];
-        }
-    }
-    Py_END_ALLOW_THREADS
-    free(planes);
-    for (int i = 0; i < 9; i++)
-        PyBuffer_Release(&v[i]);
-    Py_RETURN_NONE;
-}
-
 /* The 3 channels' sums over one region of max(0, n.d_j) f_j for one normal n. */
 static inline void
 row_excess(const float *n, const float *restrict d0, const float *restrict d1,
@@ -297,6 +136,136 @@ row_excess(const float *n, const float *restrict d0, const float *restrict d1,
     s[0] = s0;
     s[1] = s1;
     s[2] = s2;
+}
+
+static PyObject *
+truth_caps(PyObject *self, PyObject *args)
+{
+    PyObject *obj[8];
+    if (!PyArg_ParseTuple(args, "OOOOOOOO", &obj[0], &obj[1], &obj[2], &obj[3], &obj[4],
+                          &obj[5], &obj[6], &obj[7]))
+        return NULL;
+    static const char *fmt[8] = {"f", "f", "i", "i", "i", "i", "d", "d"};
+    static const int nd[8] = {2, 2, 1, 1, 1, 1, 3, 3};
+    static const char *name[8] = {"x", "dw", "core", "core_at", "band", "band_at",
+                                  "normals", "out"};
+    Py_buffer v[8];
+    int got = 0;
+    for (; got < 8; got++)
+        if (get_view(obj[got], &v[got], got == 7, fmt[got], nd[got], name[got]) < 0)
+            break;
+    const char *err = NULL;
+    if (got == 8) {
+        for (int i = 0; i < 8 && !err; i++)
+            if (!contiguous(&v[i]))
+                err = "every array: C-contiguous";
+    }
+    Py_ssize_t P = 0, caps = 0, k = 0, Nc = 0, Nb = 0;
+    if (got == 8 && !err) {
+        P = v[0].shape[0];
+        caps = v[6].shape[0];
+        k = v[6].shape[1];
+        Nc = v[2].shape[0];
+        Nb = v[4].shape[0];
+        if (v[0].shape[1] != 3 || v[1].shape[0] != P || v[1].shape[1] != 3)
+            err = "x, dw: (P, 3) float32";
+        else if (P > 2147483647)
+            err = "x: fewer than 2^31 pixels";
+        else if (v[6].shape[2] != 3 || v[7].shape[0] != caps || v[7].shape[1] != k
+                 || v[7].shape[2] != 3)
+            err = "normals, out: (caps, k, 3) float64";
+        else if (v[3].shape[0] != caps + 1 || v[5].shape[0] != caps + 1)
+            err = "core_at, band_at: (caps + 1,) int32";
+        else if (!offsets_ok((const int *)v[3].buf, caps, Nc)
+                 || !offsets_ok((const int *)v[5].buf, caps, Nb))
+            err = "core_at, band_at: 0, non-decreasing, ending at the indices' length";
+        else if (!indices_ok((const int *)v[2].buf, Nc, P)
+                 || !indices_ok((const int *)v[4].buf, Nb, P))
+            err = "core, band: pixel indices in [0, P)";
+    }
+    if (got == 8 && err)
+        PyErr_SetString(PyExc_ValueError, err);
+    float *planes = NULL;
+    Py_ssize_t widest = 1;
+    if (got == 8 && !err) {
+        widest = widest_of((const int *)v[5].buf, caps);
+        /* the band's planes (x, then d w), then x padded to 4 floats a pixel (the cores'
+         * vector loads) */
+        planes = (float *)malloc(sizeof(float) * (size_t)(6 * widest + 4 * P + 4));
+        if (planes == NULL) {
+            PyErr_NoMemory();
+            err = "memory";
+        }
+    }
+    if (got < 8 || err) {
+        for (int i = 0; i < got; i++)
+            PyBuffer_Release(&v[i]);
+        return NULL;
+    }
+    const float *x = (const float *)v[0].buf, *dw = (const float *)v[1].buf;
+    const int *core = (const int *)v[2].buf, *core_at = (const int *)v[3].buf;
+    const int *band = (const int *)v[4].buf, *band_at = (const int *)v[5].buf;
+    const double *normals = (const double *)v[6].buf;
+    double *out = (double *)v[7].buf;
+    Py_BEGIN_ALLOW_THREADS
+    float *x4 = planes + 6 * widest;
+    for (Py_ssize_t p = 0; p < P; p++) {
+        x4[4 * p] = x[3 * p];
+        x4[4 * p + 1] = x[3 * p + 1];
+        x4[4 * p + 2] = x[3 * p + 2];
+        x4[4 * p + 3] = 0.0f;
+    }
+    for (Py_ssize_t i = 0; i < caps; i++) {
+        /* the core: sum of d w x^T, S[a][c] */
+        float S[3][4];
+#if KERNEL_VECTOR
+        v4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0;
+        for (Py_ssize_t q = core_at[i]; q < core_at[i + 1]; q++) {
+            const Py_ssize_t p = core[q];
+            v4 r;
+            memcpy(&r, x4 + 4 * p, sizeof r);
+            s0 += dw[3 * p] * r;
+            s1 += dw[3 * p + 1] * r;
+            s2 += dw[3 * p + 2] * r;
+        }
+        memcpy(S[0], &s0, sizeof s0);
+        memcpy(S[1], &s1, sizeof s1);
+        memcpy(S[2], &s2, sizeof s2);
+#else
+        memset(S, 0, sizeof S);
+        for (Py_ssize_t q = core_at[i]; q < core_at[i + 1]; q++) {
+            const float *d = dw + 3 * (Py_ssize_t)core[q], *r = x4 + 4 * (Py_ssize_t)core[q];
+            for (int a = 0; a < 3; a++)
+                for (int c = 0; c < 3; c++)
+                    S[a][c] += d[a] * r[c];
+        }
+#endif
+        /* the band's d w and radiance gathered into planes, then each normal's sums */
+        const Py_ssize_t b0 = band_at[i], m = band_at[i + 1] - b0;
+        for (Py_ssize_t j = 0; j < m; j++) {
+            const Py_ssize_t p = band[b0 + j];
+            const float *r = x4 + 4 * p;
+            for (int a = 0; a < 3; a++) {
+                planes[a * m + j] = dw[3 * p + a];
+                planes[(3 + a) * m + j] = r[a];
+            }
+        }
+        for (Py_ssize_t r = 0; r < k; r++) {
+            float s[3];
+            const double *n = normals + 3 * (i * k + r);
+            const float n32[3] = {(float)n[0], (float)n[1], (float)n[2]};
+            row_excess(n32, planes, planes + m, planes + 2 * m, planes + 3 * m,
+                       planes + 4 * m, planes + 5 * m, m, s);
+            double *o = out + 3 * (i * k + r);
+            for (int c = 0; c < 3; c++)
+                o[c] = (n[0] * S[0][c] + n[1] * S[1][c] + n[2] * S[2][c]) + (double)s[c];
+        }
+    }
+    Py_END_ALLOW_THREADS
+    free(planes);
+    for (int i = 0; i < 8; i++)
+        PyBuffer_Release(&v[i]);
+    Py_RETURN_NONE;
 }
 
 /* excess_rows(dirs, flux, normals, rows, out): out[r] += sum_j max(0, n_r.d_j) f_j for
@@ -376,7 +345,7 @@ excess_rows(PyObject *self, PyObject *args)
 
 static PyMethodDef methods[] = {
     {"truth_caps", truth_caps, METH_VARARGS,
-     "truth_caps(x, dw, core, core_at, band, band_at, kernel, normals, out): the lights' "
+     "truth_caps(x, dw, core, core_at, band, band_at, normals, out): the lights' "
      "truth at the normals, by caps (out written)."},
     {"excess_rows", excess_rows, METH_VARARGS,
      "excess_rows(dirs, flux, normals, rows, out): out[r] += sum_j max(0, n_r.d_j) f_j "

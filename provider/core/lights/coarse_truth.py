@@ -58,7 +58,7 @@ class CoarseTruth:
         self.pixels = np.flatnonzero(co > 0)
         self.split = None
         if linear and dirs_n is not None and len(self.pixels):
-            self.split = SplitKernel(dirs_n, cd[self.pixels], co[self.pixels], brute_kernel,
+            self.split = SplitKernel(dirs_n, cd[self.pixels], co[self.pixels],
                                      self.CAP_NORMALS)
             self.kernel = None
             return
@@ -116,17 +116,19 @@ class CoarseTruth:
 
 class SplitKernel:
     """The truth's kernel ``max(0, n·d) ω`` by caps of normals (issue 44: the dense one,
-    2.7 MB for a Theta S, crossed the memory bus every frame; split, 1.1 MB).
+    2.7 MB for a Theta S, crossed the memory bus every frame).
 
     The normals are cut into caps of at most ``cap_normals`` (halves across the widest
     axis, again and again). A cap of centre c and radius ρ sees each pixel with d·c > sin ρ
     at a positive cosine from each of its normals, so there ``Σ max(0, n·d) ω x = n · Σ d ω
     xᵀ``: its *core*, one 3 × 3 sum a cap; and none with d·c < −sin ρ. Only the pixels
-    between, its horizon band, keep kernel entries: 41 % of the dense kernel's for the
-    Theta's 256 normals in caps of 8 (4 a cap: 26 %, but twice the caps' sums). One call of
-    the C kernel (``_truth.c``) a frame; :func:`truth_caps_twin` is its twin."""
+    between, its horizon band, take a product a normal and pixel: 41 % of the dense
+    kernel's for the Theta's 256 normals in caps of 8 (4 a cap: 26 %, but twice the caps'
+    sums), each ``max(0, n · d ω)`` made as it is used, not stored (a stored band kernel,
+    1.1 MB, was read from DRAM every frame). One call of the C kernel (``_truth.c``) a
+    frame; :func:`truth_caps_twin` is its twin."""
 
-    def __init__(self, normals, dirs, omega, brute_kernel, cap_normals):
+    def __init__(self, normals, dirs, omega, cap_normals):
         caps = [np.arange(len(normals))]
         while any(len(c) > cap_normals for c in caps):
             wide = max(caps, key=len)
@@ -139,7 +141,7 @@ class SplitKernel:
         k = max(len(c) for c in caps)
         self.normals = np.zeros((len(caps), k, 3))        # zero rows pad a short cap
         self.slot = np.empty(len(normals), np.intp)       # a normal's row of (caps × k)
-        core, band, kernel = [], [], []
+        core, band = [], []
         for i, cap in enumerate(caps):
             self.normals[i, :len(cap)] = normals[cap]
             self.slot[cap] = i * k + np.arange(len(cap))
@@ -152,19 +154,15 @@ class SplitKernel:
             dc = dirs @ centre
             core.append(np.flatnonzero(dc > margin))
             band.append(np.flatnonzero(np.abs(dc) <= margin))
-            rows = np.zeros((k, len(band[-1])), np.float32)
-            rows[:len(cap)] = brute_kernel(dirs[band[-1]], omega[band[-1]], normals[cap])
-            kernel.append(rows.reshape(-1))
         self.core, self.core_at = _joined(core)
         self.band, self.band_at = _joined(band)
-        self.kernel = np.concatenate(kernel)
         self.dw = (dirs * omega[:, None]).astype(np.float32)             # (Pc, 3)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """(N, 3) float64 at the normals of the seeing pixels' ``x`` (Pc, 3) float32."""
         out = np.empty(self.normals.shape)
         _truth_kernel(np.ascontiguousarray(x, np.float32), self.dw, self.core, self.core_at,
-                      self.band, self.band_at, self.kernel, self.normals, out)
+                      self.band, self.band_at, self.normals, out)
         return out.reshape(-1, 3)[self.slot]
 
 
@@ -175,13 +173,13 @@ def _joined(parts):
     return np.concatenate(parts).astype(np.int32), at
 
 
-def truth_caps_twin(x, dw, core, core_at, band, band_at, kernel, normals, out) -> None:
+def truth_caps_twin(x, dw, core, core_at, band, band_at, normals, out) -> None:
     """The C kernel ``_truth.truth_caps`` in numpy: the same arguments, numbers (to float
     rounding) and errors (``_truth.c`` says what each argument is)."""
-    arrays = (x, dw, core, core_at, band, band_at, kernel, normals, out)
-    names = ("x", "dw", "core", "core_at", "band", "band_at", "kernel", "normals", "out")
-    kinds = ("f", "f", "i", "i", "i", "i", "f", "d", "d")
-    dims = (2, 2, 1, 1, 1, 1, 1, 3, 3)
+    arrays = (x, dw, core, core_at, band, band_at, normals, out)
+    names = ("x", "dw", "core", "core_at", "band", "band_at", "normals", "out")
+    kinds = ("f", "f", "i", "i", "i", "i", "d", "d")
+    dims = (2, 2, 1, 1, 1, 1, 3, 3)
     for a, name, kind, nd in zip(arrays, names, kinds, dims):
         a = np.asarray(a)
         if a.ndim != nd or a.dtype != {"f": np.float32, "i": np.int32, "d": np.float64}[kind]:
@@ -202,14 +200,12 @@ def truth_caps_twin(x, dw, core, core_at, band, band_at, kernel, normals, out) -
     for idx in (core, band):
         if len(idx) and (idx.min() < 0 or idx.max() >= P):
             raise ValueError("core, band: pixel indices in [0, P)")
-    if kernel.shape != (k * len(band),):
-        raise ValueError("kernel: (k * len(band),) float32")
     for i in range(caps):
         c = core[core_at[i]:core_at[i + 1]]
         S = (dw[c].T @ x[c]).astype(np.float64)                            # (3, 3)
-        b0, m = band_at[i], band_at[i + 1] - band_at[i]
-        rows = kernel[k * b0:k * (b0 + m)].reshape(k, m)
-        out[i] = normals[i] @ S + (rows @ x[band[b0:b0 + m]]).astype(np.float64)
+        b = band[band_at[i]:band_at[i + 1]]
+        rows = np.maximum(normals[i].astype(np.float32) @ dw[b].T, np.float32(0))  # (k, m)
+        out[i] = normals[i] @ S + (rows @ x[b]).astype(np.float64)
 
 
 if _truth_kernel is None:
