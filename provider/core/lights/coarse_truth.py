@@ -186,7 +186,7 @@ def truth_caps_twin(x, dw, core, core_at, band, band_at, normals, out) -> None:
             raise ValueError(f"{name}: expected a {nd}-d array of format '{kind}'")
     if not all(np.asarray(a).flags.c_contiguous for a in arrays):
         raise ValueError("every array: C-contiguous")
-    P, (caps, k) = x.shape[0], normals.shape[:2]
+    P, caps = x.shape[0], normals.shape[0]
     if x.shape[1] != 3 or dw.shape != (P, 3):
         raise ValueError("x, dw: (P, 3) float32")
     if normals.shape[2] != 3 or out.shape != normals.shape:
