@@ -28,7 +28,7 @@ KERNELS = [
     for name, source in (("provider.core.radiometry._blocks", "provider/core/radiometry/_blocks.c"),
                          ("provider.core.sh9._fold", "provider/core/sh9/_fold.c"),
                          ("provider.core.sh9._equirect", "provider/core/sh9/_equirect.c"),
-                         ("provider.core.lights._truth", "provider/core/lights/_truth.c"))
+                         ("provider.core.lights._lights", "provider/core/lights/_lights.c"))
 ]
 
 setup(ext_modules=[] if BUILD == "no" else KERNELS)

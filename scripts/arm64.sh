@@ -17,7 +17,7 @@ cd "$(dirname "$0")/.."
 ROOT=${SHLIGHT_ARM64_ROOT:-/var/cache/shlight/arm64}
 SUITE=bookworm
 PACKAGES=python3,python3-dev,python3-numpy,python3-opencv,python3-pytest,python3-hypothesis,python3-threadpoolctl,python3-setuptools,gcc,libc6-dev
-TESTS=(tests/core/kernels/test_kernels.py tests/core/kernels/test_kernel_twins.py tests/core/kernels/test_equirect_kernel.py tests/core/kernels/test_truth_kernel.py)
+TESTS=(tests/core/kernels/test_kernels.py tests/core/kernels/test_kernel_twins.py tests/core/kernels/test_equirect_kernel.py tests/core/kernels/test_lights_kernel.py)
 
 skip() {
     echo "arm64: skipped: $*"

@@ -79,16 +79,16 @@ def kernels(request, monkeypatch):
     on their Python twins, put where :mod:`provider.core.radiometry.blocks`,
     :mod:`provider.core.sh9.lens_fold`, :mod:`provider.core.sh9.clipping` (the fold's
     ``count_top``), :mod:`provider.core.sh9.equirect_pass` and
-    :mod:`provider.core.lights.coarse_truth` and :mod:`provider.core.lights.caps` chose the
-    kernel at import;
+    :mod:`provider.core.lights.coarse_truth`, :mod:`provider.core.lights.caps` and
+    :mod:`provider.core.lights.first_pass` chose the kernel at import;
     ``KERNEL`` then says built, so the products take the same one-pass
     paths, through the twins."""
     from provider.core.radiometry import blocks
-    from provider.core.lights import caps, coarse_truth
+    from provider.core.lights import caps, coarse_truth, first_pass
     from provider.core.sh9 import clipping, equirect_pass, lens_fold
     if request.param == "c":
         if not (blocks.KERNEL and lens_fold.KERNEL and equirect_pass.KERNEL
-                and coarse_truth.KERNEL and caps.KERNEL):
+                and coarse_truth.KERNEL and caps.KERNEL and first_pass.KERNEL):
             pytest.skip("the C kernels were not built (tests/core/kernels/test_kernels.py says how)")
     else:
         monkeypatch.setattr(blocks, "_decode_blocks", blocks._decode_blocks_py)
@@ -100,6 +100,7 @@ def kernels(request, monkeypatch):
         monkeypatch.setattr(equirect_pass, "KERNEL", True)
         monkeypatch.setattr(coarse_truth, "_truth_kernel", coarse_truth.truth_caps_twin)
         monkeypatch.setattr(caps, "_excess_kernel", caps.excess_rows_twin)
+        monkeypatch.setattr(first_pass, "_first_pass_kernel", first_pass.first_pass_twin)
     return request.param
 
 

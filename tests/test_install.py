@@ -79,7 +79,7 @@ def test_the_wheel_holds_the_shaders_and_the_panoramas(installed):
     assert any(n.endswith("licenses/LICENSE") for n in names)
     # The C kernels (setup.py) are compiled into it, with their type stubs.
     for kernel in ("provider/core/radiometry/_blocks", "provider/core/sh9/_fold",
-                   "provider/core/lights/_truth"):
+                   "provider/core/lights/_lights"):
         assert any(n.startswith(kernel) and n.endswith((".so", ".pyd")) for n in names), kernel
         assert kernel + ".pyi" in names
 

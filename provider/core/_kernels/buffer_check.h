@@ -1,5 +1,5 @@
 /* What the C kernels share (radiometry/_blocks.c, sh9/_fold.c, sh9/_equirect.c,
- * lights/_truth.c): the check of each array argument and of its contiguity, the
+ * lights/_lights.c): the check of each array argument and of its contiguity, the
  * portability macros, and the module's declared use of the GIL.
  *
  * Shipped in the sdist (setup.py's depends, MANIFEST.in): the kernels compile from it. */

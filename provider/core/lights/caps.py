@@ -21,7 +21,7 @@ import numpy as np
 
 
 try:
-    from ._truth import excess_rows as _excess_kernel
+    from ._lights import excess_rows as _excess_kernel
 except ImportError:          # no compiler at install: its twin (below) takes its place
     _excess_kernel = None
 
@@ -51,7 +51,7 @@ def excess_irradiance(normals, normals32, dirs, dirs32, flux, pix, region) -> np
     excess radiance × solid angle, grouped by ``region`` (n,) (compact regions: the
     frame's level-0 groups). The same sum as the full kernel's, in another order: the
     normals that a region's horizon cuts take one call of the C kernel
-    (``_truth.excess_rows``; :func:`excess_rows_twin` where no compiler built it)."""
+    (``_lights.excess_rows``; :func:`excess_rows_twin` where no compiler built it)."""
     out = np.zeros((len(normals), 3))
     order = np.argsort(region, kind="stable")
     cuts = np.flatnonzero(np.diff(region[order])) + 1
@@ -75,8 +75,8 @@ def excess_irradiance(normals, normals32, dirs, dirs32, flux, pix, region) -> np
 
 
 def excess_rows_twin(dirs, flux, normals, rows, out) -> None:
-    """The C kernel ``_truth.excess_rows`` in numpy: the same arguments, numbers (to float
-    rounding) and errors (``_truth.c`` says what each argument is). A (rows × n) float32
+    """The C kernel ``_lights.excess_rows`` in numpy: the same arguments, numbers (to float
+    rounding) and errors (``_lights.c`` says what each argument is). A (rows × n) float32
     kernel block at a time, small enough to stay in a 512 KB cache while its three
     channels read it (the whole kernel went to DRAM and back); each normal's row is the
     same products whatever the block."""

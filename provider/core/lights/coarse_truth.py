@@ -18,7 +18,7 @@ from ..geometry.projections import Projection
 from ..radiometry.blocks import shrink
 
 try:
-    from ._truth import truth_caps as _truth_kernel
+    from ._lights import truth_caps as _truth_kernel
 except ImportError:          # no compiler at install: its twin (below) takes its place
     _truth_kernel = None
 
@@ -125,7 +125,7 @@ class SplitKernel:
     between, its horizon band, take a product a normal and pixel: 41 % of the dense
     kernel's for the Theta's 256 normals in caps of 8 (4 a cap: 26 %, but twice the caps'
     sums), each ``max(0, n · d ω)`` made as it is used, not stored (a stored band kernel,
-    1.1 MB, was read from DRAM every frame). One call of the C kernel (``_truth.c``) a
+    1.1 MB, was read from DRAM every frame). One call of the C kernel (``_lights.c``) a
     frame; :func:`truth_caps_twin` is its twin."""
 
     def __init__(self, normals, dirs, omega, cap_normals):
@@ -174,8 +174,8 @@ def _joined(parts):
 
 
 def truth_caps_twin(x, dw, core, core_at, band, band_at, normals, out) -> None:
-    """The C kernel ``_truth.truth_caps`` in numpy: the same arguments, numbers (to float
-    rounding) and errors (``_truth.c`` says what each argument is)."""
+    """The C kernel ``_lights.truth_caps`` in numpy: the same arguments, numbers (to float
+    rounding) and errors (``_lights.c`` says what each argument is)."""
     arrays = (x, dw, core, core_at, band, band_at, normals, out)
     names = ("x", "dw", "core", "core_at", "band", "band_at", "normals", "out")
     kinds = ("f", "f", "i", "i", "i", "i", "d", "d")

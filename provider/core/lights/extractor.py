@@ -59,7 +59,7 @@ import numpy as np
 
 from .caps import excess_irradiance, touching_pairs
 from .coarse_truth import CoarseTruth
-from ..radiometry.blocks import shrink
+from .first_pass import first_pass
 from ..geometry import sh
 from .analysis import (LUMA, Analysis, Candidate, Light, LightsResult, angular_radius_deg,
                        chain_count, elongation, measure, model_irradiance)
@@ -320,7 +320,8 @@ class LightExtractor:
             the block means, applied in place).
         coefficients : (9, 3) the exact SH9 of the full frame (what the engine serves).
         """
-        small = self.reduce(frame, clean)
+        # C-contiguous float32 (a copy where not), scaled in place by the first pass
+        small = np.ascontiguousarray(self.reduce(frame, clean), np.float32)
         h, w = small.shape[:2]
         Y, total, coarse = self._first_pass(small, mean_scale)
         mu = total / self._coverage if self._coverage > 0 else 0.0
@@ -378,40 +379,18 @@ class LightExtractor:
             truth += extra
         return Analysis(self, coefficients, candidates, truth, groups, mu)
 
-    #: Mid rows a band of :meth:`_first_pass` (32 × 320 × 3 floats: 123 KB of a Theta's
-    #: mid copy, in cache for its three reads).
-    FIRST_PASS_ROWS = 32
-
     def _first_pass(self, small: np.ndarray, mean_scale: float = 1.0):
         """(Y, total, coarse) of the mid copy ``small`` (h, w, 3): its luminance (h, w)
         float32, Σ Y ω, and its coarse copy where the coarse pixels are whole blocks (else
-        None), a band of rows at a time, so that the copy crosses the memory bus once,
-        not three times (cachegrind: 2.6 → 1.1 MB a Theta frame; issue 44); ``mean_scale``
-        (block sums to means: the fold kernel's copy) applied there, in place. Y and the
-        coarse means are the whole frame's, bit for bit; the total sums the same
-        products band by band."""
+        None), in one pass over the copy (:func:`~provider.core.lights.first_pass.first_pass`;
+        ``small`` C-contiguous float32); ``mean_scale`` (block sums to means: the fold
+        kernel's copy) applied there, in place."""
         h, w = small.shape[:2]
         t = self.coarse_truth
-        f = t.factor
-        coarse = None
-        if t.blocks and (h, w) == (self.mid.height, self.mid.width):
-            coarse = np.empty((t.coarse.height, t.coarse.width, 3), np.float32)
-        rows = max(f, self.FIRST_PASS_ROWS // f * f)
-        bw, bh = t.crop
-        Y = np.empty((h, w), np.float32)
-        total = 0.0
-        for r0 in range(0, h, rows):
-            band = small[r0:r0 + rows]
-            if mean_scale != 1.0:
-                band *= np.float32(mean_scale)
-            y = Y[r0:r0 + rows]
-            y[...] = cv2.transform(band, self._luma32).reshape(y.shape)
-            total += cv2.sumElems(cv2.multiply(y, self._omega32[r0:r0 + rows]))[0]
-            if coarse is not None and r0 < bh:
-                r1 = min(r0 + rows, bh)
-                coarse[r0 // f:r1 // f] = shrink(band[:r1 - r0, :bw],
-                                                 (t.coarse.width, (r1 - r0) // f))
-        return Y, float(total), coarse
+        whole = t.blocks and (h, w) == (self.mid.height, self.mid.width)
+        return first_pass(small, mean_scale,
+                          self._luma32.reshape(3), self._omega32,
+                          (t.coarse.width, t.coarse.height) if whole else None, t.factor)
 
     def _level(self, idx0, Y0, L0, labels, n, level_value, total, level):
         """Candidates of one threshold level. ``idx0`` are the flat indices of the pixels

@@ -428,9 +428,10 @@ class SH9Projector(FrameDecoder):
                     break
         if order < 2:
             coeffs = sh.truncate_order(coeffs, order)
-        E = sh.sphere_irradiance(coeffs)
+        # neither windowed nor truncated (the default): the same product, not made again
+        E = E_exact if coeffs is exact else sh.sphere_irradiance(coeffs)
         stats["order"] = order
-        stats["order_error"] = sh.relative_rms(E, E_exact)
+        stats["order_error"] = 0.0 if E is E_exact else sh.relative_rms(E, E_exact)
         stats["min_irradiance"] = np.ascontiguousarray(E.T).min(axis=1).tolist()
         stats["coverage_sr"] = self._coverage
         return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats)

@@ -17,10 +17,10 @@ BUILD_HINT = ("the C kernels were not built: install a C compiler and Python's h
 
 
 def test_kernels_are_built():
-    from provider.core.lights import caps, coarse_truth
+    from provider.core.lights import caps, coarse_truth, first_pass
     from provider.core.sh9 import equirect_pass, lens_fold
     assert blocks.KERNEL and lens_fold.KERNEL and equirect_pass.KERNEL, BUILD_HINT
-    assert coarse_truth.KERNEL and caps.KERNEL, BUILD_HINT
+    assert coarse_truth.KERNEL and caps.KERNEL and first_pass.KERNEL, BUILD_HINT
 
 
 def _tables():
@@ -261,13 +261,15 @@ def test_without_the_c_kernels_the_twins_are_chosen_at_import():
         import numpy as np
         sys.modules["provider.core.radiometry._blocks"] = None   # as if never built
         sys.modules["provider.core.sh9._fold"] = None
-        sys.modules["provider.core.lights._truth"] = None
+        sys.modules["provider.core.lights._lights"] = None
         from provider.core.radiometry import blocks
         from provider.core.sh9 import fold_twin, lens_fold
         from provider.core.sh9.engine import SH9Projector
         assert not blocks.KERNEL and blocks._decode_blocks is blocks._decode_blocks_py
         assert not lens_fold.KERNEL and lens_fold._fold_kernel is fold_twin.fold_lens
-        from provider.core.lights import caps, coarse_truth
+        from provider.core.lights import caps, coarse_truth, first_pass
+        assert not first_pass.KERNEL
+        assert first_pass._first_pass_kernel is first_pass.first_pass_twin
         assert not coarse_truth.KERNEL
         assert coarse_truth._truth_kernel is coarse_truth.truth_caps_twin
         assert not caps.KERNEL and caps._excess_kernel is caps.excess_rows_twin

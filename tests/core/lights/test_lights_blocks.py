@@ -3,11 +3,11 @@ cache) are the sums they replace: the truth at the normals by blocks of normals 
 the whole kernel's product, the coarse rest with the candidates' excess taken off its
 blocks against the coarse copy of the rest, and a clean detection copy (a table's block
 means) left unclamped only where nothing is there to clamp."""
-import cv2
 import numpy as np
 import pytest
 
 from provider.core.geometry.projections import DualFisheye, Equirect, Fisheye
+from provider.core.lights import first_pass as first_pass_module
 from provider.core.lights.analysis import LUMA
 from provider.core.lights.extractor import LightExtractor
 from provider.core.lights.views import DetectionCopy
@@ -107,26 +107,37 @@ def test_the_lights_of_a_clean_copy_are_those_of_the_clamped_one():
     assert [c.pixels.tolist() for c in a.candidates] == [c.pixels.tolist() for c in b.candidates]
 
 
+@pytest.mark.parametrize("kernel", ["built", "twin"])
 @pytest.mark.parametrize("name", ["theta", "equirect"])
-def test_the_first_pass_by_bands_is_the_whole_frames(name):
-    """Luminance, flux and coarse copy of the mid copy a band of rows at a time: Y and the
-    coarse means bit for bit the whole frame's (each a function of its own pixels or 2×2
-    blocks, bands a multiple of the coarse factor), the flux the same products summed by
-    band (double sums: 1e-12 holds)."""
+def test_the_first_pass_is_the_whole_frames(name, kernel, monkeypatch):
+    """Luminance, flux and coarse copy of the mid copy in one pass (the C kernel and its
+    twin, a band at a time): the float64 luminance, flux and block means of the frame, to
+    float32 rounding (each Y three products and two sums: 3·2⁻²⁴ of its terms; a block
+    mean f² sums: f²·2⁻²⁴; the flux a float64 sum of float32 products: 1e-6), and the
+    frame scaled in place as the mean scale says."""
+    if kernel == "twin":
+        monkeypatch.setattr(first_pass_module, "_first_pass_kernel",
+                            first_pass_module.first_pass_twin)
+    elif not first_pass_module.KERNEL:
+        pytest.skip("the C kernels were not built (tests/core/kernels/test_kernels.py)")
     x = LightExtractor(PROJECTIONS[name](), max_lights=3)
-    mid = (np.random.default_rng(4).random((x.mid.height, x.mid.width, 3)) * 5
-           ).astype(np.float32)
-    Y, total, coarse = x._first_pass(mid)
-    whole = cv2.transform(mid, LUMA[None].astype(np.float32)).reshape(Y.shape)
-    # per pixel, the same operations; the bands' lengths (rows × a width of 256 or 320)
-    # are multiples of any SIMD width, so no pixel moves to a scalar tail
-    np.testing.assert_array_equal(Y, whole)
-    assert total == pytest.approx(float(cv2.sumElems(cv2.multiply(whole, x._omega32))[0]),
-                                  rel=1e-12)
+    sums = (np.random.default_rng(4).random((x.mid.height, x.mid.width, 3)) * 80
+            ).astype(np.float32)
+    mid = sums.copy()
+    Y, total, coarse = x._first_pass(mid, 1.0 / 16)
+    np.testing.assert_array_equal(mid, sums * np.float32(1.0 / 16))   # exact: a power of 2
+    rgb = mid.astype(np.float64)
+    whole = rgb @ LUMA
+    np.testing.assert_allclose(Y, whole, rtol=4 * 2.0 ** -24, atol=0)
+    want = float(whole.reshape(-1) @ x._omega32.reshape(-1).astype(np.float64))
+    assert total == pytest.approx(want, rel=1e-6)
     t = x.coarse_truth
     if not t.blocks:                                    # INTER_AREA's fractional weights
         assert coarse is None
         return
     bw, bh = t.crop
-    np.testing.assert_array_equal(coarse, shrink(mid[:bh, :bw],
-                                                 (t.coarse.width, t.coarse.height)))
+    f = t.factor
+    means = rgb[:bh, :bw].reshape(bh // f, f, bw // f, f, 3).mean(axis=(1, 3))
+    np.testing.assert_allclose(coarse, means, rtol=(f * f + 1) * 2.0 ** -24, atol=0)
+
+

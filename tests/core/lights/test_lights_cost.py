@@ -42,7 +42,7 @@ def _regions(x: LightExtractor, rng):
 @pytest.mark.parametrize("projection", [DualFisheye(1280, 720), Equirect(512, 256)],
                          ids=["dual-fisheye", "equirect"])
 def test_excess_irradiance_by_regions_is_the_brute_force_sum(projection, kernel, monkeypatch):
-    """The caps' sums, through the C kernel (``_truth.excess_rows``) and its numpy twin,
+    """The caps' sums, through the C kernel (``_lights.excess_rows``) and its numpy twin,
     against the dense float64 kernel."""
     if kernel == "twin":
         monkeypatch.setattr(caps, "_excess_kernel", caps.excess_rows_twin)

@@ -1,4 +1,4 @@
-"""The lights' truth by caps of normals (provider/core/lights/_truth.c, issue 44) and its
+"""The lights' truth by caps of normals (provider/core/lights/_lights.c, issue 44) and its
 Python twin (coarse_truth.truth_caps_twin), driven with random caps, some of them wrong on
 purpose: for every draw either both refuse it with the same exception and message, or both
 write the same sums to float32 rounding. The same for the candidates' excess at the normals
@@ -16,6 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from provider.core.lights import caps, coarse_truth
+from provider.core.lights.first_pass import first_pass_twin
 from provider.core.lights.coarse_truth import truth_caps_twin
 
 pytestmark = pytest.mark.skipif(
@@ -34,19 +35,19 @@ def builds(tmp_path_factory):
     from setuptools import Distribution, Extension
     from setuptools.command.build_ext import build_ext
 
-    from provider.core.lights import _truth
-    out = tmp_path_factory.mktemp("scalar_truth")
-    ext = Extension("_truth", [str(SOURCE / "lights" / "_truth.c")],
+    from provider.core.lights import _lights
+    out = tmp_path_factory.mktemp("scalar_lights")
+    ext = Extension("_lights", [str(SOURCE / "lights" / "_lights.c")],
                     include_dirs=[str(SOURCE / "_kernels")],
                     define_macros=[("SHLIGHT_SCALAR_KERNELS", "1")])
     cmd = build_ext(Distribution({"ext_modules": [ext]}))
     cmd.build_lib, cmd.build_temp = str(out), str(out / "tmp")
     cmd.ensure_finalized()
     cmd.run()
-    spec = importlib.util.spec_from_file_location("_truth", cmd.get_ext_fullpath("_truth"))
+    spec = importlib.util.spec_from_file_location("_lights", cmd.get_ext_fullpath("_lights"))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return {"vector": _truth, "scalar": module}
+    return {"vector": _lights, "scalar": module}
 
 
 FAULTS = ["index past P", "negative index", "offsets end short", "offsets decrease",
@@ -233,3 +234,77 @@ def test_excess_rows_and_its_twin_agree(builds, build, args):
     np.add.at(exact, rows, np.maximum(normals.astype(np.float64) @ dirs.T.astype(np.float64),
                                       0.0)[rows] @ flux.astype(np.float64))
     assert (np.abs(got - exact) <= 2 * bound + 1e-9 * np.abs(exact)).all()
+
+
+FIRST_FAULTS = ["coarse too tall", "coarse too wide", "factor 0", "Y a row short",
+                "omega float64", "mid of 4 channels", "luma of 4", "mid not contiguous",
+                "Y read-only", "coarse of 2 dims"]
+
+
+@st.composite
+def first_pass_calls(draw):
+    """first_pass's seven arguments: half of them right, half with one fault; any mid
+    size and factor, a coarse copy of any size that fits (or none)."""
+    fault = draw(st.sampled_from(FIRST_FAULTS)) if draw(st.booleans()) else None
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    h, w, f = draw(st.integers(1, 40)), draw(st.integers(1, 40)), draw(st.integers(1, 5))
+    mid = (rng.random((h, w, 4 if fault == "mid of 4 channels" else 3)) * 100
+           ).astype(np.float32)
+    if fault == "mid not contiguous":
+        mid = np.repeat(mid, 2, axis=1)[:, ::2]
+    scale = draw(st.sampled_from([1.0, 1.0 / 16, 0.37]))
+    luma = np.array([0.2126, 0.7152, 0.0722, 0.0][:4 if fault == "luma of 4" else 3],
+                    np.float32)
+    omega = rng.random((h, w)).astype(np.float64 if fault == "omega float64" else np.float32)
+    Y = np.full((h - (fault == "Y a row short"), w), np.nan, np.float32)
+    if fault == "Y read-only":
+        Y.flags.writeable = False
+    coarse = None
+    if draw(st.booleans()) or fault in ("coarse too tall", "coarse too wide",
+                                        "coarse of 2 dims"):
+        hc = draw(st.integers(0, h // f)) + (fault == "coarse too tall")
+        wc = draw(st.integers(0, w // f)) + (fault == "coarse too wide")
+        coarse = np.full((hc, wc) if fault == "coarse of 2 dims" else (hc, wc, 3), np.nan,
+                         np.float32)
+    return mid, scale, luma, omega, Y, coarse, 0 if fault == "factor 0" else f
+
+
+def _run_first(kernel, args):
+    mid, scale, luma, omega, Y, coarse, f = args
+    mid, Y2 = mid.copy(), Y.copy()
+    Y2.flags.writeable = Y.flags.writeable
+    coarse = None if coarse is None else coarse.copy()
+    try:
+        total = kernel(mid, scale, luma, omega, Y2, coarse, f)
+    except (ValueError, TypeError) as exc:
+        return exc, None
+    return None, (total, mid, Y2, coarse)
+
+
+@pytest.mark.parametrize("build", ["vector", "scalar"])
+@SETTINGS
+@given(args=first_pass_calls())
+def test_first_pass_and_its_twin_agree(builds, build, args):
+    c_err, got = _run_first(builds[build].first_pass, args)
+    t_err, want = _run_first(first_pass_twin, args)
+    if c_err is not None or t_err is not None:
+        assert (type(c_err), str(c_err)) == (type(t_err), str(t_err)), (c_err, t_err)
+        return
+    mid, scale, luma, omega, _, coarse, f = args
+    # the scale: one float32 product a sample, the same on both sides
+    np.testing.assert_array_equal(got[1], want[1])
+    rgb = want[1].astype(np.float64)
+    Y = rgb @ luma.astype(np.float64)
+    # Y: three float32 products and two sums (OpenCV's order or the C's): 3·2⁻²⁴ of Y
+    # (every term non-negative) either side
+    np.testing.assert_allclose(got[2], want[2], rtol=8 * EPS32, atol=0)
+    np.testing.assert_allclose(got[2], Y, rtol=4 * EPS32, atol=0)
+    # the flux: float32 products Y ω summed in float64
+    flux = float(Y.reshape(-1) @ omega.reshape(-1).astype(np.float64))
+    assert got[0] == pytest.approx(flux, rel=1e-6, abs=1e-30)
+    assert want[0] == pytest.approx(flux, rel=1e-6, abs=1e-30)
+    if coarse is not None:
+        hc, wc = coarse.shape[:2]
+        means = rgb[:hc * f, :wc * f].reshape(hc, f, wc, f, 3).mean(axis=(1, 3))
+        for c in (got[3], want[3]):
+            np.testing.assert_allclose(c, means, rtol=(f * f + 2) * EPS32, atol=0)

@@ -1,4 +1,5 @@
-# The C kernel _truth.c (its Python twins: coarse_truth.truth_caps_twin and
+# The C kernel _lights.c (its Python twins: first_pass.first_pass_twin,
+# coarse_truth.truth_caps_twin and
 # caps.excess_rows_twin, the same signatures).
 import numpy as np
 import numpy.typing as npt
@@ -22,3 +23,13 @@ def excess_rows(
     rows: npt.NDArray[np.int32],
     out: npt.NDArray[np.float64],
 ) -> None: ...
+
+def first_pass(
+    mid: npt.NDArray[np.float32],
+    scale: float,
+    luma: npt.NDArray[np.float32],
+    omega: npt.NDArray[np.float32],
+    Y: npt.NDArray[np.float32],
+    coarse: npt.NDArray[np.float32] | None,
+    factor: int,
+) -> float: ...

@@ -1,0 +1,94 @@
+"""The first pass over a frame's mid copy (maths only): its block sums made means, its
+luminance, its flux and its coarse copy, in one pass.
+
+The extractor (:class:`~provider.core.lights.extractor.LightExtractor`) needs, every frame,
+the mid copy's luminance Y (to find the pixels above its thresholds), Σ Y ω (the frame's
+mean luminance, what the thresholds are relative to) and the coarse copy (the truth's
+input). The C kernel (``_lights.first_pass``) makes them a band of rows at a time while
+the band is in cache: the mid copy (675 KB for a Theta S) crosses the memory bus once.
+:func:`first_pass_twin` is its twin, chosen at import where no compiler built it.
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..radiometry.blocks import shrink
+
+try:
+    from ._lights import first_pass as _first_pass_kernel
+except ImportError:          # no compiler at install: its twin (below) takes its place
+    _first_pass_kernel = None
+
+#: Mid rows a band of :func:`first_pass_twin` (32 × 320 × 3 floats: 123 KB of a Theta's
+#: mid copy, in cache for its three reads).
+TWIN_ROWS = 32
+
+
+def first_pass(mid: np.ndarray, scale: float, luma: np.ndarray, omega: np.ndarray,
+               coarse_size: tuple[int, int] | None, factor: int):
+    """(Y, total, coarse) of the mid copy ``mid`` (h, w, 3) float32 C-contiguous, first
+    multiplied in place by ``scale`` (block sums to means; 1: left as it is): its luminance
+    ``luma · rgb`` (h, w) float32, ``Σ Y ω`` over ``omega`` (h, w) float32 (float32
+    products, a float64 sum), and where ``coarse_size`` (wc, hc) is given, the means of
+    its ``factor`` × ``factor`` blocks (hc, wc, 3) float32 (else None)."""
+    h, w = mid.shape[:2]
+    Y = np.empty((h, w), np.float32)
+    coarse = (None if coarse_size is None
+              else np.empty((coarse_size[1], coarse_size[0], 3), np.float32))
+    total = _first_pass_kernel(mid, float(scale), luma, omega, Y, coarse, int(factor))
+    return Y, float(total), coarse
+
+
+def first_pass_twin(mid, scale, luma, omega, Y, coarse, factor) -> float:
+    """The C kernel ``_lights.first_pass`` in numpy and OpenCV: the same arguments, numbers
+    (to float rounding) and errors (``_lights.c`` says what each argument is); a band of
+    :data:`TWIN_ROWS` rows at a time, each in cache for its three reads."""
+    arrays = [mid, luma, omega, Y] + ([] if coarse is None else [coarse])
+    names = ("mid", "luma", "omega", "Y", "coarse")
+    dims = (3, 1, 2, 2, 3)
+    for k, (a, name, nd) in enumerate(zip(arrays, names, dims)):
+        a = np.asarray(a)
+        if (k == 0 or k >= 3) and not a.flags.writeable:
+            raise ValueError("buffer source array is read-only")       # numpy's words
+        if a.ndim != nd or a.dtype != np.float32:
+            raise ValueError(f"{name}: expected a {nd}-d array of format 'f'")
+    if not all(a.flags.c_contiguous for a in arrays):
+        raise ValueError("every array: C-contiguous")
+    h, w = mid.shape[:2]
+    if mid.shape[2] != 3:
+        raise ValueError("mid: (h, w, 3) float32")
+    if luma.shape != (3,):
+        raise ValueError("luma: (3,) float32")
+    if omega.shape != (h, w) or Y.shape != (h, w):
+        raise ValueError("omega, Y: (h, w) float32, mid's height and width")
+    if factor < 1:
+        raise ValueError("factor: at least 1")
+    if coarse is not None and (coarse.shape[2] != 3 or coarse.shape[0] > h // factor
+                               or coarse.shape[1] > w // factor):
+        raise ValueError("coarse: (hc, wc, 3) float32, hc * factor <= h, wc * factor <= w")
+    f = factor
+    rows = max(f, TWIN_ROWS // f * f)
+    if coarse is not None:
+        hc, wc = coarse.shape[:2]
+        bh, bw = hc * f, wc * f
+    m = luma.reshape(1, 3)
+    total = 0.0
+    for r0 in range(0, h, rows):
+        band = mid[r0:r0 + rows]
+        if np.float32(scale) != 1:
+            band *= np.float32(scale)
+        y = Y[r0:r0 + rows]
+        y[...] = cv2.transform(band, m).reshape(y.shape)
+        total += cv2.sumElems(cv2.multiply(y, omega[r0:r0 + rows]))[0]
+        if coarse is not None and r0 < bh:
+            r1 = min(r0 + rows, bh)
+            if wc and r1 > r0:
+                coarse[r0 // f:r1 // f] = shrink(band[:r1 - r0, :bw], (wc, (r1 - r0) // f))
+    return float(total)
+
+
+if _first_pass_kernel is None:
+    _first_pass_kernel = first_pass_twin
+#: Whether the first pass's C kernel is built (else its twin, :func:`first_pass_twin`).
+KERNEL = _first_pass_kernel is not first_pass_twin
