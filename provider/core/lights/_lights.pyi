@@ -7,9 +7,9 @@ import numpy.typing as npt
 def truth_caps(
     x: npt.NDArray[np.float32],
     dw: npt.NDArray[np.float32],
-    core: npt.NDArray[np.int32],
+    core: npt.NDArray[np.uint16],
     core_at: npt.NDArray[np.int32],
-    band: npt.NDArray[np.int32],
+    band: npt.NDArray[np.uint16],
     band_at: npt.NDArray[np.int32],
     kernel: npt.NDArray[np.float32],
     normals: npt.NDArray[np.float64],

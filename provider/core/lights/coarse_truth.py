@@ -57,7 +57,9 @@ class CoarseTruth:
         # 80×45 grid) carry kernel columns: the kernel is read from DRAM every frame.
         self.pixels = np.flatnonzero(co > 0)
         self.split = None
-        if linear and dirs_n is not None and len(self.pixels):
+        # the split's pixel lists are 16-bit (read every frame): past 65,536 seeing coarse
+        # pixels (coarse_pixels set that high) the dense kernel
+        if linear and dirs_n is not None and 0 < len(self.pixels) <= 1 << 16:
             self.split = SplitKernel(dirs_n, cd[self.pixels], co[self.pixels],
                                      self.CAP_NORMALS)
             self.kernel = None
@@ -167,10 +169,10 @@ class SplitKernel:
 
 
 def _joined(parts):
-    """Index lists joined, int32, with their offsets (0 first)."""
+    """Index lists (each below 2¹⁶) joined, uint16, with their offsets, int32 (0 first)."""
     at = np.zeros(len(parts) + 1, np.int32)
     at[1:] = np.cumsum([len(p) for p in parts])
-    return np.concatenate(parts).astype(np.int32), at
+    return np.concatenate(parts).astype(np.uint16), at
 
 
 def truth_caps_twin(x, dw, core, core_at, band, band_at, normals, out) -> None:
@@ -178,11 +180,12 @@ def truth_caps_twin(x, dw, core, core_at, band, band_at, normals, out) -> None:
     rounding) and errors (``_lights.c`` says what each argument is)."""
     arrays = (x, dw, core, core_at, band, band_at, normals, out)
     names = ("x", "dw", "core", "core_at", "band", "band_at", "normals", "out")
-    kinds = ("f", "f", "i", "i", "i", "i", "d", "d")
+    kinds = ("f", "f", "H", "i", "H", "i", "d", "d")
     dims = (2, 2, 1, 1, 1, 1, 3, 3)
+    types = {"f": np.float32, "i": np.int32, "H": np.uint16, "d": np.float64}
     for a, name, kind, nd in zip(arrays, names, kinds, dims):
         a = np.asarray(a)
-        if a.ndim != nd or a.dtype != {"f": np.float32, "i": np.int32, "d": np.float64}[kind]:
+        if a.ndim != nd or a.dtype != types[kind]:
             raise ValueError(f"{name}: expected a {nd}-d array of format '{kind}'")
     if not all(np.asarray(a).flags.c_contiguous for a in arrays):
         raise ValueError("every array: C-contiguous")
@@ -198,7 +201,7 @@ def truth_caps_twin(x, dw, core, core_at, band, band_at, normals, out) -> None:
             raise ValueError("core_at, band_at: 0, non-decreasing, ending at the indices' "
                              "length")
     for idx in (core, band):
-        if len(idx) and (idx.min() < 0 or idx.max() >= P):
+        if len(idx) and idx.max() >= P:
             raise ValueError("core, band: pixel indices in [0, P)")
     for i in range(caps):
         c = core[core_at[i]:core_at[i + 1]]

@@ -50,7 +50,7 @@ def builds(tmp_path_factory):
     return {"vector": _lights, "scalar": module}
 
 
-FAULTS = ["index past P", "negative index", "offsets end short", "offsets decrease",
+FAULTS = ["index past P", "int32 core", "offsets end short", "offsets decrease",
           "offsets start at 1", "float32 normals", "x of 4 channels", "dw a row short",
           "out of k + 1 rows", "float64 x", "x not contiguous", "short core_at"]
 
@@ -70,14 +70,14 @@ def calls(draw):
     lists = []
     for name in ("core", "band"):
         sizes = rng.integers(0, 2 * P + 1, caps)      # repeats and empty caps allowed
-        idx = rng.integers(0, P, int(sizes.sum())).astype(np.int32)
+        idx = rng.integers(0, P, int(sizes.sum())).astype(np.uint16)
         at = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int32)
         lists.append([idx, at])
     (core, core_at), (band, band_at) = lists
     if fault == "index past P" and band.size:
         band[-1] = P
-    elif fault == "negative index" and core.size:
-        core[0] = -1
+    elif fault == "int32 core":
+        core = core.astype(np.int32)
     elif fault == "offsets end short":
         band_at[-1] += 1
     elif fault == "offsets decrease" and caps > 1:
