@@ -19,6 +19,8 @@ import math
 import cv2
 import numpy as np
 
+from ..radiometry.blocks import buffer_view, contiguous
+
 
 try:
     from ._lights import excess_rows as _excess_kernel
@@ -80,17 +82,10 @@ def excess_rows_twin(dirs, flux, normals, rows, out) -> None:
     kernel block at a time, small enough to stay in a 512 KB cache while its three
     channels read it (the whole kernel went to DRAM and back); each normal's row is the
     same products whatever the block."""
-    arrays = (dirs, flux, normals, rows, out)
-    names = ("dirs", "flux", "normals", "rows", "out")
-    kinds = ("f", "f", "f", "i", "d")
-    dims = (2, 2, 2, 1, 2)
-    for a, name, kind, nd in zip(arrays, names, kinds, dims):
-        a = np.asarray(a)
-        if a is out and not a.flags.writeable:
-            raise ValueError("buffer source array is read-only")       # numpy's words
-        if a.ndim != nd or a.dtype != {"f": np.float32, "i": np.int32, "d": np.float64}[kind]:
-            raise ValueError(f"{name}: expected a {nd}-d array of format '{kind}'")
-    if not all(np.asarray(a).flags.c_contiguous for a in arrays):
+    views = [buffer_view(a, name == "out", kind, nd, name) for a, name, kind, nd in zip(
+        (dirs, flux, normals, rows, out), ("dirs", "flux", "normals", "rows", "out"),
+        "fffid", (2, 2, 2, 1, 2))]
+    if not all(map(contiguous, views)):
         raise ValueError("every array: C-contiguous")
     m, N = dirs.shape[0], normals.shape[0]
     if dirs.shape[1] != 3 or flux.shape != (m, 3):

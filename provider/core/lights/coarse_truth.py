@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ..geometry.projections import Projection
-from ..radiometry.blocks import shrink
+from ..radiometry.blocks import buffer_view, contiguous, shrink
 
 try:
     from ._lights import truth_caps as _truth_kernel
@@ -178,16 +178,11 @@ def _joined(parts):
 def truth_caps_twin(x, dw, core, core_at, band, band_at, normals, out) -> None:
     """The C kernel ``_lights.truth_caps`` in numpy: the same arguments, numbers (to float
     rounding) and errors (``_lights.c`` says what each argument is)."""
-    arrays = (x, dw, core, core_at, band, band_at, normals, out)
-    names = ("x", "dw", "core", "core_at", "band", "band_at", "normals", "out")
-    kinds = ("f", "f", "H", "i", "H", "i", "d", "d")
-    dims = (2, 2, 1, 1, 1, 1, 3, 3)
-    types = {"f": np.float32, "i": np.int32, "H": np.uint16, "d": np.float64}
-    for a, name, kind, nd in zip(arrays, names, kinds, dims):
-        a = np.asarray(a)
-        if a.ndim != nd or a.dtype != types[kind]:
-            raise ValueError(f"{name}: expected a {nd}-d array of format '{kind}'")
-    if not all(np.asarray(a).flags.c_contiguous for a in arrays):
+    views = [buffer_view(a, name == "out", kind, nd, name) for a, name, kind, nd in zip(
+        (x, dw, core, core_at, band, band_at, normals, out),
+        ("x", "dw", "core", "core_at", "band", "band_at", "normals", "out"),
+        "ffHiHidd", (2, 2, 1, 1, 1, 1, 3, 3))]
+    if not all(map(contiguous, views)):
         raise ValueError("every array: C-contiguous")
     P, caps = x.shape[0], normals.shape[0]
     if x.shape[1] != 3 or dw.shape != (P, 3):

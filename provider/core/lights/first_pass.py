@@ -13,7 +13,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..radiometry.blocks import shrink
+from ..radiometry.blocks import buffer_view, contiguous, shrink
 
 try:
     from ._lights import first_pass as _first_pass_kernel
@@ -44,16 +44,11 @@ def first_pass_twin(mid, scale, luma, omega, Y, coarse, factor) -> float:
     """The C kernel ``_lights.first_pass`` in numpy and OpenCV: the same arguments, numbers
     (to float rounding) and errors (``_lights.c`` says what each argument is); a band of
     :data:`TWIN_ROWS` rows at a time, each in cache for its three reads."""
-    arrays = [mid, luma, omega, Y] + ([] if coarse is None else [coarse])
-    names = ("mid", "luma", "omega", "Y", "coarse")
-    dims = (3, 1, 2, 2, 3)
-    for k, (a, name, nd) in enumerate(zip(arrays, names, dims)):
-        a = np.asarray(a)
-        if (k == 0 or k >= 3) and not a.flags.writeable:
-            raise ValueError("buffer source array is read-only")       # numpy's words
-        if a.ndim != nd or a.dtype != np.float32:
-            raise ValueError(f"{name}: expected a {nd}-d array of format 'f'")
-    if not all(a.flags.c_contiguous for a in arrays):
+    views = [buffer_view(a, name != "luma" and name != "omega", "f", nd, name)
+             for a, name, nd in zip((mid, luma, omega, Y, coarse),
+                                    ("mid", "luma", "omega", "Y", "coarse"), (3, 1, 2, 2, 3))
+             if a is not None]
+    if not all(map(contiguous, views)):
         raise ValueError("every array: C-contiguous")
     h, w = mid.shape[:2]
     if mid.shape[2] != 3:
