@@ -108,8 +108,8 @@ offsets_ok(const int *at, Py_ssize_t caps, Py_ssize_t n)
     return 1;
 }
 
-/* every index in [0, P) (P < 2^31): four compares at a time, no early exit (the indices
- * are checked every call: ~60 k of them for a Theta S) */
+/* every index in [0, P) (P < 2^31): four compares at a time, no early exit (excess_rows'
+ * normals; the caps' 16-bit lists take below()) */
 static int
 indices_ok(const int *idx, Py_ssize_t n, Py_ssize_t P)
 {
@@ -216,8 +216,6 @@ truth_caps(PyObject *self, PyObject *args)
         Nb = v[4].shape[0];
         if (v[0].shape[1] != 3 || v[1].shape[0] != P || v[1].shape[1] != 3)
             err = "x, dw: (P, 3) float32";
-        else if (P > 2147483647)
-            err = "x: fewer than 2^31 pixels";
         else if (v[6].shape[2] != 3 || v[7].shape[0] != caps || v[7].shape[1] != k
                  || v[7].shape[2] != 3)
             err = "normals, out: (caps, k, 3) float64";

@@ -78,7 +78,7 @@ def first_pass_twin(mid, scale, luma, omega, Y, coarse, factor) -> float:
         total += cv2.sumElems(cv2.multiply(y, omega[r0:r0 + rows]))[0]
         if coarse is not None and r0 < bh:
             r1 = min(r0 + rows, bh)
-            if wc and r1 > r0:
+            if wc:
                 coarse[r0 // f:r1 // f] = shrink(band[:r1 - r0, :bw], (wc, (r1 - r0) // f))
     return float(total)
 
