@@ -10,7 +10,7 @@ basis there, a fisheye's fill term).
 Per frame:
 
 1. **Detect** on a *mid* copy of the linear frame, area-averaged to ~32k pixels (256×128 for
-   a 512×256 equirect, 240×120 for 1920×960: ~1.5°/px). Area averaging keeps a source's
+   a 512×256 equirect, 240×120 for 1920×960, 256×144 for a Theta S's 1280×720: ~1.5°/px). Area averaging keeps a source's
    flux and centroid even when a 0.5° sun is far smaller than a pixel. At each *level* t of
    ``thresholds`` (4, 8, 16, 32, 64 × the frame's mean luminance, solid-angle weighted) the
    8-connected components of {Y > tμ} are candidates (at most 6 per level, each ≥ 1 % of the
@@ -87,8 +87,8 @@ class LightExtractor:
         one frame offer a window wall as one light *or* its two brightest windows as two;
         the measured error decides (nested candidates are never chosen together).
     detect_pixels : int
-        Pixel budget of the mid (detection) copy: factor near ``sqrt(W·H / budget)``,
-        preferably a divisor of W, H and the engine's band height (see :meth:`_mid_factor`).
+        Pixel budget of the mid (detection) copy: the factor nearest ``sqrt(W·H / budget)``
+        that divides W and H (see :meth:`_mid_factor`).
     coarse_pixels : int
         Pixel budget of the coarse copy of the brute-force truth (like error_estimate);
         factor from the mid copy ``ceil(sqrt(w·h / budget))``.
@@ -152,23 +152,22 @@ class LightExtractor:
         self.coarse_factor, self.coarse = fc, self.coarse_truth.coarse
 
     # -- precomputation -------------------------------------------------------------------------
-    #: Rows per band of the engine's integer path (SH9Projector.BAND_ROWS): a mid factor
-    #: that divides it lets the engine build the mid copy while it linearises each band.
-    BAND_ROWS = 32
+    @staticmethod
+    def _mid_factor(W: int, H: int, budget: int) -> int:
+        """Integer factor for the mid copy: the one nearest sqrt(W·H/budget) (within 1.5×)
+        that divides W and H (exact block averages; the engine makes its bands a whole number
+        of blocks high), else the target rounded down.
 
-    @classmethod
-    def _mid_factor(cls, W: int, H: int, budget: int) -> int:
-        """Integer factor for the mid copy: near sqrt(W·H/budget) (within 1.5×), preferring
-        one that divides W, H and :data:`BAND_ROWS` (exact block averages, built band by
-        band while the engine linearises an integer frame), then one that divides W and H."""
+        The nearest, not one that divides 32 rows: a Theta S's 1280×720 takes 5 (256×144,
+        ~1.5° a pixel), not 4 (320×180, 1.56× the budget), and its lights' working set fits
+        a 512 KB cache (issue 44: 14.5 → 12 MB of DRAM traffic a frame)."""
         target = math.sqrt(W * H / budget)
         if target <= 1:
             return 1
         divisors = [f for f in range(1, int(2 * target) + 1) if W % f == 0 and H % f == 0]
         near = [f for f in divisors if abs(math.log(f / target)) < math.log(1.5)]
-        for pool in ([f for f in near if cls.BAND_ROWS % f == 0], near):
-            if pool:
-                return min(pool, key=lambda f: (round(abs(math.log(f / target)), 2), f))
+        if near:
+            return min(near, key=lambda f: (round(abs(math.log(f / target)), 2), f))
         return int(target)
 
     def _seam_pixels(self, dirs, valid) -> np.ndarray:
@@ -344,7 +343,7 @@ class LightExtractor:
                     break                    # no pixel above this level (nor any higher)
                 # Every pixel above a level is one of idx0: its mask is set from them, not
                 # from another pass over Y (the same float32 comparison); 16-bit labels
-                # (57,600 mid pixels hold fewer components). Each pass over the mid copy's
+                # (a Theta S's 36,864 mid pixels hold fewer components). Each pass over the mid copy's
                 # planes goes to DRAM on a 512 KB cache (issue 44).
                 mask.reshape(-1)[idx0] = Y0_32 > t * mu
                 n, labels = cv2.connectedComponents(mask, connectivity=8, ltype=cv2.CV_16U)

@@ -5,7 +5,7 @@ The extractor (:class:`~provider.core.lights.extractor.LightExtractor`) needs, e
 the mid copy's luminance Y (to find the pixels above its thresholds), Σ Y ω (the frame's
 mean luminance, what the thresholds are relative to) and the coarse copy (the truth's
 input). The C kernel (``_lights.first_pass``) makes them a band of rows at a time while
-the band is in cache: the mid copy (675 KB for a Theta S) crosses the memory bus once.
+the band is in cache: the mid copy (442 KB for a Theta S) crosses the memory bus once.
 :func:`first_pass_twin` is its twin, chosen at import where no compiler built it.
 """
 from __future__ import annotations

@@ -154,6 +154,11 @@ class SH9Projector(FrameDecoder):
         # frames on the exact path build the detection copy band by band while linearising.
         self._extractor = (LightExtractor(full, max_lights=self.max_lights)
                            if lights == "auto" else None)
+        if self._extractor is not None and downsample == 1:
+            # Bands a whole number of the detection copy's blocks high (it is built band by
+            # band): the multiple of its factor nearest 32 rows (a Theta S's 5: 30 rows).
+            f = self._extractor.mid_factor
+            self.BAND_ROWS = f * max(1, round(type(self).BAND_ROWS / f))
         self._fuse_lights = (self._extractor is not None and downsample == 1
                              and self._extractor.fusable(self.BAND_ROWS))
 
@@ -207,7 +212,8 @@ class SH9Projector(FrameDecoder):
                              "12.6 sr): the frame is too small for this projection")
 
     # -- projection -------------------------------------------------------------------------
-    #: Rows per band when linearising integer frames: the float32 band stays in cache.
+    #: Rows per band when linearising integer frames: the float32 band stays in cache (a
+    #: projector with lights takes the multiple of their copy's block height nearest it).
     BAND_ROWS = 32
 
     def _strategies(self) -> list:

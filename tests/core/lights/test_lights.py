@@ -204,6 +204,24 @@ def test_the_fused_detection_copy_is_the_area_average_of_the_linear_frame(hdri):
     np.testing.assert_allclose(mid, x.reduce(P._linearise(frame)), rtol=1e-6, atol=1e-9)
 
 
+def test_a_theta_s_copy_takes_the_factor_nearest_its_budget_and_bands_of_its_blocks():
+    """A Theta S's 1280×720: blocks of 5 (256×144, ~1.5° a pixel; 4 divides 32-row bands but
+    gave 1.76× the budget, past a 512 KB cache: issue 44), the engine's bands 30 rows (a
+    whole number of blocks), and the band-by-band copy the area average of the whole frame.
+    Without lights the bands stay 32 rows."""
+    P = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
+    x = P._extractor
+    assert x.mid_factor == 5 and (x.mid.width, x.mid.height) == (256, 144)
+    assert P._fuse_lights and P.BAND_ROWS == 30
+    assert SH9Projector(1280, 720, "dual-fisheye").BAND_ROWS == SH9Projector.BAND_ROWS == 32
+    frame = np.random.default_rng(5).integers(0, 256, (720, 1280, 3), dtype=np.uint8)
+    mid = x.new_mid()
+    for r0 in range(0, 720, P.BAND_ROWS):
+        x.reduce_band(P._linearise(frame[r0:r0 + P.BAND_ROWS]), r0, mid)
+    # block means of 25 values ≤ 1 summed in another order: float32 rounding only
+    np.testing.assert_allclose(mid, x.reduce(P._linearise(frame)), rtol=1e-6, atol=1e-9)
+
+
 # ---- units, frames and projections --------------------------------------------------------------
 
 def test_sensor_rotation_turns_lights_like_the_coefficients(hdri):
