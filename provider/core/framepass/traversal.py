@@ -151,3 +151,15 @@ class BlockMeans:
             elif lin is not None:
                 s.band(lin, 0, frame, None)
         _finish(sinks, stats)
+
+
+def band_rows(factor: int, nominal: int = 32) -> int:
+    """Rows per band for a detection copy of ``factor`` × ``factor`` blocks: a multiple of
+    the factor between half and 1.5 × ``nominal`` with the most factors of two (a cube's
+    work image of 2, 4, 8 or 16 × 16 blocks shares the bands), the nearest ``nominal``
+    among those; the factor itself where it is taller. 1, 2, 4, 8, 16 → 32; 3 → 48;
+    5 → 40; 15 → 30."""
+    if factor >= nominal:
+        return factor
+    rows = range(factor * max(1, -(-nominal // 2 // factor)), nominal * 3 // 2 + 1, factor)
+    return max(rows, key=lambda r: (r & -r, -abs(r - nominal)))

@@ -152,22 +152,32 @@ class LightExtractor:
         self.coarse_factor, self.coarse = fc, self.coarse_truth.coarse
 
     # -- precomputation -------------------------------------------------------------------------
-    @staticmethod
-    def _mid_factor(W: int, H: int, budget: int) -> int:
-        """Integer factor for the mid copy: the one nearest sqrt(W·H/budget) (within 1.5×)
-        that divides W and H (exact block averages; the engine makes its bands a whole number
-        of blocks high), else the target rounded down.
+    #: Rows per band of the engine's integer path (SH9Projector.BAND_ROWS): a mid factor
+    #: that divides it keeps the engine's bands at 32 rows, which a cube's work image of 2,
+    #: 4, 8 or 16 × 16 blocks shares (its own decode saved).
+    BAND_ROWS = 32
 
-        The nearest, not one that divides 32 rows: a Theta S's 1280×720 takes 5 (256×144,
-        ~1.5° a pixel), not 4 (320×180, 1.56× the budget), and its lights' working set fits
-        a 512 KB cache (issue 44: 14.5 → 12 MB of DRAM traffic a frame)."""
+    @classmethod
+    def _mid_factor(cls, W: int, H: int, budget: int) -> int:
+        """Integer factor for the mid copy, one that divides W and H (exact block averages;
+        the engine makes its bands a whole number of blocks high): one that divides
+        :data:`BAND_ROWS` within 1.2× of sqrt(W·H/budget), else the nearest within 1.5×,
+        else the target rounded down.
+
+        Not a divisor of 32 rows further off: a Theta S's 1280×720 takes 5 (256×144, ~1.5°
+        a pixel), not 4 (320×180, 1.76× the budget), and its lights' working set fits a
+        512 KB cache (issue 44: 14.5 → 11.7 MB of DRAM traffic a frame); 3840×1920 keeps 16
+        (1.07× off 15), so its bands stay 32 rows that a 32² cube's work image shares."""
         target = math.sqrt(W * H / budget)
         if target <= 1:
             return 1
         divisors = [f for f in range(1, int(2 * target) + 1) if W % f == 0 and H % f == 0]
         near = [f for f in divisors if abs(math.log(f / target)) < math.log(1.5)]
-        if near:
-            return min(near, key=lambda f: (round(abs(math.log(f / target)), 2), f))
+        close = [f for f in near
+                 if cls.BAND_ROWS % f == 0 and abs(math.log(f / target)) < math.log(1.2)]
+        for pool in (close, near):
+            if pool:
+                return min(pool, key=lambda f: (round(abs(math.log(f / target)), 2), f))
         return int(target)
 
     def _seam_pixels(self, dirs, valid) -> np.ndarray:

@@ -38,7 +38,7 @@ from .support import DecodeSpans, DownsampledSpans, FoldDecode
 from ..blas import one_blas_thread
 from ..errors import InputError
 from ..framepass.sinks import Sink, Sinks, SmallFrame, WholeFrame
-from ..framepass.traversal import BlockMeans, FloatBands, FramePass, LutBands
+from ..framepass.traversal import BlockMeans, FloatBands, FramePass, LutBands, band_rows
 from ..lights.extractor import LightExtractor
 from ..lights.views import DetectionCopy, LinearView
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
@@ -156,9 +156,8 @@ class SH9Projector(FrameDecoder):
                            if lights == "auto" else None)
         if self._extractor is not None and downsample == 1:
             # Bands a whole number of the detection copy's blocks high (it is built band by
-            # band): the multiple of its factor nearest 32 rows (a Theta S's 5: 30 rows).
-            f = self._extractor.mid_factor
-            self.BAND_ROWS = f * max(1, round(type(self).BAND_ROWS / f))
+            # band): see band_rows (a Theta S's 5: 40 rows).
+            self.BAND_ROWS = band_rows(self._extractor.mid_factor, type(self).BAND_ROWS)
         self._fuse_lights = (self._extractor is not None and downsample == 1
                              and self._extractor.fusable(self.BAND_ROWS))
 

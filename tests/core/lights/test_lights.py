@@ -18,6 +18,7 @@ from provider.bench.scenes import fisheye_from_equirect
 from provider.core.geometry import sh
 from provider.core.options import MAX_LIGHTS
 from provider.core.sh9 import equirect_pass
+from provider.core.framepass.traversal import band_rows
 from provider.core.sh9.engine import InputError, SH9Projector, compute_sh9
 from provider.core.lights.extractor import LightExtractor
 from provider.core.lights.tracking import LightTracker
@@ -206,13 +207,15 @@ def test_the_fused_detection_copy_is_the_area_average_of_the_linear_frame(hdri):
 
 def test_a_theta_s_copy_takes_the_factor_nearest_its_budget_and_bands_of_its_blocks():
     """A Theta S's 1280×720: blocks of 5 (256×144, ~1.5° a pixel; 4 divides 32-row bands but
-    gave 1.76× the budget, past a 512 KB cache: issue 44), the engine's bands 30 rows (a
-    whole number of blocks), and the band-by-band copy the area average of the whole frame.
-    Without lights the bands stay 32 rows."""
+    gave 1.76× the budget, past a 512 KB cache: issue 44), the engine's bands 40 rows (a
+    whole number of its blocks and of a cube's work image's 2, 4 or 8), and the band-by-band
+    copy the area average of the whole frame. Without lights the bands stay 32 rows."""
     P = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
     x = P._extractor
     assert x.mid_factor == 5 and (x.mid.width, x.mid.height) == (256, 144)
-    assert P._fuse_lights and P.BAND_ROWS == 30
+    assert P._fuse_lights and P.BAND_ROWS == 40
+    assert {f: band_rows(f) for f in (1, 2, 3, 4, 5, 8, 12, 15, 16, 21, 40)} == {
+        1: 32, 2: 32, 3: 48, 4: 32, 5: 40, 8: 32, 12: 48, 15: 30, 16: 32, 21: 42, 40: 40}
     assert SH9Projector(1280, 720, "dual-fisheye").BAND_ROWS == SH9Projector.BAND_ROWS == 32
     frame = np.random.default_rng(5).integers(0, 256, (720, 1280, 3), dtype=np.uint8)
     mid = x.new_mid()
