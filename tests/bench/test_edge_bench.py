@@ -62,7 +62,7 @@ def test_without_the_kernel_a_theta_frame_still_makes_few_calls(monkeypatch):
     p = build()
     c_calls, py_calls = edge.calls_per_frame(p, frame)
     assert 0 < sum(c_calls.values()) < 800
-    bands = -(-frame.shape[0] // p.BAND_ROWS)     # 40 rows: 5 × 5 blocks of the lights' copy
+    bands = -(-frame.shape[0] // p.BAND_ROWS)     # 30 rows: 5 × 5 blocks of the lights' copy
     assert 0 < c_calls["lens_fold.py:x_fold"] <= 3 * 2 * 2 * bands
     assert c_calls["lens_fold.py:add"] <= 3 * bands
 

@@ -155,11 +155,13 @@ class BlockMeans:
 
 def band_rows(factor: int, nominal: int = 32) -> int:
     """Rows per band for a detection copy of ``factor`` × ``factor`` blocks: a multiple of
-    the factor between half and 1.5 × ``nominal`` with the most factors of two (a cube's
-    work image of 2, 4, 8 or 16 × 16 blocks shares the bands), the nearest ``nominal``
-    among those; the factor itself where it is taller. 1, 2, 4, 8, 16 → 32; 3 → 48;
-    5 → 40; 15 → 30."""
-    if factor >= nominal:
-        return factor
-    rows = range(factor * max(1, -(-nominal // 2 // factor)), nominal * 3 // 2 + 1, factor)
+    the factor between ¾ ``nominal`` and ``nominal`` (a band's float copy no larger than it
+    was, so it stays in cache; not many more bands, each a few calls) with the most factors
+    of two (a cube's work image of 2, 4, 8 or 16 × 16 blocks shares the bands), the
+    nearest ``nominal`` among those; else the tallest multiple up to ``nominal`` (or the
+    factor, where it is taller).
+    1, 2, 4, 8, 16 → 32; 3 → 24; 5 → 30; 12 → 24; 21 → 21."""
+    rows = range(factor * -(-nominal * 3 // 4 // factor), nominal + 1, factor)
+    if not rows:
+        return factor * max(1, nominal // factor)
     return max(rows, key=lambda r: (r & -r, -abs(r - nominal)))

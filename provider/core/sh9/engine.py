@@ -156,7 +156,7 @@ class SH9Projector(FrameDecoder):
                            if lights == "auto" else None)
         if self._extractor is not None and downsample == 1:
             # Bands a whole number of the detection copy's blocks high (it is built band by
-            # band): see band_rows (a Theta S's 5: 40 rows).
+            # band): see band_rows (a Theta S's 5: 30 rows).
             self.BAND_ROWS = band_rows(self._extractor.mid_factor, type(self).BAND_ROWS)
         self._fuse_lights = (self._extractor is not None and downsample == 1
                              and self._extractor.fusable(self.BAND_ROWS))

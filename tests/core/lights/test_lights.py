@@ -207,15 +207,16 @@ def test_the_fused_detection_copy_is_the_area_average_of_the_linear_frame(hdri):
 
 def test_a_theta_s_copy_takes_the_factor_nearest_its_budget_and_bands_of_its_blocks():
     """A Theta S's 1280×720: blocks of 5 (256×144, ~1.5° a pixel; 4 divides 32-row bands but
-    gave 1.76× the budget, past a 512 KB cache: issue 44), the engine's bands 40 rows (a
-    whole number of its blocks and of a cube's work image's 2, 4 or 8), and the band-by-band
+    gave 1.76× the budget, past a 512 KB cache: issue 44), the engine's bands 30 rows (a
+    whole number of its blocks and of a cube's work image's 2; no taller than 32), and the band-by-band
     copy the area average of the whole frame. Without lights the bands stay 32 rows."""
     P = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
     x = P._extractor
     assert x.mid_factor == 5 and (x.mid.width, x.mid.height) == (256, 144)
-    assert P._fuse_lights and P.BAND_ROWS == 40
-    assert {f: band_rows(f) for f in (1, 2, 3, 4, 5, 8, 12, 15, 16, 21, 40)} == {
-        1: 32, 2: 32, 3: 48, 4: 32, 5: 40, 8: 32, 12: 48, 15: 30, 16: 32, 21: 42, 40: 40}
+    assert P._fuse_lights and P.BAND_ROWS == 30
+    assert {f: band_rows(f) for f in (1, 2, 3, 4, 5, 8, 10, 12, 15, 16, 21, 28, 40)} == {
+        1: 32, 2: 32, 3: 24, 4: 32, 5: 30, 8: 32, 10: 30, 12: 24, 15: 30, 16: 32, 21: 21,
+        28: 28, 40: 40}
     assert SH9Projector(1280, 720, "dual-fisheye").BAND_ROWS == SH9Projector.BAND_ROWS == 32
     frame = np.random.default_rng(5).integers(0, 256, (720, 1280, 3), dtype=np.uint8)
     mid = x.new_mid()
