@@ -15,13 +15,16 @@ import pytest
 import provider
 from provider.cli import main as shlight
 from provider.core import table_cache
+from provider.core.lights.extractor import LightExtractor
 from provider.core.reflections.environment import EnvironmentProjector
 from provider.core.sh9 import tables
 from provider.core.sh9.engine import SH9Projector
 
 REPO = Path(__file__).resolve().parents[2]
 FRAME = np.random.default_rng(3).integers(0, 256, (64, 128, 3), dtype=np.uint8)
-FRAME[10:13, 20:23] = 255                # a small lamp: the lights' extractor finds it
+FRAME[10:13, 20:23] = 255                # a small lamp
+LIT = np.full((64, 128, 3), 20, np.uint8)
+LIT[10:14, 20:24] = 255                  # a lamp in a dim room: the lights' extractor finds it
 
 
 @pytest.fixture
@@ -44,33 +47,45 @@ def no_build(*args, **kwargs):
     raise AssertionError("the tables were built, not read")
 
 
-def files(folder: Path) -> list:
-    return sorted(folder.glob("*.tables")) if folder.exists() else []
+def same_lights(a, b) -> bool:
+    """The same lights, bit for bit (the same tables, the same code), and the same error."""
+    return (len(a.lights) == len(b.lights) and a.stats["light_error"] == b.stats["light_error"]
+            and all(np.array_equal(x.direction, y.direction)
+                    and np.array_equal(x.irradiance, y.irradiance)
+                    for x, y in zip(a.lights, b.lights)))
+
+
+def files(folder: Path, kind: str = "") -> list:
+    return sorted(folder.glob(f"{kind}*.tables")) if folder.exists() else []
 
 
 def test_a_second_start_reads_the_tables_and_projects_the_same(cache, monkeypatch):
     first_sh9, first_cube = sh9(), cube()
-    assert [f.name.split("-")[0] for f in files(cache)] == ["cube", "sh9"]
+    assert [f.name.split("-")[0] for f in files(cache)] == ["cube", "lights", "sh9"]
     expected = first_sh9.project(FRAME)
     expected_cube = first_cube.project(FRAME)
     monkeypatch.setattr(tables, "_build", no_build)
     monkeypatch.setattr(EnvironmentProjector, "_build_tables", no_build)
+    monkeypatch.setattr(LightExtractor, "_mid_geometry", no_build)
     again, again_cube = sh9(), cube()
     assert again.warnings == [] and again_cube.warnings == []
     # the arrays are the file's pages, mapped read-only: shared, and paged in on use
     assert not again._l00_weights.flags.writeable
+    assert not again._extractor._dirs.flags.writeable       # the lights' geometry too
     got = again.project(FRAME)
     np.testing.assert_array_equal(got.coefficients, expected.coefficients)
-    assert [l.direction for l in got.lights] == [l.direction for l in expected.lights]
+    lit, lit_expected = again.project(LIT), first_sh9.project(LIT)
+    assert lit_expected.lights                  # the lamp, found from the read tables too
+    assert same_lights(lit, lit_expected)
     for a, b in zip(again_cube.project(FRAME).mips, expected_cube.mips):
         np.testing.assert_array_equal(a, b)
 
 
 def test_another_geometry_or_version_is_not_read(cache, monkeypatch):
     sh9()
-    sh9(fov_deg=190.0)                           # another lens: another file
+    sh9(fov_deg=190.0)                           # another lens: another file a kind
     before = files(cache)
-    assert len(before) == 2
+    assert len(files(cache, "sh9")) == len(files(cache, "lights")) == 2
     monkeypatch.setattr(provider, "__version__", "0.0.0-other")
     table_cache.code_hash.cache_clear()          # another version of the package
     try:
@@ -79,7 +94,7 @@ def test_another_geometry_or_version_is_not_read(cache, monkeypatch):
         table_cache.code_hash.cache_clear()
     after = files(cache)
     # built anew, and the old version's files removed: an upgrade does not fill the card
-    assert len(after) == 1 and after[0] not in before
+    assert len(after) == 2 and not set(after) & set(before)
 
 
 def damage_payload(path: Path) -> None:
@@ -99,11 +114,13 @@ def rewrite_header(path: Path, **fields) -> None:
     path.write_bytes(data[:start] + new + data[start + n:])
 
 
+@pytest.mark.parametrize("kind", ["sh9", "lights"])
 @pytest.mark.parametrize("damage", ["a flipped byte", "truncated", "another format",
                                     "another key", "not a table file"])
-def test_a_damaged_or_foreign_file_is_rebuilt_with_one_warning(cache, damage):
-    expected = sh9().project(FRAME).coefficients
-    (path,) = files(cache)
+def test_a_damaged_or_foreign_file_is_rebuilt_with_one_warning(cache, damage, kind):
+    first_sh9 = sh9()
+    expected, first = first_sh9.project(FRAME).coefficients, first_sh9.project(LIT)
+    (path,) = files(cache, kind)
     if damage == "a flipped byte":
         damage_payload(path)
     elif damage == "truncated":
@@ -119,6 +136,7 @@ def test_a_damaged_or_foreign_file_is_rebuilt_with_one_warning(cache, damage):
     notes = [w for w in rebuilt.warnings if "table cache" in w]
     assert len(notes) == 1 and str(path) in notes[0], rebuilt.warnings
     np.testing.assert_array_equal(rebuilt.project(FRAME).coefficients, expected)
+    assert first.lights and same_lights(rebuilt.project(LIT), first)
     assert sh9().warnings == []                  # the file was replaced: said once
 
 
@@ -126,7 +144,7 @@ def test_a_file_that_unpickles_code_is_refused(cache):
     """A table file is data: a pickle that names anything but numpy and this package's
     classes is rebuilt, not run."""
     sh9()
-    (path,) = files(cache)
+    (path,) = files(cache, "sh9")
     header = json.loads(path.read_bytes()[len(table_cache.MAGIC) + 8:].split(b"}")[0] + b"}")
 
     class Evil:
@@ -192,8 +210,9 @@ def test_processes_writing_the_same_tables_at_once_each_leave_a_whole_file(cache
     for p in procs:
         _, err = p.communicate(timeout=600)
         assert p.returncode == 0, err.decode()[-2000:]
-    assert len(files(cache)) == 2
+    assert len(files(cache)) == 3                     # SH9's, the lights', the cube's
     assert not list(cache.glob(".tmp-*"))             # no temporary file left behind
     monkeypatch.setattr(tables, "_build", no_build)
     monkeypatch.setattr(EnvironmentProjector, "_build_tables", no_build)
+    monkeypatch.setattr(LightExtractor, "_mid_geometry", no_build)
     assert sh9().warnings == [] and cube().warnings == []

@@ -57,6 +57,7 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
+from .. import table_cache
 from .caps import excess_irradiance, touching_pairs
 from .coarse_truth import CoarseTruth
 from .first_pass import first_pass
@@ -127,18 +128,21 @@ class LightExtractor:
         self.mid = projection if fm == 1 else projection.scaled(fm)
         self._mid_crop = projection.scaled_source_size(fm)
         h, w = self.mid.height, self.mid.width
-        dirs = self.mid.directions().reshape(-1, 3).astype(np.float64)
-        omega = self.mid.solid_angle.reshape(-1).astype(np.float64)
+        # The mid copy's geometry, most of the lights' build (0.35 s of 0.37 s for a Theta
+        # S on a desktop): kept on disk as the SH9 tables are (provider.core.table_cache),
+        # so a restart reads it; read-only arrays. Lines about the cache: table_notes.
+        self.table_notes: list = []
+        geometry = table_cache.cached(
+            "lights", table_cache.key_of("lights", table_cache.state_of(projection), fm),
+            self._mid_geometry, self.table_notes)
+        dirs, omega = geometry["dirs"], geometry["omega"]
         self._dirs, self._omega = dirs, omega                         # (P, 3), (P,)
         self._dirs32 = dirs.astype(np.float32)
         self._omega32 = omega.astype(np.float32).reshape(h, w)
         self._coverage = float(omega.sum())
-        self._pixel_angle = float(np.sqrt(omega.max()))              # largest pixel, rad
-        self._touch_cos = math.cos(1.6 * self._pixel_angle)
-        self._seam = self._seam_pixels(dirs.reshape(h, w, 3), omega.reshape(h, w) > 0)
-        self._seam_pairs = touching_pairs(dirs, self._seam, self._touch_cos)   # once
-        py, px = np.mgrid[0:h, 0:w] + 0.5
-        self._footprint2 = pixel_footprint2(self.mid, px, py).reshape(-1)   # (P,) rad²
+        self._pixel_angle = _pixel_angle(omega)                      # largest pixel, rad
+        self._seam_pairs = geometry["seam_pairs"]                     # (a, b) flat indices
+        self._footprint2 = geometry["footprint2"]                     # (P,) rad²
 
         # Coarse copy and brute-force kernel at the normals.
         fc = max(1, math.ceil(math.sqrt(w * h / coarse_pixels)))
@@ -180,14 +184,31 @@ class LightExtractor:
                 return min(pool, key=lambda f: (round(abs(math.log(f / target)), 2), f))
         return int(target)
 
-    def _seam_pixels(self, dirs, valid) -> np.ndarray:
+    def _mid_geometry(self) -> dict:
+        """The mid copy's pixel-independent tables: ``dirs`` (P, 3) and ``omega`` (P,)
+        float64 (unit directions, 0 where unseen; solid angles, sr), ``seam_pairs`` (a, b)
+        (the seam's pixels that touch across the sphere: :func:`touching_pairs`) and
+        ``footprint2`` (P,) float64 (rad², :func:`pixel_footprint2`)."""
+        h, w = self.mid.height, self.mid.width
+        dirs = self.mid.directions().reshape(-1, 3).astype(np.float64)
+        omega = self.mid.solid_angle.reshape(-1).astype(np.float64)
+        angle = _pixel_angle(omega)
+        seam = self._seam_pixels(dirs.reshape(h, w, 3), omega.reshape(h, w) > 0, angle)
+        py, px = np.mgrid[0:h, 0:w] + 0.5
+        return {"dirs": dirs, "omega": omega,
+                "seam_pairs": touching_pairs(dirs, seam, math.cos(1.6 * angle)),
+                "footprint2": pixel_footprint2(self.mid, px, py).reshape(-1)}
+
+    @staticmethod
+    def _seam_pixels(dirs, valid, pixel_angle: float) -> np.ndarray:
         """Flat indices of mid pixels where the image is not the whole neighbourhood: the
         image border, next to an unseen pixel, or next to a pixel more than 3 pixel sizes
-        away (a face or lens boundary). Regions can touch across the sphere only there."""
+        (``pixel_angle``, rad) away (a face or lens boundary). Regions can touch across the
+        sphere only there."""
         h, w = valid.shape
         seam = np.zeros((h, w), bool)
         seam[0, :] = seam[-1, :] = seam[:, 0] = seam[:, -1] = True
-        far = math.cos(3 * self._pixel_angle)
+        far = math.cos(3 * pixel_angle)
         for dy in (-1, 0, 1):
             for dx in (-1, 0, 1):
                 if dx == dy == 0:
@@ -549,6 +570,11 @@ class LightExtractor:
         are refined on ``frame`` when it is the full-resolution frame."""
         full = frame if frame.shape[:2] == (self.full.height, self.full.width) else None
         return self.extract(frame, coefficients, full=full)
+
+
+def _pixel_angle(omega: np.ndarray) -> float:
+    """The side of the largest pixel of solid angles ``omega`` (sr): rad."""
+    return float(np.sqrt(omega.max()))
 
 
 def pixel_sides(projection, px, py) -> tuple[np.ndarray, np.ndarray]:

@@ -198,6 +198,9 @@ class SH9Projector(FrameDecoder):
                 self._spans = DownsampledSpans.of(seen, downsample, self.BAND_ROWS)
             #: L00 weight of each pixel (H·W,): what the clipped samples carry.
             self._l00_weights = tables.l00
+        # the lights' table cache lines, each said once (an unwritable cache: one line)
+        self.warnings += [n for n in getattr(self._extractor, "table_notes", ())
+                          if n not in self.warnings]
         self._clipped = ClippedLight(self)
         self._pass = None      # (fold, spans, FramePass): made on the first frame
         self._estimator = None
