@@ -1,11 +1,11 @@
 """Built tables kept on disk, so that a restart costs a file read instead of a build.
 
 A projector's pixel-independent tables (SH9's per-pixel weights and lens folds, the cube's
-overlap and prefilter operators, the lights' mid-copy geometry) cost seconds to build on a desktop and most of a minute on
-a 1 GHz edge board, at every start. :func:`cached` builds them once per key and keeps them
-in the user's cache directory (``$SHLIGHT_CACHE_DIR``, else ``$XDG_CACHE_HOME/shlight``, else
-``~/.cache/shlight``; ``tables/`` in it); ``SHLIGHT_TABLE_CACHE=0`` (the commands'
-``--no-table-cache``) turns it off.
+overlap and prefilter operators, the lights' mid-copy geometry) cost seconds to build on a
+desktop and most of a minute on a 1 GHz edge board, at every start. :func:`cached` builds
+them once per key and keeps them in the user's cache directory (``$SHLIGHT_CACHE_DIR``, else
+``$XDG_CACHE_HOME/shlight``, else ``~/.cache/shlight``; ``tables/`` in it);
+``SHLIGHT_TABLE_CACHE=0`` (the commands' ``--no-table-cache``) turns it off.
 
 Key: the kind of table, what it is built from (frame size, the projection's whole state:
 lens, calibration, options) and a hash of this package's source, so a new version or an

@@ -10,13 +10,13 @@ basis there, a fisheye's fill term).
 Per frame:
 
 1. **Detect** on a *mid* copy of the linear frame, area-averaged to ~32k pixels (256×128 for
-   a 512×256 equirect, 240×120 for 1920×960, 256×144 for a Theta S's 1280×720: ~1.5°/px). Area averaging keeps a source's
-   flux and centroid even when a 0.5° sun is far smaller than a pixel. At each *level* t of
-   ``thresholds`` (4, 8, 16, 32, 64 × the frame's mean luminance, solid-angle weighted) the
-   8-connected components of {Y > tμ} are candidates (at most 6 per level, each ≥ 1 % of the
-   frame's flux). Components that touch across an image seam (equirect wrap-around and
-   poles, cube faces, dual-fisheye lens edges) are merged: seam pixels are found once from
-   the projection's directions, so no projection needs its own code.
+   512×256, 240×120 for 1920×960, 256×144 for a Theta S's 1280×720: ~1.5°/px): a source
+   keeps its flux and centroid even when a 0.5° sun is far smaller than a pixel. At each
+   *level* t of ``thresholds`` (4, 8, 16, 32, 64 × the frame's mean luminance, solid-angle
+   weighted) the 8-connected components of {Y > tμ} are candidates (at most 6 per level,
+   each ≥ 1 % of the frame's flux). Components that touch across an image seam (equirect
+   wrap-around and poles, cube faces, dual-fisheye lens edges) are merged: seam pixels are
+   found once from the projection's directions, so no projection needs its own code.
 2. **Split** a light from the rest: a candidate takes only the radiance in *excess* of its
    level, ``L · (1 − tμ/Y)`` (chromaticity kept), so what stays in SH9 is the frame clipped
    at tμ near the source, which SH9 represents well, and a large dim lamp yields little.
@@ -88,8 +88,8 @@ class LightExtractor:
         one frame offer a window wall as one light *or* its two brightest windows as two;
         the measured error decides (nested candidates are never chosen together).
     detect_pixels : int
-        Pixel budget of the mid (detection) copy: the factor nearest ``sqrt(W·H / budget)``
-        that divides W and H (see :meth:`_mid_factor`).
+        Pixel budget of the mid (detection) copy: a factor near ``sqrt(W·H / budget)`` that
+        divides W and H (see :meth:`_mid_factor`).
     coarse_pixels : int
         Pixel budget of the coarse copy of the brute-force truth (like error_estimate);
         factor from the mid copy ``ceil(sqrt(w·h / budget))``.
@@ -373,9 +373,9 @@ class LightExtractor:
                 if top <= t * mu:
                     break                    # no pixel above this level (nor any higher)
                 # Every pixel above a level is one of idx0: its mask is set from them, not
-                # from another pass over Y (the same float32 comparison); 16-bit labels
-                # (a Theta S's 36,864 mid pixels hold fewer components). Each pass over the mid copy's
-                # planes goes to DRAM on a 512 KB cache (issue 44).
+                # from another pass over Y (the same float32 comparison); 16-bit labels (a
+                # Theta S's 36,864 mid pixels hold fewer components). Each pass over the mid
+                # copy's planes goes to DRAM on a 512 KB cache (issue 44).
                 mask.reshape(-1)[idx0] = Y0_32 > t * mu
                 n, labels = cv2.connectedComponents(mask, connectivity=8, ltype=cv2.CV_16U)
                 found, group_local = self._level(idx0, Y0, L0, labels.reshape(-1), n, t * mu,

@@ -215,7 +215,7 @@ class SH9Projector(FrameDecoder):
 
     # -- projection -------------------------------------------------------------------------
     #: Rows per band when linearising integer frames: the float32 band stays in cache (a
-    #: projector with lights takes the multiple of their copy's block height nearest it).
+    #: projector with lights takes a multiple of their copy's block height: band_rows).
     BAND_ROWS = 32
 
     def _strategies(self) -> list:
