@@ -69,12 +69,13 @@ def test_lights_see_the_same_frame_through_the_fold(kernels):
     frame = np.full((720, 1280, 3), 30, np.uint8)
     frame[150:170, 250:270] = 255                     # a lamp in the front lens
     folded = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
+    dense = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
+    dense._fold, dense._weights = None, dense.projection.sh_weights.astype(np.float32)
     # Black around the lenses' circles, as a Theta's frame: the fold's copy counts the
     # pixels without a weight as black, the dense path reads them (a grey surround changes
     # the truth's edge blocks; with a 60 background the lamp's gain sat at min_gain itself).
-    frame[folded.projection.solid_angle.reshape(720, 1280) <= 0] = 0
-    dense = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
-    dense._fold, dense._weights = None, dense.projection.sh_weights.astype(np.float32)
+    # The solid angles are the dense twin's, made with its weights above (not made again).
+    frame[dense.projection.solid_angle.reshape(720, 1280) <= 0] = 0
     a, b = folded.project(frame), dense.project(frame)
     assert len(a.lights) == len(b.lights)
     scale = np.abs(b.ambient).max()
