@@ -21,9 +21,10 @@ if BUILD not in ("", "yes", "no"):
     sys.exit(f"SHLIGHT_BUILD_KERNELS must be yes, no or unset, got {BUILD!r}")
 # -O3: GCC vectorises the kernels' inner loops (SSE2 on x86-64, NEON on a 64-bit Pi).
 FLAGS = [] if sys.platform == "win32" else ["-O3"]
-SHARED = "provider/core/_kernels"          # buffer_check.h: the checks the kernels share
+SHARED = "provider/core/_kernels"          # the checks and the first pass the kernels share
 KERNELS = [
-    Extension(name, [source], include_dirs=[SHARED], depends=[f"{SHARED}/buffer_check.h"],
+    Extension(name, [source], include_dirs=[SHARED],
+              depends=[f"{SHARED}/buffer_check.h", f"{SHARED}/first_pass_band.h"],
               extra_compile_args=FLAGS, optional=BUILD != "yes")
     for name, source in (("provider.core.radiometry._blocks", "provider/core/radiometry/_blocks.c"),
                          ("provider.core.sh9._fold", "provider/core/sh9/_fold.c"),

@@ -63,6 +63,7 @@
 #include <string.h>
 
 #include "buffer_check.h"
+#include "first_pass_band.h"
 
 #if KERNEL_VECTOR
 typedef float v4 __attribute__((vector_size(16)));
@@ -442,42 +443,11 @@ first_pass(PyObject *self, PyObject *args)
     float *mid = (float *)v[0].buf, *Y = (float *)v[3].buf;
     const float *luma = (const float *)v[1].buf, *omega = (const float *)v[2].buf;
     float *coarse = use_coarse ? (float *)v[4].buf : NULL;
-    const float scale = (float)scale_d, l0 = luma[0], l1 = luma[1], l2 = luma[2];
-    const float inv = 1.0f / (float)(f * f);
+    const float scale = (float)scale_d;
     double total = 0.0;
     Py_BEGIN_ALLOW_THREADS
-    for (Py_ssize_t r0 = 0; r0 < h; r0 += f) {
-        const Py_ssize_t r1 = r0 + f < h ? r0 + f : h;
-        for (Py_ssize_t y = r0; y < r1; y++) {
-            float *m = mid + 3 * w * y, *yr = Y + w * y;
-            const float *om = omega + w * y;
-            if (scale != 1.0f)
-                for (Py_ssize_t i = 0; i < 3 * w; i++)
-                    m[i] *= scale;
-            for (Py_ssize_t x = 0; x < w; x++) {
-                const float Yx = (l0 * m[3 * x] + l1 * m[3 * x + 1]) + l2 * m[3 * x + 2];
-                yr[x] = Yx;
-                total += (double)(Yx * om[x]);
-            }
-        }
-        if (coarse != NULL && r0 / f < hc) {
-            float *c = coarse + 3 * wc * (r0 / f);
-            for (Py_ssize_t j = 0; j < wc; j++) {
-                float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f;
-                for (Py_ssize_t y = r0; y < r0 + f; y++) {
-                    const float *m = mid + 3 * (w * y + f * j);
-                    for (Py_ssize_t x = 0; x < f; x++) {
-                        s0 += m[3 * x];
-                        s1 += m[3 * x + 1];
-                        s2 += m[3 * x + 2];
-                    }
-                }
-                c[3 * j] = s0 * inv;
-                c[3 * j + 1] = s1 * inv;
-                c[3 * j + 2] = s2 * inv;
-            }
-        }
-    }
+    for (Py_ssize_t r0 = 0; r0 < h; r0 += f)
+        first_pass_band(mid, Y, omega, coarse, h, w, hc, wc, f, r0, scale, luma, &total);
     Py_END_ALLOW_THREADS
     for (int i = 0; i < want; i++)
         PyBuffer_Release(&v[i]);

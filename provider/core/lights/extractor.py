@@ -341,19 +341,21 @@ class LightExtractor:
                 rows.reshape(h, b - a, 3), ((b - a) // f, h), interpolation=cv2.INTER_AREA)
 
     def analyse(self, frame: np.ndarray, coefficients: np.ndarray,
-                clean: bool = False, mean_scale: float = 1.0) -> Analysis:
+                clean: bool = False, mean_scale: float = 1.0, first=None) -> Analysis:
         """Candidates and truth of one frame.
 
         frame : (H, W, 3) linear float32 radiance at full size, or its mid copy
             (``mid.height × mid.width``, see :meth:`reduce`; ``clean``: a mid copy with no
             negative or non-finite sample; ``mean_scale``: what makes a mid copy of block sums
-            the block means, applied in place).
+            the block means, applied in place; ``first``: the first pass's (Y, total,
+            coarse) of a clean mid copy where a fused kernel ran it).
         coefficients : (9, 3) the exact SH9 of the full frame (what the engine serves).
         """
         # C-contiguous float32 (a copy where not), scaled in place by the first pass
         small = np.ascontiguousarray(self.reduce(frame, clean), np.float32)
         h, w = small.shape[:2]
-        Y, total, coarse = self._first_pass(small, mean_scale)
+        Y, total, coarse = first if first is not None else first_pass(
+            small, mean_scale, *self.first_pass_args((h, w)))
         mu = total / self._coverage if self._coverage > 0 else 0.0
         candidates, groups = [], []
         rest, extra = small, None
@@ -409,18 +411,14 @@ class LightExtractor:
             truth += extra
         return Analysis(self, coefficients, candidates, truth, groups, mu)
 
-    def _first_pass(self, small: np.ndarray, mean_scale: float = 1.0):
-        """(Y, total, coarse) of the mid copy ``small`` (h, w, 3): its luminance (h, w)
-        float32, Σ Y ω, and its coarse copy where the coarse pixels are whole blocks (else
-        None), in one pass over the copy (:func:`~provider.core.lights.first_pass.first_pass`;
-        ``small`` C-contiguous float32); ``mean_scale`` (block sums to means: the fold
-        kernel's copy) applied there, in place."""
-        h, w = small.shape[:2]
+    def first_pass_args(self, shape: tuple) -> tuple:
+        """(luma (3,), omega (h, w), coarse (wc, hc) where its pixels are whole blocks else
+        None, factor): the first pass's arguments for a mid copy of ``shape`` (h, w) but the
+        copy and its scale (a fused kernel runs it: :meth:`.LensFold.decode_project`)."""
         t = self.coarse_truth
-        whole = t.blocks and (h, w) == (self.mid.height, self.mid.width)
-        return first_pass(small, mean_scale,
-                          self._luma32.reshape(3), self._omega32,
-                          (t.coarse.width, t.coarse.height) if whole else None, t.factor)
+        whole = t.blocks and tuple(shape) == (self.mid.height, self.mid.width)
+        return (self._luma32.reshape(3), self._omega32,
+                (t.coarse.width, t.coarse.height) if whole else None, t.factor)
 
     def _level(self, idx0, Y0, L0, labels, n, level_value, total, level):
         """Candidates of one threshold level. ``idx0`` are the flat indices of the pixels
@@ -534,8 +532,8 @@ class LightExtractor:
                             result.candidates)
 
     def extract(self, frame, coefficients, *, tracker=None, full=None,
-                process=None, clean: bool = False, mean_scale: float = 1.0
-                ) -> LightsResult:
+                process=None, clean: bool = False, mean_scale: float = 1.0,
+                first=None) -> LightsResult:
         """The lights of one frame, as the engine serves them.
 
         frame : linear float32 radiance at full size or the mid copy (see :meth:`analyse`).
@@ -546,10 +544,10 @@ class LightExtractor:
             :meth:`refine` compact lights on, or None.
         process : a function applied to the ambient (9, 3), e.g. the engine's deringing and
             order truncation; ``light_error`` then measures the processed ambient.
-        clean, mean_scale : ``frame`` is a mid copy with no negative or non-finite sample; what
-            makes it block means (see :meth:`analyse`).
+        clean, mean_scale, first : ``frame`` is a mid copy with no negative or non-finite
+            sample; what makes it block means; its first pass (see :meth:`analyse`).
         """
-        a = self.analyse(frame, coefficients, clean, mean_scale)
+        a = self.analyse(frame, coefficients, clean, mean_scale, first)
         if tracker is None:
             a.rank()
             r = a.result(a.greedy())

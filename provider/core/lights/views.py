@@ -19,8 +19,9 @@ class DetectionCopy(Sink):
         self.extractor, self.factor = extractor, extractor.mid_factor
         self.image = extractor.new_mid()
         #: ``clean``: no negative or non-finite sample (a table's block means); ``scale``:
-        #: what makes ``image`` the block means (a fused kernel may leave block sums)
-        self.clean, self.scale = False, 1.0
+        #: what makes ``image`` the block means (a fused kernel may leave block sums);
+        #: ``first``: the first pass's (Y, total, coarse) where a fused kernel ran it
+        self.clean, self.scale, self.first = False, 1.0, None
 
     def start(self, frame, table, stats):
         # Block means of a table's values hold no negative or non-finite sample where the
@@ -28,6 +29,7 @@ class DetectionCopy(Sink):
         # (issue 44). A 16-bit table is not scanned every frame.
         self.clean = (table is not None and table.size <= 4096
                       and bool(np.isfinite(table).all()) and float(table.min()) >= 0.0)
+        self.scale, self.first = 1.0, None
 
     def band(self, lin, r0, raw, columns):
         self.extractor.reduce_band(lin, r0, self.image, columns)

@@ -12,7 +12,7 @@
  *   parity 2 (x even, y odd):  (a + b) - (c + d)    parity 3 (x odd, y odd):  (a - b) - (c - d)
  *
  * fold_lens(frame, table, geometry, extents, radial, inv_step, fix_at, fixes, tables,
- *           parities, sums, mid, factor, clear[, clip])
+ *           parities, sums, mid, factor, clear[, clip[, residual[, first]]]) -> None or total
  * (its Python twin, the same signature, numbers and errors: fold_twin.py)
  *   frame     uint8 (H, W, 3), pixels contiguous (rows may be strided); or, without a
  *             table, linear float32 (H, W, 3) (the fast path's block means, a float frame)
@@ -50,7 +50,20 @@
  *             code 255 in the lenses' squares (every column j < nx, whatever the extents:
  *             the clip counter's clipped_fraction counts the whole frame), clip[1 + c] the
  *             L00 weight (weight 0, the same in the lens frame and the world's) of the
- *             pixels whose channel c is at 255, over the pixels read (j < extents[i])
+ *             pixels whose channel c is at 255, over the pixels read (j < extents[i]) and
+ *             the residual pixels
+ *   residual  None, or (starts, cols, weights, rsums): the pixels no fold pairs (a lens's
+ *             centre row and column, a frame's edge), each read while its row is in cache
+ *             (the rows no row pair reads first): starts int32 (H + 1,) from 0,
+ *             non-decreasing, to R (row y's pixels are starts[y] .. starts[y + 1]), cols
+ *             int32 (R,) their columns, weights float32 (R, C) their world-frame weights,
+ *             rsums float64 (C, 3) added to: sum of weight times decoded sample; their L00
+ *             (column 0) where clipped into clip, their samples into mid's blocks
+ *   first     None, or (luma, omega, Y, coarse, cf, scale): the lights' first pass
+ *             (lights/_lights.c's first_pass, first_pass_band.h) run on each band of cf
+ *             rows of mid once every lens has spilled into it, while it is in cache (the
+ *             rest at the end); needs mid and clear (the only call); returns its sum of
+ *             Y omega
  *
  * Per row pair: the four half rows decoded into planar float rows (a byte load and a table
  * load a sample: the only scalar loop), then plain loops over j that the compiler
@@ -65,6 +78,7 @@
 #include <string.h>
 
 #include "buffer_check.h"
+#include "first_pass_band.h"
 
 #include <math.h>
 #if KERNEL_VECTOR && defined(__SSE__)
@@ -73,7 +87,7 @@
 #include <arm_neon.h>
 #endif
 
-#define NVIEWS 12
+#define NVIEWS 20
 
 #if KERNEL_VECTOR
 /* Four floats: GCC's and Clang's vector extension, SSE on x86-64 and NEON on 64-bit ARM.
@@ -483,20 +497,44 @@ fold_lens(PyObject *self, PyObject *args)
 {
     PyObject *frame_obj, *table_obj, *ext_obj, *tab_obj, *par_obj, *sums_obj, *mid_obj;
     PyObject *rad_obj, *fat_obj, *fix_obj, *oth_obj, *clip_obj = Py_None;
+    PyObject *res_obj = Py_None, *first_obj = Py_None;
     Py_ssize_t xl, xr, yt, yb, nx, ny;
     double inv_step;
     int f, clear;
-    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOOdOOOOOOip|O", &frame_obj, &table_obj, &xl, &xr,
-                          &yt, &yb, &nx, &ny, &oth_obj, &ext_obj, &rad_obj, &inv_step,
+    if (!PyArg_ParseTuple(args, "OO(nnnnnn)OOOdOOOOOOip|OOO", &frame_obj, &table_obj, &xl,
+                          &xr, &yt, &yb, &nx, &ny, &oth_obj, &ext_obj, &rad_obj, &inv_step,
                           &fat_obj, &fix_obj, &tab_obj, &par_obj, &sums_obj, &mid_obj, &f,
-                          &clear, &clip_obj))
+                          &clear, &clip_obj, &res_obj, &first_obj))
         return NULL;
+    const int use_res = res_obj != Py_None, use_first = first_obj != Py_None;
+    if (use_res && !(PyTuple_Check(res_obj) && PyTuple_GET_SIZE(res_obj) == 4)) {
+        PyErr_SetString(PyExc_TypeError,
+                        "residual: a tuple (starts, cols, weights, sums) or None");
+        return NULL;
+    }
+    if (use_first && !(PyTuple_Check(first_obj) && PyTuple_GET_SIZE(first_obj) == 6)) {
+        PyErr_SetString(PyExc_TypeError,
+                        "first: a tuple (luma, omega, Y, coarse, factor, scale) or None");
+        return NULL;
+    }
+    Py_ssize_t cf = 1;
+    double fscale = 1.0;
+    if (use_first) {
+        cf = PyLong_AsSsize_t(PyTuple_GET_ITEM(first_obj, 4));
+        if (cf == -1 && PyErr_Occurred())
+            return NULL;
+        fscale = PyFloat_AsDouble(PyTuple_GET_ITEM(first_obj, 5));
+        if (fscale == -1.0 && PyErr_Occurred())
+            return NULL;
+    }
+    PyObject *coarse_obj = use_first ? PyTuple_GET_ITEM(first_obj, 3) : Py_None;
     Py_buffer views[NVIEWS];
     memset(views, 0, sizeof views);
     int got[NVIEWS] = {0};
     int use_mid = mid_obj != Py_None, linear = table_obj == Py_None;
     const int use_clip = clip_obj != Py_None;
     const char *err = NULL;
+    double total_out = 0.0;             /* the first pass's sum of Y omega (first) */
 #define VIEW(n, obj, w, fmt, nd, name) \
     do { if (get_view(obj, &views[n], w, fmt, nd, name) < 0) goto fail; got[n] = 1; } while (0)
     VIEW(0, frame_obj, 0, linear ? "f" : "B", 3, linear ? "frame (no table: float32)"
@@ -515,10 +553,26 @@ fold_lens(PyObject *self, PyObject *args)
         VIEW(6, mid_obj, 1, "f", 3, "mid");
     if (use_clip)
         VIEW(11, clip_obj, 1, "d", 1, "clip");
+    if (use_res) {
+        VIEW(12, PyTuple_GET_ITEM(res_obj, 0), 0, "i", 1, "residual starts");
+        VIEW(13, PyTuple_GET_ITEM(res_obj, 1), 0, "i", 1, "residual cols");
+        VIEW(14, PyTuple_GET_ITEM(res_obj, 2), 0, "f", 2, "residual weights");
+        VIEW(15, PyTuple_GET_ITEM(res_obj, 3), 1, "d", 2, "residual sums");
+    }
+    if (use_first) {
+        VIEW(16, PyTuple_GET_ITEM(first_obj, 0), 0, "f", 1, "luma");
+        VIEW(17, PyTuple_GET_ITEM(first_obj, 1), 0, "f", 2, "omega");
+        VIEW(18, PyTuple_GET_ITEM(first_obj, 2), 1, "f", 2, "Y");
+        if (coarse_obj != Py_None)
+            VIEW(19, coarse_obj, 1, "f", 3, "coarse");
+    }
 #undef VIEW
     Py_buffer fr = views[0], tb = views[1], ex = views[2], tabs = views[3], par = views[4];
     Py_buffer sums = views[5], mid = views[6], rad = views[7], fat = views[8], fix = views[9];
     Py_buffer oth = views[10], cl = views[11];
+    Py_buffer rst = views[12], rcol = views[13], rw = views[14], rsum = views[15];
+    Py_buffer lu = views[16], om = views[17], yv = views[18], co = views[19];
+    const int use_coarse = use_first && coarse_obj != Py_None;
     const Py_ssize_t L = 1 + oth.shape[0];
     Py_ssize_t H = fr.shape[0], W = fr.shape[1], K = tabs.shape[0];
     const Py_ssize_t item = linear ? 4 : 1;
@@ -555,6 +609,38 @@ fold_lens(PyObject *self, PyObject *args)
         err = "mid: (H / f, W / f, 3) float32 holding the square's blocks";
     else if (use_clip && (linear || !contiguous(&cl) || cl.shape[0] != 4))
         err = "clip: (4,) contiguous float64, with a table (an 8-bit frame)";
+    else if (use_res && (!contiguous(&rst) || !contiguous(&rcol) || !contiguous(&rw)
+                         || !contiguous(&rsum) || rst.shape[0] != H + 1
+                         || rw.shape[0] != rcol.shape[0] || rw.shape[1] < 1
+                         || rsum.shape[0] != rw.shape[1] || rsum.shape[1] != 3))
+        err = "residual: starts (H + 1,) int32, cols (R,) int32, weights (R, C) float32, "
+              "sums (C, 3) float64, contiguous";
+    else if (use_first && (!use_mid || !clear))
+        err = "first: with mid, in the call that clears it (the only call)";
+    else if (use_first && (!contiguous(&lu) || lu.shape[0] != 3))
+        err = "luma: (3,) float32";
+    else if (use_first && (!contiguous(&om) || !contiguous(&yv) || om.shape[0] != H / f
+                           || om.shape[1] != W / f || yv.shape[0] != H / f
+                           || yv.shape[1] != W / f))
+        err = "omega, Y: (h, w) float32, mid's height and width";
+    else if (use_first && cf < 1)
+        err = "first: factor at least 1";
+    else if (use_coarse && (!contiguous(&co) || co.shape[2] != 3
+                            || co.shape[0] > (H / f) / cf || co.shape[1] > (W / f) / cf))
+        err = "coarse: (hc, wc, 3) float32, hc * factor <= h, wc * factor <= w";
+    /* The residual pixels' rows: starts from 0, non-decreasing, to R; columns in the frame. */
+    const int *rs = err || !use_res ? NULL : (const int *)rst.buf;
+    const int *rc = err || !use_res ? NULL : (const int *)rcol.buf;
+    if (rs != NULL) {
+        if (rs[0] != 0 || rs[H] != rcol.shape[0])
+            err = "residual: starts from 0 to R, non-decreasing";
+        for (Py_ssize_t y = 0; !err && y < H; y++)
+            if (rs[y + 1] < rs[y])
+                err = "residual: starts from 0 to R, non-decreasing";
+        for (Py_ssize_t q = 0; !err && q < rcol.shape[0]; q++)
+            if (rc[q] < 0 || rc[q] >= W)
+                err = "residual: cols in [0, W)";
+    }
     /* The other lenses: their columns as the first's (the same centre offset: the same
      * weights), inside the frame and mid's blocks. */
     const int *others = err ? NULL : (const int *)oth.buf;
@@ -624,6 +710,24 @@ fold_lens(PyObject *self, PyObject *args)
         }
         if (fresh)
             memset(fresh, 1, (size_t)(H / f) + 1);
+        /* The residual pixels' sums (C weights x 3 channels, double), and the first pass's
+         * bands of cf mid rows (done or not). */
+        const Py_ssize_t RC = use_res ? rw.shape[1] : 0;
+        const Py_ssize_t mh = use_first ? H / f : 0;
+        const Py_ssize_t nbands = use_first ? (mh + cf - 1) / cf : 0;
+        double *racc = (double *)calloc((size_t)(3 * RC + 1), sizeof(double));
+        unsigned char *bdone = (unsigned char *)calloc((size_t)nbands + 1, 1);
+        if (racc == NULL || bdone == NULL) {
+            free(racc);
+            free(bdone);
+            free(order);
+            free(fold_of);
+            free(fresh);
+            free(buf);
+            free(spills);
+            PyErr_NoMemory();
+            goto fail;
+        }
         for (Py_ssize_t k = 0; k < KT; k++) {
             order[k] = k < 9 ? SH_ORDER[k] : k;
             fold_of[k] = k < 9 ? SH_PARITY[order[k]] : parity[k - 9];
@@ -649,10 +753,61 @@ fold_lens(PyObject *self, PyObject *args)
         double clipped_l00[3] = {0.0, 0.0, 0.0};
 #define MID_ROW(br) (fresh && fresh[br] ? (zero(midp + (br) * mw * 3, mw * 3), fresh[br] = 0, \
                                            midp + (br) * mw * 3) : midp + (br) * mw * 3)
+        /* The residual pixels of frame row y (the pixels no fold pairs: a lens's centre
+         * row and column, a frame's edge): decoded, their C world-frame weights' sums, their
+         * L00 where clipped, their block sums into mid. Called while the row is in cache. */
+#define RESIDUAL_ROW(y) do { \
+            const Py_ssize_t yy = (y); \
+            const char *row = (const char *)fr.buf + yy * fr.strides[0]; \
+            const float *rwp = (const float *)rw.buf; \
+            for (Py_ssize_t q = rs[yy]; q < rs[yy + 1]; q++) { \
+                const Py_ssize_t x = rc[q]; \
+                float px[3]; \
+                const unsigned char *code = (const unsigned char *)row + 3 * x; \
+                for (int c = 0; c < 3; c++) \
+                    px[c] = linear ? ((const float *)row)[3 * x + c] \
+                                   : t[shared ? code[c] : 3 * code[c] + c]; \
+                const float *wq = rwp + q * RC; \
+                for (Py_ssize_t k = 0; k < RC; k++) \
+                    for (int c = 0; c < 3; c++) \
+                        racc[3 * k + c] += (double)wq[k] * (double)px[c]; \
+                if (use_clip) \
+                    for (int c = 0; c < 3; c++) \
+                        if (code[c] == 255) \
+                            clipped_l00[c] += (double)wq[0]; \
+                if (use_mid && yy < (H / f) * f && x < mw * f) { \
+                    float *mp = MID_ROW(yy / f) + 3 * (x / f); \
+                    mp[0] += px[0]; \
+                    mp[1] += px[1]; \
+                    mp[2] += px[2]; \
+                } \
+            } \
+        } while (0)
+        /* The first pass on band b (mid rows b cf .. b cf + cf), its rows zeroed if none
+         * was reached. */
+#define FIRST_BAND(b) do { \
+            for (Py_ssize_t r = (b) * cf; r < (b) * cf + cf && r < mh; r++) \
+                (void)MID_ROW(r); \
+            first_pass_band(midp, (float *)yv.buf, (const float *)om.buf, \
+                            use_coarse ? (float *)co.buf : NULL, mh, mw, \
+                            use_coarse ? co.shape[0] : 0, use_coarse ? co.shape[1] : 0, \
+                            cf, (b) * cf, (float)fscale, (const float *)lu.buf, &ftotal); \
+            bdone[b] = 1; \
+        } while (0)
+        double ftotal = 0.0;
         Py_BEGIN_ALLOW_THREADS
         zero(cols_all, 12 * L * nx);    /* only the column sums are read before written */
+        /* The residual pixels of the rows no row pair reads, first: afterwards every block
+         * sum still to come is a fold's spill (what the first pass's bands wait for). */
+        for (Py_ssize_t y = 0; use_res && y < H; y++)
+            if (!((y >= yt - ny && y < yt) || (y >= yb && y < yb + ny)))
+                RESIDUAL_ROW(y);
         for (Py_ssize_t i = 0; i < ny; i++) {
             const Py_ssize_t e = extent[i];
+            if (use_res) {
+                RESIDUAL_ROW(yb + i);
+                RESIDUAL_ROW(yt - 1 - i);
+            }
             if (e > 0)
                 radial_row(radp, nb, inv, dx0, dy0 + (float)i, e, wrows, nx);
             /* The pixels of this row pair the radial table does not fit: their corrections
@@ -738,6 +893,19 @@ fold_lens(PyObject *self, PyObject *args)
                     k += m;
                 }
             }
+            /* The bands whose rows every lens has spilled into mid (the spills lag a row
+             * pair: the bottom halves' rows above f (yb + i) / f, the top halves' from
+             * f ((yt - 1 - i) / f + 1)): their first pass while they are in cache. */
+            const Py_ssize_t bot = f * ((yb + i) / f), top = f * ((yt - 1 - i) / f + 1);
+            for (Py_ssize_t b = 0; b < nbands; b++) {
+                if (bdone[b])
+                    continue;
+                const Py_ssize_t R0 = b * cf * f;
+                const Py_ssize_t R1 = ((b + 1) * cf < mh ? (b + 1) * cf : mh) * f;
+                if ((R1 <= yb || R0 >= yb + ny || R1 <= bot)
+                    && (R0 >= yt || R1 <= yt - ny || R0 >= top))
+                    FIRST_BAND(b);
+            }
         }
         for (Py_ssize_t l = 0; use_mid && l < L; l++)
             for (int h = 0; h < 4; h++) {
@@ -749,6 +917,16 @@ fold_lens(PyObject *self, PyObject *args)
         for (Py_ssize_t br = 0; fresh && br < H / f; br++)
             if (fresh[br])
                 zero(midp + br * mw * 3, mw * 3);
+        for (Py_ssize_t b = 0; b < nbands; b++)
+            if (!bdone[b])
+                FIRST_BAND(b);
+        if (use_res) {
+            double *rsp = (double *)rsum.buf;
+            for (Py_ssize_t k = 0; k < 3 * RC; k++)
+                rsp[k] += racc[k];
+        }
+#undef FIRST_BAND
+#undef RESIDUAL_ROW
 #undef MID_ROW
         if (use_clip) {
             double *clip = (double *)cl.buf;
@@ -757,6 +935,9 @@ fold_lens(PyObject *self, PyObject *args)
                 clip[1 + c] += clipped_l00[c];
         }
         Py_END_ALLOW_THREADS
+        total_out = ftotal;
+        free(racc);
+        free(bdone);
         free(fresh);
         free(order);
         free(fold_of);
@@ -766,6 +947,8 @@ fold_lens(PyObject *self, PyObject *args)
     for (int v = 0; v < NVIEWS; v++)
         if (got[v])
             PyBuffer_Release(&views[v]);
+    if (use_first)
+        return PyFloat_FromDouble(total_out);
     Py_RETURN_NONE;
 fail:
     for (int v = 0; v < NVIEWS; v++)

@@ -19,8 +19,10 @@ def fold_lens(
     factor: int,
     clear: bool,
     clip: npt.NDArray[np.float64] | None = None,
+    residual: tuple | None = None,
+    first: tuple | None = None,
     /,
-) -> None:
+) -> float | None:
     """One lens's folded SH projection of frame (uint8 through table, 256 or 768 float32
     entries; or linear float32 with table None) added to sums (1 + M, 9 + K, 3); geometry
     (xl, xr, yt, yb, nx, ny) the square about the lens centre, others (M, 2) the (xl, xr) of
@@ -31,7 +33,12 @@ def fold_lens(
     mid (H // factor, W // factor, 3): the block sums of the pixels read added to it
     (zeroed first when clear); clip (4,) (8-bit frames only): the samples at code 255 in the
     lenses' squares added to clip[0], the L00 weight of the pixels whose channel c is at 255
-    (those read) to clip[1 + c]. ValueError for arrays it does not take."""
+    (those read) to clip[1 + c]; residual (starts (H + 1,), cols (R,), weights (R, C),
+    sums (C, 3)): the unpaired pixels, their weights' sums added to sums, their clipped L00
+    to clip, their samples to mid; first (luma, omega, Y, coarse, factor, scale): the
+    lights' first pass over mid, run as the fold completes each band of it (with mid and
+    clear), its sum of Y omega returned. ValueError for arrays it does not take, TypeError
+    for a residual or first that is not such a tuple."""
 
 def count_top(frame: npt.NDArray[np.uint8], rects: npt.NDArray[np.int32], /) -> int:
     """The samples at code 255 of frame (H, W, 3) in the rectangles rects (R, 4) of

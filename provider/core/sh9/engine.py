@@ -332,6 +332,7 @@ class SH9Projector(FrameDecoder):
         light_input = None if sinks.lights is None else sinks.lights.image
         clean = getattr(sinks.lights, "clean", False)
         mean_scale = getattr(sinks.lights, "scale", 1.0)
+        first = getattr(sinks.lights, "first", None)
         if absolute and sinks.up is not None:     # the 10th weight's sum, from the same pass
             up = sinks.up.total()
             scale = 1.0 if k is None else float(k)     # None: no exposure known
@@ -345,7 +346,7 @@ class SH9Projector(FrameDecoder):
         result = self.result(coeffs, stats, exposure_s)
         if self._extractor is not None:
             self._add_lights(result, frame, coeffs, light_input, tracker, k, clean,
-                             mean_scale)
+                             mean_scale, first)
         if estimate:
             if small is None:
                 small = (self._linearise(frame) if frame.dtype in (np.uint8, np.uint16)
@@ -445,7 +446,7 @@ class SH9Projector(FrameDecoder):
         return SH9Result(coeffs, sh.irradiance_matrices(coeffs), stats)
 
     def _add_lights(self, result, frame, exact, light_input, tracker, k=None,
-                    clean=False, mean_scale=1.0) -> None:
+                    clean=False, mean_scale=1.0, first=None) -> None:
         """Directional lights + ambient of one frame (provider.core.lights.extractor), in the units
         and frame of the coefficients: exposure scales them like the coefficients, the
         sensor rotation turns light directions and the ambient like the coefficients, and
@@ -462,7 +463,7 @@ class SH9Projector(FrameDecoder):
         found = self._extractor.extract(
             light_input, exact / scale, tracker=tracker, full=full,
             process=lambda ambient: self._same_processing(ambient, order), clean=clean,
-            mean_scale=mean_scale)
+            mean_scale=mean_scale, first=first)
         found = found.transformed(scale, self.rotation, self._sh_rotation, self.colour_matrix)
         result.lights, result.ambient_coefficients = found.lights, found.ambient
         result.stats.update(light_error=found.light_error, sh9_error=found.sh9_error,

@@ -13,6 +13,7 @@ import operator
 
 import numpy as np
 
+from ..lights.first_pass import first_pass_twin
 from ..radiometry.blocks import buffer_view, c_int, contiguous
 
 
@@ -51,11 +52,18 @@ def radial_weights(radial, inv_step, geometry, ks=range(9)) -> np.ndarray:
 
 
 def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at, fixes,
-              tables, parities, sums, mid, factor, clear, clip=None) -> None:
+              tables, parities, sums, mid, factor, clear, clip=None, residual=None,
+              first=None):
     """One lens's folded projection of ``frame`` (8-bit through ``table``, or linear
     float32 with ``table`` None) added to ``sums``, its pixels' block sums to ``mid``, and
-    its samples at code 255 with their L00 weight to ``clip``: see ``_fold.c`` (the
-    arguments) and ``_fold.pyi``."""
+    its samples at code 255 with their L00 weight to ``clip``; the ``residual`` pixels'
+    sums; the lights' ``first`` pass over ``mid`` (its total returned): see ``_fold.c``
+    (the arguments) and ``_fold.pyi``."""
+    if residual is not None and not (isinstance(residual, tuple) and len(residual) == 4):
+        raise TypeError("residual: a tuple (starts, cols, weights, sums) or None")
+    if first is not None and not (isinstance(first, tuple) and len(first) == 6):
+        raise TypeError("first: a tuple (luma, omega, Y, coarse, factor, scale) or None")
+    cf, fscale = (operator.index(first[4]), float(first[5])) if first is not None else (1, 1.0)
     xl, xr, yt, yb, nx, ny = (operator.index(v) for v in _six(geometry))
     f, clear = c_int(factor), bool(clear)
     use_mid, linear = mid is not None, table is None
@@ -73,6 +81,13 @@ def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at,
     sm = buffer_view(sums, True, "d", 3, "sums")
     md = buffer_view(mid, True, "f", 3, "mid") if use_mid else None
     cl = buffer_view(clip, True, "d", 1, "clip") if clip is not None else None
+    rv = None if residual is None else [
+        buffer_view(a, n == 3, fmt, nd, name) for n, (a, fmt, nd, name) in enumerate(zip(
+            residual, "iifd", (1, 1, 2, 2), ("residual starts", "residual cols",
+                                             "residual weights", "residual sums")))]
+    fv = None if first is None else [
+        buffer_view(a, n >= 2, "f", nd, name) for n, (a, nd, name) in enumerate(zip(
+            first[:4], (1, 2, 2, 3), ("luma", "omega", "Y", "coarse"))) if a is not None]
     H, W = fr.shape[:2]
     K = tabs.shape[0]
     item = 4 if linear else 1
@@ -108,6 +123,30 @@ def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at,
         err = "mid: (H / f, W / f, 3) float32 holding the square's blocks"
     elif cl is not None and (linear or not contiguous(cl) or cl.shape[0] != 4):
         err = "clip: (4,) contiguous float64, with a table (an 8-bit frame)"
+    elif rv is not None and (not all(map(contiguous, rv)) or rv[0].shape[0] != H + 1
+                             or rv[2].shape[0] != rv[1].shape[0] or rv[2].shape[1] < 1
+                             or rv[3].shape[0] != rv[2].shape[1] or rv[3].shape[1] != 3):
+        err = ("residual: starts (H + 1,) int32, cols (R,) int32, weights (R, C) float32, "
+               "sums (C, 3) float64, contiguous")
+    elif fv is not None and (not use_mid or not clear):
+        err = "first: with mid, in the call that clears it (the only call)"
+    elif fv is not None and (not contiguous(fv[0]) or fv[0].shape[0] != 3):
+        err = "luma: (3,) float32"
+    elif fv is not None and (not contiguous(fv[1]) or not contiguous(fv[2])
+                             or not fv[1].shape == fv[2].shape == (H // f, W // f)):
+        err = "omega, Y: (h, w) float32, mid's height and width"
+    elif fv is not None and cf < 1:
+        err = "first: factor at least 1"
+    elif fv is not None and len(fv) == 4 and (
+            not contiguous(fv[3]) or fv[3].shape[2] != 3 or fv[3].shape[0] > (H // f) // cf
+            or fv[3].shape[1] > (W // f) // cf):
+        err = "coarse: (hc, wc, 3) float32, hc * factor <= h, wc * factor <= w"
+    if err is None and rv is not None:
+        starts, rcols = np.asarray(rv[0]).astype(np.int64), np.asarray(rv[1]).astype(np.int64)
+        if starts[0] != 0 or starts[-1] != rcols.size or np.any(np.diff(starts) < 0):
+            err = "residual: starts from 0 to R, non-decreasing"
+        elif np.any((rcols < 0) | (rcols >= W)):
+            err = "residual: cols in [0, W)"
     lenses = [(xl, xr)]
     if err is None:
         lenses += [tuple(int(v) for v in pair) for pair in np.asarray(oth).reshape(-1, 2)]
@@ -139,8 +178,43 @@ def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at,
     for n, (lxl, lxr) in enumerate(lenses):
         _one_lens(fr, tb, (lxl, lxr, yt, yb, nx, ny), extent, weights, parity,
                   np.asarray(sm)[n], md, f, tally)
+    if rv is not None:
+        _residual(fr, tb, rv, md, f, tally)
     if tally is not None:         # added once, as the C adds its tally after every lens
         np.asarray(cl)[...] += tally
+    if fv is not None:            # the lights' first pass over the finished copy
+        return first_pass_twin(np.asarray(md), fscale, np.asarray(fv[0]), np.asarray(fv[1]),
+                               np.asarray(fv[2]), np.asarray(fv[3]) if len(fv) == 4 else None,
+                               cf)
+    return None
+
+
+def _residual(fr, tb, rv, md, f, tally) -> None:
+    """The residual pixels (rows by ``starts``, columns ``cols``): their weights' sums into
+    ``sums`` (C, 3), their L00 where clipped into ``tally``, their values into ``md``'s
+    blocks."""
+    starts, cols, weights, out = (np.asarray(v) for v in rv)
+    H, W = fr.shape[:2]
+    rows = np.repeat(np.arange(H), np.diff(starts.astype(np.int64)))
+    cols = cols.astype(np.int64)
+    codes = np.asarray(fr)[rows, cols]                          # (R, 3)
+    if tb is None:
+        px = codes.astype(np.float64)
+    else:
+        t = np.asarray(tb).astype(np.float64)
+        px = t[codes] if t.size == 256 else t.reshape(256, 3)[codes, np.arange(3)]
+    w = weights.astype(np.float64)
+    out += w.T @ px
+    if tally is not None:
+        tally[1:] += (codes == 255).T.astype(np.float64) @ w[:, 0]
+    if md is not None:
+        blocks = np.asarray(md)
+        mh, mw = blocks.shape[:2]
+        inside = (rows < mh * f) & (cols < mw * f)
+        at = (rows[inside] // f) * mw + cols[inside] // f
+        for ch in range(3):
+            added = np.bincount(at, px[inside, ch], minlength=mh * mw)
+            blocks[..., ch] += added.reshape(mh, mw).astype(np.float32)
 
 
 def _one_lens(fr, tb, geometry, extent, weights, parity, out, md, f, tally=None) -> None:

@@ -225,7 +225,7 @@ class LensFold:
 
     def new(self, band_rows: int = 32) -> dict:
         return {"buffers": None, "band_rows": band_rows, "sums": None,
-                "res": np.zeros((3, 9 + self.extras), np.float32)}
+                "res": np.zeros((3, 9 + self.extras))}
 
     def add(self, lin: np.ndarray, r0: int, state: dict) -> None:
         """Add linear float32 rows [r0, r0 + len(lin)) (full width) of the frame."""
@@ -268,59 +268,69 @@ class LensFold:
 
     def decode_project(self, frame: np.ndarray, table: np.ndarray | None, state: dict,
                        mid: np.ndarray | None = None, factor: int = 1,
-                       clip: np.ndarray | None = None, mean: bool = True) -> None:
+                       clip: np.ndarray | None = None, mean: bool = True, first=None):
         """The whole 8-bit ``frame`` decoded through ``table`` inside the fold (the C
         kernel, one call a lens: no float copy of the frame), into ``state`` as :meth:`add`
         of every row would; ``table`` None: ``frame`` is linear float32 already. ``mid``
         (see :meth:`decodes`) gets the block means of the pixels that carry a weight, the
         others counted as black (as a lens's surround). ``clip`` (4,) float64: the kernel's
-        clip tally of the lenses' squares (``_fold.c``), the unpaired pixels' L00 added.
-        ``mean`` False: ``mid`` is left as block sums (its reader scales them in cache)."""
+        clip tally of the lenses' squares and of the unpaired pixels' L00 (``_fold.c``).
+        ``mean`` False: ``mid`` is left as block sums (its reader scales them in cache).
+
+        ``first`` (luma, omega, coarse_size, coarse_factor): the lights' first pass
+        (:func:`~provider.core.lights.first_pass.first_pass`) run by the kernel on each band
+        of ``mid`` as it completes, while it is in cache, where one call folds every lens:
+        returns its (Y, total, coarse), ``mid`` made block means; else None."""
         t = None if table is None else np.ascontiguousarray(table, np.float32).reshape(-1)
         item = frame.itemsize
         if frame.strides[2] != item or frame.strides[1] != 3 * item:
             frame = np.ascontiguousarray(frame)
-        sums = [None] * len(self.lenses)
-        for n, (first, rest) in enumerate(self._kernel_calls()):
-            L = self.lenses[first]
+        calls, fused = self._kernel_calls(), None
+        if first is not None and mid is not None and len(calls) == 1:
+            luma, omega, size, cf = first      # its Y and coarse copy, for the kernel to fill
+            fused = (np.empty(mid.shape[:2], np.float32),
+                     None if size is None else np.empty((size[1], size[0], 3), np.float32))
+            first = (luma, omega, *fused, int(cf), 1.0 / (factor * factor))
+        sums, total = [None] * len(self.lenses), None
+        residual = (*self._residual_args(frame.shape[0]),
+                    np.zeros((self._res_weights.shape[1], 3))) if self._res_index.size else None
+        for n, (lead, rest) in enumerate(calls):
+            L = self.lenses[lead]
             geometry, extent, radial, inv, fix_at, fixes, tables, codes = L.kernel_data
             others = np.array([self.lenses[m].geometry[:2] for m in rest], np.int32
                               ).reshape(-1, 2)
             out = np.zeros((1 + len(rest), 9 + tables.shape[0], 3))
-            # The first call zeroes mid: every lens, then the unpaired pixels, add.
-            _fold_kernel(frame, t, geometry, others, extent, radial, inv, fix_at, fixes,
-                         tables, codes, out, mid, factor, n == 0, clip)
+            # The first call zeroes mid and takes the unpaired pixels (at their rows).
+            total = _fold_kernel(frame, t, geometry, others, extent, radial, inv, fix_at,
+                                 fixes, tables, codes, out, mid, factor, n == 0, clip,
+                                 residual if n == 0 else None, first if fused else None)
             # rows: the SH9 weights, then the extras in their groups' order (keyed by parity
             # too: an extra column has a part of each parity, the same k in two groups)
             rows, at = {}, 9
             for parity, ks, _ in L.groups:
                 rows[(parity, tuple(ks))] = list(range(at, at + len(ks)))
                 at += len(ks)
-            for lens_out, m in zip(out, (first, *rest)):
+            for lens_out, m in zip(out, (lead, *rest)):
                 sums[m] = [lens_out[rows.get((parity, tuple(ks)), ks)].T
                            for parity, ks in L.group_ks]
         state["sums"] = sums
-        if self._res_index.size:           # the unpaired pixels: a gather, a product
-            samples = self._ops.get("samples")
-            if samples is None:           # their samples' flat indices (R, 3), once
-                samples = self._ops["samples"] = self._res_index[:, None] * 3 + np.arange(3)
-            if frame.flags.c_contiguous:
-                codes = np.take(frame.reshape(-1), samples)          # (R, 3)
-            else:
-                rows, cols = np.divmod(self._res_index, self.width)
-                codes = frame[rows, cols]
-            px = (codes if t is None else t[codes] if t.size == 256
-                  else t.reshape(256, 3)[codes, np.arange(3)])
-            state["res"] += px.T @ self._res_weights
-            if clip is not None:                     # their L00 (column 0) where clipped
-                clip[1:] += (codes == 255).T.astype(np.float64) @ self._res_weights[:, 0]
-            if mid is not None:
-                blocks, at = self._residual_blocks(mid.shape[1], factor)
-                flat = mid.reshape(-1, 3)
-                for c in range(3):
-                    flat[blocks, c] += np.bincount(at, px[:, c], minlength=blocks.size)
+        if residual is not None:
+            state["res"] += residual[3].T
+        if fused:
+            return fused[0], float(total), fused[1]
         if mid is not None and mean:
             mid *= np.float32(1.0 / (factor * factor))
+        return None
+
+    def _residual_args(self, height: int) -> tuple:
+        """The unpaired pixels' row starts (H + 1,), columns and world-frame weights (the
+        kernel's ``residual`` but its sums), made once."""
+        if ("residual", height) not in self._ops:
+            rows, cols = np.divmod(self._res_index, self.width)
+            self._ops[("residual", height)] = (
+                np.searchsorted(rows, np.arange(height + 1)).astype(np.int32),
+                cols.astype(np.int32), np.ascontiguousarray(self._res_weights, np.float32))
+        return self._ops[("residual", height)]
 
     def _kernel_calls(self) -> list:
         """[(lens, [other lenses])]: lenses whose weights are the same (a dual fisheye's two
@@ -345,16 +355,6 @@ class LensFold:
                     calls.append((n, []))
             self._ops["calls"] = calls
         return calls
-
-    def _residual_blocks(self, mid_width: int, factor: int) -> tuple:
-        """The distinct blocks of the unpaired pixels (flat indices in the lights' copy)
-        and each pixel's place among them."""
-        key = ("blocks", mid_width, factor)
-        if key not in self._ops:
-            rows, cols = np.divmod(self._res_index, self.width)
-            flat = (rows // factor) * mid_width + cols // factor
-            self._ops[key] = np.unique(flat, return_inverse=True)
-        return self._ops[key]
 
     def _band_ops(self, r0: int, r1: int) -> list:
         """[(lens, frame rows a, b, buffer row)] of frame rows [r0, r1): the same bands every

@@ -174,11 +174,16 @@ class FoldDecode:
     def run(self, fp, decoder, frame, table, lut, sinks, stats):
         lights, clip = sinks.lights, sinks.clip
         tally = None if clip is None else np.zeros(4)
-        self.fold.decode_project(frame, table, sinks.sh9.acc,
-                                 None if lights is None else lights.image,
-                                 1 if lights is None else lights.factor, tally, mean=False)
+        # A clean copy (nothing for the lights to clamp): their first pass in the kernel
+        first = (lights.extractor.first_pass_args(lights.image.shape[:2])
+                 if lights is not None and lights.clean else None)
+        done = self.fold.decode_project(frame, table, sinks.sh9.acc,
+                                        None if lights is None else lights.image,
+                                        1 if lights is None else lights.factor, tally,
+                                        mean=False, first=first)
         if lights is not None:    # block sums: the lights' first pass scales them in cache
-            lights.scale = 1.0 / (lights.factor * lights.factor)
+            lights.first = done
+            lights.scale = 1.0 if done else 1.0 / (lights.factor * lights.factor)
         if clip is not None:
             clip.folded(tally, stats)
         for s in sinks.all:

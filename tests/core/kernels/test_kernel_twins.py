@@ -162,9 +162,9 @@ FOLD_FAULTS = ["square off the frame", "right half left of the left", "float fra
 
 
 @st.composite
-def fold_calls(draw):
-    """fold_lens's arguments: half of them right, half with one fault."""
-    fault = draw(st.sampled_from(FOLD_FAULTS)) if draw(st.booleans()) else None
+def fold_calls(draw, faults=tuple(FOLD_FAULTS)):
+    """fold_lens's arguments: half of them right, half with one fault (of ``faults``)."""
+    fault = draw(st.sampled_from(faults)) if faults and draw(st.booleans()) else None
     rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
     nx, ny = draw(st.integers(1, 6)), draw(st.integers(1, 6))
     W, H = 2 * nx + draw(st.integers(0, 7)), 2 * ny + draw(st.integers(0, 7))
@@ -286,6 +286,125 @@ def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
         bound = 5 * EPS32 * made[0].sum() * 4 * (1 + len(others))
         assert np.all(np.abs(clip[1:] - want_clip[1:])
                       <= bound + 1e-12 * np.abs(start_clip[0][1:]))
+
+
+EXTRA_FAULTS = ["residual a list", "residual starts short", "residual starts decreasing",
+                "residual col past the frame", "residual sums of 2 channels",
+                "first a list", "first without clear", "first without mid", "first omega short",
+                "first factor 0", "first coarse too tall", "first luma of 4"]
+
+
+@st.composite
+def fold_extra_calls(draw):
+    """fold_lens's arguments with its unpaired pixels (``residual``) and the lights' first
+    pass (``first``): a right base call, then half of them right, half with one fault."""
+    call = list(draw(fold_calls(faults=())))
+    call += [None] * (16 - len(call))
+    fault = draw(st.sampled_from(EXTRA_FAULTS)) if draw(st.booleans()) else None
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    frame, mid = call[0], call[12]
+    H, W = frame.shape[:2]
+    residual = None
+    if draw(st.booleans()) or fault and fault.startswith("residual"):
+        R, C = draw(st.integers(0, 12)), draw(st.integers(1, 11))
+        rows = np.sort(rng.integers(0, H, R))
+        starts = np.searchsorted(rows, np.arange(H + 1)).astype(np.int32)
+        cols = rng.integers(0, W, R).astype(np.int32)
+        if fault == "residual starts short":
+            starts = starts[:-1]
+        elif fault == "residual starts decreasing" and H > 1:
+            starts[1] = R + 1
+        elif fault == "residual col past the frame" and R:
+            cols[-1] = W
+        residual = (starts, cols, rng.standard_normal((R, C)).astype(np.float32),
+                    rng.standard_normal((C, 2 if fault == "residual sums of 2 channels" else 3)))
+        if fault == "residual a list":
+            residual = list(residual)
+    first = None
+    if fault and fault.startswith("first") or (not fault and draw(st.booleans())):
+        if fault == "first without mid":
+            mid = call[12] = None
+        elif mid is None:
+            mid = call[12] = np.zeros((H, W, 3), np.float32)
+            call[13] = 1
+        call[14] = fault != "first without clear"
+        h, w = (H, W) if mid is None else mid.shape[:2]
+        cf = 0 if fault == "first factor 0" else draw(st.integers(1, 3))
+        coarse = None
+        if draw(st.booleans()) or fault == "first coarse too tall":
+            c = max(cf, 1)
+            coarse = np.empty((h // c + (fault == "first coarse too tall"), w // c, 3),
+                              np.float32)
+        first = (rng.random(4 if fault == "first luma of 4" else 3).astype(np.float32),
+                 rng.random((h - (fault == "first omega short"), w)).astype(np.float32),
+                 np.empty((h, w), np.float32), coarse, cf,
+                 draw(st.sampled_from([1.0, 0.25, 1 / 9])))
+        if fault == "first a list":
+            first = list(first)
+    return tuple(call) + (residual, first)
+
+
+def _run_extra(kernel, call):
+    """(the error, None) or (None, (sums, mid, clip, residual sums, Y, coarse, total)) of
+    fold_lens on copies of what it writes."""
+    call = list(call)
+    for i in (11, 12, 15):
+        call[i] = None if call[i] is None else call[i].copy()
+    res, first = call[16], call[17]
+    if isinstance(res, tuple):
+        res = call[16] = res[:3] + (res[3].copy(),)
+    if isinstance(first, tuple):
+        first = call[17] = first[:2] + tuple(None if a is None else a.copy()
+                                             for a in first[2:4]) + first[4:]
+    try:
+        total = kernel(*call)
+    except Exception as exc:          # noqa: BLE001: the error itself is compared
+        return exc, None
+    return None, (call[11], call[12], call[15], None if res is None else res[3],
+                  None if first is None else first[2], None if first is None else first[3],
+                  total)
+
+
+@pytest.mark.parametrize("build", ["vector", "scalar"])
+@SETTINGS
+@given(call=fold_extra_calls())
+def test_fold_lens_residual_and_first_pass_agree_with_the_twin(c_kernels, build, call):
+    """The unpaired pixels read at their rows and the first pass run band by band as the
+    fold completes them (C) give what the twin gives reading them, and running the first
+    pass, at the end; and each one's Y, coarse copy and Σ Y ω are its own copy's."""
+    (c_err, c_out), (t_err, t_out) = (_run_extra(k, call) for k in (
+        c_kernels[build][1], fold_twin.fold_lens))
+    if c_err is not None or t_err is not None:
+        assert (type(c_err), str(c_err)) == (type(t_err), str(t_err)), (c_err, t_err)
+        return
+    frame, table, residual, first = call[0], call[1], call[16], call[17]
+    values = np.abs(np.asarray(frame, np.float64) if table is None else table).max(initial=0)
+    if residual is not None:
+        # float32 weights times samples, summed in double by both (BLAS's order or the rows')
+        w = np.abs(residual[2]).astype(np.float64).sum(axis=0)
+        assert np.all(np.abs(c_out[3] - t_out[3])
+                      <= 1e-12 * ((w * values)[:, None] + np.abs(residual[3])) + 1e-300)
+    assert (c_out[6] is None) == (first is None) == (t_out[6] is None)
+    if first is None:
+        return
+    mid_c, mid_t = c_out[1], t_out[1]
+    # a block's at most f² + R samples summed in float32 by the C (float64 by the twin)
+    f, R = call[13], 0 if residual is None else len(residual[1])
+    n = f * f * (1 + len(call[3])) + R
+    held = 0.0 if call[14] else np.abs(call[12]).max(initial=0)
+    np.testing.assert_allclose(mid_c, mid_t, rtol=0,
+                               atol=(n + 2) * EPS32 * (held + n * values) * first[5] * 2 + 1e-30)
+    luma, omega, cf = first[0].astype(np.float64), first[1].astype(np.float64), first[4]
+    for mid, Y, coarse, total in ((mid_c, *c_out[4:]), (mid_t, *t_out[4:])):
+        m = mid.astype(np.float64)
+        assert np.all(np.abs(Y - m @ luma) <= 5 * EPS32 * (np.abs(m) @ luma) + 1e-30)
+        assert total == pytest.approx(float((Y.astype(np.float64) * omega).sum()),
+                                      rel=1e-6, abs=1e-6 * float(np.abs(Y).sum()) + 1e-30)
+        if coarse is not None:
+            hc, wc = coarse.shape[:2]
+            blocks = m[:hc * cf, :wc * cf].reshape(hc, cf, wc, cf, 3)
+            tol = (cf * cf + 2) * EPS32 * np.abs(blocks).max(initial=0) + 1e-30
+            np.testing.assert_allclose(coarse, blocks.mean(axis=(1, 3)), rtol=0, atol=tol)
 
 
 COUNT_FAULTS = ["float frame", "pixels not contiguous", "rects of 3", "rects of int64",

@@ -181,6 +181,48 @@ def test_fold_kernel_gives_the_lights_the_block_means_of_what_they_see(monkeypat
     assert got.stats["light_error"] == pytest.approx(want.stats["light_error"], abs=FOLD_ATOL)
 
 
+@pytest.mark.parametrize("clip", [False, True])
+def test_fold_kernel_runs_the_lights_first_pass_as_it_fills_their_copy(kernels, clip):
+    """The lights' first pass run by the fold kernel on each band of their copy as the fold
+    completes it (issue 44: the copy crosses the memory bus once): the same copy, luminance
+    and coarse copy as the first pass run on the finished copy (the same float32
+    operations on the same sums: equal), the same Σ Y ω (a double sum in another band
+    order: 1e-12), the same SH9 sums, unpaired pixels and clip tally."""
+    from provider.core.lights.first_pass import first_pass
+    from provider.core.sh9.engine import SH9Projector
+    p = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
+    frame = _lamp_frame(1280, 720, 11)
+    frame[300:340, 100:1200] = 255                      # clipped rows across both lenses
+    ext, f = p._extractor, p._extractor.mid_factor
+    table = p._lut(np.uint8)
+    args = ext.first_pass_args((ext.mid.height, ext.mid.width))
+    assert args[2] is not None, "the Theta S's coarse pixels are whole blocks of its copy"
+    runs = []
+    for fused in (True, False):
+        mid, acc = ext.new_mid(), p._fold.new()
+        tally = np.zeros(4) if clip else None
+        out = p._fold.decode_project(frame, table, acc, mid, f, tally, mean=False,
+                                     first=args if fused else None)
+        if not fused:
+            assert out is None
+            out = first_pass(mid, 1.0 / (f * f), *args)
+        runs.append((mid, out, p._fold.coefficients(acc), tally))
+    (mid, (Y, total, coarse), sh9, tally), (mid0, (Y0, total0, coarse0), sh90, tally0) = runs
+    np.testing.assert_array_equal(mid, mid0)
+    np.testing.assert_array_equal(Y, Y0)
+    np.testing.assert_array_equal(coarse, coarse0)
+    assert total == pytest.approx(total0, rel=1e-12) and total > 0
+    np.testing.assert_array_equal(sh9, sh90)
+    if clip:
+        np.testing.assert_array_equal(tally, tally0)
+        assert tally[0] > 0
+    # and what the lights see: block means of the decoded frame (black outside the lenses)
+    seen = np.any(p.projection.sh_weights != 0, axis=1).reshape(720, 1280)
+    lin = np.where(seen[..., None], table[frame.astype(np.intp)], 0.0)
+    means = lin.reshape(720 // f, f, 1280 // f, f, 3).mean(axis=(1, 3))
+    np.testing.assert_allclose(mid, means, rtol=2e-6, atol=1e-9)
+
+
 def test_fold_kernel_frames_in_a_row_leave_nothing_behind(kernels):
     """Its buffers are per call: a frame after another gives what a fresh projector gives."""
     from provider.core.sh9.engine import SH9Projector
