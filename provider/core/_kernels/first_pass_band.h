@@ -7,15 +7,18 @@
 #define SHLIGHT_FIRST_PASS_BAND_H
 
 #include <Python.h>
+#include <math.h>
 
 /* Mid rows [r0, min(r0 + f, h)) of the (h, w, 3) copy mid: scaled in place by scale
- * (skipped at 1), their luminance l . rgb into Y, Y times omega added to *total (float32
- * products, a double sum), and where coarse is given and the band is one of its hc rows
- * (r0 / f < hc), the means of its first wc f x f blocks into coarse's row r0 / f. */
+ * (skipped at 1), their luminance l . rgb into Y and each row's largest Y into Ymax (-inf
+ * for a row of none above it: a NaN is never the largest, as it is never above a
+ * threshold), Y times omega added to *total (float32 products, a double sum), and where
+ * coarse is given and the band is one of its hc rows (r0 / f < hc), the means of its first
+ * wc f x f blocks into coarse's row r0 / f. */
 static void
-first_pass_band(float *mid, float *Y, const float *omega, float *coarse, Py_ssize_t h,
-                Py_ssize_t w, Py_ssize_t hc, Py_ssize_t wc, Py_ssize_t f, Py_ssize_t r0,
-                float scale, const float *luma, double *total)
+first_pass_band(float *mid, float *Y, float *Ymax, const float *omega, float *coarse,
+                Py_ssize_t h, Py_ssize_t w, Py_ssize_t hc, Py_ssize_t wc, Py_ssize_t f,
+                Py_ssize_t r0, float scale, const float *luma, double *total)
 {
     const float l0 = luma[0], l1 = luma[1], l2 = luma[2];
     const float inv = 1.0f / (float)(f * f);
@@ -27,11 +30,14 @@ first_pass_band(float *mid, float *Y, const float *omega, float *coarse, Py_ssiz
         if (scale != 1.0f)
             for (Py_ssize_t i = 0; i < 3 * w; i++)
                 m[i] *= scale;
+        float top = -HUGE_VALF;
         for (Py_ssize_t x = 0; x < w; x++) {
             const float Yx = (l0 * m[3 * x] + l1 * m[3 * x + 1]) + l2 * m[3 * x + 2];
             yr[x] = Yx;
+            top = Yx > top ? Yx : top;
             sum += (double)(Yx * om[x]);
         }
+        Ymax[y] = top;
     }
     *total = sum;
     if (coarse != NULL && r0 / f < hc && r0 + f <= h) {

@@ -2,7 +2,7 @@
  * normals from the coarse rest by caps of normals, and the candidates' excess irradiance
  * at the normals their horizon cuts.
  *
- * first_pass(mid, scale, luma, omega, Y, coarse, factor) -> total
+ * first_pass(mid, scale, luma, omega, Y, coarse, factor, Ymax) -> total
  *   mid      float32 (h, w, 3) contiguous, scaled by (float) scale in place (the fold
  *            kernel's block sums to means; 1: left as it is)
  *   luma     float32 (3,): the luminance weights
@@ -10,6 +10,9 @@
  *   Y        float32 (h, w) contiguous, written: luma . rgb, in that order
  *   coarse   None, or float32 (hc, wc, 3) contiguous, written: the means of mid's
  *            factor x factor blocks, hc * factor <= h, wc * factor <= w
+ *   Ymax     float32 (h,) contiguous, written: each row's largest Y (-inf where none is
+ *            above it: a NaN never is), so that the pixels above a threshold are looked
+ *            for in the rows that hold some (a lit Theta S frame's: 33 of 144)
  *   total    sum of Y w (float32 products, a double sum)
  * One pass over the mid copy a band of factor rows at a time, each band in cache for its
  * scale, luminance, flux and block means (numpy and OpenCV took a call and a temporary
@@ -390,25 +393,26 @@ excess_rows(PyObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
-/* first_pass(mid, scale, luma, omega, Y, coarse, factor): see the file's head. */
+/* first_pass(mid, scale, luma, omega, Y, coarse, factor, Ymax): see the file's head. */
 static PyObject *
 first_pass(PyObject *self, PyObject *args)
 {
     PyObject *obj[6];
     double scale_d;
     Py_ssize_t f;
-    if (!PyArg_ParseTuple(args, "OdOOOOn", &obj[0], &scale_d, &obj[1], &obj[2], &obj[3],
-                          &obj[4], &f))
+    if (!PyArg_ParseTuple(args, "OdOOOOnO", &obj[0], &scale_d, &obj[1], &obj[2], &obj[3],
+                          &obj[4], &f, &obj[5]))
         return NULL;
     const int use_coarse = obj[4] != Py_None;
-    static const int nd[5] = {3, 1, 2, 2, 3};
-    static const char *name[5] = {"mid", "luma", "omega", "Y", "coarse"};
-    Py_buffer v[5];
+    static const int nd[6] = {3, 1, 2, 2, 1, 3};
+    static const char *name[6] = {"mid", "luma", "omega", "Y", "Ymax", "coarse"};
+    PyObject *in[6] = {obj[0], obj[1], obj[2], obj[3], obj[5], obj[4]};
+    Py_buffer v[6];
     int got = 0;
-    for (; got < 4 + use_coarse; got++)
-        if (get_view(obj[got], &v[got], got == 0 || got >= 3, "f", nd[got], name[got]) < 0)
+    for (; got < 5 + use_coarse; got++)
+        if (get_view(in[got], &v[got], got == 0 || got >= 3, "f", nd[got], name[got]) < 0)
             break;
-    const int want = 4 + use_coarse;
+    const int want = 5 + use_coarse;
     const char *err = NULL;
     Py_ssize_t h = 0, w = 0, hc = 0, wc = 0;
     if (got == want) {
@@ -424,12 +428,14 @@ first_pass(PyObject *self, PyObject *args)
         else if (!err && (v[2].shape[0] != h || v[2].shape[1] != w || v[3].shape[0] != h
                           || v[3].shape[1] != w))
             err = "omega, Y: (h, w) float32, mid's height and width";
+        else if (!err && v[4].shape[0] != h)
+            err = "Ymax: (h,) float32";
         else if (!err && f < 1)
             err = "factor: at least 1";
         else if (!err && use_coarse) {
-            hc = v[4].shape[0];
-            wc = v[4].shape[1];
-            if (v[4].shape[2] != 3 || hc > h / f || wc > w / f)
+            hc = v[5].shape[0];
+            wc = v[5].shape[1];
+            if (v[5].shape[2] != 3 || hc > h / f || wc > w / f)
                 err = "coarse: (hc, wc, 3) float32, hc * factor <= h, wc * factor <= w";
         }
     }
@@ -442,12 +448,13 @@ first_pass(PyObject *self, PyObject *args)
     }
     float *mid = (float *)v[0].buf, *Y = (float *)v[3].buf;
     const float *luma = (const float *)v[1].buf, *omega = (const float *)v[2].buf;
-    float *coarse = use_coarse ? (float *)v[4].buf : NULL;
+    float *coarse = use_coarse ? (float *)v[5].buf : NULL, *Ymax = (float *)v[4].buf;
     const float scale = (float)scale_d;
     double total = 0.0;
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t r0 = 0; r0 < h; r0 += f)
-        first_pass_band(mid, Y, omega, coarse, h, w, hc, wc, f, r0, scale, luma, &total);
+        first_pass_band(mid, Y, Ymax, omega, coarse, h, w, hc, wc, f, r0, scale, luma,
+                        &total);
     Py_END_ALLOW_THREADS
     for (int i = 0; i < want; i++)
         PyBuffer_Release(&v[i]);
@@ -456,8 +463,9 @@ first_pass(PyObject *self, PyObject *args)
 
 static PyMethodDef methods[] = {
     {"first_pass", first_pass, METH_VARARGS,
-     "first_pass(mid, scale, luma, omega, Y, coarse, factor) -> total: the mid copy "
-     "scaled, its luminance Y, its coarse block means and sum of Y omega."},
+     "first_pass(mid, scale, luma, omega, Y, coarse, factor, Ymax) -> total: the mid copy "
+     "scaled, its luminance Y and each row's largest, its coarse block means and sum of "
+     "Y omega."},
     {"truth_caps", truth_caps, METH_VARARGS,
      "truth_caps(x, dw, core, core_at, band, band_at, normals, out): the lights' "
      "truth at the normals, by caps (out written)."},

@@ -32,4 +32,5 @@ def first_pass(
     Y: npt.NDArray[np.float32],
     coarse: npt.NDArray[np.float32] | None,
     factor: int,
+    Ymax: npt.NDArray[np.float32],
 ) -> float: ...

@@ -354,18 +354,20 @@ class LightExtractor:
         # C-contiguous float32 (a copy where not), scaled in place by the first pass
         small = np.ascontiguousarray(self.reduce(frame, clean), np.float32)
         h, w = small.shape[:2]
-        Y, total, coarse = first if first is not None else first_pass(
+        Y, total, coarse, Ymax = first if first is not None else first_pass(
             small, mean_scale, *self.first_pass_args((h, w)))
         mu = total / self._coverage if self._coverage > 0 else 0.0
         candidates, groups = [], []
         rest, extra = small, None
-        Yf = Y.reshape(-1)
-        idx0 = np.flatnonzero(Yf > self.thresholds[0] * mu) if mu > 0 and math.isfinite(mu) \
-            else np.zeros(0, np.intp)
+        idx0 = np.zeros(0, np.intp)
+        if mu > 0 and math.isfinite(mu):   # in the rows that hold a pixel above (Ymax)
+            rows = np.flatnonzero(Ymax > self.thresholds[0] * mu)
+            k = np.flatnonzero(Y[rows] > self.thresholds[0] * mu)
+            idx0 = rows[k // w] * w + k % w
         if idx0.size:
             # Everything below works on the pixels above the lowest level only (a few %).
             flat = small.reshape(-1, 3)
-            Y0_32 = Yf[idx0]
+            Y0_32 = Y.reshape(-1)[idx0]
             Y0 = Y0_32.astype(np.float64)
             # np.take: a row gather at a tenth of fancy indexing's instructions
             L0 = np.take(flat, idx0, axis=0).astype(np.float64)

@@ -27,26 +27,28 @@ TWIN_ROWS = 32
 
 def first_pass(mid: np.ndarray, scale: float, luma: np.ndarray, omega: np.ndarray,
                coarse_size: tuple[int, int] | None, factor: int):
-    """(Y, total, coarse) of the mid copy ``mid`` (h, w, 3) float32 C-contiguous, first
-    multiplied in place by ``scale`` (block sums to means; 1: left as it is): its luminance
-    ``luma · rgb`` (h, w) float32, ``Σ Y ω`` over ``omega`` (h, w) float32 (float32
-    products, a float64 sum), and where ``coarse_size`` (wc, hc) is given, the means of
-    its ``factor`` × ``factor`` blocks (hc, wc, 3) float32 (else None)."""
+    """(Y, total, coarse, Ymax) of the mid copy ``mid`` (h, w, 3) float32 C-contiguous,
+    first multiplied in place by ``scale`` (block sums to means; 1: left as it is): its
+    luminance ``luma · rgb`` (h, w) float32, ``Σ Y ω`` over ``omega`` (h, w) float32
+    (float32 products, a float64 sum), where ``coarse_size`` (wc, hc) is given the means of
+    its ``factor`` × ``factor`` blocks (hc, wc, 3) float32 (else None), and each row's
+    largest Y (h,) float32 (−inf where none is above it)."""
     h, w = mid.shape[:2]
-    Y = np.empty((h, w), np.float32)
+    Y, Ymax = np.empty((h, w), np.float32), np.empty(h, np.float32)
     coarse = (None if coarse_size is None
               else np.empty((coarse_size[1], coarse_size[0], 3), np.float32))
-    total = _first_pass_kernel(mid, float(scale), luma, omega, Y, coarse, int(factor))
-    return Y, float(total), coarse
+    total = _first_pass_kernel(mid, float(scale), luma, omega, Y, coarse, int(factor), Ymax)
+    return Y, float(total), coarse, Ymax
 
 
-def first_pass_twin(mid, scale, luma, omega, Y, coarse, factor) -> float:
+def first_pass_twin(mid, scale, luma, omega, Y, coarse, factor, Ymax) -> float:
     """The C kernel ``_lights.first_pass`` in numpy and OpenCV: the same arguments, numbers
     (to float rounding) and errors (``_lights.c`` says what each argument is); a band of
     :data:`TWIN_ROWS` rows at a time, each in cache for its three reads."""
-    views = [buffer_view(a, name != "luma" and name != "omega", "f", nd, name)
-             for a, name, nd in zip((mid, luma, omega, Y, coarse),
-                                    ("mid", "luma", "omega", "Y", "coarse"), (3, 1, 2, 2, 3))
+    views = [buffer_view(a, name not in ("luma", "omega"), "f", nd, name)
+             for a, name, nd in zip((mid, luma, omega, Y, Ymax, coarse),
+                                    ("mid", "luma", "omega", "Y", "Ymax", "coarse"),
+                                    (3, 1, 2, 2, 1, 3))
              if a is not None]
     if not all(map(contiguous, views)):
         raise ValueError("every array: C-contiguous")
@@ -57,6 +59,8 @@ def first_pass_twin(mid, scale, luma, omega, Y, coarse, factor) -> float:
         raise ValueError("luma: (3,) float32")
     if omega.shape != (h, w) or Y.shape != (h, w):
         raise ValueError("omega, Y: (h, w) float32, mid's height and width")
+    if Ymax.shape != (h,):
+        raise ValueError("Ymax: (h,) float32")
     if factor < 1:
         raise ValueError("factor: at least 1")
     if coarse is not None and (coarse.shape[2] != 3 or coarse.shape[0] > h // factor
@@ -75,6 +79,8 @@ def first_pass_twin(mid, scale, luma, omega, Y, coarse, factor) -> float:
             band *= np.float32(scale)
         y = Y[r0:r0 + rows]
         y[...] = cv2.transform(band, m).reshape(y.shape)
+        # each row's largest, NaN never (fmax), −inf for a row of none (as the C)
+        Ymax[r0:r0 + rows] = np.fmax.reduce(y, axis=1, initial=-np.inf)
         total += cv2.sumElems(cv2.multiply(y, omega[r0:r0 + rows]))[0]
         if coarse is not None and r0 < bh:
             r1 = min(r0 + rows, bh)

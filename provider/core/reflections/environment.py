@@ -50,6 +50,7 @@ from ..radiometry.checker import colour_matrix
 from ..radiometry.decode import FrameDecoder, image_array
 from ..options import check_options, exposure_scale, freeze_options
 from ..blas import one_blas_thread
+from ..ufunc_buffers import cache_sized_buffers
 from ..errors import InputError
 from ..geometry.projections import Equirect, Projection, ProjectionError, make_projection
 
@@ -311,6 +312,7 @@ class EnvironmentProjector(FrameDecoder):
 
     # -- per frame ------------------------------------------------------------------------
     @one_blas_thread
+    @cache_sized_buffers
     def project(self, frame: np.ndarray, *, exposure_s: float | None = None,
                 gain: float = 1.0, work: "WorkImage | None" = None) -> EnvironmentResult:
         """The cube of one frame (the frame contract of :mod:`provider.core.sh9.engine`).
@@ -434,6 +436,7 @@ class EnvironmentProjector(FrameDecoder):
         return EnvironmentResult(self._prefiltered(source), list(self.roughness), {}, source)
 
     @one_blas_thread
+    @cache_sized_buffers
     def refilter(self, result: EnvironmentResult) -> EnvironmentResult:
         """The cube of the frame that ``result`` was made from, its mips prefiltered at this
         projector's roughness: ``result`` is from a projector of the same geometry (this

@@ -59,7 +59,7 @@
  *             int32 (R,) their columns, weights float32 (R, C) their world-frame weights,
  *             rsums float64 (C, 3) added to: sum of weight times decoded sample; their L00
  *             (column 0) where clipped into clip, their samples into mid's blocks
- *   first     None, or (luma, omega, Y, coarse, cf, scale): the lights' first pass
+ *   first     None, or (luma, omega, Y, coarse, cf, scale, Ymax): the lights' first pass
  *             (lights/_lights.c's first_pass, first_pass_band.h) run on each band of cf
  *             rows of mid once every lens has spilled into it, while it is in cache (the
  *             rest at the end); needs mid and clear (the only call); returns its sum of
@@ -87,7 +87,7 @@
 #include <arm_neon.h>
 #endif
 
-#define NVIEWS 20
+#define NVIEWS 21
 
 #if KERNEL_VECTOR
 /* Four floats: GCC's and Clang's vector extension, SSE on x86-64 and NEON on 64-bit ARM.
@@ -512,9 +512,9 @@ fold_lens(PyObject *self, PyObject *args)
                         "residual: a tuple (starts, cols, weights, sums) or None");
         return NULL;
     }
-    if (use_first && !(PyTuple_Check(first_obj) && PyTuple_GET_SIZE(first_obj) == 6)) {
+    if (use_first && !(PyTuple_Check(first_obj) && PyTuple_GET_SIZE(first_obj) == 7)) {
         PyErr_SetString(PyExc_TypeError,
-                        "first: a tuple (luma, omega, Y, coarse, factor, scale) or None");
+                        "first: a tuple (luma, omega, Y, coarse, factor, scale, Ymax) or None");
         return NULL;
     }
     Py_ssize_t cf = 1;
@@ -563,6 +563,7 @@ fold_lens(PyObject *self, PyObject *args)
         VIEW(16, PyTuple_GET_ITEM(first_obj, 0), 0, "f", 1, "luma");
         VIEW(17, PyTuple_GET_ITEM(first_obj, 1), 0, "f", 2, "omega");
         VIEW(18, PyTuple_GET_ITEM(first_obj, 2), 1, "f", 2, "Y");
+        VIEW(20, PyTuple_GET_ITEM(first_obj, 6), 1, "f", 1, "Ymax");
         if (coarse_obj != Py_None)
             VIEW(19, coarse_obj, 1, "f", 3, "coarse");
     }
@@ -571,7 +572,7 @@ fold_lens(PyObject *self, PyObject *args)
     Py_buffer sums = views[5], mid = views[6], rad = views[7], fat = views[8], fix = views[9];
     Py_buffer oth = views[10], cl = views[11];
     Py_buffer rst = views[12], rcol = views[13], rw = views[14], rsum = views[15];
-    Py_buffer lu = views[16], om = views[17], yv = views[18], co = views[19];
+    Py_buffer lu = views[16], om = views[17], yv = views[18], co = views[19], ym = views[20];
     const int use_coarse = use_first && coarse_obj != Py_None;
     const Py_ssize_t L = 1 + oth.shape[0];
     Py_ssize_t H = fr.shape[0], W = fr.shape[1], K = tabs.shape[0];
@@ -623,6 +624,8 @@ fold_lens(PyObject *self, PyObject *args)
                            || om.shape[1] != W / f || yv.shape[0] != H / f
                            || yv.shape[1] != W / f))
         err = "omega, Y: (h, w) float32, mid's height and width";
+    else if (use_first && (!contiguous(&ym) || ym.shape[0] != H / f))
+        err = "Ymax: (h,) float32";
     else if (use_first && cf < 1)
         err = "first: factor at least 1";
     else if (use_coarse && (!contiguous(&co) || co.shape[2] != 3
@@ -788,7 +791,7 @@ fold_lens(PyObject *self, PyObject *args)
 #define FIRST_BAND(b) do { \
             for (Py_ssize_t r = (b) * cf; r < (b) * cf + cf && r < mh; r++) \
                 (void)MID_ROW(r); \
-            first_pass_band(midp, (float *)yv.buf, (const float *)om.buf, \
+            first_pass_band(midp, (float *)yv.buf, (float *)ym.buf, (const float *)om.buf, \
                             use_coarse ? (float *)co.buf : NULL, mh, mw, \
                             use_coarse ? co.shape[0] : 0, use_coarse ? co.shape[1] : 0, \
                             cf, (b) * cf, (float)fscale, (const float *)lu.buf, &ftotal); \

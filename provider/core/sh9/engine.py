@@ -36,6 +36,7 @@ from .result import SH9Result
 from .meter import UpSum, has_absolute_scale, pixels_up_illuminance, up_weights
 from .support import DecodeSpans, DownsampledSpans, FoldDecode
 from ..blas import one_blas_thread
+from ..ufunc_buffers import cache_sized_buffers
 from ..errors import InputError
 from ..framepass.sinks import Sink, Sinks, SmallFrame, WholeFrame
 from ..framepass.traversal import BlockMeans, FloatBands, FramePass, LutBands, band_rows
@@ -276,6 +277,7 @@ class SH9Projector(FrameDecoder):
         return self._clipped.whole(frame, lut, stats)
 
     @one_blas_thread
+    @cache_sized_buffers
     def project(self, frame: np.ndarray, error_estimate: bool | None = None,
                 tracker=None, *, exposure_s: float | None = None, gain: float = 1.0,
                 f_number: float | None = None, work=None, units=None) -> SH9Result:

@@ -61,8 +61,8 @@ def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at,
     (the arguments) and ``_fold.pyi``."""
     if residual is not None and not (isinstance(residual, tuple) and len(residual) == 4):
         raise TypeError("residual: a tuple (starts, cols, weights, sums) or None")
-    if first is not None and not (isinstance(first, tuple) and len(first) == 6):
-        raise TypeError("first: a tuple (luma, omega, Y, coarse, factor, scale) or None")
+    if first is not None and not (isinstance(first, tuple) and len(first) == 7):
+        raise TypeError("first: a tuple (luma, omega, Y, coarse, factor, scale, Ymax) or None")
     cf, fscale = (operator.index(first[4]), float(first[5])) if first is not None else (1, 1.0)
     xl, xr, yt, yb, nx, ny = (operator.index(v) for v in _six(geometry))
     f, clear = c_int(factor), bool(clear)
@@ -87,7 +87,8 @@ def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at,
                                              "residual weights", "residual sums")))]
     fv = None if first is None else [
         buffer_view(a, n >= 2, "f", nd, name) for n, (a, nd, name) in enumerate(zip(
-            first[:4], (1, 2, 2, 3), ("luma", "omega", "Y", "coarse"))) if a is not None]
+            (*first[:3], first[6], first[3]), (1, 2, 2, 1, 3),
+            ("luma", "omega", "Y", "Ymax", "coarse"))) if a is not None]
     H, W = fr.shape[:2]
     K = tabs.shape[0]
     item = 4 if linear else 1
@@ -135,11 +136,13 @@ def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at,
     elif fv is not None and (not contiguous(fv[1]) or not contiguous(fv[2])
                              or not fv[1].shape == fv[2].shape == (H // f, W // f)):
         err = "omega, Y: (h, w) float32, mid's height and width"
+    elif fv is not None and (not contiguous(fv[3]) or fv[3].shape != (H // f,)):
+        err = "Ymax: (h,) float32"
     elif fv is not None and cf < 1:
         err = "first: factor at least 1"
-    elif fv is not None and len(fv) == 4 and (
-            not contiguous(fv[3]) or fv[3].shape[2] != 3 or fv[3].shape[0] > (H // f) // cf
-            or fv[3].shape[1] > (W // f) // cf):
+    elif fv is not None and len(fv) == 5 and (
+            not contiguous(fv[4]) or fv[4].shape[2] != 3 or fv[4].shape[0] > (H // f) // cf
+            or fv[4].shape[1] > (W // f) // cf):
         err = "coarse: (hc, wc, 3) float32, hc * factor <= h, wc * factor <= w"
     if err is None and rv is not None:
         starts, rcols = np.asarray(rv[0]).astype(np.int64), np.asarray(rv[1]).astype(np.int64)
@@ -184,8 +187,8 @@ def fold_lens(frame, table, geometry, others, extents, radial, inv_step, fix_at,
         np.asarray(cl)[...] += tally
     if fv is not None:            # the lights' first pass over the finished copy
         return first_pass_twin(np.asarray(md), fscale, np.asarray(fv[0]), np.asarray(fv[1]),
-                               np.asarray(fv[2]), np.asarray(fv[3]) if len(fv) == 4 else None,
-                               cf)
+                               np.asarray(fv[2]), np.asarray(fv[4]) if len(fv) == 5 else None,
+                               cf, np.asarray(fv[3]))
     return None
 
 

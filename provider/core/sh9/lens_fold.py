@@ -276,11 +276,10 @@ class LensFold:
         others counted as black (as a lens's surround). ``clip`` (4,) float64: the kernel's
         clip tally of the lenses' squares and of the unpaired pixels' L00 (``_fold.c``).
         ``mean`` False: ``mid`` is left as block sums (its reader scales them in cache).
-
         ``first`` (luma, omega, coarse_size, coarse_factor): the lights' first pass
         (:func:`~provider.core.lights.first_pass.first_pass`) run by the kernel on each band
-        of ``mid`` as it completes, while it is in cache, where one call folds every lens:
-        returns its (Y, total, coarse), ``mid`` made block means; else None."""
+        of ``mid`` as it completes (in cache) where one call folds every lens: returns its
+        (Y, total, coarse, Ymax), ``mid`` made block means; else None."""
         t = None if table is None else np.ascontiguousarray(table, np.float32).reshape(-1)
         item = frame.itemsize
         if frame.strides[2] != item or frame.strides[1] != 3 * item:
@@ -289,11 +288,12 @@ class LensFold:
         if first is not None and mid is not None and len(calls) == 1:
             luma, omega, size, cf = first      # its Y and coarse copy, for the kernel to fill
             fused = (np.empty(mid.shape[:2], np.float32),
-                     None if size is None else np.empty((size[1], size[0], 3), np.float32))
-            first = (luma, omega, *fused, int(cf), 1.0 / (factor * factor))
-        sums, total = [None] * len(self.lenses), None
-        residual = (*self._residual_args(frame.shape[0]),
-                    np.zeros((self._res_weights.shape[1], 3))) if self._res_index.size else None
+                     None if size is None else np.empty((size[1], size[0], 3), np.float32),
+                     np.empty(mid.shape[0], np.float32))
+            first = (luma, omega, *fused[:2], int(cf), 1.0 / (factor * factor), fused[2])
+        sums, total, residual = [None] * len(self.lenses), None, None
+        if self._res_index.size:
+            residual = (*self._residual_args(frame.shape[0]), np.zeros((self.extras + 9, 3)))
         for n, (lead, rest) in enumerate(calls):
             L = self.lenses[lead]
             geometry, extent, radial, inv, fix_at, fixes, tables, codes = L.kernel_data
@@ -317,7 +317,7 @@ class LensFold:
         if residual is not None:
             state["res"] += residual[3].T
         if fused:
-            return fused[0], float(total), fused[1]
+            return fused[0], float(total), fused[1], fused[2]
         if mid is not None and mean:
             mid *= np.float32(1.0 / (factor * factor))
         return None

@@ -291,7 +291,7 @@ def test_fold_lens_and_its_twin_agree(c_kernels, build, call):
 EXTRA_FAULTS = ["residual a list", "residual starts short", "residual starts decreasing",
                 "residual col past the frame", "residual sums of 2 channels",
                 "first a list", "first without clear", "first without mid", "first omega short",
-                "first factor 0", "first coarse too tall", "first luma of 4"]
+                "first factor 0", "first coarse too tall", "first luma of 4", "first Ymax short"]
 
 
 @st.composite
@@ -338,15 +338,16 @@ def fold_extra_calls(draw):
         first = (rng.random(4 if fault == "first luma of 4" else 3).astype(np.float32),
                  rng.random((h - (fault == "first omega short"), w)).astype(np.float32),
                  np.empty((h, w), np.float32), coarse, cf,
-                 draw(st.sampled_from([1.0, 0.25, 1 / 9])))
+                 draw(st.sampled_from([1.0, 0.25, 1 / 9])),
+                 np.empty(h - (fault == "first Ymax short"), np.float32))
         if fault == "first a list":
             first = list(first)
     return tuple(call) + (residual, first)
 
 
 def _run_extra(kernel, call):
-    """(the error, None) or (None, (sums, mid, clip, residual sums, Y, coarse, total)) of
-    fold_lens on copies of what it writes."""
+    """(the error, None) or (None, (sums, mid, clip, residual sums, Y, coarse, total,
+    Ymax)) of fold_lens on copies of what it writes."""
     call = list(call)
     for i in (11, 12, 15):
         call[i] = None if call[i] is None else call[i].copy()
@@ -355,14 +356,15 @@ def _run_extra(kernel, call):
         res = call[16] = res[:3] + (res[3].copy(),)
     if isinstance(first, tuple):
         first = call[17] = first[:2] + tuple(None if a is None else a.copy()
-                                             for a in first[2:4]) + first[4:]
+                                             for a in first[2:4]) + first[4:6] + (
+                                                 first[6].copy(),)
     try:
         total = kernel(*call)
     except Exception as exc:          # noqa: BLE001: the error itself is compared
         return exc, None
     return None, (call[11], call[12], call[15], None if res is None else res[3],
                   None if first is None else first[2], None if first is None else first[3],
-                  total)
+                  total, None if first is None else first[6])
 
 
 @pytest.mark.parametrize("build", ["vector", "scalar"])
@@ -395,8 +397,9 @@ def test_fold_lens_residual_and_first_pass_agree_with_the_twin(c_kernels, build,
     np.testing.assert_allclose(mid_c, mid_t, rtol=0,
                                atol=(n + 2) * EPS32 * (held + n * values) * first[5] * 2 + 1e-30)
     luma, omega, cf = first[0].astype(np.float64), first[1].astype(np.float64), first[4]
-    for mid, Y, coarse, total in ((mid_c, *c_out[4:]), (mid_t, *t_out[4:])):
+    for mid, Y, coarse, total, Ymax in ((mid_c, *c_out[4:]), (mid_t, *t_out[4:])):
         m = mid.astype(np.float64)
+        np.testing.assert_array_equal(Ymax, np.max(Y, axis=1, initial=-np.inf))
         assert np.all(np.abs(Y - m @ luma) <= 5 * EPS32 * (np.abs(m) @ luma) + 1e-30)
         assert total == pytest.approx(float((Y.astype(np.float64) * omega).sum()),
                                       rel=1e-6, abs=1e-6 * float(np.abs(Y).sum()) + 1e-30)

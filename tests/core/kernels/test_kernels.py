@@ -187,7 +187,7 @@ def test_fold_kernel_runs_the_lights_first_pass_as_it_fills_their_copy(kernels, 
     completes it (issue 44: the copy crosses the memory bus once): the same copy, luminance
     and coarse copy as the first pass run on the finished copy (the same float32
     operations on the same sums: equal), the same Σ Y ω (a double sum in another band
-    order: 1e-12), the same SH9 sums, unpaired pixels and clip tally."""
+    order: 1e-12), rows' largest Y, SH9 sums, unpaired pixels and clip tally."""
     from provider.core.lights.first_pass import first_pass
     from provider.core.sh9.engine import SH9Projector
     p = SH9Projector(1280, 720, "dual-fisheye", lights="auto")
@@ -207,9 +207,12 @@ def test_fold_kernel_runs_the_lights_first_pass_as_it_fills_their_copy(kernels, 
             assert out is None
             out = first_pass(mid, 1.0 / (f * f), *args)
         runs.append((mid, out, p._fold.coefficients(acc), tally))
-    (mid, (Y, total, coarse), sh9, tally), (mid0, (Y0, total0, coarse0), sh90, tally0) = runs
+    (mid, (Y, total, coarse, top), sh9, tally), (mid0, (Y0, total0, coarse0, top0), sh90,
+                                                tally0) = runs
     np.testing.assert_array_equal(mid, mid0)
     np.testing.assert_array_equal(Y, Y0)
+    np.testing.assert_array_equal(top, top0)
+    np.testing.assert_array_equal(top, Y.max(axis=1))
     np.testing.assert_array_equal(coarse, coarse0)
     assert total == pytest.approx(total0, rel=1e-12) and total > 0
     np.testing.assert_array_equal(sh9, sh90)

@@ -241,12 +241,12 @@ def test_excess_rows_and_its_twin_agree(builds, build, args):
 
 FIRST_FAULTS = ["coarse too tall", "coarse too wide", "factor 0", "Y a row short",
                 "omega float64", "mid of 4 channels", "luma of 4", "mid not contiguous",
-                "Y read-only", "coarse of 2 dims"]
+                "Y read-only", "coarse of 2 dims", "Ymax a row short", "Ymax of 2 dims"]
 
 
 @st.composite
 def first_pass_calls(draw):
-    """first_pass's seven arguments: half of them right, half with one fault; any mid
+    """first_pass's eight arguments: half of them right, half with one fault; any mid
     size and factor, a coarse copy of any size that fits (or none)."""
     fault = draw(st.sampled_from(FIRST_FAULTS)) if draw(st.booleans()) else None
     rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
@@ -269,19 +269,21 @@ def first_pass_calls(draw):
         wc = draw(st.integers(0, w // f)) + (fault == "coarse too wide")
         coarse = np.full((hc, wc) if fault == "coarse of 2 dims" else (hc, wc, 3), np.nan,
                          np.float32)
-    return mid, scale, luma, omega, Y, coarse, 0 if fault == "factor 0" else f
+    Ymax = np.full((h - (fault == "Ymax a row short"), 2) if fault == "Ymax of 2 dims"
+                   else h - (fault == "Ymax a row short"), np.nan, np.float32)
+    return mid, scale, luma, omega, Y, coarse, 0 if fault == "factor 0" else f, Ymax
 
 
 @pytest.mark.parametrize("build", ["vector", "scalar"])
 @SETTINGS
 @given(args=first_pass_calls())
 def test_first_pass_and_its_twin_agree(builds, build, args):
-    # got, want: (total, mid, Y, coarse)
-    c_err, got = _call(builds[build].first_pass, args, (0, 4, 5))
-    t_err, want = _call(first_pass_twin, args, (0, 4, 5))
+    # got, want: (total, mid, Y, coarse, Ymax)
+    c_err, got = _call(builds[build].first_pass, args, (0, 4, 5, 7))
+    t_err, want = _call(first_pass_twin, args, (0, 4, 5, 7))
     if _refused_alike(c_err, t_err):
         return
-    mid, scale, luma, omega, _, coarse, f = args
+    mid, scale, luma, omega, _, coarse, f, _ = args
     # the scale: one float32 product a sample, the same on both sides
     np.testing.assert_array_equal(got[1], want[1])
     rgb = want[1].astype(np.float64)
@@ -294,8 +296,27 @@ def test_first_pass_and_its_twin_agree(builds, build, args):
     flux = float(Y.reshape(-1) @ omega.reshape(-1).astype(np.float64))
     assert got[0] == pytest.approx(flux, rel=1e-6, abs=1e-30)
     assert want[0] == pytest.approx(flux, rel=1e-6, abs=1e-30)
+    # each row's largest Y: exactly the largest of the Y each one wrote (−inf for none)
+    for run in (got, want):
+        np.testing.assert_array_equal(run[4], np.max(run[2], axis=1, initial=-np.inf))
     if coarse is not None:
         hc, wc = coarse.shape[:2]
         means = rgb[:hc * f, :wc * f].reshape(hc, f, wc, f, 3).mean(axis=(1, 3))
         for c in (got[3], want[3]):
             np.testing.assert_allclose(c, means, rtol=(f * f + 2) * EPS32, atol=0)
+
+
+@pytest.mark.parametrize("build", ["vector", "scalar"])
+def test_a_rows_largest_y_is_never_a_nan(builds, build):
+    """A NaN sample (a float frame's, not clamped) is above no threshold, so never a row's
+    largest Y: the rest's largest, −inf for a row of NaN alone (C and twin)."""
+    mid = np.ones((3, 4, 3), np.float32)
+    mid[0, 1] = np.nan
+    mid[0, 2] = 5.0
+    mid[2] = np.nan
+    luma = np.array([0.2126, 0.7152, 0.0722], np.float32)
+    for kernel in (builds[build].first_pass, first_pass_twin):
+        Y, Ymax = np.empty((3, 4), np.float32), np.empty(3, np.float32)
+        kernel(mid.copy(), 1.0, luma, np.ones((3, 4), np.float32), Y, None, 1, Ymax)
+        np.testing.assert_array_equal(Ymax, [np.nanmax(Y[0]), Y[1].max(), -np.inf])
+        assert Ymax[0] == pytest.approx(5.0 * luma.sum(), rel=1e-6)

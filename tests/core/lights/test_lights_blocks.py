@@ -127,8 +127,9 @@ def test_the_first_pass_is_the_whole_frames(name, kernel, monkeypatch):
     sums = (np.random.default_rng(4).random((x.mid.height, x.mid.width, 3)) * 80
             ).astype(np.float32)
     mid = sums.copy()
-    Y, total, coarse = first_pass_module.first_pass(mid, 1.0 / 16,
-                                                    *x.first_pass_args(mid.shape[:2]))
+    Y, total, coarse, top = first_pass_module.first_pass(mid, 1.0 / 16,
+                                                         *x.first_pass_args(mid.shape[:2]))
+    np.testing.assert_array_equal(top, Y.max(axis=1))
     np.testing.assert_array_equal(mid, sums * np.float32(1.0 / 16))   # exact: a power of 2
     rgb = mid.astype(np.float64)
     whole = rgb @ LUMA
