@@ -199,8 +199,12 @@ def test_the_fused_detection_copy_is_the_area_average_of_the_linear_frame(hdri):
     P = SH9Projector(1920, 960, lights="auto")
     x = P._extractor
     assert P._fuse_lights and x.mid_factor == 8
+    # block means of 64 non-negative values summed in float32 in two orders (rows then
+    # columns, OpenCV's area resize, whose SIMD path is the CPU's): each within 63·2⁻²⁴ of
+    # the exact mean, so within 2·63·2⁻²⁴ ≈ 7.5e-6 of each other on any CPU (1e-6 held here
+    # only because the roundings here average out)
     np.testing.assert_allclose(_copy_by_bands(P, frame), x.reduce(P._linearise(frame)),
-                               rtol=1e-6, atol=1e-9)
+                               rtol=8e-6, atol=1e-9)
 
 
 def _copy_by_bands(P: SH9Projector, frame: np.ndarray) -> np.ndarray:
