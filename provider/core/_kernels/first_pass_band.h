@@ -40,7 +40,7 @@ first_pass_band(float *mid, float *Y, float *Ymax, const float *omega, float *co
         Ymax[y] = top;
     }
     *total = sum;
-    if (coarse != NULL && r0 / f < hc && r0 + f <= h) {
+    if (coarse != NULL && r0 / f < hc) {        /* hc * f <= h: the callers check it */
         float *c = coarse + 3 * wc * (r0 / f);
         for (Py_ssize_t j = 0; j < wc; j++) {
             float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f;

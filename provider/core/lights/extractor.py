@@ -348,7 +348,7 @@ class LightExtractor:
             (``mid.height × mid.width``, see :meth:`reduce`; ``clean``: a mid copy with no
             negative or non-finite sample; ``mean_scale``: what makes a mid copy of block sums
             the block means, applied in place; ``first``: the first pass's (Y, total,
-            coarse) of a clean mid copy where a fused kernel ran it).
+            coarse, Ymax) of a clean mid copy where a fused kernel ran it).
         coefficients : (9, 3) the exact SH9 of the full frame (what the engine serves).
         """
         # C-contiguous float32 (a copy where not), scaled in place by the first pass

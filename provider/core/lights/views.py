@@ -20,7 +20,7 @@ class DetectionCopy(Sink):
         self.image = extractor.new_mid()
         #: ``clean``: no negative or non-finite sample (a table's block means); ``scale``:
         #: what makes ``image`` the block means (a fused kernel may leave block sums);
-        #: ``first``: the first pass's (Y, total, coarse) where a fused kernel ran it
+        #: ``first``: the first pass's (Y, total, coarse, Ymax) where a fused kernel ran it
         self.clean, self.scale, self.first = False, 1.0, None
 
     def start(self, frame, table, stats):

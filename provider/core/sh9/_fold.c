@@ -702,17 +702,6 @@ fold_lens(PyObject *self, PyObject *args)
          * 1.2 -> 0.7 MB a frame; issue 44); the rows no lens reaches are zeroed at the end. */
         unsigned char *fresh = use_mid && clear ? (unsigned char *)malloc((size_t)(H / f) + 1)
                                                 : NULL;
-        if (order == NULL || fold_of == NULL || (use_mid && clear && fresh == NULL)) {
-            free(order);
-            free(fold_of);
-            free(fresh);
-            free(buf);
-            free(spills);
-            PyErr_NoMemory();
-            goto fail;
-        }
-        if (fresh)
-            memset(fresh, 1, (size_t)(H / f) + 1);
         /* The residual pixels' sums (C weights x 3 channels, double), and the first pass's
          * bands of cf mid rows (done or not). */
         const Py_ssize_t RC = use_res ? rw.shape[1] : 0;
@@ -720,7 +709,8 @@ fold_lens(PyObject *self, PyObject *args)
         const Py_ssize_t nbands = use_first ? (mh + cf - 1) / cf : 0;
         double *racc = (double *)calloc((size_t)(3 * RC + 1), sizeof(double));
         unsigned char *bdone = (unsigned char *)calloc((size_t)nbands + 1, 1);
-        if (racc == NULL || bdone == NULL) {
+        if (order == NULL || fold_of == NULL || (use_mid && clear && fresh == NULL)
+            || racc == NULL || bdone == NULL) {
             free(racc);
             free(bdone);
             free(order);
@@ -731,6 +721,8 @@ fold_lens(PyObject *self, PyObject *args)
             PyErr_NoMemory();
             goto fail;
         }
+        if (fresh)
+            memset(fresh, 1, (size_t)(H / f) + 1);
         for (Py_ssize_t k = 0; k < KT; k++) {
             order[k] = k < 9 ? SH_ORDER[k] : k;
             fold_of[k] = k < 9 ? SH_PARITY[order[k]] : parity[k - 9];

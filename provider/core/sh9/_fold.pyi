@@ -35,7 +35,7 @@ def fold_lens(
     lenses' squares added to clip[0], the L00 weight of the pixels whose channel c is at 255
     (those read) to clip[1 + c]; residual (starts (H + 1,), cols (R,), weights (R, C),
     sums (C, 3)): the unpaired pixels, their weights' sums added to sums, their clipped L00
-    to clip, their samples to mid; first (luma, omega, Y, coarse, factor, scale): the
+    to clip, their samples to mid; first (luma, omega, Y, coarse, factor, scale, Ymax): the
     lights' first pass over mid, run as the fold completes each band of it (with mid and
     clear), its sum of Y omega returned. ValueError for arrays it does not take, TypeError
     for a residual or first that is not such a tuple."""
